@@ -1,0 +1,18 @@
+"""sb3_geogp: geodesic-kernel sparse on-line Gaussian-process critics for Stable-Baselines3."""
+
+from __future__ import annotations
+
+from sb3_geogp.graph import BVGraph
+from sb3_geogp.kernels import GeodesicKernel, Kernel, RBFKernel
+from sb3_geogp.sparse_gp import SparseOnlineGP
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "BVGraph",
+    "GeodesicKernel",
+    "Kernel",
+    "RBFKernel",
+    "SparseOnlineGP",
+    "__version__",
+]

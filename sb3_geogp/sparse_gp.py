@@ -1,0 +1,681 @@
+"""Sparse on-line Gaussian-process regression (Csató & Opper 2002) for value functions.
+
+The posterior over the latent value ``f`` is kept in Csató–Opper form over ``m`` basis
+vectors (BVs) ``b_1..b_m``,
+
+.. math::  \\mu(x) = k_x^\\top \\alpha, \\qquad
+           \\Sigma(x, x') = k(x, x') + k_x^\\top C k_{x'},
+
+stored as ``alpha`` (m,), ``Q = K_b^{-1}`` (m, m) and ``P = Q + C`` (m, m). ``P`` is the
+posterior covariance of the BV values in dual coordinates, ``K_b P K_b = Cov[f_b]``; it is
+positive semi-definite, which keeps every variance below non-negative by construction:
+
+.. math::  \\mathrm{var}(x) = \\max(\\gamma_x, 0) + k_x^\\top P k_x, \\qquad
+           \\gamma_x = k(x, x) - k_x^\\top Q k_x,
+
+``gamma_x`` being the novelty (residual variance of projecting ``k(x, .)`` on the BVs).
+For a positive-definite kernel this equals the textbook ``k(x, x) + k_x^T C k_x``.
+``docs/method.md`` derives every update; the code follows it line by line.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import Any, Literal
+
+import numpy as np
+import torch
+from torch import Tensor, nn
+
+from sb3_geogp.graph import BVGraph
+from sb3_geogp.kernels import BasisView, GeodesicKernel, Kernel, RBFKernel
+
+ArrayLike = Tensor | np.ndarray | Sequence[Any]
+
+#: Relative floor on a new BV's novelty: below it a nugget is added to its prior variance.
+_GAMMA_FLOOR = 1e-10
+#: Rows of a batch whose novelty is screened at once.
+_CHUNK = 512
+
+
+def make_kernel(kernel: Kernel | Literal["rbf", "geodesic"], **kwargs: Any) -> Kernel:
+    """Return ``kernel`` itself or build one by name (``"rbf"`` or ``"geodesic"``)."""
+    if isinstance(kernel, Kernel):
+        if kwargs:
+            raise ValueError("kernel options can only be given with a kernel name")
+        return kernel
+    kernels: dict[str, type[Kernel]] = {"rbf": RBFKernel, "geodesic": GeodesicKernel}
+    if kernel not in kernels:
+        raise ValueError(f"kernel must be a Kernel or one of {sorted(kernels)}, got {kernel!r}")
+    return kernels[kernel](**kwargs)
+
+
+class SparseOnlineGP(nn.Module):
+    """Sparse on-line GP value-function estimator with a Euclidean or geodesic kernel.
+
+    Parameters
+    ----------
+    input_dim : int
+        Dimension ``d`` of the inputs (flattened observations).
+    kernel : Kernel or {"rbf", "geodesic"}
+        Covariance function; a name builds :class:`RBFKernel` or :class:`GeodesicKernel`
+        with default options.
+    max_basis : int
+        Capacity ``m_max`` of the basis set.
+    noise_var : float
+        Observation-noise variance ``sigma_n^2`` in standardised target units.
+    novelty_tol : float
+        A point becomes a BV when its relative novelty ``gamma / k(x, x)`` exceeds this
+        (once the basis is full, it must also exceed the smallest novelty of a current BV).
+    forgetting : float
+        ``lambda`` in (0, 1]; before each batch ``alpha <- sqrt(lambda) alpha`` and
+        ``C <- lambda C`` (1 = no forgetting).
+    target_mean, target_scale : float or None
+        Prior mean and scale of the targets: the GP models ``(y - target_mean) / target_scale``.
+        ``None`` takes the mean and standard deviation of the first batch (kept fixed after).
+    device : torch.device, str or None
+        Where the state lives.
+    dtype : torch.dtype
+        Floating type of the state (float64 by default).
+
+    Notes
+    -----
+    Targets are standardised with the mean and standard deviation of the first batch (kept
+    fixed afterwards); :meth:`predict` returns values in the units fed to :meth:`update`.
+    Without a lengthscale, the kernel's is set from the first batch: per input dimension the
+    median absolute difference between pairs of points.
+    """
+
+    def __init__(
+        self,
+        input_dim: int,
+        kernel: Kernel | Literal["rbf", "geodesic"] = "geodesic",
+        max_basis: int = 256,
+        noise_var: float = 0.05,
+        novelty_tol: float = 0.05,
+        forgetting: float = 1.0,
+        target_mean: float | None = None,
+        target_scale: float | None = None,
+        device: torch.device | str | None = None,
+        dtype: torch.dtype = torch.float64,
+    ) -> None:
+        super().__init__()
+        if input_dim < 1:
+            raise ValueError(f"input_dim must be >= 1, got {input_dim}")
+        if max_basis < 1:
+            raise ValueError(f"max_basis must be >= 1, got {max_basis}")
+        if not (noise_var > 0 and math.isfinite(noise_var)):
+            raise ValueError(f"noise_var must be positive and finite, got {noise_var}")
+        if not (0 <= novelty_tol < 1):
+            raise ValueError(f"novelty_tol must be in [0, 1), got {novelty_tol}")
+        if not (0 < forgetting <= 1):
+            raise ValueError(f"forgetting must be in (0, 1], got {forgetting}")
+        if target_scale is not None and not (target_scale > 0 and math.isfinite(target_scale)):
+            raise ValueError(f"target_scale must be positive and finite, got {target_scale}")
+        if target_mean is not None and not math.isfinite(target_mean):
+            raise ValueError(f"target_mean must be finite, got {target_mean}")
+        if not dtype.is_floating_point:
+            raise ValueError(f"dtype must be a floating type, got {dtype}")
+        self.input_dim = int(input_dim)
+        self.max_basis = int(max_basis)
+        self.novelty_tol = float(novelty_tol)
+        self.forgetting = float(forgetting)
+        self.kernel = make_kernel(kernel)
+        self.kernel.bind(self.input_dim)
+        # One spare slot: a new BV is inserted before the least informative one is deleted.
+        cap = self.max_basis + 1
+        kw: dict[str, Any] = {"dtype": dtype, "device": device}
+        self.graph: BVGraph | None = (
+            BVGraph(2 * cap, self.input_dim, dtype, device) if self.kernel.geodesic else None
+        )
+        self.kernel.to(**kw)
+        self.register_buffer("noise_var", torch.tensor(float(noise_var), **kw))
+        self.register_buffer("bv_x", torch.zeros(cap, self.input_dim, **kw))
+        self.register_buffer("bv_y", torch.zeros(cap, **kw))
+        self.register_buffer("bv_node", torch.full((cap,), -1, dtype=torch.long, device=device))
+        self.register_buffer("nugget", torch.zeros(cap, **kw))
+        self.register_buffer("alpha", torch.zeros(cap, **kw))
+        self.register_buffer("P", torch.zeros(cap, cap, **kw))
+        self.register_buffer("Q", torch.zeros(cap, cap, **kw))
+        self._fixed_target = (target_mean, target_scale)
+        self.register_buffer("y_mean", torch.tensor(float(target_mean or 0.0), **kw))
+        self.register_buffer("y_scale", torch.tensor(float(target_scale or 1.0), **kw))
+        # Counters and flags as long tensors so that they travel with state_dict().
+        for name in ("count", "initialized", "n_seen", "n_added", "n_deleted", "n_batches"):
+            self.register_buffer(name, torch.zeros((), dtype=torch.long, device=device))
+        self.register_buffer("traj_node", torch.full((), -1, dtype=torch.long, device=device))
+
+    # ------------------------------------------------------------------------------------------
+    # Read-only views
+    # ------------------------------------------------------------------------------------------
+    @property
+    def n_basis(self) -> int:
+        """Current number of basis vectors."""
+        return int(self.count)
+
+    @property
+    def basis_inputs(self) -> Tensor:
+        """Basis-vector inputs, shape (n_basis, d), in the units given to :meth:`update`."""
+        return self.bv_x[: self.n_basis]
+
+    @property
+    def C(self) -> Tensor:
+        """Csató–Opper ``C = P - Q``, shape (n_basis, n_basis)."""
+        m = self.n_basis
+        return self.P[:m, :m] - self.Q[:m, :m]
+
+    @property
+    def lengthscale(self) -> Tensor:
+        """Kernel lengthscale, shape (d,) (NaN until chosen from the first batch)."""
+        return self.kernel.lengthscale
+
+    @property
+    def adjacency(self) -> Tensor:
+        """Weighted adjacency among graph nodes (geodesic kernel), shape (N, N), 0 = no edge.
+
+        Rows follow :attr:`graph_nodes`.
+        """
+        return self._require_graph().dense_adjacency()
+
+    @property
+    def shortest_paths(self) -> Tensor:
+        """Shortest-path distances among the basis vectors, shape (n_basis, n_basis)."""
+        nodes = self.bv_node[: self.n_basis]
+        return self._require_graph().shortest_paths[nodes][:, nodes]
+
+    @property
+    def graph_nodes(self) -> Tensor:
+        """Positions of all graph nodes (BVs and routing nodes), shape (N, d), input units."""
+        graph = self._require_graph()
+        return graph.pos[graph.alive] * self.kernel.lengthscale
+
+    def _require_graph(self) -> BVGraph:
+        if self.graph is None:
+            raise AttributeError("only a SparseOnlineGP with a GeodesicKernel has a BV graph")
+        return self.graph
+
+    def _view(self) -> BasisView:
+        m = self.n_basis
+        return BasisView(self.kernel.scale(self.bv_x[:m]), self.bv_node[:m], self.graph)
+
+    def extra_repr(self) -> str:
+        ls = ", ".join(f"{v:.4g}" for v in self.kernel.lengthscale.tolist())
+        return (
+            f"input_dim={self.input_dim}, max_basis={self.max_basis}, n_basis={self.n_basis}, "
+            f"lengthscale=[{ls}], noise_var={float(self.noise_var):.4g}, "
+            f"novelty_tol={self.novelty_tol}, forgetting={self.forgetting}"
+        )
+
+    # ------------------------------------------------------------------------------------------
+    # Prediction
+    # ------------------------------------------------------------------------------------------
+    @torch.no_grad()
+    def predict(self, x: ArrayLike, return_var: bool = True) -> tuple[Tensor, Tensor | None]:
+        """Posterior mean and variance of the latent value at ``x``.
+
+        Parameters
+        ----------
+        x : Tensor or array, shape (n, d)
+            Query inputs (any real dtype; cast to the GP's).
+        return_var : bool
+            Skip the O(n m^2) variance when ``False`` (the second output is then ``None``).
+
+        Returns
+        -------
+        mean : Tensor, shape (n,)
+            In target units.
+        var : Tensor, shape (n,) or None
+            Predictive variance of the latent value (no observation noise), ``>= 0``.
+        """
+        x = self._as_inputs(x, "x")
+        m = self.n_basis
+        variance = self.kernel.variance
+        if m == 0:
+            mean = torch.zeros(x.shape[0], dtype=x.dtype, device=x.device)
+            var = variance.expand(x.shape[0]).clone() if return_var else None
+        else:
+            rows = self.kernel.cross(self.kernel.scale(x), self._view())
+            mean = rows @ self.alpha[:m]
+            var = None
+            if return_var:
+                gamma = variance - _quad(rows, self.Q[:m, :m])
+                var = (gamma.clamp_min(0) + _quad(rows, self.P[:m, :m])).clamp_min(0)
+        mean = mean * self.y_scale + self.y_mean
+        return mean, None if var is None else var * self.y_scale**2
+
+    def forward(self, x: Tensor) -> Tensor:
+        """Posterior mean at ``x : (n, d)``, shape (n,)."""
+        return self.predict(x, return_var=False)[0]
+
+    # ------------------------------------------------------------------------------------------
+    # Learning
+    # ------------------------------------------------------------------------------------------
+    @torch.no_grad()
+    def update(
+        self, x: ArrayLike, y: ArrayLike, episode_starts: ArrayLike | None = None
+    ) -> None:
+        """Absorb a batch of points in order, as Csató–Opper on-line updates.
+
+        Parameters
+        ----------
+        x : Tensor or array, shape (n, d)
+            Inputs, in trajectory order.
+        y : Tensor or array, shape (n,)
+            Noisy targets (e.g. returns), in the user's units.
+        episode_starts : Tensor or array of bool, shape (n,), optional
+            ``True`` where a new trajectory starts. A new BV is joined to the previous BV of its
+            own trajectory (geodesic kernel with ``edges="trajectory"``); ``False`` at index 0
+            continues the trajectory of the previous call. ``None`` means no trajectory
+            information: every new BV joins its nearest BV.
+
+        Raises
+        ------
+        ValueError
+            On wrong shapes, non-finite values or non-numeric input; the state is left
+            exactly as it was (as it is on any error raised inside the update).
+        """
+        x, y, starts = self._validate(x, y, episode_starts)
+        snapshot = {k: v.clone() for k, v in self.state_dict().items()}
+        try:
+            self._update(x, y, starts)
+        except BaseException:
+            self.load_state_dict(snapshot)
+            raise
+
+    def _update(self, x: Tensor, y: Tensor, starts: Tensor) -> None:
+        if not bool(self.initialized):
+            self._initialize(x, y)
+        yn = (y - self.y_mean) / self.y_scale
+        if self.forgetting < 1 and self.n_basis > 0:
+            lam = self.forgetting
+            self.alpha.mul_(math.sqrt(lam))
+            self.P.mul_(lam).add_(self.Q, alpha=1 - lam)
+        n = x.shape[0]
+        changed = False
+        i = 0
+        while i < n:
+            chunk = min(_CHUNK, n - i)
+            j = self._first_novel(x[i : i + chunk])
+            if j > 0:
+                self._absorb(x[i : i + j], yn[i : i + j])
+                if bool(starts[i : i + j].any()):
+                    self.traj_node.fill_(-1)
+                i += j
+                if j == chunk:
+                    continue
+            if bool(starts[i]):
+                self.traj_node.fill_(-1)
+            self._insert(x[i], yn[i], y[i])
+            changed = True
+            i += 1
+        if changed:
+            self._refresh_Q()
+        self.n_seen += n
+        self.n_batches += 1
+        self._check_finite()
+
+    def _initialize(self, x: Tensor, y: Tensor) -> None:
+        """Standardise targets and choose the lengthscale from the first batch."""
+        mean, scale = self._fixed_target
+        if mean is None:
+            self.y_mean.fill_(y.mean())
+        if scale is None:
+            std = y.std() if y.numel() > 1 else torch.zeros((), dtype=y.dtype)
+            self.y_scale.fill_(std if bool(std > 1e-12 * (1 + y.abs().max())) else 1.0)
+        if not self.kernel.lengthscale_set:
+            self.kernel.lengthscale.copy_(median_lengthscale(x))
+        self.initialized.fill_(1)
+
+    def _novelty_threshold(self) -> float:
+        """Relative novelty a point needs to become a BV.
+
+        Once the basis is full a newcomer must also beat the least novel current BV
+        (``1 / Q_ii`` relative to its prior variance); otherwise a dense stream of points just
+        above ``novelty_tol`` would turn every step into an insert-then-delete (churn).
+        """
+        m = self.n_basis
+        if m < self.max_basis:
+            return self.novelty_tol
+        prior = self.kernel.variance + self.nugget[:m]
+        least = float((1.0 / (torch.diagonal(self.Q[:m, :m]) * prior)).min())
+        return max(self.novelty_tol, least)
+
+    def _first_novel(self, x: Tensor) -> int:
+        """Index of the first novel row of ``x`` (``len(x)`` if none is)."""
+        m = self.n_basis
+        if m == 0:
+            return 0
+        rows = self.kernel.novelty_rows(self.kernel.scale(x), self._view())
+        gamma = 1.0 - _quad(rows, self.Q[:m, :m]) / self.kernel.variance
+        novel = (gamma > self._novelty_threshold()).nonzero()
+        return int(novel[0]) if novel.numel() else x.shape[0]
+
+    def _absorb(self, x: Tensor, yn: Tensor) -> None:
+        """Projected (sparse) update with a run of non-novel points, all at once.
+
+        A sparse Csató–Opper update is the exact Bayesian update of the model
+        ``y = e_x^T f_b + noise`` with ``e_x = Q k_x`` and noise variance
+        ``sigma_n^2 + gamma_x``, so a run of them is one block update, identical to the
+        sequential one:
+
+        ``G = K_x^T N^{-1} K_x``, ``alpha += (I + P G)^{-1} P K_x^T N^{-1} (y - K_x alpha)``,
+        ``P <- (I + P G)^{-1} P``.
+        """
+        m = self.n_basis
+        rows = self.kernel.cross(self.kernel.scale(x), self._view())
+        Q, P, alpha = self.Q[:m, :m], self.P[:m, :m], self.alpha[:m]
+        gamma = (self.kernel.variance - _quad(rows, Q)).clamp_min(0)
+        weighted = rows.T / (self.noise_var + gamma)
+        G = weighted @ rows
+        b = weighted @ (yn - rows @ alpha)
+        system = torch.eye(m, dtype=P.dtype, device=P.device) + P @ G
+        sol = torch.linalg.solve(system, torch.cat([P, (P @ b)[:, None]], dim=1))
+        self.alpha[:m] += sol[:, m]
+        self.P[:m, :m] = _sym(sol[:, :m])
+
+    def _insert(self, x: Tensor, yn: Tensor, y: Tensor) -> None:
+        """Full update: ``x`` becomes a BV (and a graph node); delete one if over capacity.
+
+        With ``k = k(x, BV)``, ``e = Q k``, ``gamma = k(x, x) - k^T e`` (floored by a nugget),
+        ``s2 = gamma + k^T P k``, ``q = (y - k^T alpha) / (sigma_n^2 + s2)``,
+        ``r = -1 / (sigma_n^2 + s2)`` and ``e~ = [e; -1]``, ``s = [P k; 0] - e~``:
+        ``alpha <- [alpha; 0] + q s``, ``Q <- [Q 0; 0 0] + e~ e~^T / gamma``,
+        ``P <- [P 0; 0 0] + e~ e~^T / gamma + r s s^T``.
+        """
+        m = self.n_basis
+        view = self._view()
+        xs = self.kernel.scale(x)
+        parent = self._parent(xs, view)
+        variance = self.kernel.variance
+        if m == 0:
+            k = x.new_zeros(0)
+        elif parent is None:
+            k = self.kernel.cross(xs[None], view)[0]
+        else:
+            k = self.kernel.node_row(xs, parent, view)
+        Q, P, alpha = self.Q[:m, :m], self.P[:m, :m], self.alpha[:m]
+        e = Q @ k
+        gamma = variance - k @ e
+        floor = _GAMMA_FLOOR * variance
+        nugget = (floor - gamma).clamp_min(0)
+        gamma = gamma + nugget
+        Pk = P @ k
+        denom = self.noise_var + gamma + k @ Pk
+        q = (yn - k @ alpha) / denom
+        e_ext = torch.cat([e, e.new_full((1,), -1.0)])
+        s = torch.cat([Pk, Pk.new_zeros(1)]) - e_ext
+        self.alpha[m] = 0.0
+        self.alpha[: m + 1] += q * s
+        self.Q[: m + 1, : m + 1] += torch.outer(e_ext, e_ext) / gamma
+        self.P[: m + 1, : m + 1] += torch.outer(e_ext, e_ext) / gamma - torch.outer(s, s) / denom
+        self.bv_x[m] = x
+        self.bv_y[m] = y
+        self.nugget[m] = nugget
+        if self.graph is not None:
+            node = self.graph.add_node(xs, parent)
+            self.bv_node[m] = node
+            self.traj_node.fill_(node)
+        self.count += 1
+        self.n_added += 1
+        if self.n_basis > self.max_basis:
+            self._delete(self._least_informative())
+
+    def _parent(self, xs: Tensor, view: BasisView) -> int | None:
+        """Graph node a new BV at scaled input ``xs`` is joined to (geodesic kernel)."""
+        if self.graph is None or view.z.shape[0] == 0:
+            return None
+        assert isinstance(self.kernel, GeodesicKernel)
+        if self.kernel.edges == "trajectory" and int(self.traj_node) >= 0:
+            return int(self.traj_node)
+        return int(view.nodes[torch.cdist(xs[None], view.z)[0].argmin()])
+
+    def _least_informative(self) -> int:
+        """BV with the smallest Csató–Opper score ``alpha_i^2 / (Q_ii + C_ii)``."""
+        m = self.n_basis
+        p_diag = torch.diagonal(self.P[:m, :m]).clamp_min(torch.finfo(self.P.dtype).tiny)
+        return int((self.alpha[:m] ** 2 / p_diag).argmin())
+
+    def _delete(self, j: int) -> None:
+        """Remove BV ``j`` by the Csató–Opper KL projection.
+
+        With ``T = [I, -Q_{r j} / Q_jj]`` (rows ``r`` = the other BVs):
+        ``alpha <- T alpha``, ``P <- T P T^T``, ``Q <- Q_rr - Q_rj Q_rj^T / Q_jj``.
+        """
+        m = self.n_basis
+        keep = torch.cat([torch.arange(j), torch.arange(j + 1, m)]).to(self.alpha.device)
+        Q, P = self.Q[:m, :m], self.P[:m, :m]
+        q_star = Q[keep, j] / Q[j, j]
+        p_col = P[keep, j]
+        alpha = self.alpha[keep] - self.alpha[j] * q_star
+        new_P = (
+            P[keep][:, keep]
+            - torch.outer(q_star, p_col)
+            - torch.outer(p_col, q_star)
+            + P[j, j] * torch.outer(q_star, q_star)
+        )
+        new_Q = Q[keep][:, keep] - torch.outer(q_star, Q[keep, j])
+        node = int(self.bv_node[j])
+        for buf in (self.bv_x, self.bv_y, self.bv_node, self.nugget):
+            buf[: m - 1] = buf[keep].clone()
+            buf[m - 1] = -1 if buf.dtype == torch.long else 0
+        self.alpha[: m - 1] = alpha
+        self.alpha[m - 1] = 0.0
+        self._set_square(self.P, _sym(new_P))
+        self._set_square(self.Q, _sym(new_Q))
+        self.count -= 1
+        self.n_deleted += 1
+        if self.graph is not None:
+            freed = self.graph.remove_bv(node)
+            if int(self.traj_node) in freed:
+                self.traj_node.fill_(-1)
+
+    @staticmethod
+    def _set_square(buf: Tensor, value: Tensor) -> None:
+        n = value.shape[0]
+        buf.zero_()
+        buf[:n, :n] = value
+
+    def _refresh_Q(self) -> None:
+        """Recompute ``Q = (K_b + diag(nugget))^{-1}`` exactly, so rank-one drift cannot build up.
+
+        If rounding has made the Gram matrix numerically indefinite, the nuggets grow by a
+        jitter (10x per try, from 1e-10 of the signal variance) until its Cholesky exists.
+        """
+        m = self.n_basis
+        K = self.kernel.gram(self._view())
+        jitter = 0.0
+        for _ in range(12):
+            L, info = torch.linalg.cholesky_ex(K + torch.diag(self.nugget[:m] + jitter))
+            if int(info) == 0:
+                self.nugget[:m] += jitter
+                self.Q[:m, :m] = _sym(torch.cholesky_inverse(L))
+                return
+            jitter = max(10 * jitter, _GAMMA_FLOOR * float(self.kernel.variance))
+        raise FloatingPointError("basis Gram matrix is not positive definite even with jitter")
+
+    def _check_finite(self) -> None:
+        m = self.n_basis
+        for name in ("alpha", "P", "Q"):
+            if not bool(torch.isfinite(getattr(self, name)[:m]).all()):
+                raise FloatingPointError(f"SparseOnlineGP.{name} became non-finite; state restored")
+
+    # ------------------------------------------------------------------------------------------
+    # Hyperparameters
+    # ------------------------------------------------------------------------------------------
+    def fit_hyperparameters(self, n_iter: int = 100, lr: float = 0.05) -> dict[str, float]:
+        """Fit lengthscale(s), signal and noise variance by the BV set's marginal likelihood.
+
+        Maximises ``log N(y_b | 0, K_b(theta) + sigma_n^2 I)`` over the BV inputs and their
+        (standardised) targets with Adam on log-parameters and torch autograd. The RBF kernel
+        fits one lengthscale per input dimension; the geodesic kernel fits one factor on all
+        lengthscales (every graph distance scales by its inverse, so the tree stays exact).
+        The posterior is then rebuilt as the exact GP on the BV set with the new
+        hyperparameters (information from points that were only projected is dropped).
+
+        Parameters
+        ----------
+        n_iter : int
+            Optimiser steps.
+        lr : float
+            Adam step size on the log-parameters.
+
+        Returns
+        -------
+        dict
+            The fitted ``lengthscale`` (first dimension), ``variance``, ``noise_var`` and the
+            final negative log marginal likelihood per point ``nlml``.
+        """
+        m = self.n_basis
+        if m < 2:
+            raise ValueError("fit_hyperparameters needs at least 2 basis vectors; call update first")
+        kernel = self.kernel
+        y = self.bv_y[:m].clone()
+        y = (y - self.y_mean) / self.y_scale
+        log_var = kernel.variance.log().clone().requires_grad_(True)
+        log_noise = self.noise_var.log().clone().requires_grad_(True)
+        n_ls = 1 if kernel.geodesic else self.input_dim
+        log_ls = torch.zeros(n_ls, dtype=y.dtype, device=y.device, requires_grad=True)
+        base_dist = self._distance_table()
+        opt = torch.optim.Adam([log_var, log_noise, log_ls], lr=lr)
+        eye = torch.eye(m, dtype=y.dtype, device=y.device)
+
+        def nlml() -> Tensor:
+            if kernel.geodesic:
+                dist = base_dist / log_ls.exp()
+            else:
+                z = self.bv_x[:m] / (kernel.lengthscale * log_ls.exp())
+                dist = torch.cdist(z, z)
+            K = log_var.exp() * kernel.profile(dist) + (log_noise.exp() + 1e-8) * eye
+            L = torch.linalg.cholesky(K)
+            a = torch.cholesky_solve(y[:, None], L)
+            return (0.5 * (y @ a[:, 0]) + L.diagonal().log().sum()) / m + 0.5 * math.log(2 * math.pi)
+
+        with torch.enable_grad():
+            for _ in range(n_iter):
+                opt.zero_grad()
+                loss = nlml()
+                loss.backward()
+                opt.step()
+        with torch.no_grad():
+            factor = log_ls.exp()
+            if kernel.geodesic:
+                assert self.graph is not None
+                self.graph.rescale(float(factor))
+            kernel.lengthscale.mul_(factor)
+            kernel.variance.copy_(log_var.exp())
+            self.noise_var.copy_(log_noise.exp())
+            final = float(nlml())
+            self._rebuild_exact()
+        return {
+            "lengthscale": float(kernel.lengthscale[0]),
+            "variance": float(kernel.variance),
+            "noise_var": float(self.noise_var),
+            "nlml": final,
+        }
+
+    def _distance_table(self) -> Tensor:
+        """Distances among BVs in the current lengthscale units, shape (m, m)."""
+        view = self._view()
+        if self.graph is not None:
+            return self.graph.shortest_paths[view.nodes][:, view.nodes].clone()
+        return torch.cdist(view.z, view.z)
+
+    def _rebuild_exact(self) -> None:
+        """Exact GP posterior on the BV set: ``alpha = (K + s I)^{-1} y``, ``P = Q - (K + s I)^{-1}``."""
+        m = self.n_basis
+        self.nugget[:m] = 0.0
+        self._refresh_Q()
+        K = self.kernel.gram(self._view()) + torch.diag(self.nugget[:m])
+        y = (self.bv_y[:m] - self.y_mean) / self.y_scale
+        A = torch.linalg.inv(K + self.noise_var * torch.eye(m, dtype=K.dtype, device=K.device))
+        self.alpha[:m] = A @ y
+        self.P[:m, :m] = _sym(self.Q[:m, :m] - A)
+
+    # ------------------------------------------------------------------------------------------
+    # Validation
+    # ------------------------------------------------------------------------------------------
+    def _as_tensor(self, value: ArrayLike, name: str) -> Tensor:
+        try:
+            t = torch.as_tensor(np.asarray(value) if not isinstance(value, Tensor) else value)
+        except (TypeError, ValueError, RuntimeError) as err:
+            raise ValueError(f"{name} must be a real numeric array or tensor: {err}") from err
+        if t.is_complex() or not (t.is_floating_point() or t.dtype in _INT_TYPES):
+            raise ValueError(
+                f"{name} has dtype {t.dtype}, which cannot be cast to {self.alpha.dtype}; "
+                "pass real numbers"
+            )
+        t = t.to(device=self.alpha.device, dtype=self.alpha.dtype)
+        if not bool(torch.isfinite(t).all()):
+            raise ValueError(f"{name} contains NaN or inf; remove or impute those entries first")
+        return t
+
+    def _as_inputs(self, x: ArrayLike, name: str) -> Tensor:
+        t = self._as_tensor(x, name)
+        if t.ndim != 2 or t.shape[1] != self.input_dim:
+            raise ValueError(
+                f"{name} must have shape (n, {self.input_dim}), got {tuple(t.shape)}; "
+                "flatten observations to one row per point"
+            )
+        return t
+
+    def _validate(
+        self, x: ArrayLike, y: ArrayLike, episode_starts: ArrayLike | None
+    ) -> tuple[Tensor, Tensor, Tensor]:
+        xt = self._as_inputs(x, "x")
+        yt = self._as_tensor(y, "y")
+        n = xt.shape[0]
+        if yt.ndim == 2 and yt.shape[1] == 1:
+            yt = yt[:, 0]
+        if yt.shape != (n,):
+            raise ValueError(f"y must have shape ({n},) to match x, got {tuple(yt.shape)}")
+        if n == 0:
+            raise ValueError("update needs at least one point")
+        if episode_starts is None:
+            starts = torch.ones(n, dtype=torch.bool, device=xt.device)
+        else:
+            s = torch.as_tensor(np.asarray(episode_starts) if not isinstance(episode_starts, Tensor) else episode_starts)
+            if s.shape != (n,):
+                raise ValueError(f"episode_starts must have shape ({n},), got {tuple(s.shape)}")
+            if s.is_floating_point() and not bool(((s == 0) | (s == 1)).all()):
+                raise ValueError("episode_starts must be boolean (0/1)")
+            starts = s.to(device=xt.device, dtype=torch.bool)
+        return xt, yt, starts
+
+
+_INT_TYPES = (torch.int8, torch.int16, torch.int32, torch.int64, torch.uint8, torch.bool)
+
+
+def _quad(rows: Tensor, M: Tensor) -> Tensor:
+    """Row-wise quadratic forms ``rows_i^T M rows_i``; rows (n, m), M (m, m) -> (n,)."""
+    return ((rows @ M) * rows).sum(dim=1)
+
+
+def _sym(M: Tensor) -> Tensor:
+    return 0.5 * (M + M.T)
+
+
+def median_lengthscale(x: Tensor, max_points: int = 512) -> Tensor:
+    """Median heuristic: per dimension, the median absolute difference between points.
+
+    Parameters
+    ----------
+    x : Tensor, shape (n, d)
+    max_points : int
+        Evenly spaced subsample size (deterministic).
+
+    Returns
+    -------
+    Tensor, shape (d,)
+        Positive lengthscales; a dimension that does not vary gets its largest absolute value,
+        or 1.
+    """
+    idx = torch.linspace(0, x.shape[0] - 1, min(x.shape[0], max_points)).long()
+    sub = x[idx.to(x.device)]
+    diffs = (sub[:, None, :] - sub[None, :, :]).abs()
+    iu = torch.triu_indices(sub.shape[0], sub.shape[0], 1, device=x.device)
+    pairs = diffs[iu[0], iu[1]]
+    med = pairs.median(dim=0).values if pairs.shape[0] > 0 else torch.zeros_like(x[0])
+    fallback = x.abs().max(dim=0).values
+    fallback = torch.where(fallback > 0, fallback, torch.ones_like(fallback))
+    return torch.where(med > 0, med, fallback)
