@@ -2,14 +2,18 @@
 
 from __future__ import annotations
 
+from sb3_geogp.callbacks import GPValueCallback
 from sb3_geogp.graph import BVGraph
 from sb3_geogp.kernels import GeodesicKernel, Kernel, RBFKernel
+from sb3_geogp.policies import GPActorCriticPolicy
 from sb3_geogp.sparse_gp import SparseOnlineGP
 
 __version__ = "0.1.0"
 
 __all__ = [
     "BVGraph",
+    "GPActorCriticPolicy",
+    "GPValueCallback",
     "GeodesicKernel",
     "Kernel",
     "RBFKernel",

@@ -22,6 +22,8 @@ every insertion and deletion and reads its table.
 
 from __future__ import annotations
 
+from typing import Any
+
 import torch
 from torch import Tensor, nn
 
@@ -55,6 +57,13 @@ class BVGraph(nn.Module):
         Node is a basis vector (otherwise a routing node).
     """
 
+    pos: Tensor
+    adjacency: Tensor
+    edge_length: Tensor
+    shortest_paths: Tensor
+    alive: Tensor
+    is_bv: Tensor
+
     def __init__(
         self,
         capacity: int,
@@ -65,7 +74,7 @@ class BVGraph(nn.Module):
         super().__init__()
         self.capacity = int(capacity)
         n = self.capacity
-        kw = {"dtype": dtype, "device": device}
+        kw: dict[str, Any] = {"dtype": dtype, "device": device}
         self.register_buffer("pos", torch.zeros(n, dim, **kw))
         self.register_buffer("adjacency", torch.zeros(n, n, dtype=torch.bool, device=device))
         self.register_buffer("edge_length", torch.zeros(n, n, **kw))

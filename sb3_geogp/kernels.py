@@ -65,6 +65,8 @@ class Kernel(nn.Module):
     """
 
     geodesic: bool = False
+    lengthscale: Tensor
+    variance: Tensor
 
     def __init__(
         self, lengthscale: float | Sequence[float] | None = None, variance: float = 1.0
@@ -73,8 +75,12 @@ class Kernel(nn.Module):
         if variance <= 0 or not math.isfinite(variance):
             raise ValueError(f"variance must be a positive finite number, got {variance}")
         init = None if lengthscale is None else torch.as_tensor(lengthscale, dtype=torch.float64)
-        if init is not None and (init.ndim > 1 or not torch.all(init > 0) or not init.isfinite().all()):
-            raise ValueError(f"lengthscale must be positive and finite (scalar or 1-D), got {lengthscale}")
+        if init is not None and (
+            init.ndim > 1 or not torch.all(init > 0) or not init.isfinite().all()
+        ):
+            raise ValueError(
+                f"lengthscale must be positive and finite (scalar or 1-D), got {lengthscale}"
+            )
         self._init_lengthscale = init
         # Shape (d,) is fixed by bind(); until then the buffer is empty.
         self.register_buffer("lengthscale", torch.empty(0, dtype=torch.float64))
@@ -119,6 +125,14 @@ class Kernel(nn.Module):
     def cross(self, x: Tensor, view: BasisView) -> Tensor:
         """Prediction rows ``k(x, BV)`` for scaled inputs ``x : (n, d)``, shape (n, m)."""
         raise NotImplementedError
+
+    def cross_factors(self, x: Tensor, view: BasisView) -> tuple[Tensor, Tensor] | None:
+        """Prediction rows as combinations of BV rows, when the kernel has that form.
+
+        Returns ``(idx, w)`` of shapes (n, k) with ``k(x_i, BV) = sum_j w_ij K_b[idx_ij]``, which
+        lets the GP predict in O(n k^2) from a few (m, m) products, or ``None``.
+        """
+        return None
 
     def novelty_rows(self, x: Tensor, view: BasisView) -> Tensor:
         """Rows on which a point's novelty is judged, shape (n, m)."""
@@ -254,10 +268,21 @@ class GeodesicKernel(Kernel):
         sp = self._graph(view).shortest_paths[view.nodes[i]][:, view.nodes]
         return self(w[:, None] + sp)
 
+    def cross_factors(self, x: Tensor, view: BasisView) -> tuple[Tensor, Tensor] | None:
+        dist = torch.cdist(x, view.z)
+        if self.attach == "interpolate":
+            return shepard_weights(dist, self.n_neighbors)
+        if self.profile_name == "laplacian":
+            # variance * exp(-(w + SP(b_i, .))) = exp(-w) * K_b[i]: a scaled copy of one BV row.
+            w, i = dist.min(dim=1)
+            return i[:, None], torch.exp(-w)[:, None]
+        return None
+
     def cross(self, x: Tensor, view: BasisView) -> Tensor:
-        if self.attach == "nearest":
+        factors = self.cross_factors(x, view)
+        if factors is None:
             return self.novelty_rows(x, view)
-        idx, w = shepard_weights(torch.cdist(x, view.z), self.n_neighbors)
+        idx, w = factors
         return torch.einsum("nk,nkm->nm", w, self.gram(view)[idx])
 
     def node_row(self, x: Tensor, parent: int, view: BasisView) -> Tensor:

@@ -35,8 +35,10 @@ ArrayLike = Tensor | np.ndarray | Sequence[Any]
 
 #: Relative floor on a new BV's novelty: below it a nugget is added to its prior variance.
 _GAMMA_FLOOR = 1e-10
-#: Rows of a batch whose novelty is screened at once.
-_CHUNK = 512
+#: Bounds on the rows of a batch whose novelty is screened at once (adapted in between).
+_MIN_CHUNK, _MAX_CHUNK = 32, 1024
+#: Factor by which the at-capacity novelty floor rises per displaced BV (and falls per quiet batch).
+_FLOOR_STEP = 1.1
 
 
 def make_kernel(kernel: Kernel | Literal["rbf", "geodesic"], **kwargs: Any) -> Kernel:
@@ -84,8 +86,27 @@ class SparseOnlineGP(nn.Module):
     Targets are standardised with the mean and standard deviation of the first batch (kept
     fixed afterwards); :meth:`predict` returns values in the units fed to :meth:`update`.
     Without a lengthscale, the kernel's is set from the first batch: per input dimension the
-    median absolute difference between pairs of points.
+    standard deviation (:func:`default_lengthscale`).
     """
+
+    bv_x: Tensor
+    bv_y: Tensor
+    bv_node: Tensor
+    nugget: Tensor
+    alpha: Tensor
+    P: Tensor
+    Q: Tensor
+    noise_var: Tensor
+    y_mean: Tensor
+    y_scale: Tensor
+    count: Tensor
+    initialized: Tensor
+    n_seen: Tensor
+    n_added: Tensor
+    n_deleted: Tensor
+    n_batches: Tensor
+    traj_node: Tensor
+    novelty_floor: Tensor
 
     def __init__(
         self,
@@ -145,6 +166,7 @@ class SparseOnlineGP(nn.Module):
         for name in ("count", "initialized", "n_seen", "n_added", "n_deleted", "n_batches"):
             self.register_buffer(name, torch.zeros((), dtype=torch.long, device=device))
         self.register_buffer("traj_node", torch.full((), -1, dtype=torch.long, device=device))
+        self.register_buffer("novelty_floor", torch.tensor(self.novelty_tol, **kw))
 
     # ------------------------------------------------------------------------------------------
     # Read-only views
@@ -235,14 +257,31 @@ class SparseOnlineGP(nn.Module):
             mean = torch.zeros(x.shape[0], dtype=x.dtype, device=x.device)
             var = variance.expand(x.shape[0]).clone() if return_var else None
         else:
-            rows = self.kernel.cross(self.kernel.scale(x), self._view())
-            mean = rows @ self.alpha[:m]
-            var = None
-            if return_var:
-                gamma = variance - _quad(rows, self.Q[:m, :m])
-                var = (gamma.clamp_min(0) + _quad(rows, self.P[:m, :m])).clamp_min(0)
+            mean, var = self._latent(self.kernel.scale(x), return_var)
         mean = mean * self.y_scale + self.y_mean
         return mean, None if var is None else var * self.y_scale**2
+
+    def _latent(self, xs: Tensor, return_var: bool) -> tuple[Tensor, Tensor | None]:
+        """Standardised posterior mean and variance at scaled inputs ``xs : (n, d)``."""
+        m, view = self.n_basis, self._view()
+        alpha, Q, P = self.alpha[:m], self.Q[:m, :m], self.P[:m, :m]
+        factors = self.kernel.cross_factors(xs, view)
+        if factors is None:
+            rows = self.kernel.cross(xs, view)
+            mean = rows @ alpha
+            if not return_var:
+                return mean, None
+            kqk, kpk = _quad(rows, Q), _quad(rows, P)
+        else:
+            # Rows are sum_j w_j K_b[idx_j]: contract through K_b once instead of per point.
+            idx, w = factors
+            K = self.kernel.gram(view)
+            mean = (w * (K @ alpha)[idx]).sum(dim=1)
+            if not return_var:
+                return mean, None
+            kqk, kpk = (_gathered_quad(idx, w, K @ M @ K) for M in (Q, P))
+        gamma = self.kernel.variance - kqk
+        return mean, (gamma.clamp_min(0) + kpk).clamp_min(0)
 
     def forward(self, x: Tensor) -> Tensor:
         """Posterior mean at ``x : (n, d)``, shape (n,)."""
@@ -252,9 +291,7 @@ class SparseOnlineGP(nn.Module):
     # Learning
     # ------------------------------------------------------------------------------------------
     @torch.no_grad()
-    def update(
-        self, x: ArrayLike, y: ArrayLike, episode_starts: ArrayLike | None = None
-    ) -> None:
+    def update(self, x: ArrayLike, y: ArrayLike, episode_starts: ArrayLike | None = None) -> None:
         """Absorb a batch of points in order, as Csató–Opper on-line updates.
 
         Parameters
@@ -292,25 +329,23 @@ class SparseOnlineGP(nn.Module):
             self.alpha.mul_(math.sqrt(lam))
             self.P.mul_(lam).add_(self.Q, alpha=1 - lam)
         n = x.shape[0]
-        changed = False
+        added_before, deleted_before = int(self.n_added), int(self.n_deleted)
         i = 0
         while i < n:
-            chunk = min(_CHUNK, n - i)
-            j = self._first_novel(x[i : i + chunk])
-            if j > 0:
-                self._absorb(x[i : i + j], yn[i : i + j])
-                if bool(starts[i : i + j].any()):
+            p = self._next_novel(x, i)
+            if p > i:
+                self._absorb(x[i:p], yn[i:p])
+                if bool(starts[i:p].any()):
                     self.traj_node.fill_(-1)
-                i += j
-                if j == chunk:
-                    continue
-            if bool(starts[i]):
-                self.traj_node.fill_(-1)
-            self._insert(x[i], yn[i], y[i])
-            changed = True
-            i += 1
-        if changed:
+            if p < n:
+                if bool(starts[p]):
+                    self.traj_node.fill_(-1)
+                self._insert(x[p], yn[p], y[p])
+            i = p + 1
+        if int(self.n_added) > added_before:
             self._refresh_Q()
+        if int(self.n_deleted) == deleted_before:
+            self.novelty_floor.copy_((self.novelty_floor / _FLOOR_STEP).clamp_min(self.novelty_tol))
         self.n_seen += n
         self.n_batches += 1
         self._check_finite()
@@ -324,53 +359,80 @@ class SparseOnlineGP(nn.Module):
             std = y.std() if y.numel() > 1 else torch.zeros((), dtype=y.dtype)
             self.y_scale.fill_(std if bool(std > 1e-12 * (1 + y.abs().max())) else 1.0)
         if not self.kernel.lengthscale_set:
-            self.kernel.lengthscale.copy_(median_lengthscale(x))
+            self.kernel.lengthscale.copy_(default_lengthscale(x))
         self.initialized.fill_(1)
 
     def _novelty_threshold(self) -> float:
         """Relative novelty a point needs to become a BV.
 
-        Once the basis is full a newcomer must also beat the least novel current BV
-        (``1 / Q_ii`` relative to its prior variance); otherwise a dense stream of points just
-        above ``novelty_tol`` would turn every step into an insert-then-delete (churn).
+        Below capacity: ``novelty_tol``. Once the basis is full, a newcomer must beat both the
+        least novel current BV (``1 / Q_ii`` relative to its prior variance) and the adaptive
+        ``novelty_floor``, which rises by ``_FLOOR_STEP`` each time a newcomer displaces a BV and
+        decays back towards ``novelty_tol`` after every batch without a deletion. Without it, a
+        stream of points denser than ``max_basis`` can cover at ``novelty_tol`` turns every
+        step into an insert-then-delete (churn), and each deletion is a lossy projection.
         """
         m = self.n_basis
         if m < self.max_basis:
             return self.novelty_tol
         prior = self.kernel.variance + self.nugget[:m]
         least = float((1.0 / (torch.diagonal(self.Q[:m, :m]) * prior)).min())
-        return max(self.novelty_tol, least)
+        return max(float(self.novelty_floor), least)
 
-    def _first_novel(self, x: Tensor) -> int:
-        """Index of the first novel row of ``x`` (``len(x)`` if none is)."""
-        m = self.n_basis
+    def _next_novel(self, x: Tensor, start: int) -> int:
+        """Index of the first novel row of ``x`` at or after ``start`` (``len(x)`` if none).
+
+        Novelty depends only on the basis set, not on ``alpha`` or ``P``, so rows can be
+        screened ahead of absorbing them. Rows are screened in chunks that start small (a new
+        basis is often followed by more new BVs, and each addition re-screens) and double while
+        nothing is found.
+        """
+        n, m = x.shape[0], self.n_basis
         if m == 0:
-            return 0
-        rows = self.kernel.novelty_rows(self.kernel.scale(x), self._view())
-        gamma = 1.0 - _quad(rows, self.Q[:m, :m]) / self.kernel.variance
-        novel = (gamma > self._novelty_threshold()).nonzero()
-        return int(novel[0]) if novel.numel() else x.shape[0]
+            return start
+        view, threshold = self._view(), self._novelty_threshold()
+        chunk = _MIN_CHUNK
+        while start < n:
+            block = self.kernel.scale(x[start : start + chunk])
+            rows = self.kernel.novelty_rows(block, view)
+            gamma = 1.0 - _quad(rows, self.Q[:m, :m]) / self.kernel.variance
+            novel = (gamma > threshold).nonzero()
+            if novel.numel():
+                return start + int(novel[0])
+            start += block.shape[0]
+            chunk = min(2 * chunk, _MAX_CHUNK)
+        return n
 
     def _absorb(self, x: Tensor, yn: Tensor) -> None:
         """Projected (sparse) update with a run of non-novel points, all at once.
 
         A sparse Csató–Opper update is the exact Bayesian update of the model
         ``y = e_x^T f_b + noise`` with ``e_x = Q k_x`` and noise variance
-        ``sigma_n^2 + gamma_x``, so a run of them is one block update, identical to the
-        sequential one:
+        ``N_x = sigma_n^2 + gamma_x``, so a run of them is one block (Kalman) update, identical
+        to the sequential one. With rows ``K_x`` (n, m) and residuals ``r = y - K_x alpha``:
 
-        ``G = K_x^T N^{-1} K_x``, ``alpha += (I + P G)^{-1} P K_x^T N^{-1} (y - K_x alpha)``,
-        ``P <- (I + P G)^{-1} P``.
+        * ``n < m`` (observation form): ``S = K_x P K_x^T + N``,
+          ``alpha += P K_x^T S^{-1} r``, ``P -= P K_x^T S^{-1} K_x P``;
+        * otherwise (information form): ``G = K_x^T N^{-1} K_x``,
+          ``alpha += (I + P G)^{-1} P K_x^T N^{-1} r``, ``P <- (I + P G)^{-1} P``.
         """
         m = self.n_basis
         rows = self.kernel.cross(self.kernel.scale(x), self._view())
         Q, P, alpha = self.Q[:m, :m], self.P[:m, :m], self.alpha[:m]
-        gamma = (self.kernel.variance - _quad(rows, Q)).clamp_min(0)
-        weighted = rows.T / (self.noise_var + gamma)
-        G = weighted @ rows
-        b = weighted @ (yn - rows @ alpha)
-        system = torch.eye(m, dtype=P.dtype, device=P.device) + P @ G
-        sol = torch.linalg.solve(system, torch.cat([P, (P @ b)[:, None]], dim=1))
+        noise = self.noise_var + (self.kernel.variance - _quad(rows, Q)).clamp_min(0)
+        resid = yn - rows @ alpha
+        if x.shape[0] < m:
+            PK = P @ rows.T
+            S = rows @ PK + torch.diag(noise)
+            L = torch.linalg.cholesky(_sym(S))
+            gain = torch.cholesky_solve(PK.T, L)  # S^{-1} K_x P, shape (n, m)
+            self.alpha[:m] += gain.T @ resid
+            self.P[:m, :m] = _sym(P - PK @ gain)
+            return
+        weighted = rows.T / noise
+        system = torch.eye(m, dtype=P.dtype, device=P.device) + P @ (weighted @ rows)
+        rhs = torch.cat([P, (P @ (weighted @ resid))[:, None]], dim=1)
+        sol = torch.linalg.solve(system, rhs)
         self.alpha[:m] += sol[:, m]
         self.P[:m, :m] = _sym(sol[:, :m])
 
@@ -419,7 +481,10 @@ class SparseOnlineGP(nn.Module):
         self.count += 1
         self.n_added += 1
         if self.n_basis > self.max_basis:
-            self._delete(self._least_informative())
+            j = self._least_informative()
+            if j != m:
+                self.novelty_floor.copy_((self.novelty_floor * _FLOOR_STEP).clamp_max(0.99))
+            self._delete(j)
 
     def _parent(self, xs: Tensor, view: BasisView) -> int | None:
         """Graph node a new BV at scaled input ``xs`` is joined to (geodesic kernel)."""
@@ -528,7 +593,9 @@ class SparseOnlineGP(nn.Module):
         """
         m = self.n_basis
         if m < 2:
-            raise ValueError("fit_hyperparameters needs at least 2 basis vectors; call update first")
+            raise ValueError(
+                "fit_hyperparameters needs at least 2 basis vectors; call update first"
+            )
         kernel = self.kernel
         y = self.bv_y[:m].clone()
         y = (y - self.y_mean) / self.y_scale
@@ -549,7 +616,9 @@ class SparseOnlineGP(nn.Module):
             K = log_var.exp() * kernel.profile(dist) + (log_noise.exp() + 1e-8) * eye
             L = torch.linalg.cholesky(K)
             a = torch.cholesky_solve(y[:, None], L)
-            return (0.5 * (y @ a[:, 0]) + L.diagonal().log().sum()) / m + 0.5 * math.log(2 * math.pi)
+            return (0.5 * (y @ a[:, 0]) + L.diagonal().log().sum()) / m + 0.5 * math.log(
+                2 * math.pi
+            )
 
         with torch.enable_grad():
             for _ in range(n_iter):
@@ -582,7 +651,10 @@ class SparseOnlineGP(nn.Module):
         return torch.cdist(view.z, view.z)
 
     def _rebuild_exact(self) -> None:
-        """Exact GP posterior on the BV set: ``alpha = (K + s I)^{-1} y``, ``P = Q - (K + s I)^{-1}``."""
+        """Exact GP posterior on the BV set.
+
+        ``alpha = (K + s I)^{-1} y`` and ``P = Q - (K + s I)^{-1}``, ``s`` the noise variance.
+        """
         m = self.n_basis
         self.nugget[:m] = 0.0
         self._refresh_Q()
@@ -634,7 +706,11 @@ class SparseOnlineGP(nn.Module):
         if episode_starts is None:
             starts = torch.ones(n, dtype=torch.bool, device=xt.device)
         else:
-            s = torch.as_tensor(np.asarray(episode_starts) if not isinstance(episode_starts, Tensor) else episode_starts)
+            s = torch.as_tensor(
+                np.asarray(episode_starts)
+                if not isinstance(episode_starts, Tensor)
+                else episode_starts
+            )
             if s.shape != (n,):
                 raise ValueError(f"episode_starts must have shape ({n},), got {tuple(s.shape)}")
             if s.is_floating_point() and not bool(((s == 0) | (s == 1)).all()):
@@ -651,18 +727,26 @@ def _quad(rows: Tensor, M: Tensor) -> Tensor:
     return ((rows @ M) * rows).sum(dim=1)
 
 
+def _gathered_quad(idx: Tensor, w: Tensor, M: Tensor) -> Tensor:
+    """``w_i^T M[idx_i][:, idx_i] w_i`` per row; idx, w (n, k), M (m, m) -> (n,)."""
+    block = M[idx[:, :, None], idx[:, None, :]]
+    return torch.einsum("nk,nkl,nl->n", w, block, w)
+
+
 def _sym(M: Tensor) -> Tensor:
     return 0.5 * (M + M.T)
 
 
-def median_lengthscale(x: Tensor, max_points: int = 512) -> Tensor:
-    """Median heuristic: per dimension, the median absolute difference between points.
+def default_lengthscale(x: Tensor) -> Tensor:
+    """Lengthscale heuristic: the standard deviation of each input dimension.
+
+    For spread-out data this is close to the per-dimension median heuristic (both are
+    ``0.29 x range`` for uniform data), but unlike a median it does not collapse when most of
+    the batch sits at one state (a pendulum balanced on top, say).
 
     Parameters
     ----------
     x : Tensor, shape (n, d)
-    max_points : int
-        Evenly spaced subsample size (deterministic).
 
     Returns
     -------
@@ -670,12 +754,7 @@ def median_lengthscale(x: Tensor, max_points: int = 512) -> Tensor:
         Positive lengthscales; a dimension that does not vary gets its largest absolute value,
         or 1.
     """
-    idx = torch.linspace(0, x.shape[0] - 1, min(x.shape[0], max_points)).long()
-    sub = x[idx.to(x.device)]
-    diffs = (sub[:, None, :] - sub[None, :, :]).abs()
-    iu = torch.triu_indices(sub.shape[0], sub.shape[0], 1, device=x.device)
-    pairs = diffs[iu[0], iu[1]]
-    med = pairs.median(dim=0).values if pairs.shape[0] > 0 else torch.zeros_like(x[0])
+    std = x.std(dim=0, unbiased=False)
     fallback = x.abs().max(dim=0).values
     fallback = torch.where(fallback > 0, fallback, torch.ones_like(fallback))
-    return torch.where(med > 0, med, fallback)
+    return torch.where(std > 1e-12 * fallback, std, fallback)

@@ -1,0 +1,1 @@
+"""Experiments built on the public API: data generators, ground truth, runners, plots."""
