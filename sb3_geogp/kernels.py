@@ -117,6 +117,15 @@ class Kernel(nn.Module):
         """Covariance ``variance * rho(r)`` for a tensor of distances ``r``."""
         return self.variance * self.profile(r)
 
+    def novelty_at(self, r: float) -> float:
+        """Relative novelty ``1 - rho(r)^2`` of a point at distance ``r`` from a single BV.
+
+        Used to put the default novelty threshold on a distance scale: the same relative
+        threshold means very different spacings for a Gaussian profile (``~ r^2``) and a
+        Laplacian one (``~ 2 r``).
+        """
+        return 1.0 - float(self.profile(torch.tensor(float(r), dtype=torch.float64))) ** 2
+
     # -- rows over the basis ---------------------------------------------------------------------
     def gram(self, view: BasisView) -> Tensor:
         """Covariance among the basis vectors, shape (m, m)."""

@@ -35,6 +35,8 @@ ArrayLike = Tensor | np.ndarray | Sequence[Any]
 
 #: Relative floor on a new BV's novelty: below it a nugget is added to its prior variance.
 _GAMMA_FLOOR = 1e-10
+#: Default novelty threshold: a point this many lengthscales from a single BV is novel.
+_NOVELTY_RADIUS = 0.25
 #: Bounds on the rows of a batch whose novelty is screened at once (adapted in between).
 _MIN_CHUNK, _MAX_CHUNK = 32, 1024
 #: Factor by which the at-capacity novelty floor rises per displaced BV (and falls per quiet batch).
@@ -67,9 +69,11 @@ class SparseOnlineGP(nn.Module):
         Capacity ``m_max`` of the basis set.
     noise_var : float
         Observation-noise variance ``sigma_n^2`` in standardised target units.
-    novelty_tol : float
+    novelty_tol : float or None
         A point becomes a BV when its relative novelty ``gamma / k(x, x)`` exceeds this
-        (once the basis is full, it must also exceed the smallest novelty of a current BV).
+        (once the basis is full it must also beat the least novel BV and an adaptive floor).
+        ``None``: the novelty of a point a quarter lengthscale from a single BV,
+        ``1 - rho(0.25)^2`` (0.06 for the RBF kernel, 0.39 for the Laplacian geodesic one).
     forgetting : float
         ``lambda`` in (0, 1]; before each batch ``alpha <- sqrt(lambda) alpha`` and
         ``C <- lambda C`` (1 = no forgetting).
@@ -114,7 +118,7 @@ class SparseOnlineGP(nn.Module):
         kernel: Kernel | Literal["rbf", "geodesic"] = "geodesic",
         max_basis: int = 256,
         noise_var: float = 0.05,
-        novelty_tol: float = 0.05,
+        novelty_tol: float | None = None,
         forgetting: float = 1.0,
         target_mean: float | None = None,
         target_scale: float | None = None,
@@ -128,7 +132,7 @@ class SparseOnlineGP(nn.Module):
             raise ValueError(f"max_basis must be >= 1, got {max_basis}")
         if not (noise_var > 0 and math.isfinite(noise_var)):
             raise ValueError(f"noise_var must be positive and finite, got {noise_var}")
-        if not (0 <= novelty_tol < 1):
+        if novelty_tol is not None and not (0 <= novelty_tol < 1):
             raise ValueError(f"novelty_tol must be in [0, 1), got {novelty_tol}")
         if not (0 < forgetting <= 1):
             raise ValueError(f"forgetting must be in (0, 1], got {forgetting}")
@@ -140,9 +144,11 @@ class SparseOnlineGP(nn.Module):
             raise ValueError(f"dtype must be a floating type, got {dtype}")
         self.input_dim = int(input_dim)
         self.max_basis = int(max_basis)
-        self.novelty_tol = float(novelty_tol)
         self.forgetting = float(forgetting)
         self.kernel = make_kernel(kernel)
+        self.novelty_tol = (
+            self.kernel.novelty_at(_NOVELTY_RADIUS) if novelty_tol is None else float(novelty_tol)
+        )
         self.kernel.bind(self.input_dim)
         # One spare slot: a new BV is inserted before the least informative one is deleted.
         cap = self.max_basis + 1
