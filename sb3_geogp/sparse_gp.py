@@ -21,7 +21,7 @@ For a positive-definite kernel this equals the textbook ``k(x, x) + k_x^T C k_x`
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any, Literal
 
 import numpy as np
@@ -173,6 +173,8 @@ class SparseOnlineGP(nn.Module):
             self.register_buffer(name, torch.zeros((), dtype=torch.long, device=device))
         self.register_buffer("traj_node", torch.full((), -1, dtype=torch.long, device=device))
         self.register_buffer("novelty_floor", torch.tensor(self.novelty_tol, **kw))
+        self._cache: dict[str, Tensor] = {}
+        self.register_load_state_dict_post_hook(lambda module, _keys: module._cache.clear())
 
     # ------------------------------------------------------------------------------------------
     # Read-only views
@@ -267,6 +269,20 @@ class SparseOnlineGP(nn.Module):
         mean = mean * self.y_scale + self.y_mean
         return mean, None if var is None else var * self.y_scale**2
 
+    def _derived(self, name: str, compute: Callable[[], Tensor]) -> Tensor:
+        """A quantity derived from the state, cached until the state next changes.
+
+        The cache is emptied by :meth:`update`, :meth:`fit_hyperparameters`,
+        ``load_state_dict`` and ``.to()``, the only ways the state changes.
+        """
+        if name not in self._cache:
+            self._cache[name] = compute()
+        return self._cache[name]
+
+    def _apply(self, fn: Callable[[Tensor], Tensor], recurse: bool = True) -> SparseOnlineGP:
+        self._cache.clear()
+        return super()._apply(fn, recurse)
+
     def _latent(self, xs: Tensor, return_var: bool) -> tuple[Tensor, Tensor | None]:
         """Standardised posterior mean and variance at scaled inputs ``xs : (n, d)``."""
         m, view = self.n_basis, self._view()
@@ -279,13 +295,15 @@ class SparseOnlineGP(nn.Module):
                 return mean, None
             kqk, kpk = _quad(rows, Q), _quad(rows, P)
         else:
-            # Rows are sum_j w_j K_b[idx_j]: contract through K_b once instead of per point.
+            # Rows are sum_j w_j K_b[idx_j]: contract through K_b once instead of per point,
+            # and keep the (m, m) products until the state changes (SB3 predicts per step).
             idx, w = factors
-            K = self.kernel.gram(view)
-            mean = (w * (K @ alpha)[idx]).sum(dim=1)
+            K = self._derived("K", lambda: self.kernel.gram(view))
+            mean = (w * self._derived("K_alpha", lambda: K @ alpha)[idx]).sum(dim=1)
             if not return_var:
                 return mean, None
-            kqk, kpk = (_gathered_quad(idx, w, K @ M @ K) for M in (Q, P))
+            kqk = _gathered_quad(idx, w, self._derived("KQK", lambda: K @ Q @ K))
+            kpk = _gathered_quad(idx, w, self._derived("KPK", lambda: K @ P @ K))
         gamma = self.kernel.variance - kqk
         return mean, (gamma.clamp_min(0) + kpk).clamp_min(0)
 
@@ -320,6 +338,7 @@ class SparseOnlineGP(nn.Module):
         """
         x, y, starts = self._validate(x, y, episode_starts)
         snapshot = {k: v.clone() for k, v in self.state_dict().items()}
+        self._cache.clear()
         try:
             self._update(x, y, starts)
         except BaseException:
@@ -603,6 +622,7 @@ class SparseOnlineGP(nn.Module):
                 "fit_hyperparameters needs at least 2 basis vectors; call update first"
             )
         kernel = self.kernel
+        self._cache.clear()
         y = self.bv_y[:m].clone()
         y = (y - self.y_mean) / self.y_scale
         log_var = kernel.variance.log().clone().requires_grad_(True)
