@@ -1,0 +1,273 @@
+"""``GPValueCallback``: feeds the GP critic each rollout of PPO or A2C.
+
+SB3 computes a rollout's returns and advantages in ``collect_rollouts`` with the critic that
+collected it, then calls ``on_rollout_end``, then ``train``. Feeding the GP at
+``on_rollout_end`` therefore mirrors the MLP critic (advantages of a rollout use the critic
+from before that rollout's update); ``recompute_advantages=True`` recomputes them with the
+freshly updated GP instead.
+
+This module only adapts: it reorders SB3's time-major ``(n_steps, n_envs)`` buffer into
+per-environment trajectories, takes targets from :mod:`sb3_geogp.targets` and logs.
+"""
+
+from __future__ import annotations
+
+import time
+import warnings
+from typing import Literal, cast
+
+import numpy as np
+import torch as th
+from stable_baselines3.common.buffers import RolloutBuffer
+from stable_baselines3.common.callbacks import BaseCallback
+from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
+from stable_baselines3.common.utils import explained_variance
+
+from sb3_geogp.policies import GPActorCriticPolicy
+from sb3_geogp.targets import discounted_returns, split_completed
+
+Target = Literal["returns", "monte_carlo"]
+
+#: At most this many (evenly spaced) rollout points are used for ``gp/mean_std``.
+_STD_SAMPLE = 1024
+
+
+class GPValueCallback(BaseCallback):
+    """Feed a :class:`~sb3_geogp.GPActorCriticPolicy`'s GP critic at the end of every rollout.
+
+    Parameters
+    ----------
+    target : {"returns", "monte_carlo"}
+        ``"returns"`` (default): the rollout buffer's returns (TD(lambda) with GAE), the
+        targets SB3's MLP critic is trained on. ``"monte_carlo"``: discounted returns of
+        completed episodes only, episodes spanning rollouts stitched per environment;
+        a time-limit truncation is bootstrapped with the critic's value of the terminal
+        observation (SB3 adds ``gamma * V(terminal_observation)`` to that step's reward),
+        a termination is not. Steps of unfinished episodes wait for a later rollout.
+    recompute_advantages : bool
+        Recompute the rollout's values, returns and advantages with the updated GP before
+        ``train`` (including the time-limit bootstraps). ``False`` (default) keeps SB3's
+        timing: the advantages use the critic from before the update, as with an MLP critic.
+    verbose : int
+        SB3 verbosity.
+
+    Attributes
+    ----------
+    update_seconds : float
+        Wall-clock seconds spent in GP updates so far.
+
+    Notes
+    -----
+    Logged at every rollout (SB3 logger, so stdout/CSV/TensorBoard):
+
+    * ``gp/explained_variance``, ``gp/mse``: the GP's prediction of the targets it is about
+      to be fed, before it absorbs them (out of sample);
+    * ``gp/mean_std``: mean predictive standard deviation on those points (before the update,
+      at most 1024 evenly spaced ones);
+    * ``gp/n_basis``, ``gp/update_ms``, ``gp/n_fed``, ``gp/forgetting``, and
+      ``gp/n_components`` (graph components, geodesic kernel).
+    """
+
+    def __init__(
+        self,
+        target: Target = "returns",
+        recompute_advantages: bool = False,
+        verbose: int = 0,
+    ) -> None:
+        super().__init__(verbose)
+        if target not in ("returns", "monte_carlo"):
+            raise ValueError(f"target must be 'returns' or 'monte_carlo', got {target!r}")
+        self.target: Target = target
+        self.recompute_advantages = bool(recompute_advantages)
+        #: Wall-clock seconds spent in GP updates so far (all rollouts of this callback).
+        self.update_seconds = 0.0
+        # Monte-Carlo: steps of each env's unfinished episode (obs, rewards, episode_starts).
+        self._pending: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+        # Truncations of the current rollout: (step, env, terminal observation).
+        self._truncations: list[tuple[int, int, np.ndarray]] = []
+
+    # ------------------------------------------------------------------------------------------
+    # SB3 hooks
+    # ------------------------------------------------------------------------------------------
+    def _init_callback(self) -> None:
+        policy = self.model.policy
+        if not isinstance(policy, GPActorCriticPolicy):
+            raise TypeError(
+                f"GPValueCallback needs a GPActorCriticPolicy, got {type(policy).__name__}"
+            )
+        buffer = getattr(self.model, "rollout_buffer", None)
+        if not isinstance(self.model, OnPolicyAlgorithm) or type(buffer) is not RolloutBuffer:
+            raise TypeError(
+                "GPValueCallback works with on-policy algorithms using a RolloutBuffer "
+                f"(PPO, A2C), got {type(self.model).__name__}"
+            )
+        vec_normalize = self.model.get_vec_normalize_env()
+        if vec_normalize is not None and vec_normalize.norm_obs and vec_normalize.training:
+            warnings.warn(
+                "VecNormalize keeps updating its observation statistics while the GP's basis "
+                "vectors stay in the units they were fed in, so old basis vectors drift away "
+                "from new observations. Freeze the statistics after a warm-up "
+                "(vec_env.training = False) or use norm_obs=False with the GP critic.",
+                UserWarning,
+                stacklevel=2,
+            )
+        # Unfinished episodes of an earlier learn() call may have been cut by an env reset.
+        self._pending = [_empty_segment(self.model.observation_space.shape)] * self.model.n_envs
+
+    def _on_rollout_start(self) -> None:
+        self._truncations = []
+
+    def _on_step(self) -> bool:
+        if self.recompute_advantages:
+            # SB3 bootstraps these steps right after this hook, at buffer index ``pos``.
+            step = self._algo.rollout_buffer.pos
+            for env, (done, info) in enumerate(
+                zip(self.locals["dones"], self.locals["infos"], strict=True)
+            ):
+                terminal = info.get("terminal_observation")
+                if done and terminal is not None and info.get("TimeLimit.truncated", False):
+                    self._truncations.append((step, env, np.asarray(terminal)))
+        return True
+
+    def _on_rollout_end(self) -> None:
+        policy = self.model.policy
+        assert isinstance(policy, GPActorCriticPolicy)
+        buffer = self._algo.rollout_buffer
+        dones = np.asarray(self.locals["dones"], dtype=bool)
+        if self.target == "returns":
+            obs, targets, starts = _per_env(
+                buffer.observations, buffer.returns, buffer.episode_starts
+            )
+        else:
+            obs, targets, starts = self._completed_episodes(buffer, dones)
+        self._log_prediction(policy, obs, targets)
+        if self.recompute_advantages:
+            old_bootstrap = self._bootstrap_values(policy)
+        start = time.perf_counter()
+        policy.update_critic(obs, targets, starts)
+        elapsed = time.perf_counter() - start
+        self.update_seconds += elapsed
+        update_ms = 1e3 * elapsed
+        if self.recompute_advantages:
+            self._recompute(policy, buffer, dones, old_bootstrap)
+        gp = policy.gp
+        self.logger.record("gp/n_basis", gp.n_basis)
+        self.logger.record("gp/n_fed", len(targets))
+        self.logger.record("gp/update_ms", update_ms)
+        self.logger.record("gp/forgetting", gp.forgetting)
+        if gp.graph is not None:
+            self.logger.record("gp/n_components", gp.graph.n_components)
+
+    # ------------------------------------------------------------------------------------------
+    # Helpers
+    # ------------------------------------------------------------------------------------------
+    @property
+    def _algo(self) -> OnPolicyAlgorithm:
+        """The model, as the on-policy algorithm checked in ``_init_callback``."""
+        return cast(OnPolicyAlgorithm, self.model)
+
+    def _completed_episodes(
+        self, buffer: RolloutBuffer, dones: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Monte-Carlo targets of the episodes completed by this rollout, env by env."""
+        gamma = float(self._algo.gamma)
+        parts: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+        for env in range(buffer.n_envs):
+            old_obs, old_rew, old_starts = self._pending[env]
+            obs = np.concatenate([old_obs, buffer.observations[:, env]])
+            rew = np.concatenate([old_rew, buffer.rewards[:, env].astype(np.float64)])
+            starts = np.concatenate([old_starts, buffer.episode_starts[:, env].astype(bool)])
+            ends, n_done = split_completed(starts, bool(dones[env]))
+            self._pending[env] = (obs[n_done:], rew[n_done:], starts[n_done:])
+            if n_done:
+                chunk_starts = starts[:n_done].copy()
+                chunk_starts[0] = True
+                parts.append(
+                    (
+                        obs[:n_done],
+                        discounted_returns(rew[:n_done], ends[:n_done], gamma),
+                        chunk_starts,
+                    )
+                )
+        if not parts:
+            return (
+                np.empty((0, *buffer.obs_shape), dtype=buffer.observations.dtype),
+                np.empty(0),
+                np.empty(0, dtype=bool),
+            )
+        obs_all, y_all, s_all = zip(*parts, strict=True)
+        return np.concatenate(obs_all), np.concatenate(y_all), np.concatenate(s_all)
+
+    def _log_prediction(
+        self, policy: GPActorCriticPolicy, obs: np.ndarray, targets: np.ndarray
+    ) -> None:
+        """Log the GP's out-of-sample fit of the targets it is about to absorb."""
+        if len(targets) == 0:
+            return
+        features = policy.critic_features(obs)
+        mean, _ = policy.gp.predict(features, return_var=False)
+        pred = mean.cpu().numpy()
+        y = np.asarray(targets, dtype=np.float64)
+        self.logger.record("gp/mse", float(np.mean((pred - y) ** 2)))
+        self.logger.record("gp/explained_variance", float(explained_variance(pred, y)))
+        idx = np.unique(np.linspace(0, len(y) - 1, min(len(y), _STD_SAMPLE)).astype(np.int64))
+        _, var = policy.gp.predict(features[idx], return_var=True)
+        assert var is not None
+        self.logger.record("gp/mean_std", float(var.sqrt().mean()))
+
+    def _bootstrap_values(self, policy: GPActorCriticPolicy) -> np.ndarray:
+        """Critic values of this rollout's truncated terminal observations, shape (k,)."""
+        if not self._truncations:
+            return np.empty(0, dtype=np.float32)
+        terminal = np.stack([t[2] for t in self._truncations])
+        with th.no_grad():
+            values = policy.predict_values(th.as_tensor(terminal, device=policy.device))
+        return values.cpu().numpy()[:, 0]
+
+    def _recompute(
+        self,
+        policy: GPActorCriticPolicy,
+        buffer: RolloutBuffer,
+        dones: np.ndarray,
+        old_bootstrap: np.ndarray,
+    ) -> None:
+        """Values, time-limit bootstraps, returns and advantages with the updated GP."""
+        gamma = float(self._algo.gamma)
+        new_bootstrap = self._bootstrap_values(policy)
+        for (step, env, _), old, new in zip(
+            self._truncations, old_bootstrap, new_bootstrap, strict=True
+        ):
+            buffer.rewards[step, env] += gamma * (new - old)
+        n_steps, n_envs = buffer.values.shape
+        flat_obs = buffer.observations.reshape(n_steps * n_envs, *buffer.obs_shape)
+        with th.no_grad():
+            values = policy.predict_values(th.as_tensor(flat_obs, device=policy.device))
+            last_values = policy.predict_values(
+                th.as_tensor(self.locals["new_obs"], device=policy.device)
+            )
+        buffer.values[:] = values.cpu().numpy().reshape(n_steps, n_envs)
+        buffer.compute_returns_and_advantage(last_values=last_values, dones=dones)
+
+
+def _empty_segment(obs_shape: tuple[int, ...] | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    shape = obs_shape or ()
+    return (
+        np.empty((0, *shape), dtype=np.float32),
+        np.empty(0, dtype=np.float64),
+        np.empty(0, dtype=bool),
+    )
+
+
+def _per_env(
+    observations: np.ndarray, targets: np.ndarray, episode_starts: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Reorder time-major ``(n_steps, n_envs, ...)`` arrays env by env, each in time order.
+
+    Returns observations (n_envs * n_steps, *obs_shape), targets (n_envs * n_steps,) and
+    episode starts (n_envs * n_steps,) with ``True`` on each env's first step.
+    """
+    n_steps, n_envs = targets.shape
+    obs = np.swapaxes(observations, 0, 1).reshape(n_envs * n_steps, *observations.shape[2:])
+    starts = np.swapaxes(episode_starts, 0, 1).astype(bool)
+    starts[:, 0] = True
+    return obs, np.swapaxes(targets, 0, 1).reshape(-1), starts.reshape(-1)

@@ -1,0 +1,307 @@
+"""``GPActorCriticPolicy``: SB3's actor-critic policy with a sparse on-line GP as the critic.
+
+The actor is SB3's, unchanged. The critic is a :class:`~sb3_geogp.SparseOnlineGP` on the
+flattened observation features; it has no network parameters, so the optimiser holds only
+the actor's. The GP learns outside gradient descent: :class:`~sb3_geogp.GPValueCallback` feeds
+it each rollout through :meth:`GPActorCriticPolicy.update_critic`.
+
+This module only adapts (spaces, shapes, dtypes, devices, bookkeeping); the maths lives in
+:mod:`sb3_geogp.sparse_gp`.
+"""
+
+from __future__ import annotations
+
+import copy
+from typing import Any
+
+import numpy as np
+import torch as th
+from gymnasium import spaces
+from stable_baselines3.common.policies import ActorCriticPolicy, BaseModel
+from stable_baselines3.common.preprocessing import is_image_space
+from stable_baselines3.common.type_aliases import PyTorchObs, Schedule
+from torch import nn
+
+from sb3_geogp.kernels import Kernel
+from sb3_geogp.sparse_gp import SparseOnlineGP, make_kernel
+
+#: ``gp_kwargs`` keys the policy sets itself.
+_RESERVED = ("input_dim", "device")
+
+_SUPPORTED = (
+    "GPActorCriticPolicy supports Box observations of any shape (flattened; not images) with "
+    "Box, Discrete, MultiDiscrete or MultiBinary actions"
+)
+
+
+class GPValueHead(nn.Module):
+    """``value_net`` of the policy: the GP's posterior mean as SB3 expects a value head.
+
+    Parameters
+    ----------
+    gp : SparseOnlineGP
+        The critic.
+    """
+
+    def __init__(self, gp: SparseOnlineGP) -> None:
+        super().__init__()
+        self.gp = gp
+
+    def forward(self, latent_vf: th.Tensor) -> th.Tensor:
+        """Values of ``latent_vf : (N, d)`` as float32, shape (N, 1), on the input's device."""
+        return self.gp(latent_vf).to(device=latent_vf.device, dtype=th.float32).unsqueeze(1)
+
+
+class GPActorCriticPolicy(ActorCriticPolicy):
+    """Actor-critic policy for PPO/A2C whose critic is a sparse on-line (geodesic) GP.
+
+    Use it as ``PPO(GPActorCriticPolicy, env, policy_kwargs=dict(gp_kwargs=...))`` and pass
+    ``callback=GPValueCallback()`` to ``learn``.
+
+    Parameters
+    ----------
+    observation_space : gymnasium.spaces.Box
+        Non-image Box of any shape; the GP sees the flattened observation.
+    action_space : gymnasium.spaces.Space
+        Box, Discrete, MultiDiscrete or MultiBinary.
+    lr_schedule : Schedule
+        Learning-rate schedule of the actor.
+    net_arch : dict or list of int, optional
+        Actor layers. ``dict(pi=[64, 64], vf=[])`` by default; a list means ``pi``. The critic
+        takes the features directly, so ``vf`` must be empty.
+    gp_kwargs : dict, optional
+        Options of :class:`~sb3_geogp.SparseOnlineGP` (``max_basis``, ``noise_var``,
+        ``novelty_tol``, ``forgetting``, ``target_mean``, ``target_scale``, ``dtype``) plus
+        ``kernel`` (``"geodesic"`` (default), ``"rbf"`` or a :class:`~sb3_geogp.Kernel`, which
+        is copied) and ``kernel_kwargs`` (options of the named kernel, e.g.
+        ``dict(profile="laplacian", n_neighbors=4)``). ``dtype`` may be a string such as
+        ``"float64"``. ``input_dim`` and ``device`` are set by the policy.
+    **kwargs
+        Every other option of :class:`~stable_baselines3.common.policies.ActorCriticPolicy`.
+
+    Raises
+    ------
+    ValueError
+        For unsupported spaces, a non-empty ``vf`` architecture, a trainable critic
+        features extractor or bad ``gp_kwargs``.
+
+    Attributes
+    ----------
+    require_gp_feed : bool
+        When ``True`` (default), :meth:`evaluate_actions` in training mode raises if the
+        observations collected since the last rollout (calls of :meth:`forward`) have not
+        been passed to :meth:`update_critic`: the symptom of ``learn`` without
+        :class:`~sb3_geogp.GPValueCallback`.
+    """
+
+    def __init__(
+        self,
+        observation_space: spaces.Space,
+        action_space: spaces.Space,
+        lr_schedule: Schedule,
+        net_arch: list[int] | dict[str, list[int]] | None = None,
+        gp_kwargs: dict[str, Any] | None = None,
+        **kwargs: Any,
+    ) -> None:
+        _check_spaces(observation_space, action_space)
+        # Needed by _build(), which ActorCriticPolicy.__init__ calls.
+        self._gp_options = _check_gp_kwargs(gp_kwargs)
+        super().__init__(
+            observation_space, action_space, lr_schedule, net_arch=_gp_net_arch(net_arch), **kwargs
+        )
+        self.gp_kwargs = dict(gp_kwargs or {})
+        self.require_gp_feed = True
+        self._awaiting_feed = False
+
+    # ------------------------------------------------------------------------------------------
+    # Construction
+    # ------------------------------------------------------------------------------------------
+    def _build(self, lr_schedule: Schedule) -> None:
+        """Build SB3's actor, replace the value head by the GP, optimise actor parameters only."""
+        super()._build(lr_schedule)
+        if any(p.requires_grad for p in self.vf_features_extractor.parameters()):
+            raise ValueError(
+                "the GP critic needs fixed input features, but the critic's features extractor "
+                f"({type(self.vf_features_extractor).__name__}) has trainable parameters; use "
+                "the default FlattenExtractor or freeze the extractor"
+            )
+        options = dict(self._gp_options)
+        kernel = options.pop("kernel", "geodesic")
+        kernel_kwargs = options.pop("kernel_kwargs", None) or {}
+        if isinstance(kernel, Kernel):
+            kernel = copy.deepcopy(kernel)
+        gp = SparseOnlineGP(
+            input_dim=self.mlp_extractor.latent_dim_vf,
+            kernel=make_kernel(kernel, **kernel_kwargs),
+            **options,
+        ).to(self.device)
+        self.value_net = GPValueHead(gp)  # type: ignore[assignment]
+        self.optimizer = self.optimizer_class(  # type: ignore[call-arg]
+            self.parameters(), lr=lr_schedule(1), **self.optimizer_kwargs
+        )
+
+    def _get_constructor_parameters(self) -> dict[str, Any]:
+        data = super()._get_constructor_parameters()
+        data.update(gp_kwargs=self.gp_kwargs)
+        return data
+
+    @property
+    def gp(self) -> SparseOnlineGP:
+        """The critic."""
+        head = self.value_net
+        assert isinstance(head, GPValueHead)
+        return head.gp
+
+    # ------------------------------------------------------------------------------------------
+    # SB3 entry points
+    # ------------------------------------------------------------------------------------------
+    def forward(
+        self, obs: th.Tensor, deterministic: bool = False
+    ) -> tuple[th.Tensor, th.Tensor, th.Tensor]:
+        """Actions, values and log-probabilities, as SB3's ``forward`` (rollout collection).
+
+        Parameters
+        ----------
+        obs : Tensor, shape (N, *obs_shape)
+        deterministic : bool
+
+        Returns
+        -------
+        actions : Tensor, shape (N, *action_shape)
+        values : Tensor, shape (N, 1), float32
+        log_prob : Tensor, shape (N,)
+        """
+        self._awaiting_feed = True
+        return super().forward(obs, deterministic)
+
+    def evaluate_actions(
+        self, obs: PyTorchObs, actions: th.Tensor
+    ) -> tuple[th.Tensor, th.Tensor, th.Tensor | None]:
+        """Values, log-likelihood and entropy of ``actions`` (SB3's training path).
+
+        Parameters
+        ----------
+        obs : Tensor, shape (N, *obs_shape)
+        actions : Tensor, shape (N, *action_shape)
+
+        Returns
+        -------
+        values : Tensor, shape (N, 1), float32, no gradient
+        log_prob : Tensor, shape (N,)
+        entropy : Tensor, shape (N,) or None
+
+        Raises
+        ------
+        RuntimeError
+            In training mode, if the last rollout was never given to :meth:`update_critic`.
+        """
+        if self.training and self.require_gp_feed and self._awaiting_feed:
+            raise RuntimeError(
+                "GPActorCriticPolicy: the GP critic was not fed the rollout before training, so "
+                "it would never learn. Pass the callback to learn, e.g. "
+                "model.learn(total_timesteps, callback=GPValueCallback()) "
+                "(from sb3_geogp import GPValueCallback); combine it with other callbacks in "
+                "a list"
+            )
+        return super().evaluate_actions(obs, actions)
+
+    def predict_values(self, obs: PyTorchObs) -> th.Tensor:
+        """GP posterior mean of the state values.
+
+        Parameters
+        ----------
+        obs : Tensor, shape (N, *obs_shape)
+
+        Returns
+        -------
+        Tensor, shape (N, 1), float32, on the policy's device
+            Zeros before the GP has been fed.
+        """
+        return super().predict_values(obs)
+
+    # ------------------------------------------------------------------------------------------
+    # The GP side
+    # ------------------------------------------------------------------------------------------
+    @th.no_grad()
+    def critic_features(self, obs: PyTorchObs | np.ndarray) -> th.Tensor:
+        """The GP's inputs for observations, as :meth:`predict_values` computes them.
+
+        Parameters
+        ----------
+        obs : Tensor or ndarray, shape (N, *obs_shape)
+
+        Returns
+        -------
+        Tensor, shape (N, d), float32, on the policy's device
+        """
+        obs_t = th.as_tensor(obs, device=self.device)
+        features = BaseModel.extract_features(self, obs_t, self.vf_features_extractor)
+        return self.mlp_extractor.forward_critic(features)
+
+    def update_critic(
+        self,
+        obs: th.Tensor | np.ndarray,
+        targets: th.Tensor | np.ndarray,
+        episode_starts: th.Tensor | np.ndarray,
+    ) -> None:
+        """Feed the GP a batch of observations and value targets, in trajectory order.
+
+        Also records that the current rollout has been handled (an empty batch does only
+        that).
+
+        Parameters
+        ----------
+        obs : Tensor or ndarray, shape (n, *obs_shape)
+            Observations, trajectory by trajectory, each in time order.
+        targets : Tensor or ndarray, shape (n,)
+            Value targets (e.g. returns).
+        episode_starts : Tensor or ndarray of bool, shape (n,)
+            ``True`` on the first step of each trajectory (including the first row).
+        """
+        if len(targets) > 0:
+            self.gp.update(self.critic_features(obs), targets, episode_starts)
+        self._awaiting_feed = False
+
+
+def _check_spaces(observation_space: spaces.Space, action_space: spaces.Space) -> None:
+    if isinstance(observation_space, spaces.Dict):
+        raise ValueError(f"{_SUPPORTED}; got a Dict observation space")
+    if not isinstance(observation_space, spaces.Box):
+        raise ValueError(f"{_SUPPORTED}; got observation space {observation_space}")
+    if is_image_space(observation_space, check_channels=False):
+        raise ValueError(
+            f"{_SUPPORTED}; got an image observation space {observation_space} (a kernel on "
+            "raw pixels is not meaningful: wrap the env to give low-dimensional features)"
+        )
+    if not isinstance(
+        action_space, spaces.Box | spaces.Discrete | spaces.MultiDiscrete | spaces.MultiBinary
+    ):
+        raise ValueError(f"{_SUPPORTED}; got action space {action_space}")
+
+
+def _check_gp_kwargs(gp_kwargs: dict[str, Any] | None) -> dict[str, Any]:
+    options = dict(gp_kwargs or {})
+    reserved = [k for k in _RESERVED if k in options]
+    if reserved:
+        raise ValueError(f"gp_kwargs must not contain {reserved}: the policy sets them")
+    if isinstance(options.get("dtype"), str):
+        dtype = getattr(th, options["dtype"], None)
+        if not isinstance(dtype, th.dtype):
+            raise ValueError(f"gp_kwargs dtype {options['dtype']!r} is not a torch dtype")
+        options["dtype"] = dtype
+    return options
+
+
+def _gp_net_arch(net_arch: list[int] | dict[str, list[int]] | None) -> dict[str, list[int]]:
+    if net_arch is None:
+        return dict(pi=[64, 64], vf=[])
+    if isinstance(net_arch, list) and net_arch and isinstance(net_arch[0], dict):
+        net_arch = net_arch[0]  # SB3 < 1.8 style: [dict(pi=..., vf=...)]
+    if isinstance(net_arch, list):
+        return dict(pi=list(net_arch), vf=[])
+    if net_arch.get("vf"):
+        raise ValueError(
+            f"the GP critic takes the features directly, so net_arch['vf'] must be empty; got "
+            f"{net_arch['vf']}"
+        )
+    return dict(pi=list(net_arch.get("pi", [])), vf=[])

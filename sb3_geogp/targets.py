@@ -1,0 +1,70 @@
+"""Value targets for the GP critic built from trajectories (numpy only, no SB3).
+
+The SB3 adapter (:mod:`sb3_geogp.callbacks`) keeps no maths of its own: it cuts rollouts into
+per-environment trajectories and asks this module for their targets.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def discounted_returns(rewards: np.ndarray, episode_ends: np.ndarray, gamma: float) -> np.ndarray:
+    """Discounted return-to-go of every step, restarting after each episode end.
+
+    ``G_t = r_t + gamma * G_{t+1} * (1 - end_t)``, with ``G`` after the last step taken as 0.
+
+    Parameters
+    ----------
+    rewards : ndarray, shape (n,)
+        Rewards in time order. A time-limit bootstrap (``gamma * V(s_terminal)``) is expected
+        to be folded into the reward of the truncated step already, as SB3 does.
+    episode_ends : ndarray of bool, shape (n,)
+        ``True`` on the last step of each episode.
+    gamma : float
+        Discount factor in [0, 1].
+
+    Returns
+    -------
+    ndarray, shape (n,), float64
+        The return-to-go of each step within its own episode.
+    """
+    rewards = np.asarray(rewards, dtype=np.float64)
+    ends = np.asarray(episode_ends, dtype=bool)
+    if rewards.ndim != 1 or ends.shape != rewards.shape:
+        raise ValueError(
+            f"rewards and episode_ends must be 1-D of equal length, got {rewards.shape} "
+            f"and {ends.shape}"
+        )
+    out = np.empty_like(rewards)
+    acc = 0.0
+    for t in range(len(rewards) - 1, -1, -1):
+        acc = rewards[t] + (0.0 if ends[t] else gamma * acc)
+        out[t] = acc
+    return out
+
+
+def split_completed(episode_starts: np.ndarray, last_done: bool) -> tuple[np.ndarray, int]:
+    """Episode ends of one environment's trajectory and the length of its completed part.
+
+    Parameters
+    ----------
+    episode_starts : ndarray of bool, shape (n,)
+        ``True`` on the first step of an episode (SB3's ``episode_starts`` column).
+    last_done : bool
+        Whether the last step ended an episode (SB3's ``dones`` after the last step).
+
+    Returns
+    -------
+    episode_ends : ndarray of bool, shape (n,)
+        ``True`` on the last step of each episode.
+    n_completed : int
+        Number of leading steps that belong to completed episodes (0 if none completed).
+    """
+    starts = np.asarray(episode_starts, dtype=bool)
+    ends = np.zeros(starts.shape, dtype=bool)
+    if starts.size:
+        ends[:-1] = starts[1:]
+        ends[-1] = bool(last_done)
+    idx = np.flatnonzero(ends)
+    return ends, int(idx[-1]) + 1 if idx.size else 0

@@ -1,0 +1,401 @@
+"""GPValueCallback: feeding layout, target maths on a scripted env, timing, logging, errors."""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Iterator
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+import pytest
+import torch as th
+from gymnasium import spaces
+from gymnasium.wrappers import TimeLimit
+from stable_baselines3 import A2C, PPO
+from stable_baselines3.common.base_class import BaseAlgorithm
+from stable_baselines3.common.callbacks import BaseCallback, CallbackList
+from stable_baselines3.common.env_util import make_vec_env
+from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
+
+from sb3_geogp import GPActorCriticPolicy, GPValueCallback
+from sb3_geogp.targets import discounted_returns, split_completed
+
+
+@pytest.fixture(autouse=True, scope="module")
+def _one_thread() -> Iterator[None]:
+    """Tiny tensors: one intra-op thread is far faster, above all on a shared machine."""
+    threads = th.get_num_threads()
+    th.set_num_threads(1)
+    yield
+    th.set_num_threads(threads)
+
+
+GAMMA = 0.9
+PRIOR = 10.0  # target_mean: what the (unfed) GP predicts everywhere
+
+
+class ScriptedEnv(gym.Env[np.ndarray, int]):
+    """Deterministic episodes: observation ``[env_id, episode, t]``, reward ``1 + t``.
+
+    With ``terminate_at`` the episode terminates after that many steps; otherwise it runs
+    until a ``TimeLimit`` wrapper truncates it.
+    """
+
+    def __init__(self, env_id: int, terminate_at: int | None) -> None:
+        self.observation_space = spaces.Box(0.0, 1e6, shape=(3,), dtype=np.float32)
+        self.action_space = spaces.Discrete(2)
+        self.env_id = env_id
+        self.terminate_at = terminate_at
+        self.episode = -1
+        self.t = 0
+
+    def _obs(self) -> np.ndarray:
+        return np.array([self.env_id, self.episode, self.t], dtype=np.float32)
+
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[np.ndarray, dict[str, Any]]:
+        super().reset(seed=seed)
+        self.episode += 1
+        self.t = 0
+        return self._obs(), {}
+
+    def step(self, action: int) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        reward = 1.0 + self.t
+        self.t += 1
+        terminated = self.terminate_at is not None and self.t >= self.terminate_at
+        return self._obs(), reward, terminated, False, {}
+
+
+def scripted_vec_env() -> DummyVecEnv:
+    """Env 0 terminates after 3 steps; env 1 is truncated by a time limit after 5."""
+    return DummyVecEnv(
+        [lambda: ScriptedEnv(0, 3), lambda: TimeLimit(ScriptedEnv(1, None), max_episode_steps=5)]
+    )
+
+
+def expected_monte_carlo(env_id: int, t: int) -> float:
+    """Hand-computed target of step ``t``: env 0 terminates, env 1 bootstraps at truncation."""
+    if env_id == 0:
+        return sum(GAMMA ** (k - t) * (1 + k) for k in range(t, 3))
+    return sum(GAMMA ** (k - t) * (1 + k) for k in range(t, 5)) + GAMMA ** (5 - t) * PRIOR
+
+
+def make_scripted(algo: type[BaseAlgorithm] = PPO, n_steps: int = 4) -> BaseAlgorithm:
+    kwargs: dict[str, Any] = dict(n_steps=n_steps, gamma=GAMMA, gae_lambda=1.0, seed=0)
+    if algo is PPO:
+        kwargs.update(batch_size=2 * n_steps, n_epochs=1)
+    return algo(
+        GPActorCriticPolicy,
+        scripted_vec_env(),
+        policy_kwargs=dict(gp_kwargs=dict(kernel="rbf", max_basis=16, target_mean=PRIOR)),
+        **kwargs,
+    )
+
+
+class FeedRecorder:
+    """Replaces ``policy.update_critic``: records every batch; optionally keeps the GP empty."""
+
+    def __init__(self, policy: GPActorCriticPolicy, keep_empty: bool) -> None:
+        self.original = policy.update_critic
+        self.keep_empty = keep_empty
+        self.batches: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+        policy.update_critic = self  # type: ignore[method-assign]
+
+    def __call__(self, obs: np.ndarray, targets: np.ndarray, starts: np.ndarray) -> None:
+        self.batches.append((np.array(obs), np.array(targets), np.array(starts)))
+        n = 0 if self.keep_empty else len(targets)
+        self.original(obs[:n], targets[:n], starts[:n])
+
+
+class BufferRecorder(BaseCallback):
+    """Copies the rollout buffer at rollout end (run it after GPValueCallback)."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.rollouts: list[dict[str, np.ndarray]] = []
+        self.logged: list[dict[str, Any]] = []
+
+    def _on_step(self) -> bool:
+        return True
+
+    def _on_rollout_end(self) -> None:
+        buf = self.model.rollout_buffer
+        self.rollouts.append(
+            {
+                name: getattr(buf, name).copy()
+                for name in ("observations", "rewards", "returns", "values", "advantages")
+            }
+            | {"episode_starts": buf.episode_starts.copy()}
+        )
+        self.logged.append(dict(self.logger.name_to_value))
+
+
+# ------------------------------------------------------------------------------------------------
+# Pure target maths
+# ------------------------------------------------------------------------------------------------
+def test_discounted_returns_restart_after_episode_ends() -> None:
+    rewards = np.array([1.0, 2.0, 3.0, 4.0, 5.0])
+    ends = np.array([False, True, False, False, True])
+    expected = [1 + 0.5 * 2, 2, 3 + 0.5 * 4 + 0.25 * 5, 4 + 0.5 * 5, 5]
+    np.testing.assert_allclose(discounted_returns(rewards, ends, 0.5), expected)
+
+
+def test_split_completed() -> None:
+    starts = np.array([True, False, True, False, False])
+    ends, n = split_completed(starts, last_done=False)
+    np.testing.assert_array_equal(ends, [False, True, False, False, False])
+    assert n == 2
+    assert split_completed(starts, last_done=True)[1] == 5
+    assert split_completed(np.array([False, False]), last_done=False)[1] == 0
+
+
+# ------------------------------------------------------------------------------------------------
+# Feeding on the scripted env
+# ------------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("algo", [PPO, A2C])
+def test_monte_carlo_targets_match_hand_computed_returns(algo: type[BaseAlgorithm]) -> None:
+    """Episodes span rollouts (n_steps=4 < 5); truncation bootstraps, termination does not."""
+    model = make_scripted(algo, n_steps=4)
+    recorder = FeedRecorder(model.policy, keep_empty=True)  # V(terminal) stays PRIOR
+    model.learn(4 * 8, callback=GPValueCallback(target="monte_carlo"))
+
+    fed: dict[int, list[tuple[int, int, float, bool]]] = {0: [], 1: []}
+    for obs, targets, starts in recorder.batches:
+        for (env_id, episode, t), y, start in zip(obs, targets, starts, strict=True):
+            fed[int(env_id)].append((int(episode), int(t), float(y), bool(start)))
+    for env_id, length in ((0, 3), (1, 5)):
+        rows = fed[env_id]
+        n_complete = (32 // 2) // length  # steps per env // episode length
+        # Every step of every completed episode exactly once, env by env, in time order.
+        assert [(e, t) for e, t, _, _ in rows] == [
+            (e, t) for e in range(n_complete) for t in range(length)
+        ]
+        for _episode, t, y, start in rows:
+            assert y == pytest.approx(expected_monte_carlo(env_id, t), rel=1e-6)
+            assert start == (t == 0)
+
+
+def test_monte_carlo_feeds_nothing_until_an_episode_completes() -> None:
+    model = make_scripted(A2C, n_steps=2)
+    recorder = FeedRecorder(model.policy, keep_empty=False)
+    model.learn(4, callback=GPValueCallback(target="monte_carlo"))  # 2 steps per env: none done
+    assert [len(b[1]) for b in recorder.batches] == [0]
+    assert model.policy.gp.n_basis == 0
+    model.learn(4, callback=GPValueCallback(target="monte_carlo"), reset_num_timesteps=False)
+
+
+def test_returns_target_is_the_buffer_returns_env_by_env() -> None:
+    model = make_scripted(PPO, n_steps=4)
+    recorder = FeedRecorder(model.policy, keep_empty=True)
+    buffers = BufferRecorder()
+    model.learn(2 * 4 * 3, callback=CallbackList([GPValueCallback(), buffers]))
+    assert len(recorder.batches) == len(buffers.rollouts) == 3
+    for (obs, targets, starts), rollout in zip(recorder.batches, buffers.rollouts, strict=True):
+        for env in range(2):
+            rows = slice(4 * env, 4 * env + 4)
+            np.testing.assert_array_equal(obs[rows], rollout["observations"][:, env])
+            np.testing.assert_array_equal(targets[rows], rollout["returns"][:, env])
+            expected_starts = rollout["episode_starts"][:, env].astype(bool)
+            expected_starts[0] = True
+            np.testing.assert_array_equal(starts[rows], expected_starts)
+            # Hand-computed: gae_lambda=1 gives discounted rewards to the rollout's end, then
+            # the critic's value (PRIOR, the GP is empty) unless the episode ended there.
+            for i, (_, episode, t) in enumerate(rollout["observations"][:, env]):
+                y, k, ended = 0.0, 0, False
+                for step in range(i, 4):
+                    t_step = rollout["observations"][step, env, 2]
+                    if step > i and t_step == 0:
+                        ended = True
+                        break
+                    reward = 1.0 + t_step
+                    length = 3 if env == 0 else 5
+                    if env == 1 and t_step == length - 1:
+                        reward += GAMMA * PRIOR  # SB3's time-limit bootstrap
+                    y += GAMMA**k * reward
+                    k += 1
+                    if t_step == length - 1:
+                        ended = True
+                        break
+                if not ended:
+                    y += GAMMA**k * PRIOR
+                assert targets[rows][i] == pytest.approx(y, rel=1e-5), (env, episode, t)
+
+
+@pytest.mark.parametrize("kernel", ["geodesic", "rbf"])
+def test_monte_carlo_end_to_end_explains_its_targets(kernel: str) -> None:
+    """Pendulum episodes (200 steps) complete in later rollouts; the GP fits what it was fed.
+
+    gamma=0.9 (as in rl-baselines3-zoo) keeps the targets a function of the state: with a
+    long horizon the return-to-go of a time-limited episode depends on the time left, which
+    the observation does not show.
+    """
+    model = PPO(
+        GPActorCriticPolicy,
+        make_vec_env("Pendulum-v1", n_envs=2, seed=2),
+        gamma=0.9,
+        n_steps=150,
+        batch_size=100,
+        n_epochs=1,
+        seed=2,
+        policy_kwargs=dict(gp_kwargs=dict(kernel=kernel, max_basis=64)),
+    )
+    recorder = FeedRecorder(model.policy, keep_empty=False)
+    model.learn(2 * 150 * 3, callback=GPValueCallback(target="monte_carlo"))
+    # Rollout 1 (steps 0-149): nothing complete; rollout 2 (150-299): episode 1 of each env,
+    # stitched from both rollouts; rollout 3 (300-449): episode 2.
+    assert [len(b[1]) for b in recorder.batches] == [0, 400, 400]
+    obs, targets, starts = recorder.batches[-1]
+    assert np.flatnonzero(starts).tolist() == [0, 200]
+    pred = model.policy.predict_values(th.as_tensor(obs)).numpy().ravel()
+    ev = 1 - np.var(targets - pred) / np.var(targets)
+    assert ev > 0.3, f"explained variance of the fed Monte-Carlo returns is {ev:.3f}"
+
+
+# ------------------------------------------------------------------------------------------------
+# Timing of the advantages
+# ------------------------------------------------------------------------------------------------
+def _pendulum(algo: type[BaseAlgorithm], n_envs: int = 2) -> BaseAlgorithm:
+    kwargs: dict[str, Any] = dict(n_steps=64, seed=1)
+    if algo is PPO:
+        kwargs.update(batch_size=64, n_epochs=1)
+    return algo(
+        GPActorCriticPolicy,
+        make_vec_env("Pendulum-v1", n_envs=n_envs, seed=1),
+        policy_kwargs=dict(gp_kwargs=dict(max_basis=32)),
+        **kwargs,
+    )
+
+
+class ValuesAtRolloutEnd(BaseCallback):
+    """Before GPValueCallback: copies of the buffer's values/advantages as SB3 left them."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.values: list[np.ndarray] = []
+        self.advantages: list[np.ndarray] = []
+
+    def _on_step(self) -> bool:
+        return True
+
+    def _on_rollout_end(self) -> None:
+        self.values.append(self.model.rollout_buffer.values.copy())
+        self.advantages.append(self.model.rollout_buffer.advantages.copy())
+
+
+@pytest.mark.parametrize("recompute", [False, True])
+@pytest.mark.parametrize("algo", [PPO, A2C])
+def test_advantage_timing(algo: type[BaseAlgorithm], recompute: bool) -> None:
+    model = _pendulum(algo)
+    before = ValuesAtRolloutEnd()
+    after = BufferRecorder()
+    cb = GPValueCallback(recompute_advantages=recompute)
+    model.learn(3 * 128, callback=CallbackList([before, cb, after]))
+    last = after.rollouts[-1]
+    obs = th.as_tensor(last["observations"].reshape(-1, 3))
+    now = model.policy.predict_values(obs).numpy().reshape(64, 2)
+    if recompute:
+        # Values, returns and advantages all come from the GP that absorbed the rollout.
+        np.testing.assert_array_equal(last["values"], now)
+        np.testing.assert_allclose(last["returns"], last["advantages"] + now, rtol=1e-6)
+        assert not np.allclose(last["advantages"], before.advantages[-1])
+    else:
+        # SB3's timing, as with an MLP critic: the critic from before the update.
+        np.testing.assert_array_equal(last["values"], before.values[-1])
+        np.testing.assert_array_equal(last["advantages"], before.advantages[-1])
+        assert not np.allclose(last["values"], now)
+
+
+class TruncatingEnv(gym.Env[np.ndarray, int]):
+    """Random walk in 2-D truncated after 3 steps, so every rollout has bootstraps."""
+
+    observation_space = spaces.Box(-10.0, 10.0, shape=(2,), dtype=np.float32)
+    action_space = spaces.Discrete(2)
+
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[np.ndarray, dict[str, Any]]:
+        super().reset(seed=seed)
+        self.x = self.np_random.normal(size=2).astype(np.float32)
+        return self.x, {}
+
+    def step(self, action: int) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        self.x = self.x + self.np_random.normal(size=2).astype(np.float32)
+        return self.x, float(self.x[0]), False, False, {}
+
+
+def test_recompute_updates_time_limit_bootstraps() -> None:
+    env = DummyVecEnv([lambda: TimeLimit(TruncatingEnv(), 3)])
+    model = PPO(
+        GPActorCriticPolicy,
+        env,
+        n_steps=12,
+        batch_size=12,
+        n_epochs=1,
+        seed=0,
+        policy_kwargs=dict(gp_kwargs=dict(kernel="rbf", max_basis=16)),
+    )
+    raw = BufferRecorder()
+    cb = GPValueCallback(recompute_advantages=True)
+    model.learn(36, callback=CallbackList([raw, cb]))
+    # raw saw the rewards after SB3's bootstrap with the old GP; cb then swapped in the new.
+    rewards_old = raw.rollouts[-1]["rewards"]
+    rewards_new = model.rollout_buffer.rewards
+    truncated = rewards_old != rewards_new
+    assert truncated.sum() == 4  # steps 2, 5, 8, 11
+    np.testing.assert_array_equal(np.flatnonzero(truncated), [2, 5, 8, 11])
+
+
+# ------------------------------------------------------------------------------------------------
+# Logging and errors
+# ------------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("kernel", ["geodesic", "rbf"])
+def test_logged_metrics(kernel: str) -> None:
+    model = PPO(
+        GPActorCriticPolicy,
+        make_vec_env("Pendulum-v1", n_envs=2, seed=1),
+        n_steps=64,
+        batch_size=64,
+        n_epochs=1,
+        seed=1,
+        policy_kwargs=dict(gp_kwargs=dict(kernel=kernel, max_basis=32, forgetting=0.95)),
+    )
+    recorder = BufferRecorder()
+    model.learn(2 * 128, callback=CallbackList([GPValueCallback(), recorder]))
+    logged = recorder.logged[-1]
+    keys = {"gp/n_basis", "gp/update_ms", "gp/explained_variance", "gp/mse", "gp/mean_std"}
+    keys |= {"gp/forgetting", "gp/n_fed"}
+    assert keys <= logged.keys()
+    assert ("gp/n_components" in logged) == (kernel == "geodesic")
+    assert logged["gp/n_basis"] == model.policy.gp.n_basis
+    assert logged["gp/forgetting"] == 0.95
+    assert logged["gp/n_fed"] == 128
+    assert logged["gp/update_ms"] > 0 and logged["gp/mean_std"] > 0
+    # Measured before absorbing: the first rollout meets an empty GP predicting 0 everywhere.
+    first = recorder.logged[0]
+    returns = recorder.rollouts[0]["returns"]
+    assert first["gp/mse"] == pytest.approx(float(np.mean(returns.astype(np.float64) ** 2)))
+    assert first["gp/explained_variance"] == pytest.approx(0.0, abs=1e-6)
+
+
+def test_callback_rejects_other_policies() -> None:
+    model = PPO("MlpPolicy", "Pendulum-v1", n_steps=64, batch_size=64)
+    with pytest.raises(TypeError, match="GPActorCriticPolicy"):
+        model.learn(64, callback=GPValueCallback())
+
+
+def test_bad_target_raises() -> None:
+    with pytest.raises(ValueError, match="monte_carlo"):
+        GPValueCallback(target="td")  # type: ignore[arg-type]
+
+
+def test_vec_normalize_warns_about_drifting_statistics() -> None:
+    env = VecNormalize(make_vec_env("Pendulum-v1", n_envs=1, seed=0))
+    model = PPO(GPActorCriticPolicy, env, n_steps=64, batch_size=64, n_epochs=1)
+    with pytest.warns(UserWarning, match="VecNormalize"):
+        model.learn(64, callback=GPValueCallback())
+    env.training = False  # frozen statistics: no warning
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", UserWarning)
+        model.learn(64, callback=GPValueCallback(), reset_num_timesteps=False)

@@ -1,0 +1,43 @@
+"""The ``sb3-geogp train`` command on a tiny budget."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+import torch as th
+from stable_baselines3 import A2C, PPO
+
+from sb3_geogp import GPActorCriticPolicy
+from sb3_geogp.cli import build_parser, main
+
+
+@pytest.fixture(autouse=True)
+def _restore_threads() -> Iterator[None]:
+    """The command sets torch's thread count for the whole process; undo it."""
+    threads = th.get_num_threads()
+    yield
+    th.set_num_threads(threads)
+
+
+@pytest.mark.parametrize(("algo", "critic"), [("ppo", "geodesic"), ("a2c", "rbf"), ("ppo", "mlp")])
+def test_train_writes_model_logs_and_curve(algo: str, critic: str, tmp_path: Path) -> None:
+    pytest.importorskip("matplotlib")
+    out = tmp_path / "run"
+    argv = ["train", "--algo", algo, "--env", "CartPole-v1", "--critic", critic]
+    argv += ["--timesteps", "256", "--seed", "1", "--out", str(out), "--n-envs", "2"]
+    argv += ["--n-steps", "64", "--max-basis", "32", "--no-progress"]
+    assert main(argv) == 0
+    assert (out / "model.zip").is_file()
+    assert (out / "progress.csv").is_file()
+    assert (out / "learning_curve.png").stat().st_size > 0
+    model = {"ppo": PPO, "a2c": A2C}[algo].load(out / "model.zip")
+    assert isinstance(model.policy, GPActorCriticPolicy) == (critic != "mlp")
+    if algo == "ppo" and critic != "mlp":  # A2C logs every 100 rollouts only
+        assert "gp/n_basis" in (out / "progress.csv").read_text().splitlines()[0]
+
+
+def test_parser_rejects_unknown_critic() -> None:
+    with pytest.raises(SystemExit):
+        build_parser().parse_args(["train", "--critic", "cnn"])
