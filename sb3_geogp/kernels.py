@@ -323,15 +323,16 @@ def shepard_weights(dist: Tensor, k: int) -> tuple[Tensor, Tensor]:
     m = dist.shape[1]
     k = min(k, m)
     d, idx = torch.topk(dist, min(k + 1, m), dim=1, largest=False)
-    radius = d[:, k : k + 1] if m > k else torch.full_like(d[:, :1], float("inf"))
-    d, idx = d[:, :k], idx[:, :k]
-    safe_d = d.clamp_min(1e-300)
-    raw = torch.where(
-        torch.isinf(radius), safe_d**-2, ((radius - d).clamp_min(0) / (radius * safe_d)) ** 2
-    )
+    # A point on a BV gets weight 1 there: clamping its distance keeps the formula finite and
+    # the mask zeroes the others.
+    floor = torch.finfo(d.dtype).tiny ** 0.25
+    d_near = d[:, :k].clamp_min(floor)
+    if m > k:
+        radius = d[:, k:]
+        raw = ((radius - d_near).clamp_min(0) / (radius * d_near)).square()
+    else:
+        raw = d_near.reciprocal().square()
+    raw[:, 1:] *= d[:, :1] > floor
     # All neighbours tied at the radius give an all-zero row: weigh them equally.
-    raw = torch.where(raw.sum(dim=1, keepdim=True) > 0, raw, torch.ones_like(raw))
-    first = torch.zeros_like(raw)
-    first[:, 0] = 1.0
-    raw = torch.where(d[:, :1] <= 1e-12, first, raw)
-    return idx, raw / raw.sum(dim=1, keepdim=True)
+    raw = raw + (raw.sum(dim=1, keepdim=True) == 0).to(raw.dtype)
+    return idx[:, :k], raw / raw.sum(dim=1, keepdim=True)

@@ -285,7 +285,9 @@ class SparseOnlineGP(nn.Module):
 
     def _latent(self, xs: Tensor, return_var: bool) -> tuple[Tensor, Tensor | None]:
         """Standardised posterior mean and variance at scaled inputs ``xs : (n, d)``."""
-        m, view = self.n_basis, self._view()
+        m = self.n_basis
+        z = self._derived("z", lambda: self.kernel.scale(self.bv_x[:m]))
+        view = BasisView(z, self.bv_node[:m], self.graph)
         alpha, Q, P = self.alpha[:m], self.Q[:m, :m], self.P[:m, :m]
         factors = self.kernel.cross_factors(xs, view)
         if factors is None:
