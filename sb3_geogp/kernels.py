@@ -147,7 +147,7 @@ class Kernel(nn.Module):
         """Rows on which a point's novelty is judged, shape (n, m)."""
         return self.cross(x, view)
 
-    def node_row(self, x: Tensor, parent: int, view: BasisView) -> Tensor:
+    def node_row(self, x: Tensor, parent: int | None, view: BasisView) -> Tensor:
         """Row ``k(x, BV)`` the point gets once it is itself a basis vector, shape (m,).
 
         ``x : Tensor, shape (d,)`` scaled; ``parent`` is its graph parent node (geodesic only).
@@ -294,7 +294,9 @@ class GeodesicKernel(Kernel):
         idx, w = factors
         return torch.einsum("nk,nkm->nm", w, self.gram(view)[idx])
 
-    def node_row(self, x: Tensor, parent: int, view: BasisView) -> Tensor:
+    def node_row(self, x: Tensor, parent: int | None, view: BasisView) -> Tensor:
+        if parent is None:
+            raise ValueError("a new BV of the geodesic kernel needs a parent node")
         graph = self._graph(view)
         w = torch.linalg.vector_norm(x - graph.pos[parent])
         return self(w + graph.shortest_paths[parent, view.nodes])

@@ -11,7 +11,6 @@ This module only adapts (spaces, shapes, dtypes, devices, bookkeeping); the math
 
 from __future__ import annotations
 
-import copy
 from typing import Any
 
 import numpy as np
@@ -22,7 +21,6 @@ from stable_baselines3.common.preprocessing import is_image_space
 from stable_baselines3.common.type_aliases import PyTorchObs, Schedule
 from torch import nn
 
-from sb3_geogp.kernels import Kernel
 from sb3_geogp.sparse_gp import SparseOnlineGP, make_kernel
 
 #: ``gp_kwargs`` keys the policy sets itself.
@@ -128,8 +126,6 @@ class GPActorCriticPolicy(ActorCriticPolicy):
         options = dict(self._gp_options)
         kernel = options.pop("kernel", "geodesic")
         kernel_kwargs = options.pop("kernel_kwargs", None) or {}
-        if isinstance(kernel, Kernel):
-            kernel = copy.deepcopy(kernel)
         gp = SparseOnlineGP(
             input_dim=self.mlp_extractor.latent_dim_vf,
             kernel=make_kernel(kernel, **kernel_kwargs),

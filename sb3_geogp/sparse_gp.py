@@ -20,6 +20,7 @@ For a positive-definite kernel this equals the textbook ``k(x, x) + k_x^T C k_x`
 
 from __future__ import annotations
 
+import copy
 import math
 from collections.abc import Callable, Sequence
 from typing import Any, Literal
@@ -34,21 +35,30 @@ from sb3_geogp.kernels import BasisView, GeodesicKernel, Kernel, RBFKernel
 ArrayLike = Tensor | np.ndarray | Sequence[Any]
 
 #: Relative floor on a new BV's novelty: below it a nugget is added to its prior variance.
-_GAMMA_FLOOR = 1e-10
+_GAMMA_FLOOR = 1e-6
 #: Default novelty threshold: a point this many lengthscales from a single BV is novel.
 _NOVELTY_RADIUS = 0.25
 #: Bounds on the rows of a batch whose novelty is screened at once (adapted in between).
 _MIN_CHUNK, _MAX_CHUNK = 32, 1024
-#: Factor by which the at-capacity novelty floor rises per displaced BV (and falls per quiet batch).
+#: Factor by which the at-capacity novelty floor rises at each deletion.
 _FLOOR_STEP = 1.1
+#: Deletions per absorbed point the floor tolerates in the long run (it falls by
+#: ``_FLOOR_STEP ** _DELETION_RATE`` per point absorbed).
+_DELETION_RATE = 0.003
+_FLOOR_MAX = 0.99
+#: Largest growth of ``||Q||`` (times the signal variance) one new BV may cause.
+_Q_GROWTH = 1e4
 
 
 def make_kernel(kernel: Kernel | Literal["rbf", "geodesic"], **kwargs: Any) -> Kernel:
-    """Return ``kernel`` itself or build one by name (``"rbf"`` or ``"geodesic"``)."""
+    """A copy of ``kernel``, or a new one built by name (``"rbf"`` or ``"geodesic"``).
+
+    A kernel holds state (the lengthscale chosen from the first batch), so a GP never shares it.
+    """
     if isinstance(kernel, Kernel):
         if kwargs:
             raise ValueError("kernel options can only be given with a kernel name")
-        return kernel
+        return copy.deepcopy(kernel)
     kernels: dict[str, type[Kernel]] = {"rbf": RBFKernel, "geodesic": GeodesicKernel}
     if kernel not in kernels:
         raise ValueError(f"kernel must be a Kernel or one of {sorted(kernels)}, got {kernel!r}")
@@ -356,12 +366,13 @@ class SparseOnlineGP(nn.Module):
             self.alpha.mul_(math.sqrt(lam))
             self.P.mul_(lam).add_(self.Q, alpha=1 - lam)
         n = x.shape[0]
-        added_before, deleted_before = int(self.n_added), int(self.n_deleted)
+        added_before = int(self.n_added)
         i = 0
         while i < n:
             p = self._next_novel(x, i)
             if p > i:
                 self._absorb(x[i:p], yn[i:p])
+                self._scale_floor(_FLOOR_STEP ** (-_DELETION_RATE * (p - i)))
                 if bool(starts[i:p].any()):
                     self.traj_node.fill_(-1)
             if p < n:
@@ -371,8 +382,6 @@ class SparseOnlineGP(nn.Module):
             i = p + 1
         if int(self.n_added) > added_before:
             self._refresh_Q()
-        if int(self.n_deleted) == deleted_before:
-            self.novelty_floor.copy_((self.novelty_floor / _FLOOR_STEP).clamp_min(self.novelty_tol))
         self.n_seen += n
         self.n_batches += 1
         self._check_finite()
@@ -389,15 +398,21 @@ class SparseOnlineGP(nn.Module):
             self.kernel.lengthscale.copy_(default_lengthscale(x))
         self.initialized.fill_(1)
 
+    def _scale_floor(self, factor: float) -> None:
+        floor = (self.novelty_floor * factor).clamp(self.novelty_tol, _FLOOR_MAX)
+        self.novelty_floor.copy_(floor)
+
     def _novelty_threshold(self) -> float:
         """Relative novelty a point needs to become a BV.
 
         Below capacity: ``novelty_tol``. Once the basis is full, a newcomer must beat both the
         least novel current BV (``1 / Q_ii`` relative to its prior variance) and the adaptive
-        ``novelty_floor``, which rises by ``_FLOOR_STEP`` each time a newcomer displaces a BV and
-        decays back towards ``novelty_tol`` after every batch without a deletion. Without it, a
-        stream of points denser than ``max_basis`` can cover at ``novelty_tol`` turns every
-        step into an insert-then-delete (churn), and each deletion is a lossy projection.
+        ``novelty_floor``, which rises by ``_FLOOR_STEP`` at every deletion and
+        falls back towards ``novelty_tol`` by ``_FLOOR_STEP ** _DELETION_RATE`` per absorbed
+        point, so that in the long run about one point in 300 at most causes a deletion.
+        Without it, a stream of points denser than ``max_basis`` can cover at ``novelty_tol``
+        turns every step into an insert-then-delete (churn), and each deletion is a lossy
+        projection.
         """
         m = self.n_basis
         if m < self.max_basis:
@@ -471,21 +486,22 @@ class SparseOnlineGP(nn.Module):
         ``r = -1 / (sigma_n^2 + s2)`` and ``e~ = [e; -1]``, ``s = [P k; 0] - e~``:
         ``alpha <- [alpha; 0] + q s``, ``Q <- [Q 0; 0 0] + e~ e~^T / gamma``,
         ``P <- [P 0; 0 0] + e~ e~^T / gamma + r s s^T``.
+
+        A point whose actual row fails :meth:`_reject_row` is absorbed by the projected
+        update instead.
         """
         m = self.n_basis
         view = self._view()
         xs = self.kernel.scale(x)
         parent = self._parent(xs, view)
         variance = self.kernel.variance
-        if m == 0:
-            k = x.new_zeros(0)
-        elif parent is None:
-            k = self.kernel.cross(xs[None], view)[0]
-        else:
-            k = self.kernel.node_row(xs, parent, view)
+        k = self.kernel.node_row(xs, parent, view) if m > 0 else x.new_zeros(0)
         Q, P, alpha = self.Q[:m, :m], self.P[:m, :m], self.alpha[:m]
         e = Q @ k
         gamma = variance - k @ e
+        if m > 0 and self._reject_row(float(gamma), float(e @ e), float(variance)):
+            self._absorb(x[None], yn[None])
+            return
         floor = _GAMMA_FLOOR * variance
         nugget = (floor - gamma).clamp_min(0)
         gamma = gamma + nugget
@@ -508,10 +524,25 @@ class SparseOnlineGP(nn.Module):
         self.count += 1
         self.n_added += 1
         if self.n_basis > self.max_basis:
-            j = self._least_informative()
-            if j != m:
-                self.novelty_floor.copy_((self.novelty_floor * _FLOOR_STEP).clamp_max(0.99))
-            self._delete(j)
+            self._scale_floor(_FLOOR_STEP)
+            self._delete(self._least_informative())
+
+    def _reject_row(self, gamma: float, e_sq: float, variance: float) -> bool:
+        """Whether a novel point's actual BV row would harm ``Q``; it is projected instead.
+
+        Two checks. (1) Novelty was judged on the row as a leaf of the nearest BV, the actual row
+        hangs on the trajectory predecessor. For positive-definite kernels its ``gamma`` is at
+        least the judged one; for the Gaussian geodesic profile (not positive definite) it can be
+        anything down to negative, so it must clear the threshold again. (2) Every Cholesky pivot
+        can be large while the Gram matrix is numerically singular (measured with the Gaussian
+        geodesic profile: pivots >= 0.02, smallest eigenvalue 3e-11, ``||Q||`` 8e9, after which
+        ``P`` lost definiteness; and with the RBF kernel at ``novelty_tol=1e-3``). A new BV grows
+        ``||Q||`` by ``(1 + ||e||^2) / gamma``; capping that at ``1e4 / variance`` bounds
+        ``||Q|| <= 1e4 (m_max + 1) / variance`` and keeps ``P = Q + C`` accurate.
+        """
+        if gamma <= self._novelty_threshold() * variance:
+            return True
+        return (1.0 + e_sq) / gamma > _Q_GROWTH / variance
 
     def _parent(self, xs: Tensor, view: BasisView) -> int | None:
         """Graph node a new BV at scaled input ``xs`` is joined to (geodesic kernel)."""
@@ -655,6 +686,7 @@ class SparseOnlineGP(nn.Module):
                 loss.backward()
                 opt.step()
         with torch.no_grad():
+            final = float(nlml())
             factor = log_ls.exp()
             if kernel.geodesic:
                 assert self.graph is not None
@@ -662,7 +694,6 @@ class SparseOnlineGP(nn.Module):
             kernel.lengthscale.mul_(factor)
             kernel.variance.copy_(log_var.exp())
             self.noise_var.copy_(log_noise.exp())
-            final = float(nlml())
             self._rebuild_exact()
         return {
             "lengthscale": float(kernel.lengthscale[0]),
@@ -696,10 +727,7 @@ class SparseOnlineGP(nn.Module):
     # Validation
     # ------------------------------------------------------------------------------------------
     def _as_tensor(self, value: ArrayLike, name: str) -> Tensor:
-        try:
-            t = torch.as_tensor(np.asarray(value) if not isinstance(value, Tensor) else value)
-        except (TypeError, ValueError, RuntimeError) as err:
-            raise ValueError(f"{name} must be a real numeric array or tensor: {err}") from err
+        t = _to_tensor(value, name)
         if t.is_complex() or not (t.is_floating_point() or t.dtype in _INT_TYPES):
             raise ValueError(
                 f"{name} has dtype {t.dtype}, which cannot be cast to {self.alpha.dtype}; "
@@ -734,17 +762,23 @@ class SparseOnlineGP(nn.Module):
         if episode_starts is None:
             starts = torch.ones(n, dtype=torch.bool, device=xt.device)
         else:
-            s = torch.as_tensor(
-                np.asarray(episode_starts)
-                if not isinstance(episode_starts, Tensor)
-                else episode_starts
-            )
+            s = _to_tensor(episode_starts, "episode_starts")
             if s.shape != (n,):
                 raise ValueError(f"episode_starts must have shape ({n},), got {tuple(s.shape)}")
-            if s.is_floating_point() and not bool(((s == 0) | (s == 1)).all()):
+            if s.is_complex() or not bool(((s == 0) | (s == 1)).all()):
                 raise ValueError("episode_starts must be boolean (0/1)")
             starts = s.to(device=xt.device, dtype=torch.bool)
         return xt, yt, starts
+
+
+def _to_tensor(value: ArrayLike, name: str) -> Tensor:
+    """``value`` as a tensor (any layout), or a ValueError naming ``name``."""
+    try:
+        if isinstance(value, Tensor):
+            return value
+        return torch.as_tensor(np.ascontiguousarray(value))
+    except (TypeError, ValueError, RuntimeError) as err:
+        raise ValueError(f"{name} must be a real numeric array or tensor: {err}") from err
 
 
 _INT_TYPES = (torch.int8, torch.int16, torch.int32, torch.int64, torch.uint8, torch.bool)

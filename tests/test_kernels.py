@@ -1,0 +1,219 @@
+"""Kernels: closed forms, definiteness on trees, and the Shepard interpolation weights."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import torch
+from scipy.spatial.distance import cdist
+
+from sb3_geogp.graph import BVGraph
+from sb3_geogp.kernels import BasisView, GeodesicKernel, RBFKernel, shepard_weights
+
+
+# -- independent references ---------------------------------------------------------------------
+def random_tree(
+    rng: np.random.Generator, n_nodes: int, dim: int = 3
+) -> tuple[BVGraph, np.ndarray, np.ndarray]:
+    """Tree grown by random leaf attachments with random edge lengths.
+
+    Returns the engine's graph, the node positions and the tree metric accumulated directly
+    (``SP[u, .] = length + SP[parent, .]``, which is exact for a leaf).
+    """
+    graph = BVGraph(n_nodes, dim)
+    pos = np.zeros((n_nodes, dim))
+    sp = np.zeros((n_nodes, n_nodes))
+    slots = [graph.add_node(torch.as_tensor(pos[0]))]
+    for u in range(1, n_nodes):
+        parent = int(rng.integers(u))
+        length = rng.uniform(0.05, 1.5)
+        direction = rng.standard_normal(dim)
+        pos[u] = pos[parent] + length * direction / np.linalg.norm(direction)
+        sp[u, :u] = sp[parent, :u] + length
+        sp[:u, u] = sp[u, :u]
+        slots.append(graph.add_node(torch.as_tensor(pos[u]), slots[parent]))
+    assert slots == list(range(n_nodes))
+    return graph, pos, sp
+
+
+def tree_view(graph: BVGraph, pos: np.ndarray) -> BasisView:
+    return BasisView(torch.as_tensor(pos), torch.arange(pos.shape[0]), graph)
+
+
+def dense_weights(dist: np.ndarray, k: int) -> np.ndarray:
+    """The engine's Shepard weights scattered into an (n, m) matrix."""
+    idx, w = shepard_weights(torch.as_tensor(dist), k)
+    out = torch.zeros(dist.shape, dtype=w.dtype)
+    out.scatter_add_(1, idx, w)
+    return out.numpy()
+
+
+def gram_eigmin(kernel: GeodesicKernel, graph: BVGraph, pos: np.ndarray) -> float:
+    return float(torch.linalg.eigvalsh(kernel.gram(tree_view(graph, pos))).min())
+
+
+# -- RBF ------------------------------------------------------------------------------------------
+def test_rbf_gram_and_cross_match_closed_form() -> None:
+    rng = np.random.default_rng(0)
+    ls, variance = np.array([0.5, 2.0, 1.3]), 1.7
+    kernel = RBFKernel(lengthscale=ls.tolist(), variance=variance)
+    kernel.bind(3)
+    x, b = rng.normal(size=(7, 3)), rng.normal(size=(5, 3))
+
+    def expected(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+        return variance * np.exp(-0.5 * (((u[:, None] - v[None]) / ls) ** 2).sum(-1))
+
+    view = BasisView(kernel.scale(torch.as_tensor(b)), torch.arange(5), None)
+    cross = kernel.cross(kernel.scale(torch.as_tensor(x)), view).numpy()
+    np.testing.assert_allclose(cross, expected(x, b), rtol=1e-12)
+    np.testing.assert_allclose(kernel.gram(view).numpy(), expected(b, b), rtol=1e-12)
+
+
+# -- geodesic kernel: rows ----------------------------------------------------------------------
+@pytest.fixture
+def small_tree() -> tuple[BVGraph, np.ndarray, np.ndarray]:
+    return random_tree(np.random.default_rng(1), 12, dim=2)
+
+
+@pytest.mark.parametrize("profile", ["laplacian", "gaussian"])
+def test_geodesic_gram_is_profile_of_tree_metric(small_tree, profile: str) -> None:
+    graph, pos, sp = small_tree
+    kernel = GeodesicKernel(lengthscale=1.0, variance=0.7, profile=profile)
+    rho = np.exp(-sp) if profile == "laplacian" else np.exp(-0.5 * sp**2)
+    np.testing.assert_allclose(kernel.gram(tree_view(graph, pos)).numpy(), 0.7 * rho, rtol=1e-12)
+
+
+def test_geodesic_nearest_attach_goes_through_nearest_bv(small_tree) -> None:
+    graph, pos, sp = small_tree
+    kernel = GeodesicKernel(lengthscale=1.0, attach="nearest")
+    x = np.random.default_rng(2).normal(size=(20, 2))
+    dist = cdist(x, pos)
+    nearest = dist.argmin(axis=1)
+    expected = np.exp(-(dist[np.arange(20), nearest][:, None] + sp[nearest]))
+    view = tree_view(graph, pos)
+    np.testing.assert_allclose(kernel.cross(torch.as_tensor(x), view).numpy(), expected, rtol=1e-12)
+    novelty = kernel.novelty_rows(torch.as_tensor(x), view).numpy()
+    np.testing.assert_allclose(novelty, expected, rtol=1e-12)
+
+
+@pytest.mark.parametrize("n_neighbors", [1, 4, 30])
+def test_geodesic_interpolate_is_shepard_mix_of_bv_rows(
+    small_tree, shepard_dense, n_neighbors: int
+) -> None:
+    graph, pos, sp = small_tree
+    kernel = GeodesicKernel(lengthscale=1.0, attach="interpolate", n_neighbors=n_neighbors)
+    x = np.random.default_rng(3).normal(size=(20, 2))
+    expected = shepard_dense(cdist(x, pos), n_neighbors) @ np.exp(-sp)
+    got = kernel.cross(torch.as_tensor(x), tree_view(graph, pos)).numpy()
+    np.testing.assert_allclose(got, expected, rtol=1e-10, atol=1e-14)
+
+
+@pytest.mark.parametrize("attach", ["interpolate", "nearest"])
+def test_geodesic_row_at_a_bv_is_its_gram_row(small_tree, attach: str) -> None:
+    graph, pos, sp = small_tree
+    kernel = GeodesicKernel(lengthscale=1.0, attach=attach)
+    got = kernel.cross(torch.as_tensor(pos), tree_view(graph, pos)).numpy()
+    np.testing.assert_allclose(got, np.exp(-sp), rtol=1e-12)
+
+
+def test_geodesic_node_row_is_leaf_of_parent(small_tree) -> None:
+    graph, pos, sp = small_tree
+    kernel = GeodesicKernel(lengthscale=1.0)
+    x, parent = np.array([0.3, -0.2]), 5
+    expected = np.exp(-(np.linalg.norm(x - pos[parent]) + sp[parent]))
+    got = kernel.node_row(torch.as_tensor(x), parent, tree_view(graph, pos)).numpy()
+    np.testing.assert_allclose(got, expected, rtol=1e-12)
+
+
+@pytest.mark.parametrize(
+    ("kernel", "novelty"),
+    [
+        (RBFKernel(variance=2.0), lambda r: 1 - np.exp(-(r**2))),
+        (GeodesicKernel(variance=2.0), lambda r: 1 - np.exp(-2 * r)),
+        (GeodesicKernel(variance=2.0, profile="gaussian"), lambda r: 1 - np.exp(-(r**2))),
+    ],
+)
+def test_novelty_at_distance_from_a_single_bv(kernel, novelty) -> None:
+    """``1 - k(r)^2 / k(0)^2``: the residual variance of a point given one BV at distance r."""
+    for r in (0.0, 0.1, 0.25, 1.0, 3.0):
+        assert kernel.novelty_at(r) == pytest.approx(novelty(r), rel=1e-12, abs=1e-15)
+
+
+# -- definiteness on trees ----------------------------------------------------------------------
+def test_laplacian_tree_kernel_is_positive_definite() -> None:
+    rng = np.random.default_rng(4)
+    kernel = GeodesicKernel(lengthscale=1.0, profile="laplacian")
+    worst = min(
+        gram_eigmin(kernel, *random_tree(rng, int(rng.integers(2, 40)))[:2]) for _ in range(200)
+    )
+    assert worst >= -1e-10
+
+
+def test_gaussian_tree_kernel_is_not_positive_definite() -> None:
+    """Why the Laplacian profile is the default: the paper's Gaussian one fails on trees."""
+    rng = np.random.default_rng(5)
+    kernel = GeodesicKernel(lengthscale=1.0, profile="gaussian")
+    eig = [gram_eigmin(kernel, *random_tree(rng, int(rng.integers(5, 40)))[:2]) for _ in range(150)]
+    assert min(eig) < -1e-2
+
+
+# -- Shepard weights ----------------------------------------------------------------------------
+@pytest.mark.parametrize("k", [1, 3, 10, 14])
+def test_shepard_weights_match_formula_and_sum_to_one(shepard_dense, k: int) -> None:
+    rng = np.random.default_rng(6)
+    dist = cdist(rng.uniform(size=(40, 2)), rng.uniform(size=(10, 2)))
+    got = dense_weights(dist, k)
+    np.testing.assert_allclose(got, shepard_dense(dist, k), rtol=1e-12, atol=1e-15)
+    np.testing.assert_allclose(got.sum(axis=1), 1.0, rtol=1e-14)
+    assert (got >= 0).all()
+    assert ((got > 0).sum(axis=1) <= min(k, 10)).all()
+
+
+def test_shepard_weights_are_one_hot_on_a_bv() -> None:
+    bv = np.random.default_rng(7).uniform(size=(9, 2))
+    np.testing.assert_allclose(dense_weights(cdist(bv, bv), 4), np.eye(9), rtol=0, atol=1e-15)
+
+
+def test_shepard_weights_are_continuous_where_the_neighbour_set_changes() -> None:
+    """Scan a line finely: where the k nearest change, the weights must barely move.
+
+    Plain inverse-distance weights over the k nearest jump there; the modified weights vanish at
+    the radius, so their change over one step is of the order of the step.
+    """
+    rng = np.random.default_rng(8)
+    bv, k, step = rng.uniform(size=(15, 2)), 4, 1e-5
+    t = np.arange(0.0, 1.0, step)[:, None]
+    line = np.array([-0.1, 0.2]) + t * np.array([1.2, 0.5])
+    dist = cdist(line, bv)
+    nbrs = np.sort(np.argsort(dist, axis=1)[:, :k], axis=1)
+    changes = np.flatnonzero((nbrs[1:] != nbrs[:-1]).any(axis=1))
+    assert changes.size >= 5
+    jump = np.abs(np.diff(dense_weights(dist, k), axis=0)).max(axis=1)
+    assert jump[changes].max() < 1e-3
+    naive = np.zeros_like(dist)
+    np.put_along_axis(naive, nbrs, np.take_along_axis(dist, nbrs, axis=1) ** -2.0, axis=1)
+    naive /= naive.sum(axis=1, keepdims=True)
+    assert np.abs(np.diff(naive, axis=0)).max(axis=1)[changes].max() > 1e-2
+
+
+# -- argument checking --------------------------------------------------------------------------
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"lengthscale": -1.0}, "lengthscale"),
+        ({"lengthscale": [1.0, float("nan")]}, "lengthscale"),
+        ({"variance": 0.0}, "variance"),
+        ({"profile": "cauchy"}, "profile"),
+        ({"attach": "far"}, "attach"),
+        ({"edges": "all"}, "edges"),
+        ({"n_neighbors": 0}, "n_neighbors"),
+    ],
+)
+def test_geodesic_kernel_rejects_bad_options(kwargs: dict, match: str) -> None:
+    with pytest.raises(ValueError, match=match):
+        GeodesicKernel(**kwargs)
+
+
+def test_bind_rejects_lengthscale_of_wrong_length() -> None:
+    with pytest.raises(ValueError, match="lengthscale has 2 entries"):
+        RBFKernel(lengthscale=[1.0, 2.0]).bind(3)

@@ -1,0 +1,762 @@
+"""SparseOnlineGP: exact posteriors, on-line consistency, numerics, capacity and I/O contracts.
+
+Every expectation is computed here independently of the engine (direct solves, scipy, numpy).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+import pytest
+import torch
+from scipy.linalg import cho_factor, cho_solve
+from scipy.spatial.distance import cdist
+from torch import Tensor
+
+from sb3_geogp import GeodesicKernel, RBFKernel, SparseOnlineGP
+from sb3_geogp.sparse_gp import default_lengthscale
+
+FULL = bool(os.environ.get("SB3_GEOGP_FULL"))
+
+
+# -- independent references ---------------------------------------------------------------------
+def rbf(a: np.ndarray, b: np.ndarray, ls: float | np.ndarray, variance: float = 1.0) -> np.ndarray:
+    return variance * np.exp(-0.5 * cdist(a / ls, b / ls, "sqeuclidean"))
+
+
+def exact_posterior(
+    k_train: np.ndarray, k_cross: np.ndarray, prior_var: float, y: np.ndarray, noise: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Textbook GP posterior mean and latent variance by a Cholesky solve."""
+    factor = cho_factor(k_train + noise * np.eye(len(y)))
+    mean = k_cross @ cho_solve(factor, y)
+    var = prior_var - np.sum(k_cross * cho_solve(factor, k_cross.T).T, axis=1)
+    return mean, var
+
+
+def nlml_per_point(cov: np.ndarray, y: np.ndarray) -> float:
+    """``-log N(y | 0, cov) / n`` by a direct Cholesky factorisation."""
+    chol = np.linalg.cholesky(cov)
+    white = np.linalg.solve(chol, y)
+    log_det = 2.0 * np.log(np.diag(chol)).sum()
+    return 0.5 * (white @ white + log_det + len(y) * np.log(2 * np.pi)) / len(y)
+
+
+def separated_points(rng: np.random.Generator, n: int, min_dist: float) -> np.ndarray:
+    """``n`` uniform points in the unit square, pairwise at least ``min_dist`` apart."""
+    pts: list[np.ndarray] = []
+    while len(pts) < n:
+        p = rng.uniform(size=2)
+        if all(np.linalg.norm(p - q) >= min_dist for q in pts):
+            pts.append(p)
+    return np.array(pts)
+
+
+def smooth(x: np.ndarray) -> np.ndarray:
+    return np.sin(3.0 * x[:, 0]) + np.cos(2.0 * x[:, 1])
+
+
+def walks(
+    rng: np.random.Generator, n_traj: int, n_steps: int, step: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Smooth random trajectories in the unit square and their episode-start flags."""
+    xs = []
+    for _ in range(n_traj):
+        heading = np.cumsum(rng.normal(0.0, 0.3, n_steps)) + rng.uniform(0, 2 * np.pi)
+        moves = step * np.stack([np.cos(heading), np.sin(heading)], axis=1)
+        xs.append(np.abs(1 - np.abs((rng.uniform(size=2) + np.cumsum(moves, axis=0)) % 2 - 1)))
+    starts = np.zeros((n_traj, n_steps), dtype=bool)
+    starts[:, 0] = True
+    return np.concatenate(xs), starts.ravel()
+
+
+# -- helpers on the engine ----------------------------------------------------------------------
+def snapshot(gp: SparseOnlineGP) -> dict[str, Tensor]:
+    return {k: v.clone() for k, v in gp.state_dict().items()}
+
+
+def assert_same_state(before: dict[str, Tensor], after: dict[str, Tensor]) -> None:
+    """Bit-identical state (NaN where there was NaN, e.g. a lengthscale not chosen yet)."""
+    assert before.keys() == after.keys()
+    for key, a in before.items():
+        b = after[key]
+        assert a.dtype == b.dtype and a.shape == b.shape, key
+        if a.is_floating_point():
+            assert torch.equal(a.isnan(), b.isnan()), key
+            a, b = a.nan_to_num(0.0), b.nan_to_num(0.0)
+        assert torch.equal(a, b), key
+
+
+def feed(
+    gp: SparseOnlineGP, x: np.ndarray, y: np.ndarray, starts: np.ndarray | None, batch: int
+) -> None:
+    for i in range(0, len(x), batch):
+        gp.update(
+            x[i : i + batch], y[i : i + batch], None if starts is None else starts[i : i + batch]
+        )
+
+
+def csato(gp: SparseOnlineGP) -> dict[str, np.ndarray]:
+    m = gp.n_basis
+    return {"alpha": gp.alpha[:m].numpy(), "P": gp.P[:m, :m].numpy(), "Q": gp.Q[:m, :m].numpy()}
+
+
+def assert_close(a: np.ndarray, b: np.ndarray, tol: float, what: str) -> None:
+    """Equal to ``tol`` relative to the largest entry (rounding is amplified by conditioning)."""
+    scale = max(float(np.abs(b).max()), 1.0)
+    np.testing.assert_allclose(a, b, rtol=0, atol=tol * scale, err_msg=what)
+
+
+def assert_close_posteriors(
+    a: SparseOnlineGP, b: SparseOnlineGP, probe: np.ndarray, tol: float
+) -> None:
+    assert a.n_basis == b.n_basis
+    np.testing.assert_array_equal(a.basis_inputs.numpy(), b.basis_inputs.numpy())
+    for key, value in csato(a).items():
+        assert_close(value, csato(b)[key], tol, key)
+    for what, pa, pb in zip(("mean", "var"), a.predict(probe), b.predict(probe), strict=True):
+        assert_close(pa.numpy(), pb.numpy(), tol, what)
+
+
+def assert_finite_symmetric(gp: SparseOnlineGP, probe: np.ndarray) -> None:
+    """Finite symmetric ``P`` and ``Q``, finite predictions with variances >= 0, capacity kept."""
+    m = gp.n_basis
+    assert 0 < m <= gp.max_basis
+    for name, M in (("P", gp.P[:m, :m]), ("Q", gp.Q[:m, :m])):
+        assert torch.isfinite(M).all(), name
+        assert float((M - M.T).abs().max()) <= 1e-10 * float(M.abs().max()), name
+    assert torch.isfinite(gp.alpha[:m]).all()
+    mean, var = gp.predict(probe)
+    assert torch.isfinite(mean).all() and torch.isfinite(var).all()
+    assert (var >= 0).all()
+    if gp.graph is not None:
+        assert gp.graph.n_nodes <= 2 * (gp.max_basis + 1)
+
+
+def assert_p_psd(gp: SparseOnlineGP) -> None:
+    """``P`` (posterior covariance of the BV values, dual coordinates) is PSD up to rounding."""
+    m = gp.n_basis
+    eig = torch.linalg.eigvalsh(gp.P[:m, :m])
+    assert float(eig.min()) >= -1e-8 * float(eig.abs().max()), (float(eig.min()), float(eig.max()))
+
+
+def assert_numerically_sound(gp: SparseOnlineGP, probe: np.ndarray) -> None:
+    assert_finite_symmetric(gp, probe)
+    assert_p_psd(gp)
+
+
+# -- exactness ----------------------------------------------------------------------------------
+@pytest.mark.parametrize("batch", [60, 7, 1])
+def test_full_basis_equals_exact_gp(batch: int) -> None:
+    """Every point a BV: the on-line posterior is the textbook GP posterior, in user units."""
+    rng = np.random.default_rng(0)
+    x = separated_points(rng, 60, 0.04)
+    y = 3.0 * smooth(4 * x) + 5.0 + 0.1 * rng.normal(size=60)
+    ls, variance, noise, y_mean, y_scale = 0.12, 1.3, 0.01, 4.0, 2.5
+    gp = SparseOnlineGP(
+        2,
+        RBFKernel(lengthscale=ls, variance=variance),
+        max_basis=60,
+        noise_var=noise,
+        novelty_tol=0.0,
+        target_mean=y_mean,
+        target_scale=y_scale,
+    )
+    feed(gp, x, y, None, batch)
+    assert gp.n_basis == 60 and float(gp.nugget.abs().max()) == 0.0
+    probe = np.vstack([rng.uniform(size=(50, 2)), x[:10]])
+    mean, var = exact_posterior(
+        rbf(x, x, ls, variance),
+        rbf(probe, x, ls, variance),
+        variance,
+        (y - y_mean) / y_scale,
+        noise,
+    )
+    got_mean, got_var = gp.predict(probe)
+    np.testing.assert_allclose(got_mean.numpy(), y_mean + y_scale * mean, rtol=0, atol=1e-8)
+    np.testing.assert_allclose(got_var.numpy(), y_scale**2 * var, rtol=0, atol=1e-8)
+
+
+def test_prediction_before_any_update_is_the_prior() -> None:
+    gp = SparseOnlineGP(
+        2, RBFKernel(lengthscale=0.3, variance=0.8), target_mean=2.0, target_scale=3.0
+    )
+    mean, var = gp.predict(np.zeros((4, 2)))
+    np.testing.assert_array_equal(mean.numpy(), 2.0)
+    np.testing.assert_allclose(var.numpy(), 0.8 * 9.0, rtol=1e-15)
+
+
+@pytest.mark.parametrize("attach", ["interpolate", "nearest"])
+def test_full_basis_geodesic_equals_exact_gp_on_its_tree(shepard_dense, attach: str) -> None:
+    """Every point a BV: predictions are the GP posterior with the tree kernel, whose rows at a
+    query point are built here from the BV shortest paths (leaf of the nearest BV, or Shepard
+    mix of BV rows), with prior variance ``sigma_f^2``."""
+    rng = np.random.default_rng(3)
+    x, starts = walks(rng, 3, 15, 0.05)
+    y = smooth(x) + 0.1 * rng.normal(size=len(x))
+    ls, variance, noise = 0.3, 1.4, 0.02
+    gp = SparseOnlineGP(
+        2,
+        GeodesicKernel(lengthscale=ls, variance=variance, attach=attach),
+        max_basis=len(x),
+        noise_var=noise,
+        novelty_tol=0.0,
+        target_mean=0.0,
+        target_scale=1.0,
+    )
+    gp.update(x, y, starts)
+    assert gp.n_basis == len(x)
+    bv, y_bv = gp.basis_inputs.numpy(), gp.bv_y.numpy()[: len(x)]
+    k_bv = variance * np.exp(-gp.shortest_paths.numpy())
+    probe = rng.uniform(size=(60, 2))
+    dist = cdist(probe / ls, bv / ls)
+    if attach == "nearest":
+        i = dist.argmin(axis=1)
+        k_probe = np.exp(-dist[np.arange(len(probe)), i])[:, None] * k_bv[i]
+    else:
+        k_probe = shepard_dense(dist, 4) @ k_bv
+    mean, var = exact_posterior(k_bv, k_probe, variance, y_bv, noise)
+    got_mean, got_var = gp.predict(probe)
+    np.testing.assert_allclose(got_mean.numpy(), mean, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(got_var.numpy(), var, rtol=0, atol=1e-9)
+
+
+@pytest.mark.parametrize("kernel", ["rbf", "geodesic"])
+def test_default_standardisation_makes_predictions_affine_equivariant(
+    pendulum, kernel: str
+) -> None:
+    """Targets standardised by the first batch: feeding ``a y + b`` predicts ``a mean + b`` and
+    ``a^2 var``, whatever the units."""
+    obs, returns, starts = pendulum(1200, 16)
+    a, b = -3.7, 250.0
+    plain, scaled = (SparseOnlineGP(3, kernel, max_basis=40) for _ in range(2))
+    feed(plain, obs, returns, starts, 400)
+    feed(scaled, obs, a * returns + b, starts, 400)
+    (mean, var), (mean_s, var_s) = plain.predict(obs[::9]), scaled.predict(obs[::9])
+    assert_close(mean_s.numpy(), a * mean.numpy() + b, 1e-9, "mean")
+    assert_close(var_s.numpy(), a**2 * var.numpy(), 1e-9, "var")
+
+
+@pytest.mark.parametrize("batch", [500, 5])  # absorbed in information form / observation form
+def test_projected_updates_equal_projected_process_posterior(batch: int) -> None:
+    """With a fixed basis, sparse updates are exact Bayes for ``y = k_x^T K_b^-1 f_b + noise``.
+
+    The documented model gives each projected point the noise ``sigma_n^2 + gamma_x``. The
+    posterior over the BV values is computed here in closed form and compared with the GP's.
+    """
+    rng = np.random.default_rng(1)
+    ls, noise, tol = 0.25, 0.05, 0.05
+    grid = np.stack(np.meshgrid(*[np.linspace(0, 1, 5)] * 2), axis=-1).reshape(-1, 2)
+    near = grid[rng.integers(25, size=500)] + 0.01 * rng.normal(size=(500, 2))
+    x = np.vstack([grid, near])
+    y = smooth(x) + 0.2 * rng.normal(size=len(x))
+    gp = SparseOnlineGP(
+        2,
+        RBFKernel(lengthscale=ls),
+        max_basis=100,
+        noise_var=noise,
+        novelty_tol=tol,
+        target_mean=0.0,
+        target_scale=1.0,
+    )
+    gp.update(grid, y[:25])
+    feed(gp, near, y[25:], None, batch)
+    assert gp.n_basis == 25 and int(gp.n_seen) == 525
+    k_inv = np.linalg.inv(rbf(grid, grid, ls))
+    proj = rbf(x, grid, ls) @ k_inv
+    gamma = np.maximum(1.0 - np.sum(proj * rbf(x, grid, ls), axis=1), 0.0)
+    weights = 1.0 / (noise + gamma)
+    post_cov = np.linalg.inv(k_inv + proj.T @ (proj * weights[:, None]))
+    post_mean = post_cov @ proj.T @ (weights * y)
+    np.testing.assert_allclose(gp.alpha[:25].numpy(), k_inv @ post_mean, rtol=1e-8, atol=1e-8)
+    probe = rng.uniform(size=(40, 2))
+    e_probe = rbf(probe, grid, ls) @ k_inv
+    gamma_probe = np.maximum(1.0 - np.sum(e_probe * rbf(probe, grid, ls), axis=1), 0.0)
+    mean, var = gp.predict(probe)
+    np.testing.assert_allclose(mean.numpy(), e_probe @ post_mean, rtol=0, atol=1e-8)
+    expected_var = gamma_probe + np.sum((e_probe @ post_cov) * e_probe, axis=1)
+    np.testing.assert_allclose(var.numpy(), expected_var, rtol=0, atol=1e-8)
+
+
+BATCH_KERNELS: dict[str, Callable[[], Any]] = {
+    "rbf": lambda: RBFKernel(lengthscale=0.15),
+    "geodesic-interpolate": lambda: GeodesicKernel(lengthscale=0.5, attach="interpolate"),
+    "geodesic-nearest": lambda: GeodesicKernel(lengthscale=0.5, attach="nearest"),
+}
+
+
+@pytest.mark.parametrize("name", BATCH_KERNELS)
+def test_batch_update_equals_point_by_point(name: str) -> None:
+    rng = np.random.default_rng(2)
+    x, starts = walks(rng, 6, 60, 0.01)
+    y = smooth(x) + 0.1 * rng.normal(size=len(x))
+
+    def make() -> SparseOnlineGP:
+        return SparseOnlineGP(
+            2,
+            BATCH_KERNELS[name](),
+            max_basis=150,
+            noise_var=0.05,
+            novelty_tol=0.2,
+            target_mean=0.3,
+            target_scale=1.7,
+        )
+
+    batch, single = make(), make()
+    batch.update(x, y, starts)
+    feed(single, x, y, starts, 1)
+    assert int(batch.n_deleted) == 0 and 10 < batch.n_basis < len(x) // 3
+    assert_close_posteriors(batch, single, rng.uniform(size=(50, 2)), 1e-8)
+    if batch.graph is not None:
+        np.testing.assert_allclose(
+            batch.shortest_paths.numpy(), single.shortest_paths.numpy(), rtol=1e-12
+        )
+
+
+def extended_gram(gp: SparseOnlineGP, x_new: np.ndarray) -> np.ndarray:
+    """Prior covariance of the current BVs plus ``x_new`` as a new BV (user-independent form).
+
+    RBF: closed form. Geodesic (no trajectory information): ``x_new`` becomes a leaf of its
+    nearest BV, so its graph distances are ``w + SP(nearest, .)``.
+    """
+    ls, variance = gp.lengthscale.numpy(), float(gp.kernel.variance)
+    z = np.vstack([gp.basis_inputs.numpy(), x_new]) / ls
+    if gp.graph is None:
+        return variance * np.exp(-0.5 * cdist(z, z, "sqeuclidean"))
+    sp_old = gp.shortest_paths.numpy()
+    dist = np.linalg.norm(z[:-1] - z[-1], axis=1)
+    row = dist.min() + sp_old[dist.argmin()]
+    sp = np.block([[sp_old, row[:, None]], [row[None], np.zeros((1, 1))]])
+    return variance * np.exp(-sp)
+
+
+@pytest.mark.parametrize("kernel", [RBFKernel, GeodesicKernel])
+def test_insert_at_capacity_is_exact_update_then_kl_projection(kernel: type) -> None:
+    """A novel point at capacity: exact Bayes update on BVs + point, then removal of the BV with
+    the smallest ``alpha_i^2 / P_ii``, which keeps the posterior marginal of the others
+    (``alpha = K_r^-1 m_r``, ``P = K_r^-1 S_r K_r^-1``). All computed in function space here."""
+    rng = np.random.default_rng(15)
+    x = rng.uniform(size=(150, 2))
+    gp = SparseOnlineGP(
+        2, kernel(lengthscale=0.2), max_basis=20, noise_var=0.05, target_mean=0, target_scale=1
+    )
+    gp.update(x, smooth(x) + 0.1 * rng.normal(size=150))
+    assert gp.n_basis == 20
+    x_new, y_new = np.array([2.0, 0.5]), 1.0
+    K = extended_gram(gp, x_new)
+    old_bv = np.vstack([gp.basis_inputs.numpy(), x_new])
+    alpha = np.append(gp.alpha[:20].numpy(), 0.0)
+    C = np.zeros((21, 21))
+    C[:20, :20] = gp.C.numpy()
+    mean, cov = K @ alpha, K + K @ C @ K  # posterior of f at the 21 inputs before the point
+    gain = cov[:, -1] / (cov[-1, -1] + 0.05)
+    mean, cov = mean + gain * (y_new - mean[-1]), cov - np.outer(gain, cov[-1])
+    k_inv = np.linalg.inv(K)
+    score = (k_inv @ mean) ** 2 / np.diag(k_inv @ cov @ k_inv)
+    gp.update(x_new[None], [y_new], None)
+    keep = np.delete(np.arange(21), score.argmin())
+    np.testing.assert_array_equal(gp.basis_inputs.numpy(), old_bv[keep])
+    k_r_inv = np.linalg.inv(K[np.ix_(keep, keep)])
+    got = csato(gp)
+    assert_close(got["alpha"], k_r_inv @ mean[keep], 1e-9, "alpha")
+    assert_close(got["P"], k_r_inv @ cov[np.ix_(keep, keep)] @ k_r_inv, 1e-9, "P")
+    assert_close(got["Q"], k_r_inv, 1e-9, "Q")
+
+
+# -- numerical soundness on long runs -----------------------------------------------------------
+VARIANTS: dict[str, Callable[[], dict[str, Any]]] = {
+    "rbf": lambda: {"kernel": RBFKernel()},
+    "laplacian-interpolate": lambda: {"kernel": GeodesicKernel()},
+    "laplacian-nearest": lambda: {"kernel": GeodesicKernel(attach="nearest")},
+    "gaussian": lambda: {"kernel": GeodesicKernel(profile="gaussian")},
+    "edges-nearest": lambda: {"kernel": GeodesicKernel(edges="nearest")},
+    "forgetting": lambda: {"kernel": GeodesicKernel(), "forgetting": 0.9},
+}
+
+
+def run_checked(
+    pendulum, variant: str, n_batches: int, seed: int, max_basis: int
+) -> SparseOnlineGP:
+    obs, returns, starts = pendulum(512 * n_batches, seed)
+    probe = pendulum(256, seed + 100)[0]
+    gp = SparseOnlineGP(3, max_basis=max_basis, **VARIANTS[variant]())
+    for i in range(0, len(obs), 512):
+        gp.update(obs[i : i + 512], returns[i : i + 512], starts[i : i + 512])
+        assert_numerically_sound(gp, probe)
+    return gp
+
+
+@pytest.mark.parametrize("variant", VARIANTS)
+def test_long_run_is_numerically_sound(pendulum, variant: str) -> None:
+    gp = run_checked(pendulum, variant, 20, list(VARIANTS).index(variant) % 3, max_basis=64)
+    assert gp.n_basis == 64
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("variant", VARIANTS)
+def test_long_run_is_numerically_sound_full_length(pendulum, variant: str) -> None:
+    """Longer runs with a larger basis (300 batches with SB3_GEOGP_FULL=1, else 30)."""
+    seed = 10 + list(VARIANTS).index(variant) % 3
+    run_checked(pendulum, variant, 300 if FULL else 30, seed, max_basis=128)
+
+
+# The Gaussian geodesic profile is not PD on trees and must be kept sound by the nugget repair;
+# a dense basis (small novelty_tol) makes any Gram matrix ill-conditioned.
+HARD_SETTINGS: dict[str, Callable[[], dict[str, Any]]] = {
+    "gaussian-geodesic": lambda: {"kernel": GeodesicKernel(profile="gaussian")},
+    "gaussian-geodesic-dense": lambda: {
+        "kernel": GeodesicKernel(profile="gaussian"),
+        "novelty_tol": 0.02,
+    },
+    "rbf-dense-low-noise": lambda: {"kernel": RBFKernel(), "novelty_tol": 1e-3, "noise_var": 1e-6},
+}
+
+
+def hard_run(pendulum, setting: str, check: Callable[[SparseOnlineGP], None]) -> None:
+    """4000 pendulum points in batches of 250, ``check`` after every batch."""
+    obs, returns, starts = pendulum(4000, 4)
+    gp = SparseOnlineGP(3, max_basis=150, **HARD_SETTINGS[setting]())
+    for i in range(0, len(obs), 250):
+        gp.update(obs[i : i + 250], returns[i : i + 250], starts[i : i + 250])
+        check(gp)
+
+
+@pytest.mark.parametrize("setting", HARD_SETTINGS)
+def test_hard_settings_stay_finite(pendulum, setting: str) -> None:
+    probe = pendulum(256, 104)[0]
+    hard_run(pendulum, setting, lambda gp: assert_finite_symmetric(gp, probe))
+
+
+@pytest.mark.parametrize("setting", HARD_SETTINGS)
+def test_hard_settings_keep_p_positive_semidefinite(pendulum, setting: str) -> None:
+    hard_run(pendulum, setting, assert_p_psd)
+
+
+@pytest.mark.parametrize("kernel", [RBFKernel, GeodesicKernel])
+@pytest.mark.parametrize(("distance", "novel"), [(0.24, False), (0.26, True)])
+def test_default_novelty_threshold_is_a_quarter_lengthscale(
+    kernel: type, distance: float, novel: bool
+) -> None:
+    """Documented default: a point a quarter lengthscale from a single BV is (just) novel."""
+    ls = np.array([0.5, 2.0])
+    gp = SparseOnlineGP(2, kernel(lengthscale=ls.tolist()), target_mean=0.0, target_scale=1.0)
+    gp.update(np.zeros((1, 2)), [0.0])
+    direction = np.array([0.6, 0.8])
+    gp.update((distance * direction * ls)[None], [0.0])
+    assert gp.n_basis == 1 + novel
+
+
+@pytest.mark.parametrize("kernel", ["rbf", "geodesic"])
+@pytest.mark.parametrize("max_basis", [1, 3, 8])
+def test_capacity_is_respected(pendulum, kernel: str, max_basis: int) -> None:
+    obs, returns, starts = pendulum(1500, 3)
+    gp = SparseOnlineGP(3, kernel, max_basis=max_basis, novelty_tol=0.01)
+    rng = np.random.default_rng(max_basis)
+    i = 0
+    while i < len(obs):
+        j = i + int(rng.integers(1, 60))
+        gp.update(obs[i:j], returns[i:j], starts[i:j])
+        i = j
+        assert gp.n_basis <= max_basis
+        assert int(gp.n_added) - int(gp.n_deleted) == gp.n_basis
+        if gp.graph is not None:
+            assert gp.graph.n_nodes <= 2 * (max_basis + 1)
+    assert gp.n_basis == max_basis
+    assert max_basis == 1 or int(gp.n_deleted) > 0
+
+
+# -- input validation ---------------------------------------------------------------------------
+def _put(a: np.ndarray, index: Any, value: Any) -> np.ndarray:
+    a = a.copy()
+    a[index] = value
+    return a
+
+
+Batch = tuple[Any, Any, Any]
+BAD_BATCHES: dict[str, tuple[Callable[[np.ndarray, np.ndarray, np.ndarray], Batch], str]] = {
+    "nan-in-x": (lambda x, y, s: (_put(x, (1, 2), np.nan), y, s), "x contains NaN or inf"),
+    "inf-in-y": (lambda x, y, s: (x, _put(y, 3, np.inf), s), "y contains NaN or inf"),
+    "x-not-2d": (lambda x, y, s: (x[:, 0], y, s), r"x must have shape \(n, 3\)"),
+    "wrong-d": (lambda x, y, s: (np.hstack([x, x[:, :1]]), y, s), r"x must have shape \(n, 3\)"),
+    "y-too-short": (lambda x, y, s: (x, y[:-1], s), r"y must have shape \(20,\)"),
+    "y-2d": (lambda x, y, s: (x, np.stack([y, y], 1), s), r"y must have shape \(20,\)"),
+    "string-x": (lambda x, y, s: (x.astype(str), y, s), "x must be a real numeric"),
+    "complex-y": (lambda x, y, s: (x, y + 1j, s), "y has dtype"),
+    "starts-too-short": (lambda x, y, s: (x, y, s[:-1]), r"episode_starts must have shape \(20,\)"),
+    "starts-not-boolean": (lambda x, y, s: (x, y, _put(s.astype(float), 2, 0.5)), "boolean"),
+    "string-starts": (lambda x, y, s: (x, y, s.astype(str)), "episode_starts"),
+    "empty-batch": (lambda x, y, s: (x[:0], y[:0], s[:0]), "at least one point"),
+}
+
+
+@pytest.fixture(params=["fresh", "trained"])
+def gp_state(request, pendulum) -> tuple[SparseOnlineGP, Batch]:
+    """A geodesic GP before any update (lengthscale still NaN) or after some, and a valid batch."""
+    obs, returns, starts = pendulum(400, 7)
+    gp = SparseOnlineGP(3, "geodesic", max_basis=12)
+    if request.param == "trained":
+        feed(gp, obs[:380], returns[:380], starts[:380], 190)
+        assert int(gp.n_deleted) > 0
+    return gp, (obs[380:], returns[380:], starts[380:])
+
+
+@pytest.mark.parametrize("bad", BAD_BATCHES)
+def test_bad_batch_raises_and_leaves_state_unchanged(gp_state, bad: str) -> None:
+    gp, batch = gp_state
+    corrupt, message = BAD_BATCHES[bad]
+    before = snapshot(gp)
+    with pytest.raises(ValueError, match=message):
+        gp.update(*corrupt(*batch))
+    assert_same_state(before, snapshot(gp))
+    gp.update(*batch)  # still usable
+    assert int(gp.n_seen) == int(before["n_seen"]) + 20
+
+
+LAYOUTS: dict[str, Callable[[np.ndarray], Any]] = {
+    "list": lambda a: a.tolist(),
+    "fortran-order": np.asfortranarray,
+    "negative-strides": lambda a: a[::-1].copy()[::-1],
+    "float32": lambda a: a.astype(np.float32),
+    "torch-tensor": torch.as_tensor,
+}
+
+
+@pytest.mark.parametrize("layout", LAYOUTS)
+def test_update_accepts_any_real_array_layout(layout: str) -> None:
+    """The same numbers in another container, dtype or memory layout give the same state."""
+    rng = np.random.default_rng(14)
+    x = rng.uniform(size=(30, 2)).astype(np.float32).astype(np.float64)
+    y = np.sin(3 * x[:, 0]).astype(np.float32).astype(np.float64)
+    reference, other = (SparseOnlineGP(2, "geodesic") for _ in range(2))
+    reference.update(x, y)
+    other.update(LAYOUTS[layout](x), LAYOUTS[layout](y))
+    assert_same_state(snapshot(reference), snapshot(other))
+
+
+def test_bad_query_raises_in_predict(gp_state) -> None:
+    gp, (x, _, _) = gp_state
+    before = snapshot(gp)
+    for query in (_put(x, (0, 0), np.nan), x[:, :2], x + 1j):
+        with pytest.raises(ValueError):
+            gp.predict(query)
+    assert_same_state(before, snapshot(gp))
+
+
+def test_failure_inside_update_restores_state(gp_state, monkeypatch) -> None:
+    """Any error after the state has been modified rolls the whole batch back."""
+    gp, batch = gp_state
+
+    def fail() -> None:
+        raise FloatingPointError("injected")
+
+    probe = batch[0]
+    before, predicted = snapshot(gp), gp.predict(probe)
+    monkeypatch.setattr(gp, "_check_finite", fail)
+    with pytest.raises(FloatingPointError, match="injected"):
+        gp.update(*batch)
+    assert_same_state(before, snapshot(gp))
+    for a, b in zip(predicted, gp.predict(probe), strict=True):
+        assert torch.equal(a, b)
+
+
+# -- persistence --------------------------------------------------------------------------------
+@pytest.mark.parametrize("kernel", ["rbf", "geodesic"])
+def test_state_dict_round_trip_is_bit_identical(pendulum, kernel: str) -> None:
+    """Load into a fresh GP (that has already predicted from another state: no stale caches)."""
+    obs, returns, starts = pendulum(2000, 5)
+    probe = obs[::7]
+    original, restored = (SparseOnlineGP(3, kernel, max_basis=24) for _ in range(2))
+    feed(original, obs[:1000], returns[:1000], starts[:1000], 250)
+    restored.update(obs[1500:1700], returns[1500:1700])
+    restored.predict(probe)
+    restored.load_state_dict(original.state_dict())
+    for a, b in zip(original.predict(probe), restored.predict(probe), strict=True):
+        assert torch.equal(a, b)
+    deleted = int(original.n_deleted)
+    for gp in (original, restored):
+        feed(gp, obs[1000:], returns[1000:], starts[1000:], 250)
+    assert int(original.n_deleted) > deleted
+    assert_same_state(snapshot(original), snapshot(restored))
+    for a, b in zip(original.predict(probe), restored.predict(probe), strict=True):
+        assert torch.equal(a, b)
+
+
+# -- forgetting ---------------------------------------------------------------------------------
+@pytest.mark.parametrize("kernel", ["rbf", "geodesic"])
+def test_forgetting_is_applied_once_before_the_batch(pendulum, kernel: str) -> None:
+    """``alpha <- sqrt(lam) alpha, C <- lam C`` by hand, then a non-forgetting update, must
+    equal one forgetting update, for a batch spanning many screening chunks and insertions."""
+    lam = 0.7
+    obs, returns, starts = pendulum(3000, 6)
+    forgetful = SparseOnlineGP(3, kernel, max_basis=200, forgetting=lam)
+    feed(forgetful, obs[:600], returns[:600], starts[:600], 200)
+    manual, unforgetful = (SparseOnlineGP(3, kernel, max_basis=200) for _ in range(2))
+    for gp in (manual, unforgetful):
+        gp.load_state_dict(forgetful.state_dict())
+    m = manual.n_basis
+    manual.P[:m, :m] = manual.Q[:m, :m] + lam * manual.C
+    manual.alpha[:m] *= math.sqrt(lam)
+    added = int(forgetful.n_added)
+    for gp in (forgetful, manual, unforgetful):
+        gp.update(obs[600:], returns[600:], starts[600:])
+    assert int(forgetful.n_added) > added
+    assert_close_posteriors(forgetful, manual, obs[::11], 1e-7)
+    # Sanity: without the forgetting step the result is far off, so the tolerance is meaningful.
+    with pytest.raises(AssertionError):
+        assert_close_posteriors(forgetful, unforgetful, obs[::11], 1e-3)
+
+
+@pytest.mark.parametrize("kernel", ["rbf", "geodesic"])
+def test_forgetting_tracks_a_jumping_target(kernel: str) -> None:
+    rng = np.random.default_rng(9)
+    probe = rng.uniform(size=(200, 2))
+    error = {}
+    for lam in (1.0, 0.8):
+        gp = SparseOnlineGP(
+            2,
+            kernel,
+            max_basis=64,
+            noise_var=0.05,
+            forgetting=lam,
+            target_mean=0.0,
+            target_scale=1.0,
+        )
+        for shift in [0.0] * 20 + [2.0] * 10:
+            x = rng.uniform(size=(100, 2))
+            gp.update(x, smooth(x) + shift + 0.2 * rng.normal(size=100))
+        mean = gp.predict(probe, return_var=False)[0].numpy()
+        error[lam] = float(np.sqrt(np.mean((mean - smooth(probe) - 2.0) ** 2)))
+    assert error[0.8] < 0.3 and error[0.8] < 0.25 * error[1.0]
+
+
+# -- hyperparameters ----------------------------------------------------------------------------
+def bv_targets(gp: SparseOnlineGP) -> np.ndarray:
+    return ((gp.bv_y[: gp.n_basis] - gp.y_mean) / gp.y_scale).numpy()
+
+
+def check_fit(gp: SparseOnlineGP, gram: Callable[[], np.ndarray], probe: np.ndarray) -> None:
+    """NLML of the BV set improves; the posterior is rebuilt exactly; the report is consistent."""
+    y = bv_targets(gp)
+    initial = nlml_per_point(gram() + float(gp.noise_var) * np.eye(len(y)), y)
+    fitted = gp.fit_hyperparameters(n_iter=100, lr=0.05)
+    assert all(math.isfinite(v) for v in fitted.values())
+    assert min(fitted["lengthscale"], fitted["variance"], fitted["noise_var"]) > 0
+    assert fitted["variance"] == float(gp.kernel.variance)
+    assert fitted["noise_var"] == float(gp.noise_var)
+    assert fitted["lengthscale"] == float(gp.lengthscale[0])
+    cov = gram() + fitted["noise_var"] * np.eye(len(y))
+    final = nlml_per_point(cov, y)
+    assert final < initial
+    assert float(gp.nugget.abs().max()) == 0.0
+    np.testing.assert_allclose(
+        gp.alpha[: gp.n_basis].numpy(), np.linalg.solve(cov, y), rtol=1e-7, atol=1e-9
+    )
+    mean, var = gp.predict(probe)
+    assert torch.isfinite(mean).all() and torch.isfinite(var).all() and (var >= 0).all()
+    assert fitted["nlml"] == pytest.approx(final, abs=1e-6)  # the reported value is the fitted one
+
+
+def test_fit_hyperparameters_rbf() -> None:
+    rng = np.random.default_rng(10)
+    x = rng.uniform(size=(300, 2))
+    gp = SparseOnlineGP(
+        2, RBFKernel(lengthscale=0.4, variance=0.5), max_basis=60, noise_var=0.5, novelty_tol=1e-3
+    )
+    gp.update(x, smooth(2 * x) + 0.1 * rng.normal(size=300))
+    assert gp.n_basis >= 20
+
+    def gram() -> np.ndarray:
+        ls = gp.lengthscale.numpy()
+        return rbf(gp.basis_inputs.numpy(), gp.basis_inputs.numpy(), ls, float(gp.kernel.variance))
+
+    check_fit(gp, gram, rng.uniform(size=(50, 2)))
+
+
+def test_fit_hyperparameters_needs_two_basis_vectors() -> None:
+    gp = SparseOnlineGP(2, "rbf")
+    with pytest.raises(ValueError, match="at least 2 basis vectors"):
+        gp.fit_hyperparameters()
+
+
+def test_fit_hyperparameters_geodesic(pendulum) -> None:
+    obs, returns, starts = pendulum(1500, 12)
+    gp = SparseOnlineGP(3, GeodesicKernel(lengthscale=2.0), max_basis=60, noise_var=0.3)
+    feed(gp, obs, returns, starts, 500)
+    sp_before, ls_before = gp.shortest_paths.numpy().copy(), gp.lengthscale.clone()
+
+    def gram() -> np.ndarray:
+        return float(gp.kernel.variance) * np.exp(-gp.shortest_paths.numpy())
+
+    check_fit(gp, gram, obs[::13])
+    factor = (gp.lengthscale / ls_before).numpy()
+    np.testing.assert_allclose(factor, factor[0], rtol=1e-12)  # one factor on all dimensions
+    np.testing.assert_allclose(gp.shortest_paths.numpy(), sp_before / factor[0], rtol=1e-12)
+
+
+# -- lengthscale heuristic ----------------------------------------------------------------------
+def test_default_lengthscale_is_per_dimension_std_with_fallback() -> None:
+    rng = np.random.default_rng(13)
+    x = np.column_stack(
+        [rng.normal(0, 2.0, 50), rng.uniform(size=50), np.full(50, -3.0), np.zeros(50)]
+    )
+    expected = x.std(axis=0)
+    expected[2:] = [3.0, 1.0]  # a constant dimension gets its largest |value|, or 1
+    np.testing.assert_allclose(
+        default_lengthscale(torch.as_tensor(x)).numpy(), expected, rtol=1e-12
+    )
+    gp = SparseOnlineGP(4, "rbf")
+    gp.update(x, x[:, 0])
+    np.testing.assert_allclose(gp.lengthscale.numpy(), expected, rtol=1e-12)
+
+
+# -- churn control ------------------------------------------------------------------------------
+def corridor(
+    seed: int, n_passes: int = 40, per_pass: int = 100
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Passes back and forth along the segment [0, 1] x {0} (with a little lateral jitter)."""
+    rng = np.random.default_rng(seed)
+    along = np.concatenate([np.linspace(*rng.uniform(size=2), per_pass) for _ in range(n_passes)])
+    x = np.column_stack([along, 0.002 * rng.normal(size=along.size)])
+    starts = np.zeros(along.size, dtype=bool)
+    starts[::per_pass] = True
+    return x, np.sin(2 * np.pi * along) + 0.1 * rng.normal(size=along.size), starts
+
+
+def corridor_run(
+    x: np.ndarray, y: np.ndarray, starts: np.ndarray, max_basis: int
+) -> tuple[SparseOnlineGP, float]:
+    gp = SparseOnlineGP(
+        2,
+        GeodesicKernel(lengthscale=0.1),
+        max_basis=max_basis,
+        noise_var=0.01,
+        novelty_tol=0.08,
+        target_mean=0.0,
+        target_scale=1.0,
+    )
+    feed(gp, x, y, starts, 500)
+    grid = np.column_stack([np.linspace(0, 1, 200), np.zeros(200)])
+    mean = gp.predict(grid, return_var=False)[0].numpy()
+    return gp, float(np.sqrt(np.mean((mean - np.sin(2 * np.pi * grid[:, 0])) ** 2)))
+
+
+def test_dense_corridor_does_not_churn() -> None:
+    """4000 points on a corridor that needs ~300 BVs at ``novelty_tol``, with 40 allowed.
+
+    Bound: once the 40 BVs are spread over the corridor (within the first passes) nothing new is
+    seen, so a capacity rule that only admits clearly more informative points replaces the
+    basis at most about twice over the run: ``n_deleted <= 2 * max_basis`` (2 % of the points;
+    a rule that inserts-then-deletes on every novel step deletes more than half of them).
+    The capped model must stay within 3x the RMSE of an uncapped run (which deletes nothing).
+    """
+    x, y, starts = corridor(0)
+    capped, capped_rmse = corridor_run(x, y, starts, max_basis=40)
+    reference, reference_rmse = corridor_run(x, y, starts, max_basis=500)
+    assert int(reference.n_deleted) == 0 and reference.n_basis > 5 * 40
+    assert capped.n_basis == 40
+    assert int(capped.n_deleted) <= 2 * 40, (int(capped.n_added), int(capped.n_deleted))
+    assert capped_rmse <= 3.0 * reference_rmse, (capped_rmse, reference_rmse)
