@@ -93,10 +93,6 @@ class BVGraph(nn.Module):
         """Connected components (a forest has ``nodes - edges`` of them)."""
         return self.n_nodes - int(self.adjacency.sum()) // 2
 
-    def degree(self, node: int) -> int:
-        """Number of edges at ``node``."""
-        return int(self.adjacency[node].sum())
-
     def dense_adjacency(self) -> Tensor:
         """Weighted adjacency of the alive nodes for plotting or checking, shape (N, N).
 
