@@ -147,6 +147,10 @@ class Kernel(nn.Module):
         """Rows on which a point's novelty is judged, shape (n, m)."""
         return self.cross(x, view)
 
+    def novelty_factors(self, x: Tensor, view: BasisView) -> tuple[Tensor, Tensor] | None:
+        """:meth:`novelty_rows` as combinations of BV rows (see :meth:`cross_factors`), or None."""
+        return None
+
     def node_row(self, x: Tensor, parent: int | None, view: BasisView) -> Tensor:
         """Row ``k(x, BV)`` the point gets once it is itself a basis vector, shape (m,).
 
@@ -277,15 +281,17 @@ class GeodesicKernel(Kernel):
         sp = self._graph(view).shortest_paths[view.nodes[i]][:, view.nodes]
         return self(w[:, None] + sp)
 
+    def novelty_factors(self, x: Tensor, view: BasisView) -> tuple[Tensor, Tensor] | None:
+        if self.profile_name != "laplacian":
+            return None
+        # variance * exp(-(w + SP(b_i, .))) = exp(-w) * K_b[i]: a scaled copy of one BV row.
+        w, i = torch.cdist(x, view.z).min(dim=1)
+        return i[:, None], torch.exp(-w)[:, None]
+
     def cross_factors(self, x: Tensor, view: BasisView) -> tuple[Tensor, Tensor] | None:
-        dist = torch.cdist(x, view.z)
         if self.attach == "interpolate":
-            return shepard_weights(dist, self.n_neighbors)
-        if self.profile_name == "laplacian":
-            # variance * exp(-(w + SP(b_i, .))) = exp(-w) * K_b[i]: a scaled copy of one BV row.
-            w, i = dist.min(dim=1)
-            return i[:, None], torch.exp(-w)[:, None]
-        return None
+            return shepard_weights(torch.cdist(x, view.z), self.n_neighbors)
+        return self.novelty_factors(x, view)
 
     def cross(self, x: Tensor, view: BasisView) -> Tensor:
         factors = self.cross_factors(x, view)

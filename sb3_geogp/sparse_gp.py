@@ -436,14 +436,28 @@ class SparseOnlineGP(nn.Module):
         chunk = _MIN_CHUNK
         while start < n:
             block = self.kernel.scale(x[start : start + chunk])
-            rows = self.kernel.novelty_rows(block, view)
-            gamma = 1.0 - _quad(rows, self.Q[:m, :m]) / self.kernel.variance
+            gamma = 1.0 - self._novelty_projection(block, view) / self.kernel.variance
             novel = (gamma > threshold).nonzero()
             if novel.numel():
                 return start + int(novel[0])
             start += block.shape[0]
             chunk = min(2 * chunk, _MAX_CHUNK)
         return n
+
+    def _novelty_projection(self, xs: Tensor, view: BasisView) -> Tensor:
+        """``k^T Q k`` of the novelty rows of scaled inputs ``xs : (n, d)``, shape (n,).
+
+        When the rows are combinations of BV rows this needs ``K_b Q K_b``, which for
+        ``Q = (K_b + N)^{-1}`` (``N`` the nuggets) is ``K_b - N + N Q N``: O(m^2), not O(n m^2).
+        """
+        m = self.n_basis
+        Q = self.Q[:m, :m]
+        factors = self.kernel.novelty_factors(xs, view)
+        if factors is None:
+            return _quad(self.kernel.novelty_rows(xs, view), Q)
+        nugget = self.nugget[:m]
+        KQK = self.kernel.gram(view) - torch.diag(nugget) + nugget[:, None] * Q * nugget
+        return _gathered_quad(*factors, KQK)
 
     def _absorb(self, x: Tensor, yn: Tensor) -> None:
         """Projected (sparse) update with a run of non-novel points, all at once.
