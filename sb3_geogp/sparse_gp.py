@@ -314,8 +314,12 @@ class SparseOnlineGP(nn.Module):
             mean = (w * self._derived("K_alpha", lambda: K @ alpha)[idx]).sum(dim=1)
             if not return_var:
                 return mean, None
-            kqk = _gathered_quad(idx, w, self._derived("KQK", lambda: K @ Q @ K))
-            kpk = _gathered_quad(idx, w, self._derived("KPK", lambda: K @ P @ K))
+            nugget = self.nugget[:m]
+            kqk = _gathered_quad(idx, w, self._derived("KQK", lambda: _kqk(K, Q, nugget)))
+            if "KPK" in self._cache or xs.shape[0] >= m:
+                kpk = _gathered_quad(idx, w, self._derived("KPK", lambda: K @ P @ K))
+            else:  # fewer points than BVs: O(n m^2) beats forming K P K, O(m^3)
+                kpk = _quad(torch.einsum("nk,nkm->nm", w, K[idx]), P)
         gamma = self.kernel.variance - kqk
         return mean, (gamma.clamp_min(0) + kpk).clamp_min(0)
 
@@ -447,17 +451,14 @@ class SparseOnlineGP(nn.Module):
     def _novelty_projection(self, xs: Tensor, view: BasisView) -> Tensor:
         """``k^T Q k`` of the novelty rows of scaled inputs ``xs : (n, d)``, shape (n,).
 
-        When the rows are combinations of BV rows this needs ``K_b Q K_b``, which for
-        ``Q = (K_b + N)^{-1}`` (``N`` the nuggets) is ``K_b - N + N Q N``: O(m^2), not O(n m^2).
+        When the rows are combinations of BV rows this needs only ``K_b Q K_b`` (:func:`_kqk`).
         """
         m = self.n_basis
         Q = self.Q[:m, :m]
         factors = self.kernel.novelty_factors(xs, view)
         if factors is None:
             return _quad(self.kernel.novelty_rows(xs, view), Q)
-        nugget = self.nugget[:m]
-        KQK = self.kernel.gram(view) - torch.diag(nugget) + nugget[:, None] * Q * nugget
-        return _gathered_quad(*factors, KQK)
+        return _gathered_quad(*factors, _kqk(self.kernel.gram(view), Q, self.nugget[:m]))
 
     def _absorb(self, x: Tensor, yn: Tensor) -> None:
         """Projected (sparse) update with a run of non-novel points, all at once.
@@ -801,6 +802,11 @@ _INT_TYPES = (torch.int8, torch.int16, torch.int32, torch.int64, torch.uint8, to
 def _quad(rows: Tensor, M: Tensor) -> Tensor:
     """Row-wise quadratic forms ``rows_i^T M rows_i``; rows (n, m), M (m, m) -> (n,)."""
     return ((rows @ M) * rows).sum(dim=1)
+
+
+def _kqk(K: Tensor, Q: Tensor, nugget: Tensor) -> Tensor:
+    """``K Q K`` for ``Q = (K + N)^{-1}``, ``N = diag(nugget)``: ``K - N + N Q N``, in O(m^2)."""
+    return K - torch.diag(nugget) + nugget[:, None] * Q * nugget
 
 
 def _gathered_quad(idx: Tensor, w: Tensor, M: Tensor) -> Tensor:
