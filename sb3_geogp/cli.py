@@ -1,5 +1,7 @@
 """Command line: ``sb3-geogp train --algo ppo --env Pendulum-v1 --critic geodesic ...``.
 
+``sb3-geogp compare ...`` runs the critic comparison (:mod:`sb3_geogp.experiments.compare`).
+
 Trains PPO or A2C with the GP critic (or SB3's MLP critic for comparison), with SB3's progress
 bar, and writes to ``--out``: the model (``model.zip``), SB3's logs (``progress.csv``, plus a
 TensorBoard log when ``tensorboard`` is installed), the Monitor episode logs (``monitor/``) and
@@ -25,6 +27,7 @@ from stable_baselines3.common.env_util import make_vec_env
 from stable_baselines3.common.logger import configure
 
 from sb3_geogp.callbacks import GPValueCallback
+from sb3_geogp.experiments import compare
 from sb3_geogp.policies import GPActorCriticPolicy
 
 ALGOS: dict[str, type[BaseAlgorithm]] = {"ppo": PPO, "a2c": A2C}
@@ -32,11 +35,16 @@ CRITICS = ("geodesic", "rbf", "mlp")
 
 
 def build_parser() -> argparse.ArgumentParser:
-    """The ``sb3-geogp`` argument parser (sub-command ``train``)."""
+    """The ``sb3-geogp`` argument parser (sub-commands ``train`` and ``compare``)."""
     parser = argparse.ArgumentParser(
         prog="sb3-geogp", description="Sparse on-line (geodesic) GP critics for SB3."
     )
     commands = parser.add_subparsers(dest="command", required=True)
+    compare.add_arguments(
+        commands.add_parser(
+            "compare", help="compare MLP / RBF-GP / geodesic-GP critics in PPO and A2C"
+        )
+    )
     train = commands.add_parser("train", help="train PPO or A2C with a GP or MLP critic")
     train.add_argument("--algo", choices=sorted(ALGOS), default="ppo")
     train.add_argument("--env", default="Pendulum-v1", help="gymnasium environment id")
@@ -63,8 +71,9 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of ``sb3-geogp``; returns the exit status."""
     args = build_parser().parse_args(argv)
-    if args.command == "train":
-        train(args)
+    if args.command == "compare":
+        return compare.run_from_args(args)
+    train(args)
     return 0
 
 

@@ -58,8 +58,9 @@ class Kernel(nn.Module):
     Parameters
     ----------
     lengthscale : float, sequence of float or None
-        One value for all input dimensions or one per dimension. ``None`` lets
-        :class:`~sb3_geogp.SparseOnlineGP` choose it from the first batch (median heuristic).
+        One value for all input dimensions or one per dimension. ``None`` (or NaN for some
+        dimensions) lets :class:`~sb3_geogp.SparseOnlineGP` choose it (those) from the first
+        batch: the standard deviation of each dimension.
     variance : float
         Signal variance ``sigma_f^2`` in units of the standardised targets.
     """
@@ -76,10 +77,11 @@ class Kernel(nn.Module):
             raise ValueError(f"variance must be a positive finite number, got {variance}")
         init = None if lengthscale is None else torch.as_tensor(lengthscale, dtype=torch.float64)
         if init is not None and (
-            init.ndim > 1 or not torch.all(init > 0) or not init.isfinite().all()
+            init.ndim > 1 or not torch.all((init > 0) & ~torch.isinf(init) | torch.isnan(init))
         ):
             raise ValueError(
-                f"lengthscale must be positive and finite (scalar or 1-D), got {lengthscale}"
+                f"lengthscale must be positive and finite, or NaN for 'choose from the data' "
+                f"(scalar or 1-D), got {lengthscale}"
             )
         self._init_lengthscale = init
         # Shape (d,) is fixed by bind(); until then the buffer is empty.
@@ -98,11 +100,6 @@ class Kernel(nn.Module):
                 )
             ls[:] = self._init_lengthscale
         self.lengthscale = ls
-
-    @property
-    def lengthscale_set(self) -> bool:
-        """Whether the lengthscale has been chosen (given, or set from the first batch)."""
-        return bool(self.lengthscale.numel() > 0 and torch.isfinite(self.lengthscale).all())
 
     def scale(self, x: Tensor) -> Tensor:
         """Inputs in lengthscale units, ``x / l``; ``x : Tensor, shape (n, d)``."""

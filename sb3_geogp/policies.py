@@ -17,6 +17,7 @@ import numpy as np
 import torch as th
 from gymnasium import spaces
 from stable_baselines3.common.policies import ActorCriticPolicy, BaseModel
+from stable_baselines3.common.torch_layers import FlattenExtractor
 from stable_baselines3.common.preprocessing import is_image_space
 from stable_baselines3.common.type_aliases import PyTorchObs, Schedule
 from torch import nn
@@ -125,7 +126,9 @@ class GPActorCriticPolicy(ActorCriticPolicy):
             )
         options = dict(self._gp_options)
         kernel = options.pop("kernel", "geodesic")
-        kernel_kwargs = options.pop("kernel_kwargs", None) or {}
+        kernel_kwargs = dict(options.pop("kernel_kwargs", None) or {})
+        if isinstance(kernel, str) and isinstance(self.vf_features_extractor, FlattenExtractor):
+            kernel_kwargs.setdefault("lengthscale", observation_lengthscale(self.observation_space))
         gp = SparseOnlineGP(
             input_dim=self.mlp_extractor.latent_dim_vf,
             kernel=make_kernel(kernel, **kernel_kwargs),
@@ -257,6 +260,34 @@ class GPActorCriticPolicy(ActorCriticPolicy):
         if len(targets) > 0:
             self.gp.update(self.critic_features(obs), targets, episode_starts)
         self._awaiting_feed = False
+
+
+#: Bounds wider than this count as unbounded (gymnasium envs often use float32's maximum).
+_MAX_BOUND_WIDTH = 1e6
+
+
+def observation_lengthscale(space: spaces.Space) -> list[float]:
+    """Default GP lengthscale per flattened observation dimension, from the space's bounds.
+
+    The standard deviation of a uniform distribution on the bounds, ``(high - low) / sqrt(12)``
+    (what the GP's first-batch heuristic would pick if the batch covered the space), where a
+    dimension is bounded; NaN (the GP then takes the standard deviation of its first batch)
+    where it is not. The bounds make the choice independent of how much of the space the first
+    rollout happens to cover: A2C's first rollout of a few steps from the start states would
+    otherwise fix a lengthscale far too short for the rest of training.
+
+    Parameters
+    ----------
+    space : gymnasium.spaces.Box
+
+    Returns
+    -------
+    list of float, length ``prod(space.shape)``
+    """
+    assert isinstance(space, spaces.Box)
+    width = (space.high.astype(np.float64) - space.low.astype(np.float64)).ravel()
+    bounded = np.isfinite(width) & (width > 0) & (width < _MAX_BOUND_WIDTH)
+    return np.where(bounded, width / np.sqrt(12.0), np.nan).tolist()
 
 
 def _check_spaces(observation_space: spaces.Space, action_space: spaces.Space) -> None:

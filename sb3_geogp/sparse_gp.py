@@ -99,8 +99,8 @@ class SparseOnlineGP(nn.Module):
     -----
     Targets are standardised with the mean and standard deviation of the first batch (kept
     fixed afterwards); :meth:`predict` returns values in the units fed to :meth:`update`.
-    Without a lengthscale, the kernel's is set from the first batch: per input dimension the
-    standard deviation (:func:`default_lengthscale`).
+    Lengthscales not given (``None``, or NaN entries) are set from the first batch: per input
+    dimension the standard deviation (:func:`default_lengthscale`).
     """
 
     bv_x: Tensor
@@ -398,8 +398,8 @@ class SparseOnlineGP(nn.Module):
         if scale is None:
             std = y.std() if y.numel() > 1 else torch.zeros((), dtype=y.dtype)
             self.y_scale.fill_(std if bool(std > 1e-12 * (1 + y.abs().max())) else 1.0)
-        if not self.kernel.lengthscale_set:
-            self.kernel.lengthscale.copy_(default_lengthscale(x))
+        ls = self.kernel.lengthscale
+        ls.copy_(torch.where(torch.isnan(ls), default_lengthscale(x), ls))
         self.initialized.fill_(1)
 
     def _scale_floor(self, factor: float) -> None:
@@ -525,8 +525,17 @@ class SparseOnlineGP(nn.Module):
         q = (yn - k @ alpha) / denom
         e_ext = torch.cat([e, e.new_full((1,), -1.0)])
         s = torch.cat([Pk, Pk.new_zeros(1)]) - e_ext
-        self.alpha[m] = 0.0
-        self.alpha[: m + 1] += q * s
+        alpha_new = torch.cat([alpha, alpha.new_zeros(1)]) + q * s
+        doomed = None
+        if m == self.max_basis:
+            # Scores after the insertion, from its rank-one terms, before mutating anything.
+            p_diag = torch.cat([torch.diagonal(P), P.new_zeros(1)]) + e_ext**2 / gamma
+            doomed = _least_informative(alpha_new, p_diag - s**2 / denom)
+            self._scale_floor(_FLOOR_STEP)
+            if doomed == m:  # the newcomer itself would go: a projected update is the same
+                self._absorb(x[None], yn[None])
+                return
+        self.alpha[: m + 1] = alpha_new
         self.Q[: m + 1, : m + 1] += torch.outer(e_ext, e_ext) / gamma
         self.P[: m + 1, : m + 1] += torch.outer(e_ext, e_ext) / gamma - torch.outer(s, s) / denom
         self.bv_x[m] = x
@@ -538,9 +547,8 @@ class SparseOnlineGP(nn.Module):
             self.traj_node.fill_(node)
         self.count += 1
         self.n_added += 1
-        if self.n_basis > self.max_basis:
-            self._scale_floor(_FLOOR_STEP)
-            self._delete(self._least_informative())
+        if doomed is not None:
+            self._delete(doomed)
 
     def _reject_row(self, gamma: float, e_sq: float, variance: float) -> bool:
         """Whether a novel point's actual BV row would harm ``Q``; it is projected instead.
@@ -567,12 +575,6 @@ class SparseOnlineGP(nn.Module):
         if self.kernel.edges == "trajectory" and int(self.traj_node) >= 0:
             return int(self.traj_node)
         return int(view.nodes[torch.cdist(xs[None], view.z)[0].argmin()])
-
-    def _least_informative(self) -> int:
-        """BV with the smallest Csató–Opper score ``alpha_i^2 / (Q_ii + C_ii)``."""
-        m = self.n_basis
-        p_diag = torch.diagonal(self.P[:m, :m]).clamp_min(torch.finfo(self.P.dtype).tiny)
-        return int((self.alpha[:m] ** 2 / p_diag).argmin())
 
     def _delete(self, j: int) -> None:
         """Remove BV ``j`` by the Csató–Opper KL projection.
@@ -802,6 +804,11 @@ _INT_TYPES = (torch.int8, torch.int16, torch.int32, torch.int64, torch.uint8, to
 def _quad(rows: Tensor, M: Tensor) -> Tensor:
     """Row-wise quadratic forms ``rows_i^T M rows_i``; rows (n, m), M (m, m) -> (n,)."""
     return ((rows @ M) * rows).sum(dim=1)
+
+
+def _least_informative(alpha: Tensor, p_diag: Tensor) -> int:
+    """BV with the smallest Csató–Opper score ``alpha_i^2 / (Q_ii + C_ii) = alpha_i^2 / P_ii``."""
+    return int((alpha**2 / p_diag.clamp_min(torch.finfo(p_diag.dtype).tiny)).argmin())
 
 
 def _kqk(K: Tensor, Q: Tensor, nugget: Tensor) -> Tensor:

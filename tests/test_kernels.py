@@ -201,7 +201,7 @@ def test_shepard_weights_are_continuous_where_the_neighbour_set_changes() -> Non
     ("kwargs", "match"),
     [
         ({"lengthscale": -1.0}, "lengthscale"),
-        ({"lengthscale": [1.0, float("nan")]}, "lengthscale"),
+        ({"lengthscale": [1.0, float("inf")]}, "lengthscale"),
         ({"variance": 0.0}, "variance"),
         ({"profile": "cauchy"}, "profile"),
         ({"attach": "far"}, "attach"),

@@ -400,3 +400,16 @@ def test_subproc_vec_env() -> None:
         assert th.isfinite(model.policy.predict_values(flat_obs(model))).all()
     finally:
         env.close()
+
+
+def test_observation_lengthscale_uses_finite_bounds_only() -> None:
+    """The std of a uniform on the bounds where bounded, NaN (from data) elsewhere."""
+    from sb3_geogp.policies import observation_lengthscale
+
+    space = spaces.Box(
+        low=np.array([-1.0, -np.inf, 0.0, -3.4e38]),
+        high=np.array([1.0, np.inf, 6.0, 3.4e38]),
+        dtype=np.float32,
+    )
+    got = observation_lengthscale(space)
+    np.testing.assert_allclose(got, [2 / np.sqrt(12), np.nan, 6 / np.sqrt(12), np.nan])

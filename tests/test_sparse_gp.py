@@ -760,3 +760,11 @@ def test_dense_corridor_does_not_churn() -> None:
     assert capped.n_basis == 40
     assert int(capped.n_deleted) <= 2 * 40, (int(capped.n_added), int(capped.n_deleted))
     assert capped_rmse <= 3.0 * reference_rmse, (capped_rmse, reference_rmse)
+
+
+def test_nan_lengthscale_entries_are_chosen_from_the_first_batch() -> None:
+    """Given entries stay; NaN ones become the first batch's standard deviation."""
+    x = np.random.default_rng(11).normal(size=(200, 3)) * np.array([1.0, 5.0, 0.2])
+    gp = SparseOnlineGP(3, RBFKernel(lengthscale=[0.7, float("nan"), 0.3]))
+    gp.update(x, x[:, 0])
+    np.testing.assert_allclose(gp.lengthscale.numpy(), [0.7, x[:, 1].std(), 0.3], rtol=1e-12)

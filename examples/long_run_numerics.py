@@ -1,0 +1,338 @@
+"""Long-run numerics soak of SparseOnlineGP (issue 2, "Numerics").
+
+Streams ``--points`` Pendulum-v1 transitions (``pendulum_rollouts`` in chunks with increasing
+seeds, fed in batches of 2048 as a PPO rollout buffer would) into one
+``SparseOnlineGP(max_basis=256)`` per kernel variant and, after every batch, checks:
+
+* every entry of ``alpha``, ``P``, ``Q`` and of the predictions on a probe set is finite;
+* ``P`` and ``Q`` are symmetric: ``max |M - M^T| / max |M| <= --sym-tol``;
+* ``P`` and ``Q`` are positive semi-definite: smallest eigenvalue / largest absolute
+  eigenvalue ``>= -(--eig-tol)``;
+* the predictive variances on the probe set (a held-out rollout plus random states, some far
+  from the data) are ``>= 0`` (``predict`` clamps them, so the eigenvalue check on ``P`` is the
+  one with teeth);
+* ``n_basis <= max_basis``.
+
+It tracks the out-of-sample MSE and explained variance on the held-out rollout, prints a
+summary (worst value of every check per variant, update time, additions and deletions),
+writes JSON and a PNG, and exits with status 1 if any check failed or an update raised.
+
+``--time-budget`` stops the stream after the batch during which the budget ran out; the
+summary then says how many points every variant received.
+
+Usage::
+
+    python examples/long_run_numerics.py                       # 10^6 points per variant
+    python examples/long_run_numerics.py --points 5000000 --time-budget 900 --threads 1
+    python examples/long_run_numerics.py --points 20000 --out runs/soak
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import operator
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import matplotlib
+
+matplotlib.use("Agg")
+
+import matplotlib.pyplot as plt
+import torch
+from tqdm import tqdm
+
+from sb3_geogp import SparseOnlineGP
+from sb3_geogp.experiments.benchmarking import (
+    Rollout,
+    Variant,
+    engine_fingerprint,
+    format_table,
+    pendulum_stream,
+    torch_threads,
+)
+
+VARIANTS = (
+    Variant("rbf", "rbf"),
+    Variant("geo laplace interp", "geodesic", {"profile": "laplacian", "attach": "interpolate"}),
+    Variant("geo laplace nearest", "geodesic", {"profile": "laplacian", "attach": "nearest"}),
+    Variant("geo gaussian", "geodesic", {"profile": "gaussian"}),
+    Variant("geo laplace interp f=0.9", "geodesic", {}, {"forgetting": 0.9}),
+)
+#: Held-out rollout seed; the stream uses seeds 1, 2, ...
+TEST_SEED = 0
+
+
+@dataclass(frozen=True)
+class Check:
+    """One per-batch check: ``value`` must satisfy ``passes(value, limit)``.
+
+    ``worse(a, b)`` tells whether ``a`` is worse than ``b`` (the summary keeps the worst).
+    """
+
+    key: str
+    limit: float
+    passes: Callable[[float, float], bool]
+    worse: Callable[[float, float], bool]
+
+
+def make_checks(sym_tol: float, eig_tol: float) -> tuple[Check, ...]:
+    """The checks of every batch, with their limits."""
+    at_most = (operator.le, operator.gt)
+    at_least = (operator.ge, operator.lt)
+    return (
+        Check("nonfinite", 0.0, *at_most),
+        Check("asym_P", sym_tol, *at_most),
+        Check("asym_Q", sym_tol, *at_most),
+        Check("min_eig_P", -eig_tol, *at_least),
+        Check("min_eig_Q", -eig_tol, *at_least),
+        Check("min_var", 0.0, *at_least),
+        Check("basis_over", 0.0, *at_most),
+    )
+
+
+def relative_asymmetry(M: torch.Tensor) -> float:
+    """``max |M - M^T| / max |M|`` (0 for an all-zero matrix)."""
+    scale = float(M.abs().max()) if M.numel() else 0.0
+    return float((M - M.T).abs().max()) / scale if scale > 0 else 0.0
+
+
+def relative_min_eigenvalue(M: torch.Tensor) -> float:
+    """Smallest eigenvalue of the symmetric part of ``M`` over its largest absolute one."""
+    if M.numel() == 0:
+        return 0.0
+    eig = torch.linalg.eigvalsh(0.5 * (M + M.T))
+    scale = float(eig.abs().max())
+    return float(eig[0]) / scale if scale > 0 else 0.0
+
+
+def inspect(gp: SparseOnlineGP, probe: torch.Tensor) -> dict[str, float]:
+    """Values of every check for the current state of ``gp``."""
+    m = gp.n_basis
+    P, Q = gp.P[:m, :m], gp.Q[:m, :m]
+    mean, var = gp.predict(probe)
+    assert var is not None
+    tensors = (gp.alpha[:m], P, Q, mean, var)
+    return {
+        "nonfinite": float(sum(int((~torch.isfinite(t)).sum()) for t in tensors)),
+        "asym_P": relative_asymmetry(P),
+        "asym_Q": relative_asymmetry(Q),
+        "min_eig_P": relative_min_eigenvalue(P),
+        "min_eig_Q": relative_min_eigenvalue(Q),
+        "min_var": float(var.min()),
+        "basis_over": float(m - gp.max_basis),
+    }
+
+
+@dataclass
+class Soak:
+    """One variant's model, its running worst values and its history."""
+
+    variant: Variant
+    gp: SparseOnlineGP
+    checks: tuple[Check, ...]
+    worst: dict[str, float] = field(default_factory=dict)
+    history: dict[str, list[float]] = field(default_factory=dict)
+    failures: list[str] = field(default_factory=list)
+    points: int = 0
+    update_s: float = 0.0
+    check_s: float = 0.0
+    stopped: bool = False
+
+    def step(self, batch: Rollout, probe: torch.Tensor, test: Rollout) -> None:
+        """Absorb ``batch``, run every check and record the out-of-sample error."""
+        if self.stopped:
+            return
+        start = time.perf_counter()
+        try:
+            batch.feed(self.gp)
+        except Exception as err:  # an engine error is a finding, not a crash of the soak
+            self.failures.append(f"after {self.points} points: update raised {err!r}")
+            self.stopped = True
+            return
+        self.update_s += time.perf_counter() - start
+        self.points += len(batch)
+        start = time.perf_counter()
+        self.record(inspect(self.gp, probe), test)
+        self.check_s += time.perf_counter() - start
+
+    def record(self, values: dict[str, float], test: Rollout) -> None:
+        """Update worst values, failures and history with one batch's measurements."""
+        for check in self.checks:
+            value = values[check.key]
+            if check.key not in self.worst or check.worse(value, self.worst[check.key]):
+                self.worst[check.key] = value
+            if not check.passes(value, check.limit):
+                self.failures.append(f"after {self.points} points: {check.key} = {value:.3g}")
+        mse = float(((self.gp.predict(test.x, return_var=False)[0] - test.y) ** 2).mean())
+        row = {
+            "points": float(self.points),
+            "mse": mse,
+            "explained_variance": 1.0 - mse / float(test.y.var()),
+            "n_basis": float(self.gp.n_basis),
+            "n_added": float(self.gp.n_added),
+            "n_deleted": float(self.gp.n_deleted),
+        }
+        for key, value in row.items():
+            self.history.setdefault(key, []).append(value)
+
+    def summary(self) -> dict[str, Any]:
+        """Worst values, counters, time and pass/fail of this variant."""
+        ev = self.history.get("explained_variance", [math.nan])
+        return {
+            "variant": self.variant.label,
+            "points": self.points,
+            "update_s": self.update_s,
+            "us_per_point": 1e6 * self.update_s / max(self.points, 1),
+            "check_s": self.check_s,
+            "n_basis": self.gp.n_basis,
+            "n_added": int(self.gp.n_added),
+            "n_deleted": int(self.gp.n_deleted),
+            **{f"worst_{k}": v for k, v in self.worst.items()},
+            "final_ev": ev[-1],
+            "min_ev_2nd_half": min(ev[len(ev) // 2 :]),
+            "passed": not self.failures,
+            "n_failures": len(self.failures),
+            "first_failures": self.failures[:5],
+        }
+
+
+def probe_states(test: Rollout, n_random: int, seed: int) -> torch.Tensor:
+    """The held-out states plus ``n_random`` uniform pendulum states (|theta_dot| <= 8)."""
+    gen = torch.Generator().manual_seed(seed)
+    theta = (torch.rand(n_random, generator=gen, dtype=torch.float64) * 2 - 1) * math.pi
+    vel = (torch.rand(n_random, generator=gen, dtype=torch.float64) * 2 - 1) * 8.0
+    random = torch.stack([theta.cos(), theta.sin(), vel], dim=1)
+    return torch.cat([test.x, random])
+
+
+def plot(soaks: Sequence[Soak], path: Path) -> None:
+    """Explained variance and cumulative deletions against points streamed, one line each."""
+    fig, (ax_ev, ax_del) = plt.subplots(1, 2, figsize=(12, 4.5))
+    lowest = 1.0
+    for soak in soaks:
+        h = soak.history
+        if not h:
+            continue
+        ax_ev.plot(h["points"], h["explained_variance"], label=soak.variant.label)
+        ax_del.plot(h["points"], h["n_deleted"], label=soak.variant.label)
+        lowest = min(lowest, *h["explained_variance"])
+    ax_ev.set_ylim(max(lowest, -1.0) - 0.02, 1.01)
+    ax_ev.set(
+        xlabel="points streamed",
+        ylabel="explained variance (held-out rollout)",
+        title="out-of-sample fit (axis floored at -1)",
+    )
+    ax_del.set(xlabel="points streamed", ylabel="basis deletions (cumulative)", title="deletions")
+    for ax in (ax_ev, ax_del):
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+SUMMARY_COLUMNS = (
+    "variant", "points", "update_s", "us_per_point", "n_added", "n_deleted", "n_basis",
+    "worst_asym_P", "worst_asym_Q", "worst_min_eig_P", "worst_min_eig_Q", "worst_min_var",
+    "final_ev", "min_ev_2nd_half", "passed",
+)  # fmt: skip
+
+
+def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--points", type=int, default=1_000_000, help="points per variant")
+    parser.add_argument("--batch-size", type=int, default=2048)
+    parser.add_argument("--max-basis", type=int, default=256)
+    parser.add_argument("--sym-tol", type=float, default=1e-10, help="relative asymmetry")
+    parser.add_argument("--eig-tol", type=float, default=1e-9, help="relative eigenvalue")
+    parser.add_argument("--threads", type=int, default=None, help="torch.set_num_threads")
+    parser.add_argument(
+        "--time-budget",
+        type=float,
+        default=None,
+        help="stop after this many seconds (a whole batch)",
+    )
+    parser.add_argument("--out", type=Path, default=Path("runs/long_run_numerics"))
+    return parser.parse_args(argv)
+
+
+def run(args: argparse.Namespace) -> list[Soak]:
+    """Stream the data through every variant, checking after every batch."""
+    checks = make_checks(args.sym_tol, args.eig_tol)
+    test = Rollout.pendulum(args.batch_size, TEST_SEED)
+    probe = probe_states(test, 512, TEST_SEED)
+    dim = test.x.shape[1]
+    soaks = [Soak(v, v.build(dim, args.max_basis), checks) for v in VARIANTS]
+    deadline = time.perf_counter() + (args.time_budget or math.inf)
+    with tqdm(total=args.points, desc="soak", unit="pt", unit_scale=True) as bar:
+        for batch in pendulum_stream(args.points, args.batch_size):
+            for soak in soaks:
+                soak.step(batch, probe, test)
+            bar.update(len(batch))
+            bar.set_postfix(failures=sum(len(s.failures) for s in soaks))
+            if time.perf_counter() > deadline:
+                print(f"\n--time-budget reached after {bar.n} points; stopping", flush=True)
+                break
+    return soaks
+
+
+def write_results(
+    soaks: Sequence[Soak], args: argparse.Namespace, total_s: float, engine: dict[str, str]
+) -> bool:
+    """Print the summary, write JSON and PNG; returns whether every check passed.
+
+    ``engine`` is the :func:`engine_fingerprint` taken when the run started.
+    """
+    rows = [soak.summary() for soak in soaks]
+    passed = all(row["passed"] for row in rows)
+    print(format_table(rows, SUMMARY_COLUMNS))
+    for row in rows:
+        for failure in row["first_failures"]:
+            print(f"FAILED {row['variant']}: {failure}")
+    limits = {c.key: c.limit for c in soaks[0].checks}
+    print(f"limits: {limits}; total wall time {total_s:.1f} s")
+    print(f"engine source sha256 at start: {engine}")
+    print("all checks passed" if passed else "SOME CHECKS FAILED")
+    args.out.mkdir(parents=True, exist_ok=True)
+    result = {
+        "meta": {
+            "points_requested": args.points,
+            "points_streamed": max(s.points for s in soaks),
+            "batch_size": args.batch_size,
+            "max_basis": args.max_basis,
+            "limits": limits,
+            "torch_version": torch.__version__,
+            "torch_threads": torch.get_num_threads(),
+            "total_s": total_s,
+            "engine_sha256": engine,
+            "date": time.strftime("%Y-%m-%d %H:%M:%S %Z"),
+        },
+        "all_passed": passed,
+        "summary": rows,
+        "history": {soak.variant.label: soak.history for soak in soaks},
+    }
+    (args.out / "long_run_numerics.json").write_text(json.dumps(result, indent=1))
+    plot(soaks, args.out / "long_run_numerics.png")
+    print(f"wrote {args.out / 'long_run_numerics.json'} and {args.out / 'long_run_numerics.png'}")
+    return passed
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the soak; returns 0 if every check passed, 1 otherwise."""
+    args = parse_args(argv)
+    with torch_threads(args.threads):
+        print(f"torch {torch.__version__}, {torch.get_num_threads()} threads, {args.points} points")
+        engine, start = engine_fingerprint(), time.perf_counter()
+        soaks = run(args)
+        passed = write_results(soaks, args, time.perf_counter() - start, engine)
+    return 0 if passed else 1
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,61 @@
+"""Smoke runs of the engine's benchmark and numerics scripts in their quickest modes."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import sys
+from pathlib import Path
+from types import ModuleType
+
+import pytest
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+
+
+def load_script(name: str) -> ModuleType:
+    """Import ``examples/<name>.py`` as a module (the examples are not a package)."""
+    pytest.importorskip("tqdm")
+    pytest.importorskip("matplotlib")
+    spec = importlib.util.spec_from_file_location(f"_example_{name}", EXAMPLES / f"{name}.py")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_benchmark_speed_quick_writes_promised_json(tmp_path: Path) -> None:
+    bench = load_script("benchmark_speed")
+    out = tmp_path / "bench.json"
+    assert bench.main(["--quick", "--out", str(out), "--threads", "1"]) == 0
+    result = json.loads(out.read_text())
+    assert {"meta", "rows", "peer", "targets"} <= result.keys()
+    assert {"torch_version", "torch_threads", "load_average_start"} <= result["meta"].keys()
+    assert result["meta"]["torch_threads"] == 1
+    expected = {
+        "variant", "max_basis", "update_warm_ms", "update_cold_ms", "predict_var_ms",
+        "predict_mean_ms", "mse_cold", "mse_warm", "n_basis", "n_added", "n_deleted",
+    }  # fmt: skip
+    variants = {"rbf", "geodesic", "geodesic/nearest"}
+    assert {row["variant"] for row in result["rows"]} == variants
+    for row in result["rows"]:
+        assert expected <= row.keys()
+        assert row["n_basis"] <= row["max_basis"]
+        assert row["update_warm_ms"] > 0 and row["predict_mean_ms"] > 0
+    peer = result["peer"]
+    assert "skipped" in peer or {"fit_ms", "predict_std_ms", "mse"} <= peer.keys()
+
+
+def test_long_run_numerics_quick_passes_all_checks(tmp_path: Path) -> None:
+    soak = load_script("long_run_numerics")
+    argv = ["--points", "1536", "--batch-size", "512", "--max-basis", "24"]
+    assert soak.main([*argv, "--out", str(tmp_path), "--threads", "1"]) == 0
+    result = json.loads((tmp_path / "long_run_numerics.json").read_text())
+    assert result["all_passed"] is True
+    assert len(result["summary"]) == len(soak.VARIANTS)
+    for row in result["summary"]:
+        assert row["passed"] and row["points"] == 1536
+        assert row["n_basis"] <= 24
+        assert {"worst_asym_P", "worst_min_eig_P", "worst_min_var", "final_ev"} <= row.keys()
+    assert (tmp_path / "long_run_numerics.png").stat().st_size > 0
