@@ -1,7 +1,12 @@
-"""sb3_geogp: geodesic-kernel sparse on-line Gaussian-process critics for Stable-Baselines3."""
+"""sb3_geogp: geodesic-kernel sparse on-line Gaussian-process critics for Stable-Baselines3.
+
+Importing the package also registers its gymnasium environments (``sb3_geogp/PaperPendulum-v0``,
+``sb3_geogp/WallMaze-v0``, ``sb3_geogp/WallMazeDiscrete-v0``).
+"""
 
 from __future__ import annotations
 
+from sb3_geogp import envs
 from sb3_geogp.callbacks import GPValueCallback
 from sb3_geogp.graph import BVGraph
 from sb3_geogp.kernels import GeodesicKernel, Kernel, RBFKernel
@@ -19,4 +24,5 @@ __all__ = [
     "RBFKernel",
     "SparseOnlineGP",
     "__version__",
+    "envs",
 ]

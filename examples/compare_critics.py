@@ -1,0 +1,29 @@
+"""Compare critics inside SB3 training: {PPO, A2C} x {MLP, RBF-GP, geodesic-GP} x envs x seeds.
+
+Each run writes ``<out>/runs/<run id>.json`` atomically, so an interrupted sweep resumes where
+it stopped (rerun the same command) and never redoes finished runs. Afterwards the figures
+and the summary table go to ``<out>/report/``.
+
+Examples
+--------
+Smoke test (5 % budgets, 2 seeds, all environments)::
+
+    python examples/compare_critics.py --quick --out results/compare_smoke
+
+The published comparison (see docs/results.md)::
+
+    python examples/compare_critics.py --out results/compare --workers 2 --seeds 5
+
+Only some cells, on a Ray cluster (``pip install 'ray[default]'``)::
+
+    python examples/compare_critics.py --envs sb3_geogp/WallMaze-v0 --algos ppo --ray
+"""
+
+from __future__ import annotations
+
+import sys
+
+from sb3_geogp.experiments.compare import main
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,178 @@
+"""WallMaze: gymnasium compliance, walls never crossed, value discontinuous across walls."""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env
+
+from sb3_geogp.envs.wall_maze import (
+    MAX_EPISODE_STEPS,
+    WALL_MAZE_DISCRETE_ID,
+    WALL_MAZE_ID,
+    MazeLayout,
+    WallMaze,
+    WallMazeDiscrete,
+    register_wall_maze,
+)
+
+register_wall_maze()
+
+
+def _orient(ax: float, ay: float, bx: float, by: float, cx: float, cy: float) -> float:
+    return (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
+
+
+def crosses(a: np.ndarray, b: np.ndarray, wall: np.ndarray) -> bool:
+    """Independent check: the move ``a -> b`` passes from one side of ``wall`` to the other.
+
+    True when ``a`` and ``b`` lie strictly on opposite sides of the wall's line and the
+    crossing point lies on the (closed) wall segment, or when ``b`` lands on the wall.
+    """
+    x0, y0, x1, y1 = (float(v) for v in wall)
+    oa = _orient(x0, y0, x1, y1, a[0], a[1])
+    ob = _orient(x0, y0, x1, y1, b[0], b[1])
+    w0 = _orient(a[0], a[1], b[0], b[1], x0, y0)
+    w1 = _orient(a[0], a[1], b[0], b[1], x1, y1)
+    on_wall_line = ob == 0.0 and min(x0, x1) <= b[0] <= max(x0, x1)
+    on_wall_line = on_wall_line and min(y0, y1) <= b[1] <= max(y0, y1)
+    return bool((oa * ob < 0 and w0 * w1 <= 0) or on_wall_line)
+
+
+def point_segment_distance(p: np.ndarray, wall: np.ndarray) -> float:
+    """Independent distance from point ``p`` to the closed segment ``wall``."""
+    a, b = np.asarray(wall[:2], float), np.asarray(wall[2:], float)
+    ab = b - a
+    t = min(1.0, max(0.0, float((p - a) @ ab) / float(ab @ ab)))
+    return float(np.linalg.norm(p - (a + t * ab)))
+
+
+@pytest.mark.parametrize("cls", [WallMaze, WallMazeDiscrete])
+def test_check_env(cls: type[WallMaze]) -> None:
+    check_env(cls())
+    check_env(cls(render_mode="rgb_array"))
+
+
+def test_render() -> None:
+    env = WallMaze(render_mode="rgb_array")
+    env.reset(options={"start": (0.9, 0.1)})
+    img = env.render()
+    assert img is not None and img.shape == (128, 128, 3) and img.dtype == np.uint8
+    assert (img == 0).all(axis=-1).sum() > 128  # walls drawn
+    assert (img[..., 0] == 220).sum() > 0  # agent drawn
+
+
+@pytest.mark.parametrize("env_id", [WALL_MAZE_ID, WALL_MAZE_DISCRETE_ID])
+def test_registered(env_id: str) -> None:
+    env = gym.make(env_id)
+    check_env(env.unwrapped)
+    assert env.spec is not None and env.spec.max_episode_steps == MAX_EPISODE_STEPS
+    obs, _ = env.reset(seed=0)
+    assert env.observation_space.contains(obs)
+
+
+@pytest.mark.parametrize("cls", [WallMaze, WallMazeDiscrete])
+def test_random_actions_never_cross_a_wall(cls: type[WallMaze]) -> None:
+    env = cls()
+    walls = env.layout.segments()
+    rng = np.random.default_rng(0)
+    env.action_space.seed(0)
+    n_collisions = 0
+    for episode in range(60):
+        env.reset(seed=episode)
+        for step in range(150):
+            if cls is WallMaze and step % 3 == 1:
+                # Large, out-of-box actions: many moves at full speed, many collisions.
+                action = rng.normal(0.0, 3.0, size=2).astype(np.float32)
+            elif cls is WallMaze and step % 3 == 2:
+                # Aim at a wall's free end: grazing and collinear moves along walls.
+                corner = walls[rng.integers(2), 2 * rng.integers(2) :][:2]
+                action = ((corner - env.position) * rng.uniform(5, 50)).astype(np.float32)
+            else:
+                action = env.action_space.sample()
+            before = env.position.copy()
+            _, _, terminated, _, info = env.step(action)
+            after = env.position
+            assert np.array_equal(info["previous_position"], before)
+            step_len = float(np.hypot(*(after - before)))
+            assert step_len <= env.layout.max_step * (1 + 1e-12)
+            for wall in walls:
+                assert not crosses(before, after, wall), (before, after, wall)
+                assert point_segment_distance(after, wall) >= env.layout.margin * (1 - 1e-9)
+            assert np.all(after > 0) and np.all(after < env.layout.size)
+            n_collisions += step_len < env.layout.max_step * (1 - 1e-9)
+            if terminated:
+                break
+    assert n_collisions > 100  # the property was exercised against walls
+
+
+def test_move_stops_at_the_wall() -> None:
+    lay = MazeLayout()
+    # Straight up into the upper wall (y = 0.5) from 0.02 below it: stops just short of it.
+    end = lay.move(np.array([0.3, 0.48]), np.array([0.0, 0.05]))
+    assert end[1] < 0.5
+    assert end[1] == pytest.approx(0.5 - 2 * lay.margin, abs=1e-12)
+    assert end[0] == 0.3
+    # Pushing on from there does not move past it.
+    again = lay.move(end, np.array([0.0, 0.05]))
+    assert again[1] < 0.5
+    # A move that misses the wall (through the gap, x > 0.7) is not stopped.
+    free = lay.move(np.array([0.8, 0.48]), np.array([0.0, 0.05]))
+    np.testing.assert_allclose(free, [0.8, 0.53])
+    # Just inside the wall's free end (x = 0.7) the move is stopped, just outside it is not.
+    assert lay.move(np.array([0.699, 0.48]), np.array([0.0, 0.05]))[1] < 0.5
+    assert lay.move(np.array([0.701, 0.48]), np.array([0.0, 0.05]))[1] > 0.5
+
+
+def test_grazing_and_collinear_moves_keep_clear_of_the_wall() -> None:
+    lay = MazeLayout()
+    # In the gap, exactly on the upper wall's line, moving along it into the wall: stops
+    # before the wall's free end (x = 0.7), clear of it.
+    end = lay.move(np.array([0.72, 0.5]), np.array([-0.05, 0.0]))
+    assert end[0] > 0.7 and np.hypot(end[0] - 0.7, end[1] - 0.5) >= lay.margin
+    # A grazing approach (angle 1e-9) towards the wall from just below it: stays below.
+    start = np.array([0.3, 0.5 - 2e-6])
+    end = lay.move(start, 0.05 * np.array([np.cos(1e-9), np.sin(1e-9)]))
+    assert end[1] < 0.5 and 0.5 - end[1] >= lay.margin * (1 - 1e-9)
+    # Straight at the free end point: stopped short of it.
+    end = lay.move(np.array([0.68, 0.48]), np.array([0.04, 0.04]) / np.sqrt(2) * 1.25)
+    assert np.hypot(end[0] - 0.7, end[1] - 0.5) >= lay.margin * (1 - 1e-9)
+    assert not crosses(np.array([0.68, 0.48]), end, np.array(lay.walls[0]))
+
+
+def test_start_on_a_wall_is_rejected() -> None:
+    with pytest.raises(ValueError, match="on a wall"):
+        WallMaze().reset(options={"start": (0.3, 0.5)})
+
+
+def test_continuous_speed_bound_and_discrete_directions() -> None:
+    env = WallMaze()
+    env.reset(options={"start": (0.5, 0.375)})
+    env.step(np.array([1.0, 1.0], dtype=np.float32))
+    assert np.hypot(*(env.position - [0.5, 0.375])) == pytest.approx(env.layout.max_step)
+    denv = WallMazeDiscrete()
+    denv.reset(options={"start": (0.5, 0.375)})
+    denv.step(np.int64(2))  # +y
+    np.testing.assert_allclose(denv.position, [0.5, 0.425], atol=1e-12)
+
+
+def test_goal_terminates() -> None:
+    env = WallMaze()
+    gx, gy = env.layout.goal
+    env.reset(options={"start": (gx + 0.14, gy)})
+    _, reward, terminated, truncated, _ = env.step(np.array([-1.0, 0.0], dtype=np.float32))
+    assert (reward, terminated, truncated) == (-1.0, False, False)
+    _, _, terminated, _, _ = env.step(np.array([-1.0, 0.0], dtype=np.float32))
+    assert terminated
+
+
+def test_optimal_value_jumps_across_walls() -> None:
+    lay = MazeLayout()
+    above, below = lay.optimal_steps(np.array([[0.3, 0.51], [0.3, 0.49]]))
+    assert below - above >= 10  # 0.02 apart in the plane, a corridor apart along the path
+    above, below = lay.optimal_steps(np.array([[0.6, 0.26], [0.6, 0.24]]))
+    assert below - above >= 5
+    # Continuous within a room: nearby points differ by at most one step or so.
+    a, b = lay.optimal_steps(np.array([[0.3, 0.40], [0.3, 0.42]]))
+    assert abs(a - b) <= 1
