@@ -40,7 +40,7 @@ _GAMMA_FLOOR = 1e-6
 _NOVELTY_RADIUS = 0.25
 #: Bounds on the rows of a batch whose novelty is screened at once (adapted in between).
 _MIN_CHUNK, _MAX_CHUNK = 32, 1024
-#: Factor by which the at-capacity novelty floor rises at each deletion.
+#: Factor by which the at-capacity novelty floor rises with each newcomer at capacity.
 _FLOOR_STEP = 1.1
 #: Deletions per absorbed point the floor tolerates in the long run (it falls by
 #: ``_FLOOR_STEP ** _DELETION_RATE`` per point absorbed).
@@ -411,9 +411,10 @@ class SparseOnlineGP(nn.Module):
 
         Below capacity: ``novelty_tol``. Once the basis is full, a newcomer must beat both the
         least novel current BV (``1 / Q_ii`` relative to its prior variance) and the adaptive
-        ``novelty_floor``, which rises by ``_FLOOR_STEP`` at every deletion and
-        falls back towards ``novelty_tol`` by ``_FLOOR_STEP ** _DELETION_RATE`` per absorbed
-        point, so that in the long run about one point in 300 at most causes a deletion.
+        ``novelty_floor``, which rises by ``_FLOOR_STEP`` whenever a newcomer arrives at capacity
+        (it displaces a BV or is itself projected) and falls back towards ``novelty_tol`` by
+        ``_FLOOR_STEP ** _DELETION_RATE`` per absorbed point, so that in the long run about one
+        point in 300 at most causes a deletion.
         Without it, a stream of points denser than ``max_basis`` can cover at ``novelty_tol``
         turns every step into an insert-then-delete (churn), and each deletion is a lossy
         projection.
