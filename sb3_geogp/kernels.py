@@ -338,6 +338,7 @@ def shepard_weights(dist: Tensor, k: int) -> tuple[Tensor, Tensor]:
     else:
         raw = d_near.reciprocal().square()
     raw[:, 1:] *= d[:, :1] > floor
-    # All neighbours tied at the radius give an all-zero row: weigh them equally.
-    raw = raw + (raw.sum(dim=1, keepdim=True) == 0).to(raw.dtype)
+    # A row of neighbours all tied at the radius is all zero: the tiny offset weighs them
+    # equally there and vanishes (underflows) next to any real weight.
+    raw = raw + torch.finfo(raw.dtype).tiny
     return idx[:, :k], raw / raw.sum(dim=1, keepdim=True)
