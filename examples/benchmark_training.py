@@ -17,24 +17,16 @@ from stable_baselines3 import PPO
 from stable_baselines3.common.env_util import make_vec_env
 
 from sb3_geogp import GPActorCriticPolicy, GPValueCallback
+from sb3_geogp.experiments.compare import algo_kwargs
 
-# rl-baselines3-zoo hyperparameters for PPO on Pendulum-v1 (n_envs=4).
-ZOO = dict(
-    n_steps=1024,
-    gae_lambda=0.95,
-    gamma=0.9,
-    n_epochs=10,
-    ent_coef=0.0,
-    learning_rate=1e-3,
-    clip_range=0.2,
-    use_sde=True,
-    sde_sample_freq=4,
-)
+# rl-baselines3-zoo's PPO hyperparameters for Pendulum-v1 (4 envs), as recorded for the
+# critic comparison.
+N_ENVS, ZOO, _ = algo_kwargs("ppo", "Pendulum-v1")
 
 
 def run(critic: str, timesteps: int, seed: int, max_basis: int) -> tuple[float, float, float]:
     """Train once; return (wall seconds, seconds in GP updates, mean return of last episodes)."""
-    env = make_vec_env("Pendulum-v1", n_envs=4, seed=seed)
+    env = make_vec_env("Pendulum-v1", n_envs=N_ENVS, seed=seed)
     callback = None
     if critic == "mlp":
         model = PPO("MlpPolicy", env, seed=seed, **ZOO)
