@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import io
 import zipfile
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -21,16 +20,6 @@ from stable_baselines3.common.utils import explained_variance
 from stable_baselines3.common.vec_env import SubprocVecEnv
 
 from sb3_geogp import GPActorCriticPolicy, GPValueCallback, RBFKernel
-
-
-@pytest.fixture(autouse=True, scope="module")
-def _one_thread() -> Iterator[None]:
-    """Tiny tensors: one intra-op thread is far faster, above all on a shared machine."""
-    threads = th.get_num_threads()
-    th.set_num_threads(1)
-    yield
-    th.set_num_threads(threads)
-
 
 ALGOS = [PPO, A2C]
 KERNELS = ["geodesic", "rbf"]

@@ -5,7 +5,6 @@ from __future__ import annotations
 import heapq
 import itertools
 import math
-from collections.abc import Iterator
 
 import numpy as np
 import pytest
@@ -189,15 +188,6 @@ def test_euclidean_laplacian_profile() -> None:
 
 
 # -- the comparison -------------------------------------------------------------------------------
-@pytest.fixture(scope="module", autouse=True)
-def one_thread() -> Iterator[None]:
-    """Small-matrix fits run ~10x slower with 2 threads on a loaded 2-core machine."""
-    threads = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(threads)
-
-
 def test_quick_comparison_gives_finite_errors() -> None:
     result = run_comparison(
         max_basis=(5, 15), seeds=(0,), walks=WalkSettings(n_episodes=15), grid_nx=40
