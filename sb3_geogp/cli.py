@@ -115,7 +115,8 @@ def train(args: argparse.Namespace) -> Path:
     seconds = time.perf_counter() - start
     model.save(out / "model.zip")
     env.close()
-    curve = plot_learning_curve(out / "monitor", out / "learning_curve.png", title=out.name)
+    title = f"{args.algo.upper()} on {args.env}, {args.critic} critic, seed {args.seed}"
+    curve = plot_learning_curve(out / "monitor", out / "learning_curve.png", title=title)
     print(f"trained {model.num_timesteps} steps in {seconds:.1f} s; saved {out / 'model.zip'}")
     if curve is not None:
         print(f"learning curve: {curve}")
