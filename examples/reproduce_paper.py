@@ -16,7 +16,7 @@ writes to ``--out``:
 
 Usage::
 
-    python examples/reproduce_paper.py --out runs/paper          # full run (~10 min, 2 cores)
+    python examples/reproduce_paper.py --out docs/reproduction  # full run (~4 min, 2 cores)
     python examples/reproduce_paper.py --quick --out runs/quick  # smoke run (< 1 min)
 """
 

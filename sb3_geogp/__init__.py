@@ -9,7 +9,7 @@ from __future__ import annotations
 from sb3_geogp import envs
 from sb3_geogp.callbacks import GPValueCallback
 from sb3_geogp.graph import BVGraph
-from sb3_geogp.kernels import GeodesicKernel, Kernel, RBFKernel
+from sb3_geogp.kernels import GeodesicKernel, Kernel, LaplacianKernel, RBFKernel
 from sb3_geogp.policies import GPActorCriticPolicy
 from sb3_geogp.sparse_gp import SparseOnlineGP
 
@@ -21,6 +21,7 @@ __all__ = [
     "GPValueCallback",
     "GeodesicKernel",
     "Kernel",
+    "LaplacianKernel",
     "RBFKernel",
     "SparseOnlineGP",
     "__version__",

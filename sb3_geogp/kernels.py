@@ -156,7 +156,17 @@ class Kernel(nn.Module):
         return self.cross(x[None], view)[0]
 
 
-class RBFKernel(Kernel):
+class EuclideanKernel(Kernel):
+    """A profile of the Euclidean distance ``r = ||(x - x') / l||`` (rows are direct)."""
+
+    def gram(self, view: BasisView) -> Tensor:
+        return self(torch.cdist(view.z, view.z))
+
+    def cross(self, x: Tensor, view: BasisView) -> Tensor:
+        return self(torch.cdist(x, view.z))
+
+
+class RBFKernel(EuclideanKernel):
     """Gaussian kernel on Euclidean distance.
 
     .. math::  k(x, x') = \\sigma_f^2 \\exp\\Big(-\\tfrac12 \\sum_j (x_j - x'_j)^2 / l_j^2\\Big)
@@ -164,7 +174,7 @@ class RBFKernel(Kernel):
     Parameters
     ----------
     lengthscale : float, sequence of float or None
-        ``l``: scalar or one per input dimension; ``None`` = median heuristic on the first batch.
+        ``l``: scalar or one per input dimension; ``None`` = chosen from the first batch.
     variance : float
         ``sigma_f^2`` (standardised target units).
     """
@@ -172,11 +182,26 @@ class RBFKernel(Kernel):
     def profile(self, r: Tensor) -> Tensor:
         return torch.exp(-0.5 * r * r)
 
-    def gram(self, view: BasisView) -> Tensor:
-        return self(torch.cdist(view.z, view.z))
 
-    def cross(self, x: Tensor, view: BasisView) -> Tensor:
-        return self(torch.cdist(x, view.z))
+class LaplacianKernel(EuclideanKernel):
+    """Laplacian (exponential) kernel on Euclidean distance.
+
+    .. math::  k(x, x') = \\sigma_f^2 \\exp\\big(-\\|(x - x') / l\\|\\big)
+
+    The geodesic kernel's default profile without the graph: the control that separates the
+    effect of the graph distance from that of the profile (docs/wall_experiment.md,
+    docs/reproduction.md).
+
+    Parameters
+    ----------
+    lengthscale : float, sequence of float or None
+        ``l``: scalar or one per input dimension; ``None`` = chosen from the first batch.
+    variance : float
+        ``sigma_f^2`` (standardised target units).
+    """
+
+    def profile(self, r: Tensor) -> Tensor:
+        return torch.exp(-r)
 
 
 class GeodesicKernel(Kernel):

@@ -13,10 +13,9 @@ import numpy as np
 import pytest
 import torch
 
-from sb3_geogp import GeodesicKernel, SparseOnlineGP
+from sb3_geogp import GeodesicKernel, LaplacianKernel, SparseOnlineGP
 from sb3_geogp.experiments.paper_pendulum import Task, policy_episodes
 from sb3_geogp.experiments.pendulum_reproduction import (
-    EuclideanLaplacianKernel,
     GPSettings,
     fit_gp,
     jump_cells,
@@ -30,7 +29,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def test_euclidean_laplacian_kernel_is_exp_minus_r() -> None:
-    k = EuclideanLaplacianKernel(lengthscale=2.0, variance=3.0)
+    k = LaplacianKernel(lengthscale=2.0, variance=3.0)
     r = torch.tensor([0.0, 1.0, 2.5], dtype=torch.float64)
     np.testing.assert_allclose(k(r).numpy(), 3.0 * np.exp(-r.numpy()))
 

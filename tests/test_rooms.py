@@ -12,9 +12,9 @@ import torch
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import dijkstra
 
+from sb3_geogp import LaplacianKernel
 from sb3_geogp.experiments.rooms import TwoRooms, goal_walks, random_states
 from sb3_geogp.experiments.wall_comparison import (
-    EuclideanLaplacianKernel,
     WalkSettings,
     markdown_table,
     paired_table,
@@ -182,7 +182,7 @@ def test_batches_partition_the_walks() -> None:
 
 
 def test_euclidean_laplacian_profile() -> None:
-    kernel = EuclideanLaplacianKernel(0.5)
+    kernel = LaplacianKernel(0.5)
     r = torch.tensor([0.0, 1.0, 2.0], dtype=torch.float64)
     torch.testing.assert_close(kernel.profile(r), torch.exp(-r))
 

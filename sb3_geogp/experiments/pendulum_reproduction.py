@@ -11,7 +11,7 @@ Models (:data:`KERNELS`, :data:`MODELS`):
 
 * ``rbf``: :class:`~sb3_geogp.RBFKernel`, Gaussian profile on Euclidean distance (the
   paper's "standard GP");
-* ``euclid_laplacian``: :class:`EuclideanLaplacianKernel`, the geodesic kernel's Laplacian
+* ``euclid_laplacian``: :class:`LaplacianKernel`, the geodesic kernel's Laplacian
   profile ``exp(-r)`` on Euclidean distance: control (1) for the profile;
 * ``euclid_lap_shepard``: the same fitted GP, predicting by the geodesic kernel's Shepard
   interpolation of the basis-vector posterior means (:func:`shepard_mean`): control (1) for
@@ -56,7 +56,6 @@ from typing import Any
 import numpy as np
 import torch
 from scipy import stats
-from torch import Tensor
 
 import sb3_geogp
 from sb3_geogp import GeodesicKernel, RBFKernel, SparseOnlineGP
@@ -69,19 +68,7 @@ from sb3_geogp.experiments.ground_truth import (
 )
 from sb3_geogp.experiments.mlp_baseline import MLPSettings, fit_mlp
 from sb3_geogp.experiments.paper_pendulum import EpisodeData, Task, policy_episodes
-from sb3_geogp.kernels import Kernel, shepard_weights
-
-
-class EuclideanLaplacianKernel(RBFKernel):
-    """Laplacian profile on Euclidean distance, ``k = sigma_f^2 exp(-r)``.
-
-    The geodesic kernel's default profile without the graph: the control that separates the
-    effect of the graph distance from that of the profile.
-    """
-
-    def profile(self, r: Tensor) -> Tensor:
-        return torch.exp(-r)
-
+from sb3_geogp.kernels import Kernel, LaplacianKernel, shepard_weights
 
 KernelFactory = Callable[[Sequence[float], float], Kernel]
 
@@ -96,7 +83,7 @@ def _geo(**options: Any) -> KernelFactory:
 #: Kernel name -> factory ``(lengthscale, variance) -> Kernel``. One fitted GP per kernel.
 KERNELS: dict[str, KernelFactory] = {
     "rbf": lambda ls, var: RBFKernel(list(ls), var),
-    "euclid_laplacian": lambda ls, var: EuclideanLaplacianKernel(list(ls), var),
+    "euclid_laplacian": lambda ls, var: LaplacianKernel(list(ls), var),
     "geodesic": _geo(),
     "geo_paper": _geo(profile="gaussian", attach="nearest", edges="nearest"),
     "geo_gaussian": _geo(profile="gaussian"),

@@ -9,7 +9,7 @@ Errors are measured against the exact value on a dense grid of the whole box and
 Models (:data:`MODELS`):
 
 * ``rbf``: :class:`~sb3_geogp.RBFKernel`, ``exp(-r^2/2)`` on Euclidean distance;
-* ``euclid_laplacian``: :class:`EuclideanLaplacianKernel`, ``exp(-r)`` on Euclidean distance,
+* ``euclid_laplacian``: :class:`LaplacianKernel`, ``exp(-r)`` on Euclidean distance,
   the control that separates the effect of the geodesic distance from that of the profile;
 * ``euclid_lap_shepard``: the same kernel in a :class:`ShepardGP`, which predicts by the
   geodesic kernel's Shepard interpolation: a control for the attachment as well;
@@ -34,18 +34,8 @@ from torch import Tensor
 
 from sb3_geogp import GeodesicKernel, RBFKernel, SparseOnlineGP
 from sb3_geogp.experiments.rooms import TwoRooms, WalkData, goal_walks
-from sb3_geogp.kernels import Kernel, shepard_weights
+from sb3_geogp.kernels import Kernel, LaplacianKernel, shepard_weights
 from sb3_geogp.sparse_gp import ArrayLike
-
-
-class EuclideanLaplacianKernel(RBFKernel):
-    """Laplacian (exponential) profile on Euclidean distance, ``k = sigma_f^2 exp(-r)``.
-
-    The geodesic kernel's default profile without the graph: a control for the profile.
-    """
-
-    def profile(self, r: Tensor) -> Tensor:
-        return torch.exp(-r)
 
 
 class ShepardGP(SparseOnlineGP):
@@ -85,8 +75,8 @@ def _geodesic(**options: Any) -> Callable[[float], Kernel]:
 #: Model name -> specification.
 MODELS: dict[str, ModelSpec] = {
     "rbf": ModelSpec(RBFKernel),
-    "euclid_laplacian": ModelSpec(EuclideanLaplacianKernel),
-    "euclid_lap_shepard": ModelSpec(EuclideanLaplacianKernel, ShepardGP),
+    "euclid_laplacian": ModelSpec(LaplacianKernel),
+    "euclid_lap_shepard": ModelSpec(LaplacianKernel, ShepardGP),
     "geo_default": ModelSpec(GeodesicKernel),
     "geo_lap_nearest": ModelSpec(_geodesic(attach="nearest")),
     "geo_gauss_interp": ModelSpec(_geodesic(profile="gaussian")),
