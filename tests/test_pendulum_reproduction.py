@@ -21,7 +21,6 @@ from sb3_geogp.experiments.pendulum_reproduction import (
     jump_cells,
     mean_ci,
     normalised_variance,
-    shepard_interpolate,
     shepard_mean,
 )
 
@@ -105,15 +104,3 @@ def test_quick_run_writes_every_promised_file(tmp_path: Path) -> None:
 def test_policy_episodes_rejects_bad_stride(bad: int) -> None:
     with pytest.raises(ValueError, match="stride"):
         policy_episodes(Task(), 1, 0, stride=bad)
-
-
-def test_shepard_interpolate_is_exact_at_basis_vectors() -> None:
-    data = policy_episodes(Task(), n_episodes=3, seed=2, stride=4)
-    gp = fit_gp("rbf", data, 12, GPSettings(episodes_per_batch=3))
-    values = np.arange(gp.n_basis, dtype=np.float64)
-    out = shepard_interpolate(gp, values, gp.basis_inputs.numpy())
-    np.testing.assert_allclose(out, values, atol=1e-9)
-    # Elsewhere: a convex combination.
-    x = Task().grid(7)[0]
-    inner = shepard_interpolate(gp, values, x)
-    assert np.all(inner >= values.min() - 1e-9) and np.all(inner <= values.max() + 1e-9)

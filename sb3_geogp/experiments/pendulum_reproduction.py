@@ -59,6 +59,7 @@ from scipy import stats
 
 import sb3_geogp
 from sb3_geogp import GeodesicKernel, RBFKernel, SparseOnlineGP
+from sb3_geogp.experiments.controls import shepard_interpolate
 from sb3_geogp.experiments.ground_truth import (
     GridValue,
     TDResult,
@@ -68,7 +69,7 @@ from sb3_geogp.experiments.ground_truth import (
 )
 from sb3_geogp.experiments.mlp_baseline import MLPSettings, fit_mlp
 from sb3_geogp.experiments.paper_pendulum import EpisodeData, Task, policy_episodes
-from sb3_geogp.kernels import Kernel, LaplacianKernel, shepard_weights
+from sb3_geogp.kernels import Kernel, LaplacianKernel
 
 KernelFactory = Callable[[Sequence[float], float], Kernel]
 
@@ -349,32 +350,8 @@ def shepard_mean(gp: SparseOnlineGP, x: np.ndarray, n_neighbors: int = 4) -> np.
     -------
     ndarray, shape (n,)
     """
-    bv_mean = gp.predict(gp.basis_inputs, return_var=False)[0].numpy()
-    return shepard_interpolate(gp, bv_mean, x, n_neighbors)
-
-
-def shepard_interpolate(
-    gp: SparseOnlineGP, values: np.ndarray, x: np.ndarray, n_neighbors: int = 4
-) -> np.ndarray:
-    """Shepard interpolation of ``values`` given at ``gp``'s basis vectors.
-
-    Parameters
-    ----------
-    gp : SparseOnlineGP
-        Supplies the basis vectors and the lengthscale (distances in lengthscale units).
-    values : ndarray, shape (n_basis,)
-    x : ndarray, shape (n, d)
-    n_neighbors : int
-
-    Returns
-    -------
-    ndarray, shape (n,)
-    """
-    bv = gp.basis_inputs
-    xt = torch.as_tensor(x, dtype=bv.dtype)
-    scale = gp.lengthscale
-    idx, w = shepard_weights(torch.cdist(xt / scale, bv / scale), n_neighbors)
-    return (w.numpy() * np.asarray(values)[idx.numpy()]).sum(axis=1)
+    bv_mean = gp.predict(gp.basis_inputs, return_var=False)[0]
+    return shepard_interpolate(gp, bv_mean, torch.as_tensor(x), n_neighbors).numpy()
 
 
 def oracle_shepard(
@@ -392,7 +369,7 @@ def oracle_shepard(
     ndarray, shape (n,)
     """
     values, _ = mc_value_at(task, gp.basis_inputs.numpy(), n_rollouts, seed)
-    return shepard_interpolate(gp, values, x)
+    return shepard_interpolate(gp, torch.as_tensor(values), torch.as_tensor(x)).numpy()
 
 
 def predict(gp: SparseOnlineGP, rule: str, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -33,8 +33,9 @@ from scipy import stats
 from torch import Tensor
 
 from sb3_geogp import GeodesicKernel, RBFKernel, SparseOnlineGP
+from sb3_geogp.experiments.controls import shepard_interpolate
 from sb3_geogp.experiments.rooms import TwoRooms, WalkData, goal_walks
-from sb3_geogp.kernels import Kernel, LaplacianKernel, shepard_weights
+from sb3_geogp.kernels import Kernel, LaplacianKernel
 from sb3_geogp.sparse_gp import ArrayLike
 
 
@@ -56,8 +57,10 @@ class ShepardGP(SparseOnlineGP):
             return super().predict(x, return_var)
         xt = self._as_inputs(x, "x")
         mean, var = super().predict(self.basis_inputs, return_var)
-        idx, w = shepard_weights(torch.cdist(xt, self.basis_inputs), self.n_neighbors)
-        return (w * mean[idx]).sum(1), None if var is None else (w * var[idx]).sum(1)
+        k = self.n_neighbors
+        return shepard_interpolate(self, mean, xt, k), (
+            None if var is None else shepard_interpolate(self, var, xt, k)
+        )
 
 
 class ModelSpec(NamedTuple):
