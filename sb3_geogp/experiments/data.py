@@ -5,30 +5,7 @@ from __future__ import annotations
 import gymnasium as gym
 import numpy as np
 
-
-def discounted_returns(rewards: np.ndarray, starts: np.ndarray, gamma: float) -> np.ndarray:
-    """Discounted return-to-go of every step, restarting at each episode start.
-
-    Parameters
-    ----------
-    rewards : ndarray, shape (n,)
-    starts : ndarray of bool, shape (n,)
-        ``True`` on the first step of each episode (index 0 is always a start).
-    gamma : float
-        Discount factor.
-
-    Returns
-    -------
-    ndarray, shape (n,)
-        ``G_t = r_t + gamma G_{t+1}`` within each episode (0 after its last step).
-    """
-    out = np.zeros(len(rewards), dtype=np.float64)
-    acc = 0.0
-    for t in range(len(rewards) - 1, -1, -1):
-        end_of_episode = t + 1 == len(rewards) or starts[t + 1]
-        acc = rewards[t] + (0.0 if end_of_episode else gamma * acc)
-        out[t] = acc
-    return out
+from sb3_geogp.targets import discounted_returns
 
 
 def swing_up_action(obs: np.ndarray, max_torque: float = 2.0) -> float:
@@ -104,5 +81,7 @@ def pendulum_rollouts(
             rewards.append(float(reward))
     env.close()
     starts_arr = np.asarray(starts, dtype=bool)
-    returns = discounted_returns(np.asarray(rewards, dtype=np.float64), starts_arr, gamma)
+    # An episode ends where the next one starts, and at the (possibly cut) last step.
+    ends = np.append(starts_arr[1:], True)
+    returns = discounted_returns(np.asarray(rewards, dtype=np.float64), ends, gamma)
     return np.asarray(obs_list, dtype=np.float64), returns, starts_arr
