@@ -32,6 +32,7 @@ from sb3_geogp.experiments.compare import (
     run_sweep,
 )
 from sb3_geogp.experiments.compare_plots import (
+    comparisons,
     estimate_sweep_seconds,
     load_results,
     summary_rows,
@@ -106,7 +107,8 @@ def test_tiny_sweep_end_to_end_and_resume(
     assert len(results) == 4
     rows = summary_rows(results)
     assert [r["critic"] for r in rows] == ["mlp", "geodesic"]
-    assert rows[1]["vs_mlp"]["verdict"] in ("better", "worse", "no difference")
+    diffs = [d for d in comparisons(results) if d["metric"] == "final_return"]
+    assert [(d["a"], d["b"]) for d in diffs] == [("geodesic", "mlp")]
     assert rows[0]["n_seeds"] == 2 and rows[0]["final_low"] <= rows[0]["final_mean"]
     estimate = estimate_sweep_seconds(results, specs, workers=2)
     assert estimate["missing"] == [] and estimate["wall_seconds"] > 0
@@ -119,7 +121,7 @@ def test_tiny_sweep_end_to_end_and_resume(
     if importlib.util.find_spec("matplotlib") is not None:
         written = write_report(out)
         names = {p.name for p in written}
-        assert {"summary.md", "summary.json", "critic_accuracy.png"} <= names
+        assert {"summary.md", "comparisons.md", "comparisons.json", "critic_accuracy.png"} <= names
         assert "curves_CartPole-v1.png" in names
         assert "| CartPole-v1" in (out / "report" / "summary.md").read_text().replace("`", "")
 

@@ -9,9 +9,13 @@ and writes to ``out/report/``:
   states, per environment and algorithm, mean and band over seeds;
 * ``summary.md`` / ``summary.json``: per environment, algorithm and critic the number of seeds,
   final return (mean [95 % CI], IQM), steps to threshold, final critic RMSE, wall clock and the
-  GP's share of it, and for the GP critics the difference of mean final return to the MLP critic
-  (and for geodesic to RBF) with its bootstrap interval and a verdict: "better" / "worse" when
-  the interval excludes 0, else "no difference".
+  GP's share of it;
+* ``comparisons.md`` / ``comparisons.json``: for each environment and algorithm the differences
+  RBF - MLP, geodesic - MLP and geodesic - RBF of the means of three metrics (:data:`METRICS`),
+  each with its 95 % bootstrap interval and a verdict ("better" / "worse" when the interval
+  excludes 0, else "no difference"), and the same verdict at the family-wise level: a
+  Bonferroni-widened interval over all comparisons of that metric, because among dozens of
+  95 % intervals a few exclude 0 by chance alone.
 """
 
 from __future__ import annotations
@@ -19,8 +23,9 @@ from __future__ import annotations
 import json
 import math
 from collections import defaultdict
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -29,6 +34,35 @@ from sb3_geogp.experiments.stats import bootstrap_ci, difference_ci, iqm
 CRITIC_ORDER = ("mlp", "rbf", "geodesic")
 COLORS = {"mlp": "tab:gray", "rbf": "tab:blue", "geodesic": "tab:red"}
 Key = tuple[str, str, str]  # (env_id, algo, critic)
+PAIRS = (("rbf", "mlp"), ("geodesic", "mlp"), ("geodesic", "rbf"))
+# Below this many seeds per critic a bootstrap interval is too coarse to support a verdict
+# (with one seed it is a single point); the issue asks for at least 5 in published results.
+MIN_SEEDS_FOR_VERDICT = 5
+
+
+class Metric(NamedTuple):
+    """A per-run number that comparisons are made on."""
+
+    label: str
+    of_run: Callable[[dict[str, Any]], float]
+    higher_is_better: bool
+
+
+METRICS: dict[str, Metric] = {
+    "final_return": Metric("final evaluation return", lambda r: r["final_return"], True),
+    # The mean over all checkpoints is the normalised area under the learning curve: it
+    # rewards reaching good returns early, i.e. sample efficiency.
+    "mean_return": Metric(
+        "evaluation return averaged over all checkpoints (area under the learning curve)",
+        lambda r: float(np.mean(r["eval"]["mean_return"])),
+        True,
+    ),
+    "critic_rmse": Metric(
+        "final critic RMSE against Monte Carlo returns (lower is better)",
+        lambda r: r["critic_accuracy"]["rmse"][-1],
+        False,
+    ),
+}
 
 
 def load_results(out_dir: str | Path) -> list[dict[str, Any]]:
@@ -94,13 +128,11 @@ def _ci(est: float, low: float, high: float) -> str:
     return f"{_fmt(est)} [{_fmt(low)}, {_fmt(high)}]"
 
 
-def verdict(low: float, high: float) -> str:
-    """``"better"`` if the interval of a difference (higher is better) is above 0, ``"worse"``
-    if below, else ``"no difference"``."""
-    if low > 0:
-        return "better"
-    if high < 0:
-        return "worse"
+def verdict(low: float, high: float, higher_is_better: bool = True) -> str:
+    """``"better"`` / ``"worse"`` if the interval of a difference ``a - b`` excludes 0 on the
+    side where ``a`` is better / worse, else ``"no difference"``."""
+    if low > 0 or high < 0:
+        return "better" if (low > 0) == higher_is_better else "worse"
     return "no difference"
 
 
@@ -120,12 +152,11 @@ def summary_rows(results: list[dict[str, Any]], seed: int = 0) -> list[dict[str,
         JSON-compatible rows (non-finite numbers as ``None``).
     """
     groups = group_runs(results)
-    finals = {k: np.array([r["final_return"] for r in v]) for k, v in groups.items()}
     rows = []
     for key in sorted(groups, key=lambda k: (k[0], k[1], CRITIC_ORDER.index(k[2]))):
         env_id, algo, critic = key
         runs = groups[key]
-        final = finals[key]
+        final = np.array([r["final_return"] for r in runs])
         est, low, high = (float(x) for x in bootstrap_ci(final, seed=seed))
         stt = np.array([np.inf if r["steps_to_threshold"] is None else r["steps_to_threshold"]
                         for r in runs])  # fmt: skip
@@ -151,14 +182,101 @@ def summary_rows(results: list[dict[str, Any]], seed: int = 0) -> list[dict[str,
             train_seconds_mean=float(np.mean([r["train_seconds"] for r in runs])),
             critic_share_mean=float(np.mean(shares)) if shares else None,
         )
-        for ref in ("mlp", "rbf"):
-            ref_key = (env_id, algo, ref)
-            if critic == ref or ref_key not in finals or (ref == "rbf" and critic != "geodesic"):
-                continue
-            d, d_low, d_high = (float(x) for x in difference_ci(final, finals[ref_key], seed=seed))
-            row[f"vs_{ref}"] = dict(diff=d, low=d_low, high=d_high, verdict=verdict(d_low, d_high))
         rows.append(row)
     return [_json_safe(r) for r in rows]
+
+
+def comparisons(
+    results: list[dict[str, Any]], seed: int = 0, level: float = 0.95
+) -> list[dict[str, Any]]:
+    """Differences of means between critics, per environment, algorithm and metric.
+
+    For every metric of :data:`METRICS` and every pair ``(a, b)`` of :data:`PAIRS` present in
+    an ``(env, algo)`` cell: ``mean(a) - mean(b)`` over seeds with its percentile-bootstrap
+    interval at ``level`` and at the family-wise level ``1 - (1 - level) / m`` (Bonferroni),
+    ``m`` being the number of comparisons made on that metric. With fewer than
+    :data:`MIN_SEEDS_FOR_VERDICT` seeds on either side the verdicts are ``"too few seeds"``.
+
+    Parameters
+    ----------
+    results : list of dict
+        Result files' contents.
+    seed : int
+        Seed of every bootstrap.
+    level : float
+        Per-comparison confidence level.
+
+    Returns
+    -------
+    list of dict
+        Keys ``env, algo, metric, a, b, n_a, n_b, diff, low, high, verdict, fw_level,
+        fw_low, fw_high, fw_verdict``.
+    """
+    groups = group_runs(results)
+    cells = sorted({(k[0], k[1]) for k in groups})
+    pairs = [(e, al, a, b) for e, al in cells for a, b in PAIRS
+             if (e, al, a) in groups and (e, al, b) in groups]  # fmt: skip
+    fw_level = 1 - (1 - level) / max(len(pairs), 1)
+    out = []
+    for name, metric in METRICS.items():
+        for env_id, algo, a, b in pairs:
+            xa = np.array([metric.of_run(r) for r in groups[(env_id, algo, a)]], dtype=float)
+            xb = np.array([metric.of_run(r) for r in groups[(env_id, algo, b)]], dtype=float)
+            d, low, high = (float(x) for x in difference_ci(xa, xb, level=level, seed=seed))
+            _, fw_low, fw_high = (
+                float(x) for x in difference_ci(xa, xb, level=fw_level, seed=seed)
+            )
+            better = metric.higher_is_better
+            enough = min(len(xa), len(xb)) >= MIN_SEEDS_FOR_VERDICT
+            out.append(
+                dict(env=env_id, algo=algo, metric=name, a=a, b=b, n_a=len(xa), n_b=len(xb),
+                     diff=d, low=low, high=high,
+                     verdict=verdict(low, high, better) if enough else "too few seeds",
+                     fw_level=fw_level, fw_low=fw_low, fw_high=fw_high,
+                     fw_verdict=verdict(fw_low, fw_high, better) if enough else "too few seeds")
+            )  # fmt: skip
+    return out
+
+
+def comparisons_markdown(rows: list[dict[str, Any]]) -> str:
+    """One table per metric: a row per ``(env, algo)``, a column per critic pair.
+
+    A verdict in bold also holds at the family-wise level.
+    """
+    lines: list[str] = []
+    for name, metric in METRICS.items():
+        mine = [r for r in rows if r["metric"] == name]
+        if not mine:
+            continue
+        fw = mine[0]["fw_level"]
+        lines += [
+            f"### {metric.label}",
+            "",
+            f"Difference of means [95 % bootstrap CI] and verdict; **bold**: the verdict also "
+            f"holds at the family-wise level (Bonferroni over {len(mine)} comparisons, "
+            f"{100 * fw:.3g} % intervals).",
+            "",
+            "| env | algo | " + " | ".join(f"{a} − {b}" for a, b in PAIRS) + " |",
+            "|" + "---|" * (2 + len(PAIRS)),
+        ]
+        for env_id, algo in sorted({(r["env"], r["algo"]) for r in mine}):
+            cells = {(r["a"], r["b"]): r for r in mine if (r["env"], r["algo"]) == (env_id, algo)}
+            lines.append(
+                f"| `{env_id}` | {algo} | "
+                + " | ".join(_comparison_cell(cells.get(p)) for p in PAIRS)
+                + " |"
+            )
+        lines.append("")
+    return "\n".join(lines)
+
+
+def _comparison_cell(r: dict[str, Any] | None) -> str:
+    if r is None:
+        return ""
+    word = r["verdict"]
+    if word in ("better", "worse") and r["fw_verdict"] == word:
+        word = f"**{word}**"
+    return f"{_ci(r['diff'], r['low'], r['high'])} {word}"
 
 
 def _json_safe(x: Any) -> Any:
@@ -177,10 +295,9 @@ def summary_markdown(rows: list[dict[str, Any]]) -> str:
     """The summary rows as a markdown table (one table, environments in blocks)."""
     header = (
         "| env | algo | critic | seeds | steps | final return mean [95% CI] | IQM | "
-        "steps to threshold (median, reached) | critic RMSE [95% CI] | train s | GP share | "
-        "vs MLP: diff [95% CI] | geodesic vs RBF |"
+        "steps to threshold (median, reached) | critic RMSE [95% CI] | train s | GP share |"
     )
-    lines = [header, "|" + "---|" * 13]
+    lines = [header, "|" + "---|" * 11]
     for r in rows:
         stt = _num(r["steps_to_threshold_median"])
         share = r["critic_share_mean"]
@@ -197,11 +314,6 @@ def summary_markdown(rows: list[dict[str, Any]]) -> str:
             _fmt(r["train_seconds_mean"]),
             "—" if share is None else f"{100 * share:.0f} %",
         ]
-        for ref in ("mlp", "rbf"):
-            v = r.get(f"vs_{ref}")
-            cells.append(
-                "" if v is None else f"{_ci(v['diff'], v['low'], v['high'])} {v['verdict']}"
-            )
         lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
 
@@ -304,7 +416,12 @@ def write_report(out_dir: str | Path, seed: int = 0) -> list[Path]:
     md.write_text(summary_markdown(rows))
     js = report / "summary.json"
     js.write_text(json.dumps(rows, indent=1))
-    paths = [md, js]
+    diffs = comparisons(results, seed=seed)
+    cmd = report / "comparisons.md"
+    cmd.write_text(comparisons_markdown(diffs))
+    cjs = report / "comparisons.json"
+    cjs.write_text(json.dumps(diffs, indent=1))
+    paths = [md, js, cmd, cjs]
     paths += plot_learning_curves(results, report, seed=seed)
     paths.append(plot_critic_accuracy(results, report / "critic_accuracy.png", seed=seed))
     return paths
