@@ -16,6 +16,7 @@ import pytest
 
 from sb3_geogp.experiments.compare import (
     ENVS,
+    GP_KWARGS,
     TIMESTEPS,
     ZOO_HYPERPARAMS,
     ProbeStates,
@@ -175,6 +176,26 @@ def test_cli_arguments() -> None:
     config = config_from_args(args)
     assert config.envs == ("CartPole-v1",) and config.seeds == (0, 1, 2, 3, 4)
     assert len(config.specs()) == 5
+
+
+def test_gp_options_reach_every_gp_run_and_bad_ones_fail_early() -> None:
+    parser = add_arguments(argparse.ArgumentParser())
+    args = parser.parse_args(["--algos", "a2c", "--gp-option", "forgetting=0.9"])
+    specs = config_from_args(args).specs()
+    for spec in specs:
+        assert dict(spec.gp_kwargs) == {**GP_KWARGS, "forgetting": 0.9}
+    default = SweepConfig(algos=("a2c",)).specs()
+    assert [s.run_id for s in specs] == [s.run_id for s in default]
+    assert all(dict(s.gp_kwargs) == GP_KWARGS for s in default)
+    for bad, message in (
+        ("forgetting=1.5", "forgetting"),  # rejected by SparseOnlineGP
+        ("no_such_option=1", "no_such_option"),
+        ("kernel=rbf", "--critics"),
+    ):
+        with pytest.raises(SystemExit, match=message):
+            config_from_args(parser.parse_args(["--gp-option", bad]))
+    with pytest.raises(SystemExit):  # argparse: not KEY=VALUE
+        parser.parse_args(["--gp-option", "forgetting"])
 
 
 class _Ref:
