@@ -120,9 +120,11 @@ def test_tiny_sweep_end_to_end_and_resume(
     printed = capsys.readouterr().out
     assert "CPU hours" in printed and "ppo/mlp" in printed  # only a2c was calibrated
     if importlib.util.find_spec("matplotlib") is not None:
-        written = write_report(out)
+        written = write_report(out, baseline_dir=out)  # against itself: every difference 0
         names = {p.name for p in written}
         assert {"summary.md", "comparisons.md", "comparisons.json", "critic_accuracy.png"} <= names
+        vs = json.loads((out / "report" / "vs_baseline.json").read_text())
+        assert vs and all(d["diff"] == 0 and d["a"] == d["b"] for d in vs)
         assert "curves_CartPole-v1.png" in names
         assert "| CartPole-v1" in (out / "report" / "summary.md").read_text().replace("`", "")
 

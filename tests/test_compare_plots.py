@@ -102,3 +102,21 @@ def test_summary_rows_hand_computed() -> None:
     assert geo["final_mean"] == pytest.approx(102.5) and geo["n_seeds"] == 6
     assert geo["final_iqm"] == pytest.approx(np.mean([101, 102, 103, 104]))
     assert geo["critic_rmse_mean"] == pytest.approx(7.5)
+
+
+def test_comparison_against_a_baseline_sweep() -> None:
+    base = _results()
+    # The same sweep with every GP critic's final return raised by 50 and the MLP unchanged.
+    arm = [
+        {**r, "final_return": r["final_return"] + (0.0 if r["spec"]["critic"] == "mlp" else 50.0)}
+        for r in base
+    ]
+    diffs = comparisons(arm, baseline=base)
+    final = {d["a"]: d for d in diffs if d["metric"] == "final_return"}
+    assert set(final) == {"mlp", "rbf", "geodesic"}
+    assert all(d["b"] == d["a"] and d["b_sweep"] == "baseline" for d in diffs)
+    assert final["mlp"]["diff"] == 0.0 and final["mlp"]["verdict"] == "no difference"
+    assert final["rbf"]["diff"] == pytest.approx(50.0) and final["rbf"]["verdict"] == "better"
+    assert final["geodesic"]["fw_level"] == pytest.approx(1 - 0.05 / 3)
+    table = comparisons_markdown(diffs)
+    assert "geodesic − baseline geodesic" in table and "rbf − mlp" not in table

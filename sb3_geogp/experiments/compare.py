@@ -1079,6 +1079,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
         type=_gp_option,
         help="option of both GP critics, e.g. forgetting=0.9 (repeatable)",
     )
+    parser.add_argument(
+        "--baseline",
+        type=Path,
+        default=None,
+        metavar="DIR",
+        help="also compare each critic with the same critic of the sweep in DIR",
+    )
     parser.add_argument("--no-plots", action="store_true", help="skip figures and the table")
     parser.add_argument(
         "--estimate-from",
@@ -1170,6 +1177,6 @@ def run_from_args(args: argparse.Namespace) -> int:
     if not args.no_plots:
         from sb3_geogp.experiments.compare_plots import write_report
 
-        for path in write_report(args.out):
+        for path in write_report(args.out, baseline_dir=args.baseline):
             print(f"wrote {path}")
     return 0

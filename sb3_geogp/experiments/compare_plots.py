@@ -187,7 +187,10 @@ def summary_rows(results: list[dict[str, Any]], seed: int = 0) -> list[dict[str,
 
 
 def comparisons(
-    results: list[dict[str, Any]], seed: int = 0, level: float = 0.95
+    results: list[dict[str, Any]],
+    seed: int = 0,
+    level: float = 0.95,
+    baseline: list[dict[str, Any]] | None = None,
 ) -> list[dict[str, Any]]:
     """Differences of means between critics, per environment, algorithm and metric.
 
@@ -205,23 +208,28 @@ def comparisons(
         Seed of every bootstrap.
     level : float
         Per-comparison confidence level.
+    baseline : list of dict, optional
+        Results of another sweep (e.g. the same critics with default GP options). Then each
+        critic of ``results`` is compared with the same critic of ``baseline`` (``a - b`` with
+        ``a == b`` and ``b_sweep == "baseline"``) instead of with the other critics.
 
     Returns
     -------
     list of dict
-        Keys ``env, algo, metric, a, b, n_a, n_b, diff, low, high, verdict, fw_level,
-        fw_low, fw_high, fw_verdict``.
+        Keys ``env, algo, metric, a, b, b_sweep, n_a, n_b, diff, low, high, verdict,
+        fw_level, fw_low, fw_high, fw_verdict``.
     """
     groups = group_runs(results)
-    cells = sorted({(k[0], k[1]) for k in groups})
-    pairs = [(e, al, a, b) for e, al in cells for a, b in PAIRS
-             if (e, al, a) in groups and (e, al, b) in groups]  # fmt: skip
+    ref = groups if baseline is None else group_runs(baseline)
+    pairs = [(e, al, a, b) for e, al in sorted({(k[0], k[1]) for k in groups})
+             for a, b in _pairs(baseline is not None)
+             if (e, al, a) in groups and (e, al, b) in ref]  # fmt: skip
     fw_level = 1 - (1 - level) / max(len(pairs), 1)
     out = []
     for name, metric in METRICS.items():
         for env_id, algo, a, b in pairs:
             xa = np.array([metric.of_run(r) for r in groups[(env_id, algo, a)]], dtype=float)
-            xb = np.array([metric.of_run(r) for r in groups[(env_id, algo, b)]], dtype=float)
+            xb = np.array([metric.of_run(r) for r in ref[(env_id, algo, b)]], dtype=float)
             d, low, high = (float(x) for x in difference_ci(xa, xb, level=level, seed=seed))
             _, fw_low, fw_high = (
                 float(x) for x in difference_ci(xa, xb, level=fw_level, seed=seed)
@@ -229,8 +237,9 @@ def comparisons(
             better = metric.higher_is_better
             enough = min(len(xa), len(xb)) >= MIN_SEEDS_FOR_VERDICT
             out.append(
-                dict(env=env_id, algo=algo, metric=name, a=a, b=b, n_a=len(xa), n_b=len(xb),
-                     diff=d, low=low, high=high,
+                dict(env=env_id, algo=algo, metric=name, a=a, b=b,
+                     b_sweep="same" if baseline is None else "baseline",
+                     n_a=len(xa), n_b=len(xb), diff=d, low=low, high=high,
                      verdict=verdict(low, high, better) if enough else "too few seeds",
                      fw_level=fw_level, fw_low=fw_low, fw_high=fw_high,
                      fw_verdict=verdict(fw_low, fw_high, better) if enough else "too few seeds")
@@ -238,17 +247,24 @@ def comparisons(
     return out
 
 
+def _pairs(against_baseline: bool) -> tuple[tuple[str, str], ...]:
+    return tuple((c, c) for c in CRITIC_ORDER) if against_baseline else PAIRS
+
+
 def comparisons_markdown(rows: list[dict[str, Any]]) -> str:
     """One table per metric: a row per ``(env, algo)``, a column per critic pair.
 
     A verdict in bold also holds at the family-wise level.
     """
+    against_baseline = bool(rows) and rows[0]["b_sweep"] == "baseline"
+    columns = [p for p in _pairs(against_baseline) if any((r["a"], r["b"]) == p for r in rows)]
     lines: list[str] = []
     for name, metric in METRICS.items():
         mine = [r for r in rows if r["metric"] == name]
         if not mine:
             continue
         fw = mine[0]["fw_level"]
+        labels = [f"{a} − baseline {b}" if against_baseline else f"{a} − {b}" for a, b in columns]
         lines += [
             f"### {metric.label}",
             "",
@@ -256,14 +272,14 @@ def comparisons_markdown(rows: list[dict[str, Any]]) -> str:
             f"holds at the family-wise level (Bonferroni over {len(mine)} comparisons, "
             f"{100 * fw:.3g} % intervals).",
             "",
-            "| env | algo | " + " | ".join(f"{a} − {b}" for a, b in PAIRS) + " |",
-            "|" + "---|" * (2 + len(PAIRS)),
+            "| env | algo | " + " | ".join(labels) + " |",
+            "|" + "---|" * (2 + len(columns)),
         ]
         for env_id, algo in sorted({(r["env"], r["algo"]) for r in mine}):
             cells = {(r["a"], r["b"]): r for r in mine if (r["env"], r["algo"]) == (env_id, algo)}
             lines.append(
                 f"| `{env_id}` | {algo} | "
-                + " | ".join(_comparison_cell(cells.get(p)) for p in PAIRS)
+                + " | ".join(_comparison_cell(cells.get(p)) for p in columns)
                 + " |"
             )
         lines.append("")
@@ -398,8 +414,13 @@ def plot_critic_accuracy(results: list[dict[str, Any]], path: str | Path, seed: 
     return Path(path)
 
 
-def write_report(out_dir: str | Path, seed: int = 0) -> list[Path]:
+def write_report(
+    out_dir: str | Path, seed: int = 0, baseline_dir: str | Path | None = None
+) -> list[Path]:
     """Figures and summary of the sweep in ``out_dir`` into ``out_dir/report``.
+
+    With ``baseline_dir`` (another sweep's folder) also ``vs_baseline.md`` / ``.json``: each
+    critic against the same critic there (:func:`comparisons` with ``baseline``).
 
     Returns
     -------
@@ -422,6 +443,11 @@ def write_report(out_dir: str | Path, seed: int = 0) -> list[Path]:
     cjs = report / "comparisons.json"
     cjs.write_text(json.dumps(diffs, indent=1))
     paths = [md, js, cmd, cjs]
+    if baseline_dir is not None:
+        vs = comparisons(results, seed=seed, baseline=load_results(baseline_dir))
+        paths += [report / "vs_baseline.md", report / "vs_baseline.json"]
+        paths[-2].write_text(f"Baseline: `{baseline_dir}`\n\n" + comparisons_markdown(vs))
+        paths[-1].write_text(json.dumps(vs, indent=1))
     paths += plot_learning_curves(results, report, seed=seed)
     paths.append(plot_critic_accuracy(results, report / "critic_accuracy.png", seed=seed))
     return paths
