@@ -388,3 +388,18 @@ def test_vec_normalize_warns_about_drifting_statistics() -> None:
     with warnings.catch_warnings():
         warnings.simplefilter("error", UserWarning)
         model.learn(64, callback=GPValueCallback(), reset_num_timesteps=False)
+
+
+def test_a2c_without_forgetting_warns() -> None:
+    def learn(algo: type[BaseAlgorithm], **gp_kwargs: Any) -> None:
+        extra = dict(batch_size=8) if algo is PPO else {}
+        model = algo(GPActorCriticPolicy, "Pendulum-v1", n_steps=8, seed=0, **extra,
+                     policy_kwargs=dict(gp_kwargs=dict(kernel="rbf", **gp_kwargs)))  # fmt: skip
+        model.learn(8, callback=GPValueCallback())
+
+    with pytest.warns(UserWarning, match="forgetting=0.9"):
+        learn(A2C)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", UserWarning)
+        learn(A2C, forgetting=0.9)
+        learn(PPO)  # long rollouts: no warning

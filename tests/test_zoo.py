@@ -44,5 +44,9 @@ def test_zoo_train_with_gp_critic(algo: str, n_timesteps: int, tmp_path: Path) -
     model = {"ppo": PPO, "a2c": A2C}[algo].load(saved[0], device="cpu")
     policy = model.policy
     assert isinstance(policy, GPActorCriticPolicy)
-    assert policy.gp_kwargs == {"kernel": "geodesic", "max_basis": 256}
+    expected = {"kernel": "geodesic", "max_basis": 256}
+    if algo == "a2c":
+        expected["forgetting"] = 0.9
+    assert policy.gp_kwargs == expected
+    assert "forgetting=1.0" not in proc.stderr  # the config follows the A2C recommendation
     assert policy.gp.n_basis > 0  # GPValueCallback fed the critic
