@@ -36,6 +36,8 @@ def test_train_writes_model_logs_and_curve(algo: str, critic: str, tmp_path: Pat
     assert isinstance(model.policy, GPActorCriticPolicy) == (critic != "mlp")
     if algo == "ppo" and critic != "mlp":  # A2C logs every 100 rollouts only
         assert "gp/n_basis" in (out / "progress.csv").read_text().splitlines()[0]
+    if critic != "mlp":  # default forgetting: 0.9 with A2C (docs/results.md), 1.0 with PPO
+        assert model.policy.gp.forgetting == (0.9 if algo == "a2c" else 1.0)
 
 
 def test_parser_rejects_unknown_critic() -> None:
