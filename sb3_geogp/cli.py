@@ -195,11 +195,11 @@ def _progress_bar_available() -> bool:
     return all(importlib.util.find_spec(name) is not None for name in ("tqdm", "rich"))
 
 
-if __name__ == "__main__":  # pragma: no cover
-    sys.exit(main())
-
-
 def _forgetting(args: argparse.Namespace) -> float:
     if args.forgetting is not None:
         return float(args.forgetting)
     return 0.9 if args.algo == "a2c" else 1.0  # measured: docs/results.md, A2C control
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

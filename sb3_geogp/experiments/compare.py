@@ -70,7 +70,7 @@ from sb3_geogp.envs.wall_maze import (
     register_wall_maze,
 )
 from sb3_geogp.experiments.stats import steps_to_threshold
-from sb3_geogp.policies import GPActorCriticPolicy
+from sb3_geogp.policies import GPActorCriticPolicy, _check_gp_kwargs
 from sb3_geogp.sparse_gp import SparseOnlineGP, make_kernel
 
 #: Version of the result-file layout.
@@ -1105,7 +1105,7 @@ def _gp_option(text: str) -> tuple[str, Any]:
     try:
         return key, ast.literal_eval(value)
     except (ValueError, SyntaxError):
-        return key, value  # a bare word, e.g. kernel profile names
+        return key, value  # a bare word, e.g. dtype=float32
 
 
 def _check_gp_options(options: list[tuple[str, Any]]) -> tuple[tuple[str, Any], ...]:
@@ -1116,8 +1116,9 @@ def _check_gp_options(options: list[tuple[str, Any]]) -> tuple[tuple[str, Any], 
         raise SystemExit(
             "--gp-option kernel=...: the kernel is the critic, choose it with --critics"
         )
-    kernel_kwargs = dict(merged.pop("kernel_kwargs", None) or {})
     try:
+        merged = _check_gp_kwargs(merged)  # the policy's own checks (e.g. dtype names)
+        kernel_kwargs = dict(merged.pop("kernel_kwargs", None) or {})
         for kernel in ("rbf", "geodesic"):
             SparseOnlineGP(input_dim=1, kernel=make_kernel(kernel, **kernel_kwargs), **merged)
     except (TypeError, ValueError) as e:
