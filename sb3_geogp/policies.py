@@ -124,16 +124,13 @@ class GPActorCriticPolicy(ActorCriticPolicy):
                 f"({type(self.vf_features_extractor).__name__}) has trainable parameters; use "
                 "the default FlattenExtractor or freeze the extractor"
             )
-        options = dict(self._gp_options)
-        kernel = options.pop("kernel", "geodesic")
-        kernel_kwargs = dict(options.pop("kernel_kwargs", None) or {})
-        if isinstance(kernel, str) and isinstance(self.vf_features_extractor, FlattenExtractor):
-            kernel_kwargs.setdefault("lengthscale", observation_lengthscale(self.observation_space))
-        gp = SparseOnlineGP(
-            input_dim=self.mlp_extractor.latent_dim_vf,
-            kernel=make_kernel(kernel, **kernel_kwargs),
-            **options,
-        ).to(self.device)
+        lengthscale = (
+            observation_lengthscale(self.observation_space)
+            if isinstance(self.vf_features_extractor, FlattenExtractor)
+            else None
+        )
+        gp = _build_gp(self._gp_options, self.mlp_extractor.latent_dim_vf, lengthscale)
+        gp = gp.to(self.device)
         self.value_net = GPValueHead(gp)  # type: ignore[assignment]
         self.optimizer = self.optimizer_class(  # type: ignore[call-arg]
             self.parameters(), lr=lr_schedule(1), **self.optimizer_kwargs
@@ -317,6 +314,24 @@ def _check_gp_kwargs(gp_kwargs: dict[str, Any] | None) -> dict[str, Any]:
             raise ValueError(f"gp_kwargs dtype {options['dtype']!r} is not a torch dtype")
         options["dtype"] = dtype
     return options
+
+
+def _build_gp(
+    options: dict[str, Any], input_dim: int, lengthscale: list[float] | None = None
+) -> SparseOnlineGP:
+    """The GP critic described by checked ``gp_kwargs`` (see :func:`_check_gp_kwargs`).
+
+    ``lengthscale`` is the default of a named kernel's ``kernel_kwargs``; ``None`` leaves the
+    kernel's own default (chosen from the first batch).
+    """
+    options = dict(options)
+    kernel = options.pop("kernel", "geodesic")
+    kernel_kwargs = dict(options.pop("kernel_kwargs", None) or {})
+    if isinstance(kernel, str) and lengthscale is not None:
+        kernel_kwargs.setdefault("lengthscale", lengthscale)
+    return SparseOnlineGP(
+        input_dim=input_dim, kernel=make_kernel(kernel, **kernel_kwargs), **options
+    )
 
 
 def _gp_net_arch(net_arch: list[int] | dict[str, list[int]] | None) -> dict[str, list[int]]:
