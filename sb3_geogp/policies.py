@@ -104,7 +104,7 @@ class GPActorCriticPolicy(ActorCriticPolicy):
     ) -> None:
         _check_spaces(observation_space, action_space)
         # Needed by _build(), which ActorCriticPolicy.__init__ calls.
-        self._gp_options = _check_gp_kwargs(gp_kwargs)
+        self._gp_options = check_gp_kwargs(gp_kwargs)
         super().__init__(
             observation_space, action_space, lr_schedule, net_arch=_gp_net_arch(net_arch), **kwargs
         )
@@ -129,7 +129,7 @@ class GPActorCriticPolicy(ActorCriticPolicy):
             if isinstance(self.vf_features_extractor, FlattenExtractor)
             else None
         )
-        gp = _build_gp(self._gp_options, self.mlp_extractor.latent_dim_vf, lengthscale)
+        gp = build_gp_critic(self._gp_options, self.mlp_extractor.latent_dim_vf, lengthscale)
         gp = gp.to(self.device)
         self.value_net = GPValueHead(gp)  # type: ignore[assignment]
         self.optimizer = self.optimizer_class(  # type: ignore[call-arg]
@@ -303,7 +303,7 @@ def _check_spaces(observation_space: spaces.Space, action_space: spaces.Space) -
         raise ValueError(f"{_SUPPORTED}; got action space {action_space}")
 
 
-def _check_gp_kwargs(gp_kwargs: dict[str, Any] | None) -> dict[str, Any]:
+def check_gp_kwargs(gp_kwargs: dict[str, Any] | None) -> dict[str, Any]:
     options = dict(gp_kwargs or {})
     reserved = [k for k in _RESERVED if k in options]
     if reserved:
@@ -316,10 +316,10 @@ def _check_gp_kwargs(gp_kwargs: dict[str, Any] | None) -> dict[str, Any]:
     return options
 
 
-def _build_gp(
+def build_gp_critic(
     options: dict[str, Any], input_dim: int, lengthscale: list[float] | None = None
 ) -> SparseOnlineGP:
-    """The GP critic described by checked ``gp_kwargs`` (see :func:`_check_gp_kwargs`).
+    """The GP critic described by checked ``gp_kwargs`` (see :func:`check_gp_kwargs`).
 
     ``lengthscale`` is the default of a named kernel's ``kernel_kwargs``; ``None`` leaves the
     kernel's own default (chosen from the first batch).

@@ -70,7 +70,7 @@ from sb3_geogp.envs.wall_maze import (
     register_wall_maze,
 )
 from sb3_geogp.experiments.stats import steps_to_threshold
-from sb3_geogp.policies import GPActorCriticPolicy, _build_gp, _check_gp_kwargs
+from sb3_geogp.policies import GPActorCriticPolicy, build_gp_critic, check_gp_kwargs
 
 #: Version of the result-file layout.
 SCHEMA = 1
@@ -1116,9 +1116,9 @@ def _check_gp_options(options: list[tuple[str, Any]]) -> tuple[tuple[str, Any], 
             "--gp-option kernel=...: the kernel is the critic, choose it with --critics"
         )
     try:
-        checked = _check_gp_kwargs(merged)  # the policy's own checks and construction
+        checked = check_gp_kwargs(merged)  # the policy's own checks and construction
         for kernel in ("rbf", "geodesic"):
-            _build_gp({**checked, "kernel": kernel}, input_dim=1)
+            build_gp_critic({**checked, "kernel": kernel}, input_dim=1)
     except (TypeError, ValueError) as e:
         raise SystemExit(f"--gp-option: the GP critic rejects {dict(options)}: {e}") from e
     return tuple(options)
