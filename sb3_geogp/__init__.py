@@ -1,19 +1,47 @@
 """sb3_geogp: geodesic-kernel sparse on-line Gaussian-process critics for Stable-Baselines3.
 
-Importing the package also registers its gymnasium environments (``sb3_geogp/PaperPendulum-v0``,
-``sb3_geogp/WallMaze-v0``, ``sb3_geogp/WallMazeDiscrete-v0``).
+``import sb3_geogp`` loads the GP engine only (torch, numpy): :class:`SparseOnlineGP`, the
+kernels and the BV graph. The SB3 adapter (:class:`GPActorCriticPolicy`,
+:class:`GPValueCallback`) and the environments (:mod:`sb3_geogp.envs`, whose import registers
+``sb3_geogp/PaperPendulum-v0``, ``sb3_geogp/WallMaze-v0`` and ``sb3_geogp/WallMazeDiscrete-v0``
+with gymnasium) load on first use, so the engine works where stable-baselines3 and gymnasium
+are not installed.
 """
 
 from __future__ import annotations
 
-from sb3_geogp import envs
-from sb3_geogp.callbacks import GPValueCallback
+import importlib
+from typing import TYPE_CHECKING, Any
+
 from sb3_geogp.graph import BVGraph
 from sb3_geogp.kernels import GeodesicKernel, Kernel, LaplacianKernel, RBFKernel
-from sb3_geogp.policies import GPActorCriticPolicy
 from sb3_geogp.sparse_gp import SparseOnlineGP
 
+if TYPE_CHECKING:
+    from sb3_geogp import envs
+    from sb3_geogp.callbacks import GPValueCallback
+    from sb3_geogp.policies import GPActorCriticPolicy
+
 __version__ = "0.1.0"
+
+#: Names loaded on first access (PEP 562): they import stable-baselines3 or gymnasium.
+_LAZY = {
+    "GPActorCriticPolicy": "sb3_geogp.policies",
+    "GPValueCallback": "sb3_geogp.callbacks",
+    "envs": "sb3_geogp.envs",
+}
+
+
+def __getattr__(name: str) -> Any:
+    if name not in _LAZY:
+        raise AttributeError(f"module 'sb3_geogp' has no attribute {name!r}")
+    module = importlib.import_module(_LAZY[name])
+    return module if name == "envs" else getattr(module, name)
+
+
+def __dir__() -> list[str]:
+    return sorted(__all__)
+
 
 __all__ = [
     "BVGraph",

@@ -12,7 +12,6 @@ per-environment trajectories, takes targets from :mod:`sb3_geogp.targets` and lo
 
 from __future__ import annotations
 
-import time
 import warnings
 from typing import Literal, cast
 
@@ -22,15 +21,11 @@ from stable_baselines3 import A2C
 from stable_baselines3.common.buffers import RolloutBuffer
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
-from stable_baselines3.common.utils import explained_variance
 
 from sb3_geogp.policies import GPActorCriticPolicy
 from sb3_geogp.targets import discounted_returns, split_completed
 
 Target = Literal["returns", "monte_carlo"]
-
-#: At most this many (evenly spaced) rollout points are used for ``gp/mean_std``.
-_STD_SAMPLE = 1024
 
 
 class GPValueCallback(BaseCallback):
@@ -153,23 +148,14 @@ class GPValueCallback(BaseCallback):
             )
         else:
             obs, targets, starts = self._completed_episodes(buffer, dones)
-        self._log_prediction(policy, obs, targets)
         if self.recompute_advantages:
             old_bootstrap = self._bootstrap_values(policy)
-        start = time.perf_counter()
-        policy.update_critic(obs, targets, starts)
-        elapsed = time.perf_counter() - start
-        self.update_seconds += elapsed
-        update_ms = 1e3 * elapsed
+        stats = policy.update_critic(obs, targets, starts)
+        self.update_seconds += 1e-3 * stats["update_ms"]
         if self.recompute_advantages:
             self._recompute(policy, buffer, dones, old_bootstrap)
-        gp = policy.gp
-        self.logger.record("gp/n_basis", gp.n_basis)
-        self.logger.record("gp/n_fed", len(targets))
-        self.logger.record("gp/update_ms", update_ms)
-        self.logger.record("gp/forgetting", gp.forgetting)
-        if gp.graph is not None:
-            self.logger.record("gp/n_components", gp.graph.n_components)
+        for key, value in stats.items():
+            self.logger.record(f"gp/{key}", value)
 
     # ------------------------------------------------------------------------------------------
     # Helpers
@@ -210,23 +196,6 @@ class GPValueCallback(BaseCallback):
             )
         obs_all, y_all, s_all = zip(*parts, strict=True)
         return np.concatenate(obs_all), np.concatenate(y_all), np.concatenate(s_all)
-
-    def _log_prediction(
-        self, policy: GPActorCriticPolicy, obs: np.ndarray, targets: np.ndarray
-    ) -> None:
-        """Log the GP's out-of-sample fit of the targets it is about to absorb."""
-        if len(targets) == 0:
-            return
-        features = policy.critic_features(obs)
-        mean, _ = policy.gp.predict(features, return_var=False)
-        pred = mean.cpu().numpy()
-        y = np.asarray(targets, dtype=np.float64)
-        self.logger.record("gp/mse", float(np.mean((pred - y) ** 2)))
-        self.logger.record("gp/explained_variance", float(explained_variance(pred, y)))
-        idx = np.unique(np.linspace(0, len(y) - 1, min(len(y), _STD_SAMPLE)).astype(np.int64))
-        _, var = policy.gp.predict(features[idx], return_var=True)
-        assert var is not None
-        self.logger.record("gp/mean_std", float(var.sqrt().mean()))
 
     def _bootstrap_values(self, policy: GPActorCriticPolicy) -> np.ndarray:
         """Critic values of this rollout's truncated terminal observations, shape (k,)."""

@@ -16,8 +16,10 @@ Deleting a basis vector keeps every remaining distance exact without re-running 
 Routing nodes therefore always have degree >= 3, so a tree with ``m`` basis vectors has fewer
 than ``m`` routing nodes: ``2 m`` node slots always suffice.
 
-The graph knows nothing of kernels or GPs; :class:`~sb3_geogp.SparseOnlineGP` tells it of
-every insertion and deletion and reads its table.
+The graph knows nothing of kernels or GPs. It keeps its basis vectors in insertion order
+(:attr:`BVGraph.basis_nodes`), the order in which a sparse GP stores them, so that the
+:class:`~sb3_geogp.GeodesicKernel` that owns it reads the kernel's distance table from it
+directly.
 """
 
 from __future__ import annotations
@@ -55,6 +57,9 @@ class BVGraph(nn.Module):
         Slot in use.
     is_bv : Tensor, shape (capacity,), bool
         Node is a basis vector (otherwise a routing node).
+    basis_nodes : Tensor, shape (capacity,), long
+        Node of the ``i``-th basis vector, in insertion order with removals closed up
+        (``-1`` past :attr:`n_basis`).
     """
 
     pos: Tensor
@@ -63,6 +68,7 @@ class BVGraph(nn.Module):
     shortest_paths: Tensor
     alive: Tensor
     is_bv: Tensor
+    basis_nodes: Tensor
 
     def __init__(
         self,
@@ -81,12 +87,23 @@ class BVGraph(nn.Module):
         self.register_buffer("shortest_paths", torch.full((n, n), float("inf"), **kw))
         self.register_buffer("alive", torch.zeros(n, dtype=torch.bool, device=device))
         self.register_buffer("is_bv", torch.zeros(n, dtype=torch.bool, device=device))
+        self.register_buffer("basis_nodes", torch.full((n,), -1, dtype=torch.long, device=device))
 
     # -- reading -----------------------------------------------------------------------------
     @property
     def n_nodes(self) -> int:
         """Number of nodes in use (basis vectors and routing nodes)."""
         return int(self.alive.sum())
+
+    @property
+    def n_basis(self) -> int:
+        """Number of basis-vector nodes."""
+        return int(self.is_bv.sum())
+
+    def basis_distances(self) -> Tensor:
+        """Shortest paths among the basis vectors in :attr:`basis_nodes` order, shape (m, m)."""
+        nodes = self.basis_nodes[: self.n_basis]
+        return self.shortest_paths[nodes][:, nodes]
 
     @property
     def n_components(self) -> int:
@@ -121,6 +138,7 @@ class BVGraph(nn.Module):
         if free.numel() == 0:
             raise RuntimeError(f"BVGraph is full ({self.capacity} nodes)")
         u = int(free[0])
+        self.basis_nodes[self.n_basis] = u
         self.pos[u] = pos
         self.alive[u] = True
         self.is_bv[u] = True
@@ -145,6 +163,10 @@ class BVGraph(nn.Module):
         """
         if not bool(self.is_bv[node]):
             raise ValueError(f"node {node} is not a basis vector")
+        m = self.n_basis
+        keep = self.basis_nodes[:m][self.basis_nodes[:m] != node]
+        self.basis_nodes[: m - 1] = keep
+        self.basis_nodes[m - 1] = -1
         self.is_bv[node] = False
         freed: list[int] = []
         self._prune(node, freed)

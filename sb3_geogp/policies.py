@@ -11,6 +11,7 @@ This module only adapts (spaces, shapes, dtypes, devices, bookkeeping); the math
 
 from __future__ import annotations
 
+import time
 from typing import Any
 
 import numpy as np
@@ -20,12 +21,14 @@ from stable_baselines3.common.policies import ActorCriticPolicy, BaseModel
 from stable_baselines3.common.preprocessing import is_image_space
 from stable_baselines3.common.torch_layers import FlattenExtractor
 from stable_baselines3.common.type_aliases import PyTorchObs, Schedule
+from stable_baselines3.common.utils import explained_variance
 from torch import nn
 
-from sb3_geogp.sparse_gp import SparseOnlineGP, make_kernel
+from sb3_geogp.kernels import make_kernel
+from sb3_geogp.sparse_gp import SparseOnlineGP
 
 #: ``gp_kwargs`` keys the policy sets itself.
-_RESERVED = ("input_dim", "device")
+_RESERVED = ("input_dim", "device", "input_bounds")
 
 _SUPPORTED = (
     "GPActorCriticPolicy supports Box observations of any shape (flattened; not images) with "
@@ -124,12 +127,14 @@ class GPActorCriticPolicy(ActorCriticPolicy):
                 f"({type(self.vf_features_extractor).__name__}) has trainable parameters; use "
                 "the default FlattenExtractor or freeze the extractor"
             )
-        lengthscale = (
-            observation_lengthscale(self.observation_space)
+        # The observation bounds bound the GP's inputs only when the features are the
+        # flattened observations.
+        bounds = (
+            _flat_bounds(self.observation_space)
             if isinstance(self.vf_features_extractor, FlattenExtractor)
             else None
         )
-        gp = build_gp_critic(self._gp_options, self.mlp_extractor.latent_dim_vf, lengthscale)
+        gp = build_gp_critic(self._gp_options, self.mlp_extractor.latent_dim_vf, bounds)
         gp = gp.to(self.device)
         self.value_net = GPValueHead(gp)  # type: ignore[assignment]
         self.optimizer = self.optimizer_class(  # type: ignore[call-arg]
@@ -239,7 +244,7 @@ class GPActorCriticPolicy(ActorCriticPolicy):
         obs: th.Tensor | np.ndarray,
         targets: th.Tensor | np.ndarray,
         episode_starts: th.Tensor | np.ndarray,
-    ) -> None:
+    ) -> dict[str, float]:
         """Feed the GP a batch of observations and value targets, in trajectory order.
 
         Also records that the current rollout has been handled (an empty batch does only
@@ -253,38 +258,55 @@ class GPActorCriticPolicy(ActorCriticPolicy):
             Value targets (e.g. returns).
         episode_starts : Tensor or ndarray of bool, shape (n,)
             ``True`` on the first step of each trajectory (including the first row).
+
+        Returns
+        -------
+        dict of str to float
+            The critic's diagnostics, as :class:`~sb3_geogp.GPValueCallback` logs them under
+            ``gp/``: the GP's out-of-sample fit of ``targets`` before absorbing them (``mse``,
+            ``explained_variance``; ``mean_std``, the mean predictive standard deviation on at
+            most 1024 evenly spaced points), all three only for a non-empty batch; then
+            ``update_ms``, ``n_fed``, ``n_basis``, ``forgetting`` and, for a kernel with a
+            graph, ``n_components``.
         """
+        stats: dict[str, float] = {}
+        start = time.perf_counter()
         if len(targets) > 0:
-            self.gp.update(self.critic_features(obs), targets, episode_starts)
+            features = self.critic_features(obs)
+            stats.update(_fit_before_update(self.gp, features, targets))
+            start = time.perf_counter()
+            self.gp.update(features, targets, episode_starts)
+        stats["update_ms"] = 1e3 * (time.perf_counter() - start)
         self._awaiting_feed = False
+        stats.update(n_fed=len(targets), n_basis=self.gp.n_basis, forgetting=self.gp.forgetting)
+        if self.gp.graph is not None:
+            stats["n_components"] = self.gp.graph.n_components
+        return stats
 
 
-#: Bounds wider than this count as unbounded (gymnasium envs often use float32's maximum).
-_MAX_BOUND_WIDTH = 1e6
+#: At most this many (evenly spaced) points are used for the ``mean_std`` diagnostic.
+_STD_SAMPLE = 1024
 
 
-def observation_lengthscale(space: spaces.Space) -> list[float]:
-    """Default GP lengthscale per flattened observation dimension, from the space's bounds.
+def _fit_before_update(
+    gp: SparseOnlineGP, features: th.Tensor, targets: th.Tensor | np.ndarray
+) -> dict[str, float]:
+    """The GP's out-of-sample fit of the targets it is about to absorb."""
+    pred = gp.predict(features, return_var=False)[0].cpu().numpy()
+    y = np.asarray(th.as_tensor(targets).cpu(), dtype=np.float64)
+    idx = np.unique(np.linspace(0, len(y) - 1, min(len(y), _STD_SAMPLE)).astype(np.int64))
+    var = gp.predict(features[idx], return_var=True)[1]
+    assert var is not None
+    return {
+        "mse": float(np.mean((pred - y) ** 2)),
+        "explained_variance": float(explained_variance(pred, y)),
+        "mean_std": float(var.sqrt().mean()),
+    }
 
-    The standard deviation of a uniform distribution on the bounds, ``(high - low) / sqrt(12)``
-    (what the GP's first-batch heuristic would pick if the batch covered the space), where a
-    dimension is bounded; NaN (the GP then takes the standard deviation of its first batch)
-    where it is not. The bounds make the choice independent of how much of the space the first
-    rollout happens to cover: A2C's first rollout of a few steps from the start states would
-    otherwise fix a lengthscale far too short for the rest of training.
 
-    Parameters
-    ----------
-    space : gymnasium.spaces.Box
-
-    Returns
-    -------
-    list of float, length ``prod(space.shape)``
-    """
+def _flat_bounds(space: spaces.Space) -> tuple[np.ndarray, np.ndarray]:
     assert isinstance(space, spaces.Box)
-    width = (space.high.astype(np.float64) - space.low.astype(np.float64)).ravel()
-    bounded = np.isfinite(width) & (width > 0) & (width < _MAX_BOUND_WIDTH)
-    return np.where(bounded, width / np.sqrt(12.0), np.nan).tolist()
+    return space.low.ravel(), space.high.ravel()
 
 
 def _check_spaces(observation_space: spaces.Space, action_space: spaces.Space) -> None:
@@ -317,20 +339,30 @@ def check_gp_kwargs(gp_kwargs: dict[str, Any] | None) -> dict[str, Any]:
 
 
 def build_gp_critic(
-    options: dict[str, Any], input_dim: int, lengthscale: list[float] | None = None
+    options: dict[str, Any],
+    input_dim: int,
+    input_bounds: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> SparseOnlineGP:
     """The GP critic described by checked ``gp_kwargs`` (see :func:`check_gp_kwargs`).
 
-    ``lengthscale`` is the default of a named kernel's ``kernel_kwargs``; ``None`` leaves the
-    kernel's own default (chosen from the first batch).
+    Parameters
+    ----------
+    options : dict
+        Checked ``gp_kwargs``.
+    input_dim : int
+        Dimension of the critic features.
+    input_bounds : (low, high) of ndarrays of ``input_dim`` entries, optional
+        Bounds of the features, where known (they set unset lengthscales of bounded
+        dimensions, see :mod:`sb3_geogp.defaults`).
     """
     options = dict(options)
     kernel = options.pop("kernel", "geodesic")
     kernel_kwargs = dict(options.pop("kernel_kwargs", None) or {})
-    if isinstance(kernel, str) and lengthscale is not None:
-        kernel_kwargs.setdefault("lengthscale", lengthscale)
     return SparseOnlineGP(
-        input_dim=input_dim, kernel=make_kernel(kernel, **kernel_kwargs), **options
+        input_dim=input_dim,
+        kernel=make_kernel(kernel, **kernel_kwargs),
+        input_bounds=input_bounds,
+        **options,
     )
 
 

@@ -16,11 +16,14 @@ positive semi-definite, which keeps every variance below non-negative by constru
 ``gamma_x`` being the novelty (residual variance of projecting ``k(x, .)`` on the BVs).
 For a positive-definite kernel this equals the textbook ``k(x, x) + k_x^T C k_x``.
 ``docs/method.md`` derives every update; the code follows it line by line.
+
+The GP knows kernels only through :class:`~sb3_geogp.kernels.Kernel`'s interface: it asks for
+rows over the basis and tells the kernel of every insertion and deletion (the geodesic kernel
+grows its graph from them). Default hyperparameters come from :mod:`sb3_geogp.defaults`.
 """
 
 from __future__ import annotations
 
-import copy
 import math
 from collections.abc import Callable, Sequence
 from typing import Any, Literal
@@ -29,15 +32,15 @@ import numpy as np
 import torch
 from torch import Tensor, nn
 
+from sb3_geogp import defaults
 from sb3_geogp.graph import BVGraph
-from sb3_geogp.kernels import BasisView, GeodesicKernel, Kernel, RBFKernel
+from sb3_geogp.kernels import Kernel, make_kernel
+from sb3_geogp.kernels.base import quad
 
 ArrayLike = Tensor | np.ndarray | Sequence[Any]
 
 #: Relative floor on a new BV's novelty: below it a nugget is added to its prior variance.
 _GAMMA_FLOOR = 1e-6
-#: Default novelty threshold: a point this many lengthscales from a single BV is novel.
-_NOVELTY_RADIUS = 0.25
 #: Bounds on the rows of a batch whose novelty is screened at once (adapted in between).
 _MIN_CHUNK, _MAX_CHUNK = 32, 1024
 #: Factor by which the at-capacity novelty floor rises with each newcomer at capacity.
@@ -48,21 +51,6 @@ _DELETION_RATE = 0.003
 _FLOOR_MAX = 0.99
 #: Largest growth of ``||Q||`` (times the signal variance) one new BV may cause.
 _Q_GROWTH = 1e4
-
-
-def make_kernel(kernel: Kernel | Literal["rbf", "geodesic"], **kwargs: Any) -> Kernel:
-    """A copy of ``kernel``, or a new one built by name (``"rbf"`` or ``"geodesic"``).
-
-    A kernel holds state (the lengthscale chosen from the first batch), so a GP never shares it.
-    """
-    if isinstance(kernel, Kernel):
-        if kwargs:
-            raise ValueError("kernel options can only be given with a kernel name")
-        return copy.deepcopy(kernel)
-    kernels: dict[str, type[Kernel]] = {"rbf": RBFKernel, "geodesic": GeodesicKernel}
-    if kernel not in kernels:
-        raise ValueError(f"kernel must be a Kernel or one of {sorted(kernels)}, got {kernel!r}")
-    return kernels[kernel](**kwargs)
 
 
 class SparseOnlineGP(nn.Module):
@@ -83,13 +71,17 @@ class SparseOnlineGP(nn.Module):
         A point becomes a BV when its relative novelty ``gamma / k(x, x)`` exceeds this
         (once the basis is full it must also beat the least novel BV and an adaptive floor).
         ``None``: the novelty of a point a quarter lengthscale from a single BV,
-        ``1 - rho(0.25)^2`` (0.06 for the RBF kernel, 0.39 for the Laplacian geodesic one).
+        ``1 - rho(0.25)^2`` (0.06 for the RBF kernel, 0.39 for the Laplacian geodesic one;
+        :data:`sb3_geogp.defaults.NOVELTY_RADIUS`).
     forgetting : float
         ``lambda`` in (0, 1]; before each batch ``alpha <- sqrt(lambda) alpha`` and
         ``C <- lambda C`` (1 = no forgetting).
     target_mean, target_scale : float or None
         Prior mean and scale of the targets: the GP models ``(y - target_mean) / target_scale``.
         ``None`` takes the mean and standard deviation of the first batch (kept fixed after).
+    input_bounds : (low, high) of array-likes with ``input_dim`` entries each, optional
+        Bounds of the inputs where known: unset lengthscales of bounded dimensions then come
+        from the bounds rather than from the first batch (:mod:`sb3_geogp.defaults`).
     device : torch.device, str or None
         Where the state lives.
     dtype : torch.dtype
@@ -99,13 +91,12 @@ class SparseOnlineGP(nn.Module):
     -----
     Targets are standardised with the mean and standard deviation of the first batch (kept
     fixed afterwards); :meth:`predict` returns values in the units fed to :meth:`update`.
-    Lengthscales not given (``None``, or NaN entries) are set from the first batch: per input
-    dimension the standard deviation (:func:`default_lengthscale`).
+    Lengthscales not given (``None``, or NaN entries) follow :mod:`sb3_geogp.defaults`: from
+    ``input_bounds`` where bounded, else the standard deviation in the first batch.
     """
 
     bv_x: Tensor
     bv_y: Tensor
-    bv_node: Tensor
     nugget: Tensor
     alpha: Tensor
     P: Tensor
@@ -119,7 +110,6 @@ class SparseOnlineGP(nn.Module):
     n_added: Tensor
     n_deleted: Tensor
     n_batches: Tensor
-    traj_node: Tensor
     novelty_floor: Tensor
 
     def __init__(
@@ -132,6 +122,7 @@ class SparseOnlineGP(nn.Module):
         forgetting: float = 1.0,
         target_mean: float | None = None,
         target_scale: float | None = None,
+        input_bounds: tuple[ArrayLike, ArrayLike] | None = None,
         device: torch.device | str | None = None,
         dtype: torch.dtype = torch.float64,
     ) -> None:
@@ -157,20 +148,25 @@ class SparseOnlineGP(nn.Module):
         self.forgetting = float(forgetting)
         self.kernel = make_kernel(kernel)
         self.novelty_tol = (
-            self.kernel.novelty_at(_NOVELTY_RADIUS) if novelty_tol is None else float(novelty_tol)
+            self.kernel.novelty_at(defaults.NOVELTY_RADIUS)
+            if novelty_tol is None
+            else float(novelty_tol)
         )
-        self.kernel.bind(self.input_dim)
         # One spare slot: a new BV is inserted before the least informative one is deleted.
         cap = self.max_basis + 1
+        self.kernel.bind(self.input_dim, cap)
+        if input_bounds is not None and any(np.size(b) != self.input_dim for b in input_bounds):
+            raise ValueError(
+                f"input_bounds must be (low, high) with {self.input_dim} entries each, got "
+                f"sizes {[np.size(b) for b in input_bounds]}"
+            )
+        ls = self.kernel.lengthscale
+        ls.copy_(defaults.resolve_lengthscale(ls, bounds=input_bounds))
         kw: dict[str, Any] = {"dtype": dtype, "device": device}
-        self.graph: BVGraph | None = (
-            BVGraph(2 * cap, self.input_dim, dtype, device) if self.kernel.geodesic else None
-        )
         self.kernel.to(**kw)
         self.register_buffer("noise_var", torch.tensor(float(noise_var), **kw))
         self.register_buffer("bv_x", torch.zeros(cap, self.input_dim, **kw))
         self.register_buffer("bv_y", torch.zeros(cap, **kw))
-        self.register_buffer("bv_node", torch.full((cap,), -1, dtype=torch.long, device=device))
         self.register_buffer("nugget", torch.zeros(cap, **kw))
         self.register_buffer("alpha", torch.zeros(cap, **kw))
         self.register_buffer("P", torch.zeros(cap, cap, **kw))
@@ -181,10 +177,8 @@ class SparseOnlineGP(nn.Module):
         # Counters and flags as long tensors so that they travel with state_dict().
         for name in ("count", "initialized", "n_seen", "n_added", "n_deleted", "n_batches"):
             self.register_buffer(name, torch.zeros((), dtype=torch.long, device=device))
-        self.register_buffer("traj_node", torch.full((), -1, dtype=torch.long, device=device))
         self.register_buffer("novelty_floor", torch.tensor(self.novelty_tol, **kw))
-        self._cache: dict[str, Tensor] = {}
-        self.register_load_state_dict_post_hook(lambda module, _keys: module._cache.clear())
+        self._cache: _PosteriorMatrices | None = None
 
     # ------------------------------------------------------------------------------------------
     # Read-only views
@@ -207,8 +201,13 @@ class SparseOnlineGP(nn.Module):
 
     @property
     def lengthscale(self) -> Tensor:
-        """Kernel lengthscale, shape (d,) (NaN until chosen from the first batch)."""
+        """Kernel lengthscale, shape (d,) (NaN where still to be chosen from the first batch)."""
         return self.kernel.lengthscale
+
+    @property
+    def graph(self) -> BVGraph | None:
+        """The kernel's basis-vector graph (geodesic kernel), or ``None``."""
+        return self.kernel.graph
 
     @property
     def adjacency(self) -> Tensor:
@@ -221,8 +220,7 @@ class SparseOnlineGP(nn.Module):
     @property
     def shortest_paths(self) -> Tensor:
         """Shortest-path distances among the basis vectors, shape (n_basis, n_basis)."""
-        nodes = self.bv_node[: self.n_basis]
-        return self._require_graph().shortest_paths[nodes][:, nodes]
+        return self._require_graph().basis_distances()
 
     @property
     def graph_nodes(self) -> Tensor:
@@ -231,13 +229,10 @@ class SparseOnlineGP(nn.Module):
         return graph.pos[graph.alive] * self.kernel.lengthscale
 
     def _require_graph(self) -> BVGraph:
-        if self.graph is None:
+        graph = self.graph
+        if graph is None:
             raise AttributeError("only a SparseOnlineGP with a GeodesicKernel has a BV graph")
-        return self.graph
-
-    def _view(self) -> BasisView:
-        m = self.n_basis
-        return BasisView(self.kernel.scale(self.bv_x[:m]), self.bv_node[:m], self.graph)
+        return graph
 
     def extra_repr(self) -> str:
         ls = ", ".join(f"{v:.4g}" for v in self.kernel.lengthscale.tolist())
@@ -279,49 +274,38 @@ class SparseOnlineGP(nn.Module):
         mean = mean * self.y_scale + self.y_mean
         return mean, None if var is None else var * self.y_scale**2
 
-    def _derived(self, name: str, compute: Callable[[], Tensor]) -> Tensor:
-        """A quantity derived from the state, cached until the state next changes.
+    def _matrices(self) -> _PosteriorMatrices:
+        """The basis matrices of the current state, kept until the state next changes.
 
-        The cache is emptied by :meth:`update`, :meth:`fit_hyperparameters`,
-        ``load_state_dict`` and ``.to()``, the only ways the state changes.
+        SB3 predicts a few states per environment step, so each (m, m) product is formed once
+        per state, not per call. The cache is emptied by :meth:`update`,
+        :meth:`fit_hyperparameters`, ``load_state_dict`` and ``.to()``, the only ways the state
+        changes.
         """
-        if name not in self._cache:
-            self._cache[name] = compute()
-        return self._cache[name]
+        if self._cache is None:
+            self._cache = _PosteriorMatrices(self)
+        return self._cache
 
     def _apply(self, fn: Callable[[Tensor], Tensor], recurse: bool = True) -> SparseOnlineGP:
-        self._cache.clear()
+        self._cache = None
         return super()._apply(fn, recurse)
+
+    def _load_from_state_dict(
+        self, state_dict: dict[str, Any], prefix: str, *args: Any, **kwargs: Any
+    ) -> None:
+        _upgrade_v01_state(state_dict, prefix, self.kernel)
+        super()._load_from_state_dict(state_dict, prefix, *args, **kwargs)
+        self._cache = None
 
     def _latent(self, xs: Tensor, return_var: bool) -> tuple[Tensor, Tensor | None]:
         """Standardised posterior mean and variance at scaled inputs ``xs : (n, d)``."""
-        m = self.n_basis
-        z = self._derived("z", lambda: self.kernel.scale(self.bv_x[:m]))
-        view = BasisView(z, self.bv_node[:m], self.graph)
-        alpha, Q, P = self.alpha[:m], self.Q[:m, :m], self.P[:m, :m]
-        factors = self.kernel.cross_factors(xs, view)
-        if factors is None:
-            rows = self.kernel.cross(xs, view)
-            mean = rows @ alpha
-            if not return_var:
-                return mean, None
-            kqk, kpk = _quad(rows, Q), _quad(rows, P)
-        else:
-            # Rows are sum_j w_j K_b[idx_j]: contract through K_b once instead of per point,
-            # and keep the (m, m) products until the state changes (SB3 predicts per step).
-            idx, w = factors
-            K = self._derived("K", lambda: self.kernel.gram(view))
-            mean = (w * self._derived("K_alpha", lambda: K @ alpha)[idx]).sum(dim=1)
-            if not return_var:
-                return mean, None
-            nugget = self.nugget[:m]
-            kqk = _gathered_quad(idx, w, self._derived("KQK", lambda: _kqk(K, Q, nugget)))
-            if "KPK" in self._cache or xs.shape[0] >= m:
-                kpk = _gathered_quad(idx, w, self._derived("KPK", lambda: K @ P @ K))
-            else:  # fewer points than BVs: O(n m^2) beats forming K P K, O(m^3)
-                kpk = _quad(torch.einsum("nk,nkm->nm", w, K[idx]), P)
-        gamma = self.kernel.variance - kqk
-        return mean, (gamma.clamp_min(0) + kpk).clamp_min(0)
+        basis = self._matrices()
+        rows = self.kernel.rows(xs, basis.z)
+        mean = rows.mean(basis)
+        if not return_var:
+            return mean, None
+        gamma = self.kernel.variance - rows.kqk(basis)
+        return mean, (gamma.clamp_min(0) + rows.kpk(basis)).clamp_min(0)
 
     def forward(self, x: Tensor) -> Tensor:
         """Posterior mean at ``x : (n, d)``, shape (n,)."""
@@ -354,7 +338,7 @@ class SparseOnlineGP(nn.Module):
         """
         x, y, starts = self._validate(x, y, episode_starts)
         snapshot = {k: v.clone() for k, v in self.state_dict().items()}
-        self._cache.clear()
+        self._cache = None
         try:
             self._update(x, y, starts)
         except BaseException:
@@ -378,10 +362,10 @@ class SparseOnlineGP(nn.Module):
                 self._absorb(x[i:p], yn[i:p])
                 self._scale_floor(_FLOOR_STEP ** (-_DELETION_RATE * (p - i)))
                 if bool(starts[i:p].any()):
-                    self.traj_node.fill_(-1)
+                    self.kernel.start_trajectory()
             if p < n:
                 if bool(starts[p]):
-                    self.traj_node.fill_(-1)
+                    self.kernel.start_trajectory()
                 self._insert(x[p], yn[p], y[p])
             i = p + 1
         if int(self.n_added) > added_before:
@@ -391,15 +375,12 @@ class SparseOnlineGP(nn.Module):
         self._check_finite()
 
     def _initialize(self, x: Tensor, y: Tensor) -> None:
-        """Standardise targets and choose the lengthscale from the first batch."""
-        mean, scale = self._fixed_target
-        if mean is None:
-            self.y_mean.fill_(y.mean())
-        if scale is None:
-            std = y.std() if y.numel() > 1 else torch.zeros((), dtype=y.dtype)
-            self.y_scale.fill_(std if bool(std > 1e-12 * (1 + y.abs().max())) else 1.0)
+        """Standardise targets and choose the remaining lengthscales from the first batch."""
+        mean, scale = defaults.target_standardisation(y, *self._fixed_target)
+        self.y_mean.fill_(mean)
+        self.y_scale.fill_(scale)
         ls = self.kernel.lengthscale
-        ls.copy_(torch.where(torch.isnan(ls), default_lengthscale(x), ls))
+        ls.copy_(defaults.resolve_lengthscale(ls, x=x))
         self.initialized.fill_(1)
 
     def _scale_floor(self, factor: float) -> None:
@@ -437,29 +418,18 @@ class SparseOnlineGP(nn.Module):
         n, m = x.shape[0], self.n_basis
         if m == 0:
             return start
-        view, threshold = self._view(), self._novelty_threshold()
+        basis, threshold = _PosteriorMatrices(self), self._novelty_threshold()
         chunk = _MIN_CHUNK
         while start < n:
             block = self.kernel.scale(x[start : start + chunk])
-            gamma = 1.0 - self._novelty_projection(block, view) / self.kernel.variance
+            kqk = self.kernel.novelty_rows(block, basis.z).kqk(basis)
+            gamma = 1.0 - kqk / self.kernel.variance
             novel = (gamma > threshold).nonzero()
             if novel.numel():
                 return start + int(novel[0])
             start += block.shape[0]
             chunk = min(2 * chunk, _MAX_CHUNK)
         return n
-
-    def _novelty_projection(self, xs: Tensor, view: BasisView) -> Tensor:
-        """``k^T Q k`` of the novelty rows of scaled inputs ``xs : (n, d)``, shape (n,).
-
-        When the rows are combinations of BV rows this needs only ``K_b Q K_b`` (:func:`_kqk`).
-        """
-        m = self.n_basis
-        Q = self.Q[:m, :m]
-        factors = self.kernel.novelty_factors(xs, view)
-        if factors is None:
-            return _quad(self.kernel.novelty_rows(xs, view), Q)
-        return _gathered_quad(*factors, _kqk(self.kernel.gram(view), Q, self.nugget[:m]))
 
     def _absorb(self, x: Tensor, yn: Tensor) -> None:
         """Projected (sparse) update with a run of non-novel points, all at once.
@@ -475,9 +445,10 @@ class SparseOnlineGP(nn.Module):
           ``alpha += (I + P G)^{-1} P K_x^T N^{-1} r``, ``P <- (I + P G)^{-1} P``.
         """
         m = self.n_basis
-        rows = self.kernel.cross(self.kernel.scale(x), self._view())
+        basis = _PosteriorMatrices(self)
+        rows = self.kernel.rows(self.kernel.scale(x), basis.z).dense(basis)
         Q, P, alpha = self.Q[:m, :m], self.P[:m, :m], self.alpha[:m]
-        noise = self.noise_var + (self.kernel.variance - _quad(rows, Q)).clamp_min(0)
+        noise = self.noise_var + (self.kernel.variance - quad(rows, Q)).clamp_min(0)
         resid = yn - rows @ alpha
         if x.shape[0] < m:
             PK = P @ rows.T
@@ -507,11 +478,9 @@ class SparseOnlineGP(nn.Module):
         update instead.
         """
         m = self.n_basis
-        view = self._view()
         xs = self.kernel.scale(x)
-        parent = self._parent(xs, view)
         variance = self.kernel.variance
-        k = self.kernel.node_row(xs, parent, view) if m > 0 else x.new_zeros(0)
+        k, attachment = self.kernel.insertion_row(xs, self.kernel.scale(self.bv_x[:m]))
         Q, P, alpha = self.Q[:m, :m], self.P[:m, :m], self.alpha[:m]
         e = Q @ k
         gamma = variance - k @ e
@@ -542,10 +511,7 @@ class SparseOnlineGP(nn.Module):
         self.bv_x[m] = x
         self.bv_y[m] = y
         self.nugget[m] = nugget
-        if self.graph is not None:
-            node = self.graph.add_node(xs, parent)
-            self.bv_node[m] = node
-            self.traj_node.fill_(node)
+        self.kernel.on_insert(xs, attachment)
         self.count += 1
         self.n_added += 1
         if doomed is not None:
@@ -568,15 +534,6 @@ class SparseOnlineGP(nn.Module):
             return True
         return (1.0 + e_sq) / gamma > _Q_GROWTH / variance
 
-    def _parent(self, xs: Tensor, view: BasisView) -> int | None:
-        """Graph node a new BV at scaled input ``xs`` is joined to (geodesic kernel)."""
-        if self.graph is None or view.z.shape[0] == 0:
-            return None
-        assert isinstance(self.kernel, GeodesicKernel)
-        if self.kernel.edges == "trajectory" and int(self.traj_node) >= 0:
-            return int(self.traj_node)
-        return int(view.nodes[torch.cdist(xs[None], view.z)[0].argmin()])
-
     def _delete(self, j: int) -> None:
         """Remove BV ``j`` by the Csató–Opper KL projection.
 
@@ -596,20 +553,16 @@ class SparseOnlineGP(nn.Module):
             + P[j, j] * torch.outer(q_star, q_star)
         )
         new_Q = Q[keep][:, keep] - torch.outer(q_star, Q[keep, j])
-        node = int(self.bv_node[j])
-        for buf in (self.bv_x, self.bv_y, self.bv_node, self.nugget):
+        for buf in (self.bv_x, self.bv_y, self.nugget):
             buf[: m - 1] = buf[keep].clone()
-            buf[m - 1] = -1 if buf.dtype == torch.long else 0
+            buf[m - 1] = 0
         self.alpha[: m - 1] = alpha
         self.alpha[m - 1] = 0.0
         self._set_square(self.P, _sym(new_P))
         self._set_square(self.Q, _sym(new_Q))
         self.count -= 1
         self.n_deleted += 1
-        if self.graph is not None:
-            freed = self.graph.remove_bv(node)
-            if int(self.traj_node) in freed:
-                self.traj_node.fill_(-1)
+        self.kernel.on_delete(j)
 
     @staticmethod
     def _set_square(buf: Tensor, value: Tensor) -> None:
@@ -624,7 +577,7 @@ class SparseOnlineGP(nn.Module):
         jitter (10x per try, from 1e-10 of the signal variance) until its Cholesky exists.
         """
         m = self.n_basis
-        K = self.kernel.gram(self._view())
+        K = self.kernel.gram(self.kernel.scale(self.bv_x[:m]))
         jitter = 0.0
         for _ in range(12):
             L, info = torch.linalg.cholesky_ex(K + torch.diag(self.nugget[:m] + jitter))
@@ -648,9 +601,10 @@ class SparseOnlineGP(nn.Module):
         """Fit lengthscale(s), signal and noise variance by the BV set's marginal likelihood.
 
         Maximises ``log N(y_b | 0, K_b(theta) + sigma_n^2 I)`` over the BV inputs and their
-        (standardised) targets with Adam on log-parameters and torch autograd. The RBF kernel
-        fits one lengthscale per input dimension; the geodesic kernel fits one factor on all
-        lengthscales (every graph distance scales by its inverse, so the tree stays exact).
+        (standardised) targets with Adam on log-parameters and torch autograd. The kernel says
+        which lengthscale factors are free (:meth:`~sb3_geogp.kernels.Kernel.distance_fn`):
+        one per input dimension for the Euclidean kernels, one on all lengthscales for the
+        geodesic kernel (every graph distance scales by its inverse, so the tree stays exact).
         The posterior is then rebuilt as the exact GP on the BV set with the new
         hyperparameters (information from points that were only projected is dropped).
 
@@ -673,24 +627,18 @@ class SparseOnlineGP(nn.Module):
                 "fit_hyperparameters needs at least 2 basis vectors; call update first"
             )
         kernel = self.kernel
-        self._cache.clear()
+        self._cache = None
         y = self.bv_y[:m].clone()
         y = (y - self.y_mean) / self.y_scale
         log_var = kernel.variance.log().clone().requires_grad_(True)
         log_noise = self.noise_var.log().clone().requires_grad_(True)
-        n_ls = 1 if kernel.geodesic else self.input_dim
+        n_ls, distances = kernel.distance_fn(self.bv_x[:m])
         log_ls = torch.zeros(n_ls, dtype=y.dtype, device=y.device, requires_grad=True)
-        base_dist = self._distance_table()
         opt = torch.optim.Adam([log_var, log_noise, log_ls], lr=lr)
         eye = torch.eye(m, dtype=y.dtype, device=y.device)
 
         def nlml() -> Tensor:
-            if kernel.geodesic:
-                dist = base_dist / log_ls.exp()
-            else:
-                z = self.bv_x[:m] / (kernel.lengthscale * log_ls.exp())
-                dist = torch.cdist(z, z)
-            K = log_var.exp() * kernel.profile(dist) + (log_noise.exp() + 1e-8) * eye
+            K = log_var.exp() * kernel.profile(distances(log_ls)) + (log_noise.exp() + 1e-8) * eye
             L = torch.linalg.cholesky(K)
             a = torch.cholesky_solve(y[:, None], L)
             return (0.5 * (y @ a[:, 0]) + L.diagonal().log().sum()) / m + 0.5 * math.log(
@@ -705,11 +653,7 @@ class SparseOnlineGP(nn.Module):
                 opt.step()
         with torch.no_grad():
             final = float(nlml())
-            factor = log_ls.exp()
-            if kernel.geodesic:
-                assert self.graph is not None
-                self.graph.rescale(float(factor))
-            kernel.lengthscale.mul_(factor)
+            kernel.rescale(log_ls.exp())
             kernel.variance.copy_(log_var.exp())
             self.noise_var.copy_(log_noise.exp())
             self._rebuild_exact()
@@ -720,13 +664,6 @@ class SparseOnlineGP(nn.Module):
             "nlml": final,
         }
 
-    def _distance_table(self) -> Tensor:
-        """Distances among BVs in the current lengthscale units, shape (m, m)."""
-        view = self._view()
-        if self.graph is not None:
-            return self.graph.shortest_paths[view.nodes][:, view.nodes].clone()
-        return torch.cdist(view.z, view.z)
-
     def _rebuild_exact(self) -> None:
         """Exact GP posterior on the BV set.
 
@@ -735,7 +672,7 @@ class SparseOnlineGP(nn.Module):
         m = self.n_basis
         self.nugget[:m] = 0.0
         self._refresh_Q()
-        K = self.kernel.gram(self._view()) + torch.diag(self.nugget[:m])
+        K = self.kernel.gram(self.kernel.scale(self.bv_x[:m])) + torch.diag(self.nugget[:m])
         y = (self.bv_y[:m] - self.y_mean) / self.y_scale
         A = torch.linalg.inv(K + self.noise_var * torch.eye(m, dtype=K.dtype, device=K.device))
         self.alpha[:m] = A @ y
@@ -802,11 +739,6 @@ def _to_tensor(value: ArrayLike, name: str) -> Tensor:
 _INT_TYPES = (torch.int8, torch.int16, torch.int32, torch.int64, torch.uint8, torch.bool)
 
 
-def _quad(rows: Tensor, M: Tensor) -> Tensor:
-    """Row-wise quadratic forms ``rows_i^T M rows_i``; rows (n, m), M (m, m) -> (n,)."""
-    return ((rows @ M) * rows).sum(dim=1)
-
-
 def _least_informative(alpha: Tensor, p_diag: Tensor) -> int:
     """BV with the smallest Csató–Opper score ``alpha_i^2 / (Q_ii + C_ii) = alpha_i^2 / P_ii``."""
     return int((alpha**2 / p_diag.clamp_min(torch.finfo(p_diag.dtype).tiny)).argmin())
@@ -817,34 +749,80 @@ def _kqk(K: Tensor, Q: Tensor, nugget: Tensor) -> Tensor:
     return K - torch.diag(nugget) + nugget[:, None] * Q * nugget
 
 
-def _gathered_quad(idx: Tensor, w: Tensor, M: Tensor) -> Tensor:
-    """``w_i^T M[idx_i][:, idx_i] w_i`` per row; idx, w (n, k), M (m, m) -> (n,)."""
-    block = M[idx[:, :, None], idx[:, None, :]]
-    return torch.einsum("nk,nkl,nl->n", w, block, w)
-
-
 def _sym(M: Tensor) -> Tensor:
     return 0.5 * (M + M.T)
 
 
-def default_lengthscale(x: Tensor) -> Tensor:
-    """Lengthscale heuristic: the standard deviation of each input dimension.
+def _upgrade_v01_state(state: dict[str, Any], prefix: str, kernel: Kernel) -> None:
+    """Rename, in place, the entries of a state saved by sb3_geogp 0.1 (SB3 models included).
 
-    For spread-out data this is close to the per-dimension median heuristic (both are
-    ``0.29 x range`` for uniform data), but unlike a median it does not collapse when most of
-    the batch sits at one state (a pendulum balanced on top, say).
-
-    Parameters
-    ----------
-    x : Tensor, shape (n, d)
-
-    Returns
-    -------
-    Tensor, shape (d,)
-        Positive lengthscales; a dimension that does not vary gets its largest absolute value,
-        or 1.
+    0.1 kept the BV graph, each BV's graph node and the trajectory's last node in the GP; they
+    now belong to the kernel (the BV nodes as the graph's ``basis_nodes``).
     """
-    std = x.std(dim=0, unbiased=False)
-    fallback = x.abs().max(dim=0).values
-    fallback = torch.where(fallback > 0, fallback, torch.ones_like(fallback))
-    return torch.where(std > 1e-12 * fallback, std, fallback)
+    if prefix + "bv_node" not in state:
+        return
+    bv_node = state.pop(prefix + "bv_node")
+    traj_node = state.pop(prefix + "traj_node")
+    graph = kernel.graph
+    if graph is None:
+        return
+    for key in [k for k in state if k.startswith(prefix + "graph.")]:
+        state[prefix + "kernel.tree." + key[len(prefix + "graph.") :]] = state.pop(key)
+    basis_nodes = torch.full((graph.capacity,), -1, dtype=torch.long)
+    basis_nodes[: bv_node.shape[0]] = bv_node
+    state[prefix + "kernel.tree.basis_nodes"] = basis_nodes
+    state[prefix + "kernel.traj_node"] = traj_node
+
+
+class _PosteriorMatrices:
+    """:class:`~sb3_geogp.kernels.BasisMatrices` of a GP's current state, each formed on first use.
+
+    Valid until the GP's state next changes: :meth:`SparseOnlineGP.predict` keeps one between
+    updates; an update makes a new one wherever the state has changed since the last.
+    """
+
+    def __init__(self, gp: SparseOnlineGP) -> None:
+        self._gp = gp
+        self._m = gp.n_basis
+        self._values: dict[str, Tensor] = {}
+
+    def _get(self, name: str, compute: Callable[[], Tensor]) -> Tensor:
+        if name not in self._values:
+            self._values[name] = compute()
+        return self._values[name]
+
+    def has(self, name: str) -> bool:
+        return name in self._values
+
+    @property
+    def alpha(self) -> Tensor:
+        return self._gp.alpha[: self._m]
+
+    @property
+    def Q(self) -> Tensor:
+        return self._gp.Q[: self._m, : self._m]
+
+    @property
+    def P(self) -> Tensor:
+        return self._gp.P[: self._m, : self._m]
+
+    @property
+    def z(self) -> Tensor:
+        """Basis inputs in lengthscale units, shape (m, d)."""
+        return self._get("z", lambda: self._gp.kernel.scale(self._gp.bv_x[: self._m]))
+
+    @property
+    def K(self) -> Tensor:
+        return self._get("K", lambda: self._gp.kernel.gram(self.z))
+
+    @property
+    def K_alpha(self) -> Tensor:
+        return self._get("K_alpha", lambda: self.K @ self.alpha)
+
+    @property
+    def KQK(self) -> Tensor:
+        return self._get("KQK", lambda: _kqk(self.K, self.Q, self._gp.nugget[: self._m]))
+
+    @property
+    def KPK(self) -> Tensor:
+        return self._get("KPK", lambda: self.K @ self.P @ self.K)

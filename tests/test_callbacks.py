@@ -92,10 +92,12 @@ class FeedRecorder:
         self.batches: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
         policy.update_critic = self  # type: ignore[method-assign]
 
-    def __call__(self, obs: np.ndarray, targets: np.ndarray, starts: np.ndarray) -> None:
+    def __call__(
+        self, obs: np.ndarray, targets: np.ndarray, starts: np.ndarray
+    ) -> dict[str, float]:
         self.batches.append((np.array(obs), np.array(targets), np.array(starts)))
         n = 0 if self.keep_empty else len(targets)
-        self.original(obs[:n], targets[:n], starts[:n])
+        return self.original(obs[:n], targets[:n], starts[:n])
 
 
 class BufferRecorder(BaseCallback):

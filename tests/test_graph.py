@@ -94,7 +94,7 @@ def test_gp_graph_stays_exact_forest_under_deletions(pendulum, edges: str) -> No
         assert graph is not None
         assert_valid_forest(graph)
         assert graph.n_nodes <= 2 * (max_basis + 1)
-        bv_nodes = gp.bv_node[:m]
+        bv_nodes = graph.basis_nodes[:m]
         assert sorted(bv_nodes.tolist()) == graph.is_bv.nonzero().squeeze(1).tolist()
         scaled = (gp.basis_inputs / gp.lengthscale).numpy()
         np.testing.assert_allclose(graph.pos[bv_nodes].numpy(), scaled, rtol=1e-12)

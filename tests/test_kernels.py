@@ -8,7 +8,7 @@ import torch
 from scipy.spatial.distance import cdist
 
 from sb3_geogp.graph import BVGraph
-from sb3_geogp.kernels import BasisView, GeodesicKernel, RBFKernel, shepard_weights
+from sb3_geogp.kernels import GeodesicKernel, Gram, RBFKernel, shepard_weights
 
 
 # -- independent references ---------------------------------------------------------------------
@@ -36,8 +36,11 @@ def random_tree(
     return graph, pos, sp
 
 
-def tree_view(graph: BVGraph, pos: np.ndarray) -> BasisView:
-    return BasisView(torch.as_tensor(pos), torch.arange(pos.shape[0]), graph)
+def on_tree(kernel: GeodesicKernel, graph: BVGraph, pos: np.ndarray) -> torch.Tensor:
+    """Give ``kernel`` the tree ``graph`` (every node a BV) and return the basis inputs."""
+    kernel.bind(pos.shape[1], graph.capacity)
+    kernel.tree = graph
+    return torch.as_tensor(pos)
 
 
 def dense_weights(dist: np.ndarray, k: int) -> np.ndarray:
@@ -49,7 +52,7 @@ def dense_weights(dist: np.ndarray, k: int) -> np.ndarray:
 
 
 def gram_eigmin(kernel: GeodesicKernel, graph: BVGraph, pos: np.ndarray) -> float:
-    return float(torch.linalg.eigvalsh(kernel.gram(tree_view(graph, pos))).min())
+    return float(torch.linalg.eigvalsh(kernel.gram(on_tree(kernel, graph, pos))).min())
 
 
 # -- RBF ------------------------------------------------------------------------------------------
@@ -57,16 +60,16 @@ def test_rbf_gram_and_cross_match_closed_form() -> None:
     rng = np.random.default_rng(0)
     ls, variance = np.array([0.5, 2.0, 1.3]), 1.7
     kernel = RBFKernel(lengthscale=ls.tolist(), variance=variance)
-    kernel.bind(3)
+    kernel.bind(3, 5)
     x, b = rng.normal(size=(7, 3)), rng.normal(size=(5, 3))
 
     def expected(u: np.ndarray, v: np.ndarray) -> np.ndarray:
         return variance * np.exp(-0.5 * (((u[:, None] - v[None]) / ls) ** 2).sum(-1))
 
-    view = BasisView(kernel.scale(torch.as_tensor(b)), torch.arange(5), None)
-    cross = kernel.cross(kernel.scale(torch.as_tensor(x)), view).numpy()
+    z = kernel.scale(torch.as_tensor(b))
+    cross = kernel.cross(kernel.scale(torch.as_tensor(x)), z).numpy()
     np.testing.assert_allclose(cross, expected(x, b), rtol=1e-12)
-    np.testing.assert_allclose(kernel.gram(view).numpy(), expected(b, b), rtol=1e-12)
+    np.testing.assert_allclose(kernel.gram(z).numpy(), expected(b, b), rtol=1e-12)
 
 
 # -- geodesic kernel: rows ----------------------------------------------------------------------
@@ -80,7 +83,9 @@ def test_geodesic_gram_is_profile_of_tree_metric(small_tree, profile: str) -> No
     graph, pos, sp = small_tree
     kernel = GeodesicKernel(lengthscale=1.0, variance=0.7, profile=profile)
     rho = np.exp(-sp) if profile == "laplacian" else np.exp(-0.5 * sp**2)
-    np.testing.assert_allclose(kernel.gram(tree_view(graph, pos)).numpy(), 0.7 * rho, rtol=1e-12)
+    np.testing.assert_allclose(
+        kernel.gram(on_tree(kernel, graph, pos)).numpy(), 0.7 * rho, rtol=1e-12
+    )
 
 
 def test_geodesic_nearest_attach_goes_through_nearest_bv(small_tree) -> None:
@@ -90,9 +95,9 @@ def test_geodesic_nearest_attach_goes_through_nearest_bv(small_tree) -> None:
     dist = cdist(x, pos)
     nearest = dist.argmin(axis=1)
     expected = np.exp(-(dist[np.arange(20), nearest][:, None] + sp[nearest]))
-    view = tree_view(graph, pos)
-    np.testing.assert_allclose(kernel.cross(torch.as_tensor(x), view).numpy(), expected, rtol=1e-12)
-    novelty = kernel.novelty_rows(torch.as_tensor(x), view).numpy()
+    z = on_tree(kernel, graph, pos)
+    np.testing.assert_allclose(kernel.cross(torch.as_tensor(x), z).numpy(), expected, rtol=1e-12)
+    novelty = kernel.novelty_rows(torch.as_tensor(x), z).dense(Gram(kernel.gram(z))).numpy()
     np.testing.assert_allclose(novelty, expected, rtol=1e-12)
 
 
@@ -104,7 +109,7 @@ def test_geodesic_interpolate_is_shepard_mix_of_bv_rows(
     kernel = GeodesicKernel(lengthscale=1.0, attach="interpolate", n_neighbors=n_neighbors)
     x = np.random.default_rng(3).normal(size=(20, 2))
     expected = shepard_dense(cdist(x, pos), n_neighbors) @ np.exp(-sp)
-    got = kernel.cross(torch.as_tensor(x), tree_view(graph, pos)).numpy()
+    got = kernel.cross(torch.as_tensor(x), on_tree(kernel, graph, pos)).numpy()
     np.testing.assert_allclose(got, expected, rtol=1e-10, atol=1e-14)
 
 
@@ -112,7 +117,7 @@ def test_geodesic_interpolate_is_shepard_mix_of_bv_rows(
 def test_geodesic_row_at_a_bv_is_its_gram_row(small_tree, attach: str) -> None:
     graph, pos, sp = small_tree
     kernel = GeodesicKernel(lengthscale=1.0, attach=attach)
-    got = kernel.cross(torch.as_tensor(pos), tree_view(graph, pos)).numpy()
+    got = kernel.cross(torch.as_tensor(pos), on_tree(kernel, graph, pos)).numpy()
     np.testing.assert_allclose(got, np.exp(-sp), rtol=1e-12)
 
 
@@ -121,7 +126,11 @@ def test_geodesic_node_row_is_leaf_of_parent(small_tree) -> None:
     kernel = GeodesicKernel(lengthscale=1.0)
     x, parent = np.array([0.3, -0.2]), 5
     expected = np.exp(-(np.linalg.norm(x - pos[parent]) + sp[parent]))
-    got = kernel.node_row(torch.as_tensor(x), parent, tree_view(graph, pos)).numpy()
+    z = on_tree(kernel, graph, pos)
+    kernel.traj_node.fill_(parent)  # the trajectory's last BV is the parent
+    row, attachment = kernel.insertion_row(torch.as_tensor(x), z)
+    assert attachment == parent
+    got = row.numpy()
     np.testing.assert_allclose(got, expected, rtol=1e-12)
 
 
@@ -216,4 +225,4 @@ def test_geodesic_kernel_rejects_bad_options(kwargs: dict, match: str) -> None:
 
 def test_bind_rejects_lengthscale_of_wrong_length() -> None:
     with pytest.raises(ValueError, match="lengthscale has 2 entries"):
-        RBFKernel(lengthscale=[1.0, 2.0]).bind(3)
+        RBFKernel(lengthscale=[1.0, 2.0]).bind(3, 8)

@@ -391,14 +391,10 @@ def test_subproc_vec_env() -> None:
         env.close()
 
 
-def test_observation_lengthscale_uses_finite_bounds_only() -> None:
-    """The std of a uniform on the bounds where bounded, NaN (from data) elsewhere."""
-    from sb3_geogp.policies import observation_lengthscale
-
-    space = spaces.Box(
-        low=np.array([-1.0, -np.inf, 0.0, -3.4e38]),
-        high=np.array([1.0, np.inf, 6.0, 3.4e38]),
-        dtype=np.float32,
-    )
-    got = observation_lengthscale(space)
-    np.testing.assert_allclose(got, [2 / np.sqrt(12), np.nan, 6 / np.sqrt(12), np.nan])
+def test_bounded_observations_set_the_lengthscale_before_any_data() -> None:
+    """The std of a uniform on the bounds where bounded; NaN (chosen from data) elsewhere."""
+    env = _ShapedEnv(spaces.Discrete(2))
+    low, high = env.observation_space.low.ravel(), env.observation_space.high.ravel()
+    expected = (high.astype(np.float64) - low) / np.sqrt(12)
+    model = PPO(GPActorCriticPolicy, env, n_steps=64, batch_size=64)
+    np.testing.assert_allclose(model.policy.gp.lengthscale.numpy(), expected, rtol=1e-12)

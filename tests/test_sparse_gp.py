@@ -8,6 +8,7 @@ from __future__ import annotations
 import math
 import os
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -17,8 +18,8 @@ from scipy.linalg import cho_factor, cho_solve
 from scipy.spatial.distance import cdist
 from torch import Tensor
 
-from sb3_geogp import GeodesicKernel, RBFKernel, SparseOnlineGP
-from sb3_geogp.sparse_gp import default_lengthscale
+from sb3_geogp import GeodesicKernel, Kernel, RBFKernel, SparseOnlineGP
+from sb3_geogp.defaults import default_lengthscale
 
 FULL = bool(os.environ.get("SB3_GEOGP_FULL"))
 
@@ -768,3 +769,86 @@ def test_nan_lengthscale_entries_are_chosen_from_the_first_batch() -> None:
     gp = SparseOnlineGP(3, RBFKernel(lengthscale=[0.7, float("nan"), 0.3]))
     gp.update(x, x[:, 0])
     np.testing.assert_allclose(gp.lengthscale.numpy(), [0.7, x[:, 1].std(), 0.3], rtol=1e-12)
+
+
+# -- a kernel family the engine does not know ----------------------------------------------------
+class PeriodicKernel(Kernel):
+    """RBF on the chord distance of angles: ``exp(-0.5 sum_j (2 sin((x_j - x'_j) / 2) / l_j)^2)``.
+
+    A kernel family of its own, written against the public interface only: it shows that a new
+    kernel needs no change to :class:`SparseOnlineGP`.
+    """
+
+    def scale(self, x: Tensor) -> Tensor:
+        return x  # angles stay angles; the lengthscale enters the chord distance
+
+    def profile(self, r: Tensor) -> Tensor:
+        return torch.exp(-0.5 * r * r)
+
+    @staticmethod
+    def chord(a: Tensor, b: Tensor, ls: Tensor) -> Tensor:
+        sq = (2 * torch.sin((a[:, None] - b[None]) / 2) / ls).square().sum(-1)
+        return sq.clamp_min(torch.finfo(sq.dtype).tiny).sqrt()  # finite gradient at 0
+
+    def gram(self, z: Tensor) -> Tensor:
+        return self(self.chord(z, z, self.lengthscale))
+
+    def cross(self, x: Tensor, z: Tensor) -> Tensor:
+        return self(self.chord(x, z, self.lengthscale))
+
+    def distance_fn(self, x: Tensor) -> tuple[int, Callable[[Tensor], Tensor]]:
+        return x.shape[1], lambda log_f: self.chord(x, x, self.lengthscale * log_f.exp())
+
+
+def periodic(a: np.ndarray, b: np.ndarray, ls: float, variance: float) -> np.ndarray:
+    chord = 2 * np.sin((a[:, None] - b[None]) / 2) / ls
+    return variance * np.exp(-0.5 * (chord**2).sum(-1))
+
+
+def test_a_new_kernel_family_needs_no_engine_change() -> None:
+    """Every point a BV: the posterior is the exact GP's with the new kernel, and periodic."""
+    rng = np.random.default_rng(3)
+    x = np.linspace(-np.pi, np.pi, 12, endpoint=False)[:, None] + rng.uniform(0, 0.1, (12, 1))
+    y = np.cos(2 * x[:, 0]) + 0.05 * rng.normal(size=12)
+    ls, variance, noise = 0.5, 1.2, 0.01
+    gp = SparseOnlineGP(
+        1,
+        PeriodicKernel(lengthscale=ls, variance=variance),
+        max_basis=12,
+        noise_var=noise,
+        novelty_tol=0.0,
+        target_mean=0.0,
+        target_scale=1.0,
+    )
+    gp.update(x, y)
+    assert gp.n_basis == 12
+    probe = rng.uniform(-np.pi, np.pi, size=(30, 1))
+    kept = gp.basis_inputs.numpy()
+    y_kept = gp.bv_y[: gp.n_basis].numpy()
+    mean, var = exact_posterior(
+        periodic(kept, kept, ls, variance),
+        periodic(probe, kept, ls, variance),
+        variance,
+        y_kept,
+        noise,
+    )
+    got_mean, got_var = gp.predict(probe)
+    np.testing.assert_allclose(got_mean.numpy(), mean, rtol=0, atol=1e-8)
+    np.testing.assert_allclose(got_var.numpy(), var, rtol=0, atol=1e-8)
+    shifted_mean, _ = gp.predict(probe + 2 * np.pi)
+    np.testing.assert_allclose(shifted_mean.numpy(), got_mean.numpy(), rtol=0, atol=1e-9)
+    fit = gp.fit_hyperparameters(n_iter=5)
+    assert np.isfinite(fit["nlml"]) and gp.lengthscale.shape == (1,)
+
+
+# -- states saved by sb3_geogp 0.1 ------------------------------------------------------------
+@pytest.mark.parametrize("kernel", ["geodesic", "rbf"])
+def test_state_saved_by_v0_1_loads_and_predicts_the_same(kernel: str) -> None:
+    """tests/data holds states and predictions written by sb3_geogp 0.1 (GP-owned graph)."""
+    saved = torch.load(Path(__file__).parent / "data" / "sparse_gp_v0_1_states.pt")
+    gp = SparseOnlineGP(2, kernel=kernel, max_basis=12)
+    gp.load_state_dict(saved[kernel]["state"])
+    mean, var = gp.predict(saved["probe"])
+    assert torch.equal(mean, saved[kernel]["mean"]) and torch.equal(var, saved[kernel]["var"])
+    gp.update(saved["probe"], torch.zeros(len(saved["probe"])))  # and it keeps learning
+    assert gp.n_basis > 0 and torch.isfinite(gp.predict(saved["probe"])[0]).all()

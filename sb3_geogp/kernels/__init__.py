@@ -1,0 +1,55 @@
+"""Covariance functions of the sparse GP, one family per module (as GPyTorch's kernels).
+
+* :mod:`~sb3_geogp.kernels.base`: the interface the GP talks to (:class:`Kernel`) and the two
+  forms of kernel rows (:class:`DenseRows`, :class:`MixedRows`).
+* :mod:`~sb3_geogp.kernels.euclidean`: :class:`RBFKernel`, :class:`LaplacianKernel`.
+* :mod:`~sb3_geogp.kernels.geodesic`: :class:`GeodesicKernel`, which owns the basis-vector
+  graph, and :func:`shepard_weights`.
+
+A new kernel family is one new module with a :class:`Kernel` subclass; nothing in
+:mod:`sb3_geogp.sparse_gp` changes.
+"""
+
+from __future__ import annotations
+
+import copy
+from typing import Any, Literal
+
+from sb3_geogp.kernels.base import BasisMatrices, DenseRows, Gram, Kernel, MixedRows, Rows
+from sb3_geogp.kernels.euclidean import EuclideanKernel, LaplacianKernel, RBFKernel
+from sb3_geogp.kernels.geodesic import GeodesicKernel, shepard_weights
+
+#: Kernels that :func:`make_kernel` (and so ``gp_kwargs=dict(kernel=...)``) builds by name.
+KERNELS: dict[str, type[Kernel]] = {"rbf": RBFKernel, "geodesic": GeodesicKernel}
+
+
+def make_kernel(kernel: Kernel | Literal["rbf", "geodesic"], **kwargs: Any) -> Kernel:
+    """A copy of ``kernel``, or a new one built by name (a key of :data:`KERNELS`).
+
+    A kernel holds state (its lengthscale once chosen, the geodesic kernel's graph), so a GP
+    never shares it.
+    """
+    if isinstance(kernel, Kernel):
+        if kwargs:
+            raise ValueError("kernel options can only be given with a kernel name")
+        return copy.deepcopy(kernel)
+    if kernel not in KERNELS:
+        raise ValueError(f"kernel must be a Kernel or one of {sorted(KERNELS)}, got {kernel!r}")
+    return KERNELS[kernel](**kwargs)
+
+
+__all__ = [
+    "KERNELS",
+    "BasisMatrices",
+    "DenseRows",
+    "EuclideanKernel",
+    "GeodesicKernel",
+    "Gram",
+    "Kernel",
+    "LaplacianKernel",
+    "MixedRows",
+    "RBFKernel",
+    "Rows",
+    "make_kernel",
+    "shepard_weights",
+]

@@ -1,0 +1,290 @@
+"""The kernel interface of :class:`~sb3_geogp.SparseOnlineGP` and the two forms of kernel rows.
+
+Every kernel of the package is stationary in a distance ``r`` measured in lengthscale units,
+
+.. math::  k(x, x') = \\sigma_f^2 \\, \\rho\\big(r(x, x')\\big),
+
+and the GP talks to it only through :class:`Kernel`'s small interface:
+
+* rows over the basis: :meth:`Kernel.gram` (among basis vectors), :meth:`Kernel.rows`
+  (prediction), :meth:`Kernel.novelty_rows` (screening) and :meth:`Kernel.insertion_row`
+  (a point about to become a basis vector);
+* the basis life cycle: :meth:`Kernel.on_insert`, :meth:`Kernel.on_delete`,
+  :meth:`Kernel.start_trajectory`, which a kernel with state of its own over the basis (the
+  geodesic kernel's graph) follows, and :meth:`Kernel.rescale` after a lengthscale fit;
+* the evidence fit: :meth:`Kernel.distance_fn`, distances among basis vectors as a function
+  of log lengthscale factors.
+
+A prediction row is either a dense row ``k(x, b_1..b_m)`` (:class:`DenseRows`) or a mixture of
+basis rows, ``k(x, .) = sum_j w_j K_b[idx_j]`` (:class:`MixedRows`); each form computes the
+quadratic forms the GP needs in its own cheapest way from the :class:`BasisMatrices` of the
+current posterior, so the GP runs one algebra whatever the kernel.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from typing import Any, NamedTuple, Protocol
+
+import torch
+from torch import Tensor, nn
+
+from sb3_geogp.graph import BVGraph
+
+
+class HasGram(Protocol):
+    """Holds the basis Gram matrix ``K : (m, m)`` (all that :meth:`MixedRows.dense` reads)."""
+
+    @property
+    def K(self) -> Tensor: ...
+
+
+class Gram(NamedTuple):
+    """A basis Gram matrix on its own, for dense rows outside the GP (checks and plots)."""
+
+    K: Tensor
+
+
+class BasisMatrices(HasGram, Protocol):
+    """What rows need of the GP's posterior over ``m`` basis vectors (computed on demand).
+
+    ``alpha`` (m,), ``Q = (K_b + N)^{-1}`` and ``P = Q + C`` (m, m) of the Csató–Opper
+    posterior; ``K`` the basis Gram matrix; ``K_alpha = K alpha``; ``KQK = K Q K``;
+    ``KPK = K P K``.
+    """
+
+    @property
+    def alpha(self) -> Tensor: ...
+    @property
+    def Q(self) -> Tensor: ...
+    @property
+    def P(self) -> Tensor: ...
+    @property
+    def K_alpha(self) -> Tensor: ...
+    @property
+    def KQK(self) -> Tensor: ...
+    @property
+    def KPK(self) -> Tensor: ...
+    def has(self, name: str) -> bool:
+        """Whether ``name`` is already computed (so using it costs nothing)."""
+        ...
+
+
+class DenseRows(NamedTuple):
+    """Kernel rows given entry by entry, ``rows : Tensor, shape (n, m)``."""
+
+    rows: Tensor
+
+    def dense(self, basis: HasGram) -> Tensor:
+        """The rows, shape (n, m)."""
+        return self.rows
+
+    def mean(self, basis: BasisMatrices) -> Tensor:
+        """``k_x^T alpha``, shape (n,)."""
+        return self.rows @ basis.alpha
+
+    def kqk(self, basis: BasisMatrices) -> Tensor:
+        """``k_x^T Q k_x``, shape (n,)."""
+        return quad(self.rows, basis.Q)
+
+    def kpk(self, basis: BasisMatrices) -> Tensor:
+        """``k_x^T P k_x``, shape (n,)."""
+        return quad(self.rows, basis.P)
+
+
+class MixedRows(NamedTuple):
+    """Kernel rows as mixtures of basis rows, ``k(x_i, .) = sum_j w_ij K_b[idx_ij]``.
+
+    The quadratic forms then need only ``(m, m)`` products of the posterior, computed once per
+    state, and cost O(n k^2) per batch instead of O(n m^2).
+
+    Attributes
+    ----------
+    idx : Tensor, shape (n, k), long
+        Basis rows mixed.
+    w : Tensor, shape (n, k)
+        Their weights.
+    """
+
+    idx: Tensor
+    w: Tensor
+
+    def dense(self, basis: HasGram) -> Tensor:
+        """The rows, shape (n, m), from the basis Gram matrix."""
+        return torch.einsum("nk,nkm->nm", self.w, basis.K[self.idx])
+
+    def mean(self, basis: BasisMatrices) -> Tensor:
+        """``k_x^T alpha = sum_j w_j (K alpha)[idx_j]``, shape (n,)."""
+        return (self.w * basis.K_alpha[self.idx]).sum(dim=1)
+
+    def kqk(self, basis: BasisMatrices) -> Tensor:
+        """``k_x^T Q k_x = w^T (K Q K)[idx, idx] w``, shape (n,)."""
+        return gathered_quad(self.idx, self.w, basis.KQK)
+
+    def kpk(self, basis: BasisMatrices) -> Tensor:
+        """``k_x^T P k_x``, shape (n,).
+
+        Through ``K P K`` (O(m^3) once per state) when it exists or the batch is at least as
+        large as the basis; for fewer points, O(n m^2) on the dense rows is cheaper.
+        """
+        if basis.has("KPK") or self.idx.shape[0] >= basis.K.shape[0]:
+            return gathered_quad(self.idx, self.w, basis.KPK)
+        return quad(self.dense(basis), basis.P)
+
+
+Rows = DenseRows | MixedRows
+
+
+class Kernel(nn.Module):
+    """Stationary kernel ``k = variance * rho(r)`` with per-dimension lengthscales.
+
+    Subclasses define the profile :meth:`profile` and the rows over the basis; a kernel with
+    state over the basis (the geodesic kernel's graph) also follows its life cycle.
+
+    Parameters
+    ----------
+    lengthscale : float, sequence of float or None
+        One value for all input dimensions or one per dimension. ``None`` (or NaN for some
+        dimensions) leaves the choice to :func:`sb3_geogp.defaults.initial_lengthscale` when
+        the GP sees its first batch.
+    variance : float
+        Signal variance ``sigma_f^2`` in units of the standardised targets.
+    """
+
+    lengthscale: Tensor
+    variance: Tensor
+
+    def __init__(
+        self, lengthscale: float | Sequence[float] | None = None, variance: float = 1.0
+    ) -> None:
+        super().__init__()
+        if variance <= 0 or not math.isfinite(variance):
+            raise ValueError(f"variance must be a positive finite number, got {variance}")
+        init = None if lengthscale is None else torch.as_tensor(lengthscale, dtype=torch.float64)
+        if init is not None and (
+            init.ndim > 1 or not torch.all((init > 0) & ~torch.isinf(init) | torch.isnan(init))
+        ):
+            raise ValueError(
+                f"lengthscale must be positive and finite, or NaN for 'choose from the data' "
+                f"(scalar or 1-D), got {lengthscale}"
+            )
+        self._init_lengthscale = init
+        # Shape (d,) is fixed by bind(); until then the buffer is empty.
+        self.register_buffer("lengthscale", torch.empty(0, dtype=torch.float64))
+        self.register_buffer("variance", torch.tensor(float(variance), dtype=torch.float64))
+
+    # -- set-up -----------------------------------------------------------------------------
+    def bind(self, input_dim: int, capacity: int) -> None:
+        """Allocate the state for ``input_dim`` inputs and up to ``capacity`` basis vectors.
+
+        The lengthscale buffer holds the requested values, NaN where none was requested.
+        """
+        ls = torch.full((input_dim,), float("nan"), dtype=torch.float64)
+        if self._init_lengthscale is not None:
+            if self._init_lengthscale.numel() not in (1, input_dim):
+                raise ValueError(
+                    f"lengthscale has {self._init_lengthscale.numel()} entries but the input has "
+                    f"{input_dim} dimensions; pass one value or one per dimension"
+                )
+            ls[:] = self._init_lengthscale
+        self.lengthscale = ls
+
+    def scale(self, x: Tensor) -> Tensor:
+        """Inputs in lengthscale units, ``x / l``; ``x : Tensor, shape (n, d)``."""
+        return x / self.lengthscale
+
+    # -- the covariance as a function of distance -----------------------------------------------
+    def profile(self, r: Tensor) -> Tensor:
+        """Correlation ``rho(r)`` at distance ``r`` (lengthscale units), ``rho(0) = 1``."""
+        raise NotImplementedError
+
+    def forward(self, r: Tensor) -> Tensor:
+        """Covariance ``variance * rho(r)`` for a tensor of distances ``r``."""
+        return self.variance * self.profile(r)
+
+    def novelty_at(self, r: float) -> float:
+        """Relative novelty ``1 - rho(r)^2`` of a point at distance ``r`` from a single BV.
+
+        Used to put the default novelty threshold on a distance scale: the same relative
+        threshold means very different spacings for a Gaussian profile (``~ r^2``) and a
+        Laplacian one (``~ 2 r``).
+        """
+        return 1.0 - float(self.profile(torch.tensor(float(r), dtype=torch.float64))) ** 2
+
+    # -- rows over the basis ---------------------------------------------------------------------
+    def gram(self, z: Tensor) -> Tensor:
+        """Covariance among the basis vectors at scaled inputs ``z : (m, d)``, shape (m, m)."""
+        raise NotImplementedError
+
+    def cross(self, x: Tensor, z: Tensor) -> Tensor:
+        """Prediction rows ``k(x, BV)`` of scaled inputs ``x : (n, d)``, shape (n, m).
+
+        ``z : Tensor, shape (m, d)`` is the basis in scaled inputs.
+        """
+        raise NotImplementedError
+
+    def rows(self, x: Tensor, z: Tensor) -> Rows:
+        """:meth:`cross` in the form the GP computes with (dense unless overridden)."""
+        return DenseRows(self.cross(x, z))
+
+    def novelty_rows(self, x: Tensor, z: Tensor) -> Rows:
+        """Rows on which a point's novelty is judged (by default its prediction rows)."""
+        return self.rows(x, z)
+
+    def insertion_row(self, x: Tensor, z: Tensor) -> tuple[Tensor, Any]:
+        """Row ``k(x, BV)`` a point gets once it is itself a basis vector, shape (m,).
+
+        ``x : Tensor, shape (d,)`` scaled. The second output is handed back to
+        :meth:`on_insert` if the point is inserted (for the geodesic kernel, its graph parent).
+        """
+        return self.cross(x[None], z)[0], None
+
+    # -- the basis life cycle (no-ops for a kernel without state over the basis) -----------------
+    def on_insert(self, x: Tensor, attachment: Any) -> None:
+        """A point at scaled input ``x : (d,)`` became the last basis vector."""
+
+    def on_delete(self, j: int) -> None:
+        """Basis vector ``j`` was removed (the later ones move up one place)."""
+
+    def start_trajectory(self) -> None:
+        """The next points start a new trajectory."""
+
+    @property
+    def graph(self) -> BVGraph | None:
+        """The kernel's basis-vector graph, if it has one."""
+        return None
+
+    # -- hyperparameters -----------------------------------------------------------------------
+    def distance_fn(self, x: Tensor) -> tuple[int, Callable[[Tensor], Tensor]]:
+        """Distances among basis inputs as a function of log lengthscale factors.
+
+        Parameters
+        ----------
+        x : Tensor, shape (m, d)
+            Basis inputs in the user's units.
+
+        Returns
+        -------
+        n_factors : int
+            Number of free factors (one per dimension, or one for all).
+        distances : callable
+            ``log_factor : Tensor, shape (n_factors,) -> Tensor, shape (m, m)``, differentiable:
+            the distances after :meth:`rescale` by ``exp(log_factor)``.
+        """
+        raise NotImplementedError
+
+    def rescale(self, factor: Tensor) -> None:
+        """Multiply the lengthscale(s) by ``factor : Tensor, shape (n_factors,)``."""
+        self.lengthscale.mul_(factor)
+
+
+def quad(rows: Tensor, M: Tensor) -> Tensor:
+    """Row-wise quadratic forms ``rows_i^T M rows_i``; rows (n, m), M (m, m) -> (n,)."""
+    return ((rows @ M) * rows).sum(dim=1)
+
+
+def gathered_quad(idx: Tensor, w: Tensor, M: Tensor) -> Tensor:
+    """``w_i^T M[idx_i][:, idx_i] w_i`` per row; idx, w (n, k), M (m, m) -> (n,)."""
+    block = M[idx[:, :, None], idx[:, None, :]]
+    return torch.einsum("nk,nkl,nl->n", w, block, w)

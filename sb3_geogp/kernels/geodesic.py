@@ -1,0 +1,235 @@
+"""The geodesic kernel: covariance of shortest-path distances over a basis-vector graph.
+
+The kernel owns the graph (:class:`~sb3_geogp.graph.BVGraph`) that it grows on-line: the rule by
+which a new basis vector joins it (along its trajectory, or to its nearest), the trajectory
+being followed, its shortest-path table as the kernel's distance, and its rescaling after a
+lengthscale fit. The sparse GP only tells it of each insertion and deletion.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from typing import Any, Literal
+
+import torch
+from torch import Tensor
+
+from sb3_geogp.graph import BVGraph
+from sb3_geogp.kernels.base import DenseRows, Gram, Kernel, MixedRows, Rows
+
+Profile = Literal["laplacian", "gaussian"]
+Attach = Literal["interpolate", "nearest"]
+Edges = Literal["trajectory", "nearest"]
+
+
+class GeodesicKernel(Kernel):
+    """Kernel on shortest-path distances over the basis-vector graph (paper eq. 6, sign fixed).
+
+    Between basis vectors ``b_i, b_j`` the distance is the graph's shortest path
+    ``SP(b_i, b_j)``; each edge is a scaled Euclidean distance ``||(b - b') / l||``.
+
+    .. math::  k(b_i, b_j) = \\sigma_f^2 \\rho\\big(SP(b_i, b_j)\\big),\\quad
+               \\rho(r) = e^{-r} \\text{ (laplacian)} \\text{ or } e^{-r^2/2} \\text{ (gaussian)}
+
+    The graph is a tree (see :mod:`sb3_geogp.graph`). Tree metrics embed isometrically in
+    L1, so the Laplacian profile is positive definite; the Gaussian one is not
+    (Sugiyama et al. 2008) and relies on the sparse GP's nugget repair.
+
+    A point ``x`` that is not a basis vector is attached to the graph in one of two ways:
+
+    * ``attach="nearest"`` (the paper): through its nearest basis vector ``b_i``,
+      ``r(x, b_j) = ||x - b_i|| + SP(b_i, b_j)``.
+    * ``attach="interpolate"`` (default): ``k(x, .) = sum_i w_i(x) k(b_i, .)`` over the
+      ``n_neighbors`` nearest basis vectors, with modified Shepard weights
+      ``w_i ∝ ((R - d_i) / (R d_i))^2`` (``d_i`` Euclidean, ``R`` the distance to the next
+      neighbour), normalised to sum 1. The weights are continuous in ``x`` and one-hot on a
+      basis vector, so the kernel is the BV kernel seen through a feature map: positive
+      definite whenever the BV Gram matrix is.
+
+    Novelty is always judged on the row the point would have as a leaf of its nearest basis
+    vector (an interpolated row lies in the span of the BV rows and is never novel).
+
+    A new basis vector joins the tree as a leaf of its parent (:meth:`insertion_row`): the
+    previous basis vector of its own trajectory with ``edges="trajectory"`` when there is one
+    (paper footnote 3), else its nearest basis vector (paper eq. 5).
+
+    Parameters
+    ----------
+    lengthscale : float, sequence of float or None
+        Scales the inputs before Euclidean edge lengths are taken.
+    variance : float
+        ``sigma_f^2`` (standardised target units).
+    profile : {"laplacian", "gaussian"}
+        Correlation as a function of graph distance.
+    attach : {"interpolate", "nearest"}
+        How prediction points are attached to the graph.
+    n_neighbors : int
+        Basis vectors interpolated over with ``attach="interpolate"``.
+    edges : {"trajectory", "nearest"}
+        How a new basis vector joins the tree: to the previous basis vector of its own
+        trajectory when there is one, else to its nearest (``"trajectory"``, paper footnote 3),
+        or always to its nearest (``"nearest"``, paper eq. 5 literally).
+
+    Attributes
+    ----------
+    graph : BVGraph
+        The tree over the basis vectors (allocated by :meth:`bind`), positions in lengthscale
+        units.
+    traj_node : Tensor, shape (), long
+        Graph node of the current trajectory's last basis vector (``-1``: none yet).
+    """
+
+    traj_node: Tensor
+
+    def __init__(
+        self,
+        lengthscale: float | Sequence[float] | None = None,
+        variance: float = 1.0,
+        profile: Profile = "laplacian",
+        attach: Attach = "interpolate",
+        n_neighbors: int = 4,
+        edges: Edges = "trajectory",
+    ) -> None:
+        super().__init__(lengthscale, variance)
+        for name, value, allowed in (
+            ("profile", profile, ("laplacian", "gaussian")),
+            ("attach", attach, ("interpolate", "nearest")),
+            ("edges", edges, ("trajectory", "nearest")),
+        ):
+            if value not in allowed:
+                raise ValueError(f"{name} must be one of {allowed}, got {value!r}")
+        if n_neighbors < 1:
+            raise ValueError(f"n_neighbors must be >= 1, got {n_neighbors}")
+        self.profile_name: Profile = profile
+        self.attach: Attach = attach
+        self.n_neighbors = int(n_neighbors)
+        self.edges: Edges = edges
+        self.tree = BVGraph(0, 1)
+        self.register_buffer("traj_node", torch.full((), -1, dtype=torch.long))
+
+    def extra_repr(self) -> str:
+        return (
+            f"profile={self.profile_name!r}, attach={self.attach!r}, "
+            f"n_neighbors={self.n_neighbors}, edges={self.edges!r}"
+        )
+
+    # -- set-up and the graph ------------------------------------------------------------------
+    def bind(self, input_dim: int, capacity: int) -> None:
+        """Also allocate the graph: ``2 * capacity`` nodes always suffice (see BVGraph)."""
+        super().bind(input_dim, capacity)
+        self.tree = BVGraph(2 * capacity, input_dim)
+        self.traj_node.fill_(-1)
+
+    @property
+    def graph(self) -> BVGraph:
+        return self.tree
+
+    def profile(self, r: Tensor) -> Tensor:
+        if self.profile_name == "laplacian":
+            return torch.exp(-r)
+        return torch.exp(-0.5 * r * r)
+
+    # -- rows over the basis ---------------------------------------------------------------------
+    def gram(self, z: Tensor) -> Tensor:
+        return self(self.tree.basis_distances())
+
+    def _leaf_factors(self, x: Tensor, z: Tensor) -> MixedRows:
+        # As a leaf of the nearest BV b_i at distance w, the Laplacian row is
+        # variance * exp(-(w + SP(b_i, .))) = exp(-w) * K_b[i]: a scaled copy of one BV row.
+        w, i = torch.cdist(x, z).min(dim=1)
+        return MixedRows(i[:, None], torch.exp(-w)[:, None])
+
+    def novelty_rows(self, x: Tensor, z: Tensor) -> Rows:
+        if self.profile_name == "laplacian":
+            return self._leaf_factors(x, z)
+        # Leaf of the nearest BV: r(x, b_j) = ||x - b_i|| + SP(b_i, b_j).
+        w, i = torch.cdist(x, z).min(dim=1)
+        return DenseRows(self(w[:, None] + self.tree.basis_distances()[i]))
+
+    def rows(self, x: Tensor, z: Tensor) -> Rows:
+        if self.attach == "interpolate":
+            return MixedRows(*shepard_weights(torch.cdist(x, z), self.n_neighbors))
+        return self.novelty_rows(x, z)
+
+    def cross(self, x: Tensor, z: Tensor) -> Tensor:
+        return self.rows(x, z).dense(Gram(self.gram(z)))
+
+    def insertion_row(self, x: Tensor, z: Tensor) -> tuple[Tensor, Any]:
+        """The row of ``x`` as a leaf of its parent; the parent node is the attachment."""
+        parent = self._parent(x, z)
+        if parent is None:
+            return x.new_zeros(0), None  # the first BV starts a component of its own
+        w = torch.linalg.vector_norm(x - self.tree.pos[parent])
+        nodes = self.tree.basis_nodes[: z.shape[0]]
+        return self(w + self.tree.shortest_paths[parent, nodes]), parent
+
+    def _parent(self, x: Tensor, z: Tensor) -> int | None:
+        """Graph node a new BV at scaled input ``x : (d,)`` is joined to (None: no basis yet)."""
+        if z.shape[0] == 0:
+            return None
+        if self.edges == "trajectory" and int(self.traj_node) >= 0:
+            return int(self.traj_node)
+        return int(self.tree.basis_nodes[torch.cdist(x[None], z)[0].argmin()])
+
+    # -- the basis life cycle ------------------------------------------------------------------
+    def on_insert(self, x: Tensor, attachment: Any) -> None:
+        self.traj_node.fill_(self.tree.add_node(x, attachment))
+
+    def on_delete(self, j: int) -> None:
+        freed = self.tree.remove_bv(int(self.tree.basis_nodes[j]))
+        if int(self.traj_node) in freed:
+            self.traj_node.fill_(-1)
+
+    def start_trajectory(self) -> None:
+        self.traj_node.fill_(-1)
+
+    # -- hyperparameters -----------------------------------------------------------------------
+    def distance_fn(self, x: Tensor) -> tuple[int, Callable[[Tensor], Tensor]]:
+        """One factor on all lengthscales: every graph distance scales by its inverse, so the
+        tree and its shortest paths stay exact (per-dimension factors would change which
+        paths are shortest)."""
+        base = self.tree.basis_distances().clone()
+        return 1, lambda log_factor: base / log_factor.exp()
+
+    def rescale(self, factor: Tensor) -> None:
+        super().rescale(factor)
+        self.tree.rescale(float(factor))
+
+
+def shepard_weights(dist: Tensor, k: int) -> tuple[Tensor, Tensor]:
+    """Modified Shepard interpolation weights over the ``k`` nearest basis vectors.
+
+    Parameters
+    ----------
+    dist : Tensor, shape (n, m)
+        Distances from ``n`` points to ``m`` basis vectors.
+    k : int
+        Number of neighbours that get weight (capped at ``m``).
+
+    Returns
+    -------
+    idx : Tensor, shape (n, k), long
+        The nearest basis vectors of each point.
+    weights : Tensor, shape (n, k)
+        ``w_i ∝ ((R - d_i)_+ / (R d_i))^2``, summing to 1, ``R`` the distance to the
+        ``(k+1)``-th nearest basis vector (infinite if there is none), so a weight vanishes
+        continuously as its basis vector leaves the neighbour set; a point on a basis vector
+        gets weight 1 on it.
+    """
+    m = dist.shape[1]
+    k = min(k, m)
+    d, idx = torch.topk(dist, min(k + 1, m), dim=1, largest=False)
+    # A point on a BV gets weight 1 there: clamping its distance keeps the formula finite and
+    # the mask zeroes the others.
+    floor = torch.finfo(d.dtype).tiny ** 0.25
+    d_near = d[:, :k].clamp_min(floor)
+    if m > k:
+        radius = d[:, k:]
+        raw = ((radius - d_near).clamp_min(0) / (radius * d_near)).square()
+    else:
+        raw = d_near.reciprocal().square()
+    raw[:, 1:] *= d[:, :1] > floor
+    # A row of neighbours all tied at the radius is all zero: the tiny offset weighs them
+    # equally there and vanishes (underflows) next to any real weight.
+    raw = raw + torch.finfo(raw.dtype).tiny
+    return idx[:, :k], raw / raw.sum(dim=1, keepdim=True)
