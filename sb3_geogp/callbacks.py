@@ -44,6 +44,12 @@ class GPValueCallback(BaseCallback):
         Recompute the rollout's values, returns and advantages with the updated GP before
         ``train`` (including the time-limit bootstraps). ``False`` (default) keeps SB3's
         timing: the advantages use the critic from before the update, as with an MLP critic.
+    deferred_values : bool
+        ``True`` (default): no GP prediction at every environment step; the rollout's values
+        come from one batched prediction at its end, and SB3's returns and advantages are
+        recomputed from them (identical to step-by-step values, tested). Time-limit
+        bootstraps and the last values are always predicted when SB3 asks. ``False``: the
+        policy predicts the values step by step, as SB3 does with an MLP critic.
     verbose : int
         SB3 verbosity.
 
@@ -54,10 +60,14 @@ class GPValueCallback(BaseCallback):
 
     Notes
     -----
+    Run it before other callbacks that read the rollout buffer at rollout end: until it has
+    run, the deferred values are placeholders.
+
     Logged at every rollout (SB3 logger, so stdout/CSV/TensorBoard):
 
     * ``gp/explained_variance``, ``gp/mse``: the GP's prediction of the targets it is about
-      to be fed, before it absorbs them (out of sample);
+      to be fed, before it absorbs them (out of sample; with ``target="returns"`` these are
+      the rollout's own values, so they cost no extra prediction);
     * ``gp/mean_std``: mean predictive standard deviation on those points (before the update,
       at most 1024 evenly spaced ones);
     * ``gp/n_basis``, ``gp/update_ms``, ``gp/n_fed``, ``gp/forgetting``, and
@@ -68,6 +78,7 @@ class GPValueCallback(BaseCallback):
         self,
         target: Target = "returns",
         recompute_advantages: bool = False,
+        deferred_values: bool = True,
         verbose: int = 0,
     ) -> None:
         super().__init__(verbose)
@@ -75,6 +86,7 @@ class GPValueCallback(BaseCallback):
             raise ValueError(f"target must be 'returns' or 'monte_carlo', got {target!r}")
         self.target: Target = target
         self.recompute_advantages = bool(recompute_advantages)
+        self.deferred_values = bool(deferred_values)
         #: Wall-clock seconds spent in GP updates so far (all rollouts of this callback).
         self.update_seconds = 0.0
         # Monte-Carlo: steps of each env's unfinished episode (obs, rewards, episode_starts).
@@ -124,6 +136,7 @@ class GPValueCallback(BaseCallback):
 
     def _on_rollout_start(self) -> None:
         self._truncations = []
+        self._policy.defer_values = self.deferred_values
 
     def _on_step(self) -> bool:
         if self.recompute_advantages:
@@ -138,19 +151,26 @@ class GPValueCallback(BaseCallback):
         return True
 
     def _on_rollout_end(self) -> None:
-        policy = self.model.policy
-        assert isinstance(policy, GPActorCriticPolicy)
+        policy = self._policy
+        policy.defer_values = False
         buffer = self._algo.rollout_buffer
         dones = np.asarray(self.locals["dones"], dtype=bool)
+        if self.deferred_values:
+            # SB3 has just computed returns and advantages from placeholder values; with the
+            # values of one batched prediction they are what step-by-step values would give.
+            # ``values`` is SB3's last value (of the observations after the rollout).
+            self._fill_values(policy, buffer, self.locals["values"], dones)
+        values: np.ndarray | None = None
         if self.target == "returns":
             obs, targets, starts = _per_env(
                 buffer.observations, buffer.returns, buffer.episode_starts
             )
+            values = _env_major(buffer.values)
         else:
             obs, targets, starts = self._completed_episodes(buffer, dones)
         if self.recompute_advantages:
             old_bootstrap = self._bootstrap_values(policy)
-        stats = policy.update_critic(obs, targets, starts)
+        stats = policy.update_critic(obs, targets, starts, values)
         self.update_seconds += 1e-3 * stats["update_ms"]
         if self.recompute_advantages:
             self._recompute(policy, buffer, dones, old_bootstrap)
@@ -164,6 +184,11 @@ class GPValueCallback(BaseCallback):
     def _algo(self) -> OnPolicyAlgorithm:
         """The model, as the on-policy algorithm checked in ``_init_callback``."""
         return cast(OnPolicyAlgorithm, self.model)
+
+    @property
+    def _policy(self) -> GPActorCriticPolicy:
+        """The model's policy, as checked in ``_init_callback``."""
+        return cast(GPActorCriticPolicy, self.model.policy)
 
     def _completed_episodes(
         self, buffer: RolloutBuffer, dones: np.ndarray
@@ -220,13 +245,24 @@ class GPValueCallback(BaseCallback):
             self._truncations, old_bootstrap, new_bootstrap, strict=True
         ):
             buffer.rewards[step, env] += gamma * (new - old)
+        with th.no_grad():
+            last_values = policy.predict_values(
+                th.as_tensor(self.locals["new_obs"], device=policy.device)
+            )
+        self._fill_values(policy, buffer, last_values, dones)
+
+    @staticmethod
+    def _fill_values(
+        policy: GPActorCriticPolicy,
+        buffer: RolloutBuffer,
+        last_values: th.Tensor,
+        dones: np.ndarray,
+    ) -> None:
+        """The rollout's values in one GP prediction, then SB3's returns and advantages."""
         n_steps, n_envs = buffer.values.shape
         flat_obs = buffer.observations.reshape(n_steps * n_envs, *buffer.obs_shape)
         with th.no_grad():
             values = policy.predict_values(th.as_tensor(flat_obs, device=policy.device))
-            last_values = policy.predict_values(
-                th.as_tensor(self.locals["new_obs"], device=policy.device)
-            )
         buffer.values[:] = values.cpu().numpy().reshape(n_steps, n_envs)
         buffer.compute_returns_and_advantage(last_values=last_values, dones=dones)
 
@@ -240,16 +276,19 @@ def _empty_segment(obs_shape: tuple[int, ...] | None) -> tuple[np.ndarray, np.nd
     )
 
 
+def _env_major(a: np.ndarray) -> np.ndarray:
+    """Time-major ``(n_steps, n_envs, ...)`` reordered env by env, ``(n_envs * n_steps, ...)``."""
+    return np.swapaxes(a, 0, 1).reshape(-1, *a.shape[2:])
+
+
 def _per_env(
     observations: np.ndarray, targets: np.ndarray, episode_starts: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Reorder time-major ``(n_steps, n_envs, ...)`` arrays env by env, each in time order.
+    """Reorder a rollout's arrays env by env, each env in time order.
 
     Returns observations (n_envs * n_steps, *obs_shape), targets (n_envs * n_steps,) and
     episode starts (n_envs * n_steps,) with ``True`` on each env's first step.
     """
-    n_steps, n_envs = targets.shape
-    obs = np.swapaxes(observations, 0, 1).reshape(n_envs * n_steps, *observations.shape[2:])
     starts = np.swapaxes(episode_starts, 0, 1).astype(bool)
     starts[:, 0] = True
-    return obs, np.swapaxes(targets, 0, 1).reshape(-1), starts.reshape(-1)
+    return _env_major(observations), _env_major(targets), starts.reshape(-1)

@@ -11,7 +11,9 @@ This module only adapts (spaces, shapes, dtypes, devices, bookkeeping); the math
 
 from __future__ import annotations
 
+import contextlib
 import time
+from collections.abc import Iterator
 from typing import Any
 
 import numpy as np
@@ -43,14 +45,23 @@ class GPValueHead(nn.Module):
     ----------
     gp : SparseOnlineGP
         The critic.
+
+    Attributes
+    ----------
+    placeholder : bool
+        While ``True`` the head returns zeros without asking the GP (the policy sets it where
+        SB3 would only store or discard the values, see :class:`GPActorCriticPolicy`).
     """
 
     def __init__(self, gp: SparseOnlineGP) -> None:
         super().__init__()
         self.gp = gp
+        self.placeholder = False
 
     def forward(self, latent_vf: th.Tensor) -> th.Tensor:
         """Values of ``latent_vf : (N, d)`` as float32, shape (N, 1), on the input's device."""
+        if self.placeholder:
+            return th.zeros(latent_vf.shape[0], 1, dtype=th.float32, device=latent_vf.device)
         return self.gp(latent_vf).to(device=latent_vf.device, dtype=th.float32).unsqueeze(1)
 
 
@@ -89,6 +100,12 @@ class GPActorCriticPolicy(ActorCriticPolicy):
 
     Attributes
     ----------
+    defer_values : bool
+        While ``True``, :meth:`forward` (SB3's rollout collection) returns zeros as values
+        instead of asking the GP at every step; :class:`~sb3_geogp.GPValueCallback` switches it
+        on for each rollout and fills in the rollout's values with one batched GP prediction
+        at its end. :meth:`predict_values` (time-limit bootstraps, the last values, any call by
+        a user) always asks the GP.
     require_gp_feed : bool
         When ``True`` (default), :meth:`evaluate_actions` in training mode raises if the
         observations collected since the last rollout (calls of :meth:`forward`) have not
@@ -113,6 +130,7 @@ class GPActorCriticPolicy(ActorCriticPolicy):
         )
         self.gp_kwargs = dict(gp_kwargs or {})
         self.require_gp_feed = True
+        self.defer_values = False
         self._awaiting_feed = False
 
     # ------------------------------------------------------------------------------------------
@@ -169,11 +187,12 @@ class GPActorCriticPolicy(ActorCriticPolicy):
         Returns
         -------
         actions : Tensor, shape (N, *action_shape)
-        values : Tensor, shape (N, 1), float32
+        values : Tensor, shape (N, 1), float32; zeros while :attr:`defer_values`
         log_prob : Tensor, shape (N,)
         """
         self._awaiting_feed = True
-        return super().forward(obs, deterministic)
+        with self._placeholder_values(self.defer_values):
+            return super().forward(obs, deterministic)
 
     def evaluate_actions(
         self, obs: PyTorchObs, actions: th.Tensor
@@ -187,9 +206,17 @@ class GPActorCriticPolicy(ActorCriticPolicy):
 
         Returns
         -------
-        values : Tensor, shape (N, 1), float32, no gradient
+        values : Tensor, shape (N, 1), float32, no gradient; zeros in training mode
         log_prob : Tensor, shape (N,)
         entropy : Tensor, shape (N,) or None
+
+        Notes
+        -----
+        The GP's values carry no gradient, so in SB3's loss the value term is a constant that
+        changes no parameter: in training mode (``policy.set_training_mode(True)``, as PPO
+        and A2C train) the GP is not asked for them and zeros stand in. SB3's
+        ``train/value_loss`` is then the mean square of the returns, not a critic error; the
+        critic's fit is ``gp/explained_variance`` and ``gp/mse``.
 
         Raises
         ------
@@ -204,7 +231,8 @@ class GPActorCriticPolicy(ActorCriticPolicy):
                 "(from sb3_geogp import GPValueCallback); combine it with other callbacks in "
                 "a list"
             )
-        return super().evaluate_actions(obs, actions)
+        with self._placeholder_values(self.training):
+            return super().evaluate_actions(obs, actions)
 
     def predict_values(self, obs: PyTorchObs) -> th.Tensor:
         """GP posterior mean of the state values.
@@ -219,6 +247,16 @@ class GPActorCriticPolicy(ActorCriticPolicy):
             Zeros before the GP has been fed.
         """
         return super().predict_values(obs)
+
+    @contextlib.contextmanager
+    def _placeholder_values(self, enabled: bool) -> Iterator[None]:
+        head = self.value_net
+        assert isinstance(head, GPValueHead)
+        head.placeholder = enabled
+        try:
+            yield
+        finally:
+            head.placeholder = False
 
     # ------------------------------------------------------------------------------------------
     # The GP side
@@ -244,6 +282,7 @@ class GPActorCriticPolicy(ActorCriticPolicy):
         obs: th.Tensor | np.ndarray,
         targets: th.Tensor | np.ndarray,
         episode_starts: th.Tensor | np.ndarray,
+        values: th.Tensor | np.ndarray | None = None,
     ) -> dict[str, float]:
         """Feed the GP a batch of observations and value targets, in trajectory order.
 
@@ -258,6 +297,9 @@ class GPActorCriticPolicy(ActorCriticPolicy):
             Value targets (e.g. returns).
         episode_starts : Tensor or ndarray of bool, shape (n,)
             ``True`` on the first step of each trajectory (including the first row).
+        values : Tensor or ndarray, shape (n,), optional
+            The critic's current values of ``obs`` where the caller has them already (a
+            rollout's batched values): the diagnostics then need no prediction of the means.
 
         Returns
         -------
@@ -273,7 +315,7 @@ class GPActorCriticPolicy(ActorCriticPolicy):
         start = time.perf_counter()
         if len(targets) > 0:
             features = self.critic_features(obs)
-            stats.update(_fit_before_update(self.gp, features, targets))
+            stats.update(_fit_before_update(self.gp, features, targets, values))
             start = time.perf_counter()
             self.gp.update(features, targets, episode_starts)
         stats["update_ms"] = 1e3 * (time.perf_counter() - start)
@@ -289,10 +331,15 @@ _STD_SAMPLE = 1024
 
 
 def _fit_before_update(
-    gp: SparseOnlineGP, features: th.Tensor, targets: th.Tensor | np.ndarray
+    gp: SparseOnlineGP,
+    features: th.Tensor,
+    targets: th.Tensor | np.ndarray,
+    values: th.Tensor | np.ndarray | None,
 ) -> dict[str, float]:
     """The GP's out-of-sample fit of the targets it is about to absorb."""
-    pred = gp.predict(features, return_var=False)[0].cpu().numpy()
+    if values is None:
+        values = gp.predict(features, return_var=False)[0]
+    pred = np.asarray(th.as_tensor(values).cpu(), dtype=np.float64)
     y = np.asarray(th.as_tensor(targets).cpu(), dtype=np.float64)
     idx = np.unique(np.linspace(0, len(y) - 1, min(len(y), _STD_SAMPLE)).astype(np.int64))
     var = gp.predict(features[idx], return_var=True)[1]

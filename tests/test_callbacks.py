@@ -93,11 +93,13 @@ class FeedRecorder:
         policy.update_critic = self  # type: ignore[method-assign]
 
     def __call__(
-        self, obs: np.ndarray, targets: np.ndarray, starts: np.ndarray
+        self, obs: np.ndarray, targets: np.ndarray, starts: np.ndarray, values: Any = None
     ) -> dict[str, float]:
         self.batches.append((np.array(obs), np.array(targets), np.array(starts)))
         n = 0 if self.keep_empty else len(targets)
-        return self.original(obs[:n], targets[:n], starts[:n])
+        return self.original(
+            obs[:n], targets[:n], starts[:n], None if values is None else values[:n]
+        )
 
 
 class BufferRecorder(BaseCallback):
@@ -281,7 +283,9 @@ def test_advantage_timing(algo: type[BaseAlgorithm], recompute: bool) -> None:
     model = _pendulum(algo)
     before = ValuesAtRolloutEnd()
     after = BufferRecorder()
-    cb = GPValueCallback(recompute_advantages=recompute)
+    # Step-by-step values, so that ``before`` sees SB3's own (deferred values are equivalent:
+    # test_deferred_values_equal_step_by_step).
+    cb = GPValueCallback(recompute_advantages=recompute, deferred_values=False)
     model.learn(3 * 128, callback=CallbackList([before, cb, after]))
     last = after.rollouts[-1]
     obs = th.as_tensor(last["observations"].reshape(-1, 3))
@@ -336,6 +340,40 @@ def test_recompute_updates_time_limit_bootstraps() -> None:
     truncated = rewards_old != rewards_new
     assert truncated.sum() == 4  # steps 2, 5, 8, 11
     np.testing.assert_array_equal(np.flatnonzero(truncated), [2, 5, 8, 11])
+
+
+@pytest.mark.parametrize("kernel", ["geodesic", "rbf"])
+@pytest.mark.parametrize("algo", [PPO, A2C])
+def test_deferred_values_equal_step_by_step(algo: type[BaseAlgorithm], kernel: str) -> None:
+    """One batched prediction per rollout gives the buffer and actor of step-by-step values.
+
+    Two envs, truncated every 3 steps inside 8-step rollouts, so SB3 bootstraps mid-rollout.
+    """
+
+    def run(deferred: bool) -> tuple[list[dict[str, np.ndarray]], list[th.Tensor]]:
+        env = DummyVecEnv([lambda: TimeLimit(TruncatingEnv(), 3)] * 2)
+        extra = dict(batch_size=8, n_epochs=2) if algo is PPO else {}
+        model = algo(
+            GPActorCriticPolicy,
+            env,
+            n_steps=8,
+            seed=0,
+            policy_kwargs=dict(gp_kwargs=dict(kernel=kernel, max_basis=16, forgetting=0.9)),
+            **extra,
+        )
+        recorder = BufferRecorder()
+        model.learn(
+            5 * 16, callback=CallbackList([GPValueCallback(deferred_values=deferred), recorder])
+        )
+        return recorder.rollouts, [p.detach().clone() for p in model.policy.parameters()]
+
+    deferred, stepwise = run(True), run(False)
+    assert len(deferred[0]) == len(stepwise[0]) == 5
+    for a, b in zip(deferred[0], stepwise[0], strict=True):
+        assert (a["rewards"] != 0).any()
+        for name in ("observations", "rewards", "values", "returns", "advantages"):
+            np.testing.assert_array_equal(a[name], b[name], err_msg=name)
+    assert all(th.equal(a, b) for a, b in zip(deferred[1], stepwise[1], strict=True))
 
 
 # ------------------------------------------------------------------------------------------------
