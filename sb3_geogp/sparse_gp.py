@@ -24,9 +24,10 @@ grows its graph from them). Default hyperparameters come from :mod:`sb3_geogp.de
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable, Sequence
-from typing import Any, Literal
+from typing import Any, Literal, TypeVar, cast
 
 import numpy as np
 import torch
@@ -35,7 +36,6 @@ from torch import Tensor, nn
 from sb3_geogp import defaults
 from sb3_geogp.graph import BVGraph
 from sb3_geogp.kernels import Kernel, make_kernel
-from sb3_geogp.kernels.base import quad
 
 ArrayLike = Tensor | np.ndarray | Sequence[Any]
 
@@ -51,6 +51,26 @@ _DELETION_RATE = 0.003
 _FLOOR_MAX = 0.99
 #: Largest growth of ``||Q||`` (times the signal variance) one new BV may cause.
 _Q_GROWTH = 1e4
+
+
+_Method = TypeVar("_Method", bound=Callable[..., Any])
+
+
+def _engine_threads(method: _Method) -> _Method:
+    """Run ``method`` of a GP with its ``num_threads`` torch threads, then restore the caller's."""
+
+    @functools.wraps(method)
+    def wrapper(gp: SparseOnlineGP, *args: Any, **kwargs: Any) -> Any:
+        before = torch.get_num_threads()
+        if gp.num_threads is None or gp.num_threads == before:
+            return method(gp, *args, **kwargs)
+        torch.set_num_threads(gp.num_threads)
+        try:
+            return method(gp, *args, **kwargs)
+        finally:
+            torch.set_num_threads(before)
+
+    return cast(_Method, wrapper)
 
 
 class SparseOnlineGP(nn.Module):
@@ -82,6 +102,11 @@ class SparseOnlineGP(nn.Module):
     input_bounds : (low, high) of array-likes with ``input_dim`` entries each, optional
         Bounds of the inputs where known: unset lengthscales of bounded dimensions then come
         from the bounds rather than from the first batch (:mod:`sb3_geogp.defaults`).
+    num_threads : int or None
+        Intra-op CPU threads of :meth:`update`, :meth:`predict` and :meth:`fit_hyperparameters`,
+        set for the call and restored after it. The engine's work is many small matrix
+        operations, which several threads slow down, by 10-100x on a busy machine (measured in
+        docs/benchmarks.md). ``None`` keeps torch's setting.
     device : torch.device, str or None
         Where the state lives.
     dtype : torch.dtype
@@ -123,6 +148,7 @@ class SparseOnlineGP(nn.Module):
         target_mean: float | None = None,
         target_scale: float | None = None,
         input_bounds: tuple[ArrayLike, ArrayLike] | None = None,
+        num_threads: int | None = 1,
         device: torch.device | str | None = None,
         dtype: torch.dtype = torch.float64,
     ) -> None:
@@ -143,9 +169,12 @@ class SparseOnlineGP(nn.Module):
             raise ValueError(f"target_mean must be finite, got {target_mean}")
         if not dtype.is_floating_point:
             raise ValueError(f"dtype must be a floating type, got {dtype}")
+        if num_threads is not None and not (isinstance(num_threads, int) and num_threads >= 1):
+            raise ValueError(f"num_threads must be a positive int or None, got {num_threads!r}")
         self.input_dim = int(input_dim)
         self.max_basis = int(max_basis)
         self.forgetting = float(forgetting)
+        self.num_threads = num_threads
         self.kernel = make_kernel(kernel)
         self.novelty_tol = (
             self.kernel.novelty_at(defaults.NOVELTY_RADIUS)
@@ -179,6 +208,7 @@ class SparseOnlineGP(nn.Module):
             self.register_buffer(name, torch.zeros((), dtype=torch.long, device=device))
         self.register_buffer("novelty_floor", torch.tensor(self.novelty_tol, **kw))
         self._cache: _PosteriorMatrices | None = None
+        self._rollback: _Rollback | None = None
 
     # ------------------------------------------------------------------------------------------
     # Read-only views
@@ -246,6 +276,7 @@ class SparseOnlineGP(nn.Module):
     # Prediction
     # ------------------------------------------------------------------------------------------
     @torch.no_grad()
+    @_engine_threads
     def predict(self, x: ArrayLike, return_var: bool = True) -> tuple[Tensor, Tensor | None]:
         """Posterior mean and variance of the latent value at ``x``.
 
@@ -275,12 +306,12 @@ class SparseOnlineGP(nn.Module):
         return mean, None if var is None else var * self.y_scale**2
 
     def _matrices(self) -> _PosteriorMatrices:
-        """The basis matrices of the current state, kept until the state next changes.
+        """The basis matrices of the current state, each formed once and kept while valid.
 
-        SB3 predicts a few states per environment step, so each (m, m) product is formed once
-        per state, not per call. The cache is emptied by :meth:`update`,
-        :meth:`fit_hyperparameters`, ``load_state_dict`` and ``.to()``, the only ways the state
-        changes.
+        Updates tell the cache what they change (the posterior, ``Q``, the basis, whose Gram
+        matrix grows or shrinks by one row in O(m)), so a small batch pays for no (m, m)
+        product it does not change. :meth:`fit_hyperparameters`, ``load_state_dict``, ``.to()``
+        and the first batch (which sets the lengthscale) empty it.
         """
         if self._cache is None:
             self._cache = _PosteriorMatrices(self)
@@ -315,6 +346,7 @@ class SparseOnlineGP(nn.Module):
     # Learning
     # ------------------------------------------------------------------------------------------
     @torch.no_grad()
+    @_engine_threads
     def update(self, x: ArrayLike, y: ArrayLike, episode_starts: ArrayLike | None = None) -> None:
         """Absorb a batch of points in order, as Csató–Opper on-line updates.
 
@@ -337,22 +369,25 @@ class SparseOnlineGP(nn.Module):
             exactly as it was (as it is on any error raised inside the update).
         """
         x, y, starts = self._validate(x, y, episode_starts)
-        snapshot = {k: v.clone() for k, v in self.state_dict().items()}
-        self._cache = None
+        self._rollback = _Rollback(self)
         try:
             self._update(x, y, starts)
         except BaseException:
-            self.load_state_dict(snapshot)
+            self.load_state_dict(self._rollback.state(), strict=False)
             raise
+        finally:
+            self._rollback = None
 
     def _update(self, x: Tensor, y: Tensor, starts: Tensor) -> None:
         if not bool(self.initialized):
             self._initialize(x, y)
+            self._cache = None
         yn = (y - self.y_mean) / self.y_scale
         if self.forgetting < 1 and self.n_basis > 0:
             lam = self.forgetting
             self.alpha.mul_(math.sqrt(lam))
             self.P.mul_(lam).add_(self.Q, alpha=1 - lam)
+            self._matrices().posterior_changed()
         n = x.shape[0]
         added_before = int(self.n_added)
         i = 0
@@ -418,7 +453,7 @@ class SparseOnlineGP(nn.Module):
         n, m = x.shape[0], self.n_basis
         if m == 0:
             return start
-        basis, threshold = _PosteriorMatrices(self), self._novelty_threshold()
+        basis, threshold = self._matrices(), self._novelty_threshold()
         chunk = _MIN_CHUNK
         while start < n:
             block = self.kernel.scale(x[start : start + chunk])
@@ -445,10 +480,12 @@ class SparseOnlineGP(nn.Module):
           ``alpha += (I + P G)^{-1} P K_x^T N^{-1} r``, ``P <- (I + P G)^{-1} P``.
         """
         m = self.n_basis
-        basis = _PosteriorMatrices(self)
-        rows = self.kernel.rows(self.kernel.scale(x), basis.z).dense(basis)
-        Q, P, alpha = self.Q[:m, :m], self.P[:m, :m], self.alpha[:m]
-        noise = self.noise_var + (self.kernel.variance - quad(rows, Q)).clamp_min(0)
+        basis = self._matrices()
+        basis.posterior_changed()
+        mixed = self.kernel.rows(self.kernel.scale(x), basis.z)
+        rows = mixed.dense(basis)
+        P, alpha = self.P[:m, :m], self.alpha[:m]
+        noise = self.noise_var + (self.kernel.variance - mixed.kqk(basis)).clamp_min(0)
         resid = yn - rows @ alpha
         if x.shape[0] < m:
             PK = P @ rows.T
@@ -480,7 +517,8 @@ class SparseOnlineGP(nn.Module):
         m = self.n_basis
         xs = self.kernel.scale(x)
         variance = self.kernel.variance
-        k, attachment = self.kernel.insertion_row(xs, self.kernel.scale(self.bv_x[:m]))
+        basis = self._matrices()
+        k, attachment = self.kernel.insertion_row(xs, basis.z)
         Q, P, alpha = self.Q[:m, :m], self.P[:m, :m], self.alpha[:m]
         e = Q @ k
         gamma = variance - k @ e
@@ -506,12 +544,17 @@ class SparseOnlineGP(nn.Module):
                 self._absorb(x[None], yn[None])
                 return
         self.alpha[: m + 1] = alpha_new
-        self.Q[: m + 1, : m + 1] += torch.outer(e_ext, e_ext) / gamma
-        self.P[: m + 1, : m + 1] += torch.outer(e_ext, e_ext) / gamma - torch.outer(s, s) / denom
+        # In-place rank-one updates (BLAS ger): no (m, m) temporaries.
+        inv_gamma, inv_denom = float(1.0 / gamma), float(1.0 / denom)
+        self.Q[: m + 1, : m + 1].addr_(e_ext, e_ext, alpha=inv_gamma)
+        self.P[: m + 1, : m + 1].addr_(e_ext, e_ext, alpha=inv_gamma).addr_(s, s, alpha=-inv_denom)
         self.bv_x[m] = x
         self.bv_y[m] = y
         self.nugget[m] = nugget
+        assert self._rollback is not None
+        self._rollback.before_basis_change()
         self.kernel.on_insert(xs, attachment)
+        basis.basis_grew(k, variance)
         self.count += 1
         self.n_added += 1
         if doomed is not None:
@@ -560,6 +603,9 @@ class SparseOnlineGP(nn.Module):
         self.alpha[m - 1] = 0.0
         self._set_square(self.P, _sym(new_P))
         self._set_square(self.Q, _sym(new_Q))
+        assert self._rollback is not None
+        self._rollback.before_basis_change()
+        self._matrices().basis_shrank(keep)
         self.count -= 1
         self.n_deleted += 1
         self.kernel.on_delete(j)
@@ -577,7 +623,8 @@ class SparseOnlineGP(nn.Module):
         jitter (10x per try, from 1e-10 of the signal variance) until its Cholesky exists.
         """
         m = self.n_basis
-        K = self.kernel.gram(self.kernel.scale(self.bv_x[:m]))
+        K = self._matrices().K
+        self._matrices().Q_changed()
         jitter = 0.0
         for _ in range(12):
             L, info = torch.linalg.cholesky_ex(K + torch.diag(self.nugget[:m] + jitter))
@@ -590,13 +637,19 @@ class SparseOnlineGP(nn.Module):
 
     def _check_finite(self) -> None:
         m = self.n_basis
-        for name in ("alpha", "P", "Q"):
-            if not bool(torch.isfinite(getattr(self, name)[:m]).all()):
-                raise FloatingPointError(f"SparseOnlineGP.{name} became non-finite; state restored")
+        blocks = {"alpha": self.alpha[:m], "P": self.P[:m, :m], "Q": self.Q[:m, :m]}
+        # One reduction: a NaN or inf anywhere makes its block's sum non-finite.
+        if bool(torch.isfinite(torch.stack([b.sum() for b in blocks.values()])).all()):
+            return
+        bad = [name for name, b in blocks.items() if not bool(torch.isfinite(b).all())]
+        raise FloatingPointError(
+            f"SparseOnlineGP.{', '.join(bad)} became non-finite; state restored"
+        )
 
     # ------------------------------------------------------------------------------------------
     # Hyperparameters
     # ------------------------------------------------------------------------------------------
+    @_engine_threads
     def fit_hyperparameters(self, n_iter: int = 100, lr: float = 0.05) -> dict[str, float]:
         """Fit lengthscale(s), signal and noise variance by the BV set's marginal likelihood.
 
@@ -657,6 +710,7 @@ class SparseOnlineGP(nn.Module):
             kernel.variance.copy_(log_var.exp())
             self.noise_var.copy_(log_noise.exp())
             self._rebuild_exact()
+        self._cache = None
         return {
             "lengthscale": float(kernel.lengthscale[0]),
             "variance": float(kernel.variance),
@@ -745,7 +799,12 @@ def _least_informative(alpha: Tensor, p_diag: Tensor) -> int:
 
 
 def _kqk(K: Tensor, Q: Tensor, nugget: Tensor) -> Tensor:
-    """``K Q K`` for ``Q = (K + N)^{-1}``, ``N = diag(nugget)``: ``K - N + N Q N``, in O(m^2)."""
+    """``K Q K`` for ``Q = (K + N)^{-1}``, ``N = diag(nugget)``: ``K - N + N Q N``, in O(m^2).
+
+    Nuggets are rare (a near-duplicate BV), and without any ``K Q K = K``.
+    """
+    if not bool(nugget.any()):
+        return K
     return K - torch.diag(nugget) + nugget[:, None] * Q * nugget
 
 
@@ -774,17 +833,48 @@ def _upgrade_v01_state(state: dict[str, Any], prefix: str, kernel: Kernel) -> No
     state[prefix + "kernel.traj_node"] = traj_node
 
 
-class _PosteriorMatrices:
-    """:class:`~sb3_geogp.kernels.BasisMatrices` of a GP's current state, each formed on first use.
+class _Rollback:
+    """What an update needs to undo itself, copied as late as possible.
 
-    Valid until the GP's state next changes: :meth:`SparseOnlineGP.predict` keeps one between
-    updates; an update makes a new one wherever the state has changed since the last.
+    The GP's own buffers and the kernel's (hyperparameters, trajectory bookkeeping) are small
+    and copied up front; the kernel's submodules (the geodesic kernel's graph, the large part)
+    only change when the basis does, and are copied just before the first such change.
     """
 
     def __init__(self, gp: SparseOnlineGP) -> None:
         self._gp = gp
-        self._m = gp.n_basis
+        self._saved = {name: b.clone() for name, b in gp.named_buffers(recurse=False)}
+        self._saved |= {
+            f"kernel.{name}": b.clone() for name, b in gp.kernel.named_buffers(recurse=False)
+        }
+        self._basis_saved = False
+
+    def before_basis_change(self) -> None:
+        if not self._basis_saved:
+            for child, module in self._gp.kernel.named_children():
+                for name, b in module.state_dict().items():
+                    self._saved[f"kernel.{child}.{name}"] = b.clone()
+            self._basis_saved = True
+
+    def state(self) -> dict[str, Tensor]:
+        """The saved state, for ``load_state_dict(..., strict=False)``."""
+        return self._saved
+
+
+class _PosteriorMatrices:
+    """:class:`~sb3_geogp.kernels.BasisMatrices` of a GP's current state, each formed on first use.
+
+    The GP keeps one and reports every change of its state; each report drops exactly the
+    products that it invalidates.
+    """
+
+    def __init__(self, gp: SparseOnlineGP) -> None:
+        self._gp = gp
         self._values: dict[str, Tensor] = {}
+
+    @property
+    def _m(self) -> int:
+        return self._gp.n_basis
 
     def _get(self, name: str, compute: Callable[[], Tensor]) -> Tensor:
         if name not in self._values:
@@ -793,6 +883,34 @@ class _PosteriorMatrices:
 
     def has(self, name: str) -> bool:
         return name in self._values
+
+    def posterior_changed(self) -> None:
+        """``alpha`` and ``P`` changed."""
+        for name in ("K_alpha", "KPK"):
+            self._values.pop(name, None)
+
+    def Q_changed(self) -> None:
+        """``Q`` (or the nuggets) changed."""
+        self._values.pop("KQK", None)
+
+    def basis_grew(self, k: Tensor, variance: Tensor) -> None:
+        """A BV with Gram row ``k : (m,)`` was appended (call before the count grows)."""
+        K = self._values.get("K")
+        self._values = {}
+        if K is not None:
+            m = K.shape[0]
+            grown = K.new_empty(m + 1, m + 1)
+            grown[:m, :m] = K
+            grown[m, :m] = grown[:m, m] = k
+            grown[m, m] = variance
+            self._values["K"] = grown
+
+    def basis_shrank(self, keep: Tensor) -> None:
+        """Only the BVs ``keep`` (indices, in order) remain (call before the count drops)."""
+        K = self._values.get("K")
+        self._values = {}
+        if K is not None:
+            self._values["K"] = K[keep[:, None], keep]
 
     @property
     def alpha(self) -> Tensor:

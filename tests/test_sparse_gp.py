@@ -852,3 +852,33 @@ def test_state_saved_by_v0_1_loads_and_predicts_the_same(kernel: str) -> None:
     assert torch.equal(mean, saved[kernel]["mean"]) and torch.equal(var, saved[kernel]["var"])
     gp.update(saved["probe"], torch.zeros(len(saved["probe"])))  # and it keeps learning
     assert gp.n_basis > 0 and torch.isfinite(gp.predict(saved["probe"])[0]).all()
+
+
+# -- threads --------------------------------------------------------------------------------------
+@pytest.mark.parametrize("num_threads", [1, None])
+def test_engine_threads_are_scoped_to_the_call(num_threads: int | None) -> None:
+    """The engine runs with its own thread count inside each call and restores the caller's."""
+    seen: list[int] = []
+
+    class Recording(RBFKernel):
+        def cross(self, x: Tensor, z: Tensor) -> Tensor:
+            seen.append(torch.get_num_threads())
+            return super().cross(x, z)
+
+    caller = torch.get_num_threads()
+    torch.set_num_threads(2)
+    try:
+        gp = SparseOnlineGP(2, Recording(), max_basis=8, num_threads=num_threads)
+        x = np.random.default_rng(0).normal(size=(30, 2))
+        gp.update(x, x.sum(1))
+        gp.predict(x)
+        assert torch.get_num_threads() == 2
+        assert seen and set(seen) == {2 if num_threads is None else num_threads}
+    finally:
+        torch.set_num_threads(caller)
+
+
+@pytest.mark.parametrize("bad", [0, -1, 1.5, "2"])
+def test_bad_num_threads_raises(bad: Any) -> None:
+    with pytest.raises(ValueError, match="num_threads"):
+        SparseOnlineGP(2, num_threads=bad)
