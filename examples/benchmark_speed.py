@@ -1,7 +1,7 @@
 """Speed benchmark of SparseOnlineGP on Pendulum-v1 value data (issue 2, "Speed").
 
 For every kernel variant and ``max_basis`` the script times, on 2048-point rollouts of
-``sb3_geogp.experiments.data.pendulum_rollouts``:
+``sb3_geogp.toolbox.streams.pendulum_rollouts``:
 
 * ``update`` on a *warm* model, one that has already absorbed ``--warm-rollouts`` earlier
   rollouts of other seeds (steady basis); every repeat runs on a ``copy.deepcopy`` of the same
@@ -44,13 +44,10 @@ import torch
 from tqdm import tqdm
 
 from sb3_geogp import SparseOnlineGP
-from sb3_geogp.experiments.benchmarking import (
-    Rollout,
-    Variant,
-    engine_fingerprint,
-    format_table,
-    torch_threads,
-)
+from sb3_geogp.toolbox.benchmarks import Variant, torch_threads
+from sb3_geogp.toolbox.provenance import provenance
+from sb3_geogp.toolbox.streams import Rollout
+from sb3_geogp.toolbox.tables import format_table
 
 #: The issue's targets (2 CPU cores): update of 2048 points at max_basis=256, predict of 2048.
 UPDATE_TARGET_MS = 100.0
@@ -252,7 +249,7 @@ def machine_info(threads: int | None) -> dict[str, Any]:
         "cpu_count": os.cpu_count(),
         "load_average_start": list(os.getloadavg()),
         "date": time.strftime("%Y-%m-%d %H:%M:%S %Z"),
-        "engine_sha256": engine_fingerprint(),
+        "provenance": provenance(),
     }
 
 
@@ -265,7 +262,7 @@ def report(result: dict[str, Any]) -> None:
         f"{meta['load_average_end']} at end; {meta['n_points']} points per rollout, "
         f"{meta['warm_rollouts']} warm-up rollouts, median of {meta['repeats']} repeats"
     )
-    print(f"engine source sha256: {meta['engine_sha256']}")
+    print(f"provenance: {meta['provenance']}")
     print(f"test targets: var(y_test) = {meta['test_target_var']:.4g}\n")
     print(format_table(result["rows"], RESULT_COLUMNS))
     peer = result["peer"]

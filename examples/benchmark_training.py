@@ -1,79 +1,164 @@
-"""Wall clock of PPO on Pendulum-v1: MLP critic vs RBF GP critic vs geodesic GP critic.
+"""Training wall clock of the three critics inside SB3, and where the GP critic's time goes.
 
-Same seeds and rl-baselines3-zoo hyperparameters for all three critics; prints wall-clock
-seconds, the ratio to the MLP critic, the share of time spent in GP updates and the final
-mean return (last 100 training episodes). Run
-``python examples/benchmark_training.py --timesteps 100000 --seeds 0 1 2``.
+Two workloads with rl-baselines3-zoo's hyperparameters (as recorded for the critic
+comparison): PPO on Pendulum-v1 and A2C on CartPole-v1 (GP ``forgetting=0.9``, as the
+comparison recommends for A2C). For every seed the runs are interleaved (workload by workload,
+critic by critic), so a change in the machine's load hits all critics alike; the table shows
+the median over seeds of the wall clock, its ratio to the MLP critic's, and for the GP critics
+the seconds spent in GP updates, in GP predictions, and in everything else.
+
+``--threads default`` leaves torch's thread count as a new user has it (the engine then runs
+its own work single-threaded, see ``SparseOnlineGP(num_threads=...)``); ``--load N`` keeps N
+busy processes running during the benchmark, to measure a loaded machine. Example::
+
+    python examples/benchmark_training.py --seeds 0 1 --out runs/benchmark_training.json
+    python examples/benchmark_training.py --seeds 0 1 --threads default --load 2
 """
 
 from __future__ import annotations
 
 import argparse
+import functools
+import json
+import multiprocessing as mp
+import os
+import statistics
 import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any
 
-import numpy as np
 import torch as th
-from stable_baselines3 import PPO
+from stable_baselines3 import A2C, PPO
 from stable_baselines3.common.env_util import make_vec_env
 
-from sb3_geogp import GPActorCriticPolicy, GPValueCallback
-from sb3_geogp.experiments.compare import algo_kwargs
+from sb3_geogp import GPActorCriticPolicy, GPValueCallback, SparseOnlineGP
+from sb3_geogp.comparison.hyperparams import algo_kwargs
+from sb3_geogp.toolbox.provenance import provenance
 
-# rl-baselines3-zoo's PPO hyperparameters for Pendulum-v1 (4 envs), as recorded for the
-# critic comparison.
-N_ENVS, ZOO, _ = algo_kwargs("ppo", "Pendulum-v1")
+WORKLOADS = {
+    "PPO Pendulum-v1": (PPO, "ppo", "Pendulum-v1", 102_400, {}),
+    "A2C CartPole-v1": (A2C, "a2c", "CartPole-v1", 30_000, {"forgetting": 0.9}),
+}
+CRITICS = ("mlp", "rbf", "geodesic")
 
 
-def run(critic: str, timesteps: int, seed: int, max_basis: int) -> tuple[float, float, float]:
-    """Train once; return (wall seconds, seconds in GP updates, mean return of last episodes)."""
-    env = make_vec_env("Pendulum-v1", n_envs=N_ENVS, seed=seed)
-    callback = None
+def _timed(method: Callable[..., Any], clock: list[float]) -> Callable[..., Any]:
+    @functools.wraps(method)
+    def wrapper(*args: Any, **kwargs: Any) -> Any:
+        start = time.perf_counter()
+        try:
+            return method(*args, **kwargs)
+        finally:
+            clock[0] += time.perf_counter() - start
+
+    return wrapper
+
+
+def run(workload: str, critic: str, seed: int, max_basis: int, scale: float) -> dict[str, Any]:
+    """Train once; wall clock, and for a GP critic the seconds in its updates and predictions."""
+    algo_cls, algo, env_id, steps, gp_options = WORKLOADS[workload]
+    n_envs, kwargs, policy_kwargs = algo_kwargs(algo, env_id)
+    env = make_vec_env(env_id, n_envs=n_envs, seed=seed)
+    update, predict = [0.0], [0.0]
     if critic == "mlp":
-        model = PPO("MlpPolicy", env, seed=seed, **ZOO)
+        model = algo_cls("MlpPolicy", env, seed=seed, policy_kwargs=policy_kwargs, **kwargs)
+        callback = None
     else:
-        gp_kwargs = dict(kernel=critic, max_basis=max_basis)
-        model = PPO(
-            GPActorCriticPolicy, env, seed=seed, policy_kwargs=dict(gp_kwargs=gp_kwargs), **ZOO
-        )
+        gp_kwargs = dict(kernel=critic, max_basis=max_basis, **gp_options)
+        policy_kwargs = {**policy_kwargs, "gp_kwargs": gp_kwargs}
+        model = algo_cls(GPActorCriticPolicy, env, seed=seed, policy_kwargs=policy_kwargs, **kwargs)
+        gp = model.policy.gp
+        # Instance attributes shadow the methods: every call inside learn() is timed.
+        gp.update = _timed(SparseOnlineGP.update.__get__(gp), update)  # type: ignore[method-assign]
+        gp.predict = _timed(SparseOnlineGP.predict.__get__(gp), predict)  # type: ignore[method-assign]
         callback = GPValueCallback()
     start = time.perf_counter()
-    model.learn(timesteps, callback=callback)
-    seconds = time.perf_counter() - start
-    returns = [info["r"] for info in model.ep_info_buffer]
-    gp_seconds = callback.update_seconds if callback is not None else 0.0
-    return seconds, gp_seconds, float(np.mean(returns)) if returns else float("nan")
+    model.learn(int(steps * scale), callback=callback)
+    wall = time.perf_counter() - start
+    env.close()
+    return {"wall": wall, "update": update[0], "predict": predict[0]}
+
+
+def _spin() -> None:
+    while True:
+        pass
+
+
+@contextmanager
+def background_load(n: int) -> Iterator[None]:
+    """``n`` busy processes for the duration of the block (a loaded machine)."""
+    procs = [mp.get_context("spawn").Process(target=_spin, daemon=True) for _ in range(n)]
+    for p in procs:
+        p.start()
+    try:
+        yield
+    finally:
+        for p in procs:
+            p.terminate()
+            p.join()
+
+
+def table(results: dict[str, dict[str, list[dict[str, Any]]]]) -> str:
+    lines = [
+        "| workload | critic | wall s | x MLP | GP update s | GP predict s | rest s |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for workload, by_critic in results.items():
+        mlp = statistics.median(r["wall"] for r in by_critic["mlp"])
+        for critic, runs in by_critic.items():
+            wall = statistics.median(r["wall"] for r in runs)
+            cells = [f"{wall:.1f}", f"{wall / mlp:.2f}"]
+            if critic == "mlp":
+                cells += ["–", "–", "–"]
+            else:
+                upd = statistics.median(r["update"] for r in runs)
+                pred = statistics.median(r["predict"] for r in runs)
+                cells += [f"{upd:.2f}", f"{pred:.2f}", f"{wall - upd - pred:.1f}"]
+            lines.append(f"| {workload} | {critic} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument("--timesteps", type=int, default=100_000)
-    parser.add_argument("--seeds", type=int, nargs="+", default=[0])
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1])
     parser.add_argument("--max-basis", type=int, default=256)
-    parser.add_argument("--threads", type=int, default=1)
-    args = parser.parse_args()
-    th.set_num_threads(args.threads)
-
-    results: dict[str, list[tuple[float, float, float]]] = {}
-    for seed in args.seeds:
-        for critic in ("mlp", "rbf", "geodesic"):
-            results.setdefault(critic, []).append(run(critic, args.timesteps, seed, args.max_basis))
-            seconds, _, ret = results[critic][-1]
-            print(f"seed {seed} {critic:9s} {seconds:7.1f} s  return {ret:8.1f}", flush=True)
-
-    mlp_seconds = np.mean([r[0] for r in results["mlp"]])
-    print(
-        f"\nPPO Pendulum-v1, {args.timesteps} steps, seeds {args.seeds}, "
-        f"max_basis={args.max_basis}, {args.threads} thread(s)"
+    parser.add_argument(
+        "--threads", default="1", help="torch threads for the whole run, or 'default'"
     )
-    print(f"{'critic':9s} {'wall s':>8s} {'x MLP':>6s} {'GP upd %':>9s} {'return':>8s}")
-    for critic, rows in results.items():
-        seconds = float(np.mean([r[0] for r in rows]))
-        share = float(np.mean([r[1] / r[0] for r in rows]))
-        ret = float(np.mean([r[2] for r in rows]))
-        print(
-            f"{critic:9s} {seconds:8.1f} {seconds / mlp_seconds:6.2f} {100 * share:8.1f}% "
-            f"{ret:8.1f}"
-        )
+    parser.add_argument("--load", type=int, default=0, help="busy background processes")
+    parser.add_argument("--scale", type=float, default=1.0, help="multiply the step budgets")
+    parser.add_argument("--workloads", nargs="+", default=list(WORKLOADS), choices=WORKLOADS)
+    parser.add_argument("--out", type=Path, default=None, help="write the figures as JSON")
+    args = parser.parse_args()
+    if args.threads != "default":
+        th.set_num_threads(int(args.threads))
+    results: dict[str, dict[str, list[dict[str, Any]]]] = {
+        w: {c: [] for c in CRITICS} for w in args.workloads
+    }
+    with background_load(args.load):
+        for seed in args.seeds:
+            for workload in args.workloads:
+                for critic in CRITICS:
+                    r = run(workload, critic, seed, args.max_basis, args.scale)
+                    results[workload][critic].append(r)
+                    print(
+                        f"seed {seed} {workload} {critic:9s} {r['wall']:7.1f} s "
+                        f"(update {r['update']:.2f} s, predict {r['predict']:.2f} s)",
+                        flush=True,
+                    )
+    header = (
+        f"seeds {args.seeds}, max_basis={args.max_basis}, torch threads "
+        f"{th.get_num_threads()} ({args.threads}), {args.load} busy background processes, "
+        f"load average {os.getloadavg()[0]:.1f}, medians over seeds"
+    )
+    print("\n" + header + "\n\n" + table(results))
+    if args.out is not None:
+        args.out.parent.mkdir(parents=True, exist_ok=True)
+        record = {"args": vars(args) | {"out": str(args.out)}, "header": header}
+        record |= {"results": results, "provenance": provenance()}
+        args.out.write_text(json.dumps(record, indent=1))
 
 
 if __name__ == "__main__":

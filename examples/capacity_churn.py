@@ -15,7 +15,7 @@ import numpy as np
 import torch
 
 from sb3_geogp import SparseOnlineGP
-from sb3_geogp.experiments.data import pendulum_rollouts
+from sb3_geogp.toolbox.streams import pendulum_rollouts
 
 
 def main() -> None:

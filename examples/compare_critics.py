@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import sys
 
-from sb3_geogp.experiments.compare import main
+from sb3_geogp.comparison.command import main
 
 if __name__ == "__main__":
     sys.exit(main())

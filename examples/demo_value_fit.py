@@ -1,6 +1,6 @@
 """Fit a geodesic and a Euclidean (RBF) sparse GP to the two-room value function.
 
-The value of the two-room domain jumps across the wall (``sb3_geogp.experiments.rooms``).
+The value of the two-room domain jumps across the wall (``sb3_geogp.studies.wall.rooms``).
 Noisy goal-directed walks are fed to each GP in batches of episodes, as a critic would see
 rollouts; the script prints the MSE against the exact value (whole box and near the wall) and
 writes ``value_fit.png``: truth, RBF and geodesic GP means (basis vectors and the geodesic
@@ -23,9 +23,9 @@ matplotlib.use("Agg")
 
 import torch
 
-from sb3_geogp.experiments.rooms import TwoRooms
-from sb3_geogp.experiments.rooms_plots import value_maps
-from sb3_geogp.experiments.wall_comparison import FitSettings, WalkSettings, evaluate, fit_gp
+from sb3_geogp.studies.wall.comparison import FitSettings, WalkSettings, evaluate, fit_gp
+from sb3_geogp.studies.wall.plots import value_maps
+from sb3_geogp.studies.wall.rooms import TwoRooms
 
 MODELS = {"RBF GP": "rbf", "geodesic GP": "geo_default"}
 

@@ -48,14 +48,10 @@ import torch
 from tqdm import tqdm
 
 from sb3_geogp import SparseOnlineGP
-from sb3_geogp.experiments.benchmarking import (
-    Rollout,
-    Variant,
-    engine_fingerprint,
-    format_table,
-    pendulum_stream,
-    torch_threads,
-)
+from sb3_geogp.toolbox.benchmarks import Variant, torch_threads
+from sb3_geogp.toolbox.provenance import provenance
+from sb3_geogp.toolbox.streams import Rollout, pendulum_stream
+from sb3_geogp.toolbox.tables import format_table
 
 VARIANTS = (
     Variant("rbf", "rbf"),
@@ -283,11 +279,12 @@ def run(args: argparse.Namespace) -> list[Soak]:
 
 
 def write_results(
-    soaks: Sequence[Soak], args: argparse.Namespace, total_s: float, engine: dict[str, str]
+    soaks: Sequence[Soak], args: argparse.Namespace, total_s: float, record: dict[str, Any]
 ) -> bool:
     """Print the summary, write JSON and PNG; returns whether every check passed.
 
-    ``engine`` is the :func:`engine_fingerprint` taken when the run started.
+    ``record`` is the :func:`~sb3_geogp.toolbox.provenance.provenance` taken when the run
+    started.
     """
     rows = [soak.summary() for soak in soaks]
     passed = all(row["passed"] for row in rows)
@@ -297,7 +294,7 @@ def write_results(
             print(f"FAILED {row['variant']}: {failure}")
     limits = {c.key: c.limit for c in soaks[0].checks}
     print(f"limits: {limits}; total wall time {total_s:.1f} s")
-    print(f"engine source sha256 at start: {engine}")
+    print(f"provenance at start: {record}")
     print("all checks passed" if passed else "SOME CHECKS FAILED")
     args.out.mkdir(parents=True, exist_ok=True)
     result = {
@@ -310,7 +307,7 @@ def write_results(
             "torch_version": torch.__version__,
             "torch_threads": torch.get_num_threads(),
             "total_s": total_s,
-            "engine_sha256": engine,
+            "provenance": record,
             "date": time.strftime("%Y-%m-%d %H:%M:%S %Z"),
         },
         "all_passed": passed,
@@ -328,9 +325,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parse_args(argv)
     with torch_threads(args.threads):
         print(f"torch {torch.__version__}, {torch.get_num_threads()} threads, {args.points} points")
-        engine, start = engine_fingerprint(), time.perf_counter()
+        record, start = provenance(), time.perf_counter()
         soaks = run(args)
-        passed = write_results(soaks, args, time.perf_counter() - start, engine)
+        passed = write_results(soaks, args, time.perf_counter() - start, record)
     return 0 if passed else 1
 
 

@@ -1,6 +1,6 @@
 """Reproduce the paper's pendulum experiment: value maps, BV graph, MSE and variance vs max BV.
 
-Runs :func:`sb3_geogp.experiments.pendulum_reproduction.run_reproduction` (Monte Carlo and TD
+Runs :func:`sb3_geogp.studies.pendulum.reproduction.run_reproduction` (Monte Carlo and TD
 ground truth on the 60 x 60 grid; RBF, Euclidean-Laplacian and geodesic GPs plus geodesic
 variants and an MLP; three hyperparameter settings; a sweep of max_basis over seeds) and
 writes to ``--out``:
@@ -10,7 +10,7 @@ writes to ``--out``:
 * ``fig3_mse_variance.png``: MSE and normalised variance vs max BV (mean, 95% CI);
 * ``fig4_controls.png``: geodesic / control error ratios, error at the discontinuities;
 * ``results.csv`` (one row per seed, capacity, model and setting), ``results.json``
-  (configuration, engine fingerprint, ground-truth summary, mean and 95% CI per model,
+  (provenance, configuration, ground-truth summary, mean and 95% CI per model,
   setting and max_basis), ``results.md``
   (markdown tables), ``ground_truth.npz`` (grid, MC value and standard error, TD value).
 
@@ -36,13 +36,13 @@ import torch
 from rich.console import Console
 from tqdm import tqdm
 
-from sb3_geogp.experiments.paper_pendulum import Task
-from sb3_geogp.experiments.pendulum_report import FIGURES, TABLES, write_figures, write_tables
-from sb3_geogp.experiments.pendulum_reproduction import (
+from sb3_geogp.studies.pendulum.report import FIGURES, TABLES, write_figures, write_tables
+from sb3_geogp.studies.pendulum.reproduction import (
     ReproductionConfig,
     compute_ground_truth,
     run_reproduction,
 )
+from sb3_geogp.studies.pendulum.task import Task
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:

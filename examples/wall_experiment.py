@@ -1,9 +1,9 @@
 """Geodesic vs Euclidean sparse GPs on the two-room value function, across basis sizes.
 
-Fits every model of :data:`sb3_geogp.experiments.wall_comparison.MODELS` to the same noisy
+Fits every model of :data:`sb3_geogp.studies.wall.comparison.MODELS` to the same noisy
 goal-directed walks for each seed and basis capacity, then writes to ``--out``:
 
-* ``results.json``: settings, raw per-seed metrics and their mean / 95% CI;
+* ``results.json``: provenance, settings, raw per-seed metrics and their mean / 95% CI;
 * ``results.md``: the markdown tables (also printed): mean ± 95% CI per model and capacity,
   and same-seed error ratios of the default geodesic GP to the controls;
 * ``mse_vs_max_basis.png``: MSE overall and near the wall with 95% CI bands;
@@ -30,17 +30,18 @@ matplotlib.use("Agg")
 import torch
 from tqdm import tqdm
 
-from sb3_geogp.experiments.rooms import TwoRooms
-from sb3_geogp.experiments.rooms_plots import mse_curves, value_maps
-from sb3_geogp.experiments.wall_comparison import (
+from sb3_geogp.studies.wall.comparison import (
     FitSettings,
     WalkSettings,
     fit_gp,
-    markdown_table,
     paired_table,
     run_comparison,
     summarize,
+    summary_table,
 )
+from sb3_geogp.studies.wall.plots import mse_curves, value_maps
+from sb3_geogp.studies.wall.rooms import TwoRooms
+from sb3_geogp.toolbox.provenance import provenance
 
 FULL = {"max_basis": (10, 20, 40, 80, 160), "grid_nx": 160, "n_episodes": 100}
 QUICK = {"max_basis": (10, 40), "grid_nx": 60, "n_episodes": 40}
@@ -70,6 +71,7 @@ def main() -> None:
     fit = FitSettings(lengthscale=args.lengthscale, novelty_tol=args.novelty_tol)
     walks = WalkSettings(n_episodes=preset["n_episodes"])
     rooms = TwoRooms()
+    source = provenance()  # before the run: the engine files may change meanwhile
     start = time.perf_counter()
     result = run_comparison(
         max_basis=preset["max_basis"],
@@ -85,7 +87,7 @@ def main() -> None:
     table = "\n\n".join(
         [
             f"Mean ± 95% CI over {len(result.seeds)} seeds ({elapsed:.0f} s):",
-            markdown_table(result),
+            summary_table(result),
             "Same-seed ratios, geometric mean [min, max] and wins:",
             paired_table(result),
         ]
@@ -94,6 +96,7 @@ def main() -> None:
 
     args.out.mkdir(parents=True, exist_ok=True)
     record = {
+        "provenance": source,
         "config": result.config,
         "max_basis": result.max_basis,
         "seeds": result.seeds,

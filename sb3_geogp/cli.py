@@ -1,6 +1,6 @@
 """Command line: ``sb3-geogp train --algo ppo --env Pendulum-v1 --critic geodesic ...``.
 
-``sb3-geogp compare ...`` runs the critic comparison (:mod:`sb3_geogp.experiments.compare`).
+``sb3-geogp compare ...`` runs the critic comparison (:mod:`sb3_geogp.comparison`).
 
 Trains PPO or A2C with the GP critic (or SB3's MLP critic for comparison), with SB3's progress
 bar, and writes to ``--out``: the model (``model.zip``), SB3's logs (``progress.csv``, plus a
@@ -21,17 +21,14 @@ from typing import Any
 
 import numpy as np
 import torch as th
-from stable_baselines3 import A2C, PPO
-from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.env_util import make_vec_env
 from stable_baselines3.common.logger import configure
 
+import sb3_geogp.envs  # noqa: F401  (registers the package's environments for --env)
 from sb3_geogp.callbacks import GPValueCallback
-from sb3_geogp.experiments import compare
+from sb3_geogp.comparison.command import add_arguments, run_from_args
+from sb3_geogp.comparison.hyperparams import ALGOS, CRITICS
 from sb3_geogp.policies import GPActorCriticPolicy
-
-ALGOS: dict[str, type[BaseAlgorithm]] = {"ppo": PPO, "a2c": A2C}
-CRITICS = ("geodesic", "rbf", "mlp")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -40,7 +37,7 @@ def build_parser() -> argparse.ArgumentParser:
         prog="sb3-geogp", description="Sparse on-line (geodesic) GP critics for SB3."
     )
     commands = parser.add_subparsers(dest="command", required=True)
-    compare.add_arguments(
+    add_arguments(
         commands.add_parser(
             "compare", help="compare MLP / RBF-GP / geodesic-GP critics in PPO and A2C"
         )
@@ -76,7 +73,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of ``sb3-geogp``; returns the exit status."""
     args = build_parser().parse_args(argv)
     if args.command == "compare":
-        return compare.run_from_args(args)
+        return run_from_args(args)
     train(args)
     return 0
 

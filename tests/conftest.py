@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import torch
 
-from sb3_geogp.experiments.data import pendulum_rollouts
+from sb3_geogp.toolbox.streams import pendulum_rollouts
 
 # The engine works on small tensors: one intra-op thread is an order of magnitude faster than
 # several on a busy machine.

@@ -1,0 +1,227 @@
+"""Measuring a policy and its critic outside training.
+
+* evaluation curve: :func:`lockstep_returns` of the deterministic policy over episodes started
+  from the same seeded states (``EVAL_SEED + i``) at every checkpoint and in every run;
+* critic accuracy: the critic's value at a fixed set of probe states against Monte Carlo
+  discounted returns of the current (stochastic) policy from those states
+  (:class:`ProbeStates`).
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from stable_baselines3.common.policies import ActorCriticPolicy
+
+import sb3_geogp.envs  # noqa: F401  (registers the package's environments with gymnasium)
+
+#: Monte Carlo rollouts run until ``gamma^t`` < MC_TAIL, at most MC_MAX_EPISODES episode
+#: lengths (:func:`mc_horizon`).
+MC_TAIL = 0.01
+MC_MAX_EPISODES = 5
+
+#: Seeds of the evaluation episodes' starts (``EVAL_SEED + i``) and of the probe states.
+EVAL_SEED = 10_000
+PROBE_SEED = 20_000
+
+
+def max_episode_steps(env_id: str) -> int:
+    """The registered time limit of ``env_id``."""
+    spec = gym.spec(env_id)
+    if spec.max_episode_steps is None:
+        raise ValueError(f"{env_id} has no time limit")
+    return int(spec.max_episode_steps)
+
+
+def lockstep_returns(
+    policy: ActorCriticPolicy,
+    envs: Sequence[gym.Env],
+    obs: np.ndarray,
+    deterministic: bool,
+    horizon: int,
+    gamma: float = 1.0,
+    sde_sample_freq: int = -1,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Returns of ``len(envs)`` episodes stepped together, one batched policy call per step.
+
+    Parameters
+    ----------
+    policy : ActorCriticPolicy
+    envs : sequence of gymnasium.Env
+        Environments already at their start states (stepped in place).
+    obs : ndarray, shape (n, *obs_shape)
+        Their current observations.
+    deterministic : bool
+        Greedy actions or samples of the policy (clipped to Box bounds as SB3 does).
+    horizon : int
+        At most this many steps per episode.
+    gamma : float
+        Discount; 1 gives the undiscounted episode return.
+    sde_sample_freq : int
+        With gSDE and ``deterministic=False``: every episode draws its own exploration
+        matrix at the start and again every ``sde_sample_freq`` steps (if positive), as SB3
+        does during rollouts. The policy's own exploration matrices are restored afterwards.
+
+    Returns
+    -------
+    returns : ndarray, shape (n,)
+        ``sum_{t < T} gamma^t r_t`` with ``T`` the termination, truncation or ``horizon``.
+    lengths : ndarray of int, shape (n,)
+        ``T`` of each episode.
+    """
+    n = len(envs)
+    returns = np.zeros(n)
+    lengths = np.zeros(n, dtype=np.int64)
+    alive = np.ones(n, dtype=bool)
+    obs = np.array(obs, copy=True)
+    discount = 1.0
+    sde = bool(policy.use_sde) and not deterministic
+    saved = _save_sde_state(policy) if sde else None
+    try:
+        for t in range(horizon):
+            idx = np.flatnonzero(alive)
+            if idx.size == 0:
+                break
+            if sde and (t == 0 or (sde_sample_freq > 0 and t % sde_sample_freq == 0)):
+                policy.reset_noise(n)
+            # The whole batch every step (finished episodes are ignored), so that each row
+            # keeps its own gSDE exploration matrix.
+            actions, _ = policy.predict(obs, deterministic=deterministic)
+            for i in idx.tolist():
+                o, r, terminated, truncated, _ = envs[i].step(actions[i])
+                returns[i] += discount * float(r)
+                lengths[i] += 1
+                obs[i] = o
+                if terminated or truncated:
+                    alive[i] = False
+            discount *= gamma
+    finally:
+        if saved is not None:
+            _restore_sde_state(policy, saved)
+    return returns, lengths
+
+
+_SDE_STATE = ("exploration_mat", "exploration_matrices", "weights_dist")
+
+
+def _save_sde_state(policy: ActorCriticPolicy) -> dict[str, Any]:
+    dist = policy.action_dist
+    return {k: getattr(dist, k) for k in _SDE_STATE if hasattr(dist, k)}
+
+
+def _restore_sde_state(policy: ActorCriticPolicy, saved: dict[str, Any]) -> None:
+    for k, v in saved.items():
+        setattr(policy.action_dist, k, v)
+
+
+@dataclass
+class ProbeStates:
+    """A fixed set of states at which the critic is compared with Monte Carlo returns.
+
+    Probe ``k`` is reached by ``reset(seed=PROBE_SEED + k)`` and then ``k * stride`` uniformly
+    random actions (action space seeded with ``PROBE_SEED + k``), stopping one step short of
+    any termination, where ``stride = max(1, max_episode_steps // (2 * n))``. The states do
+    not depend on the run, so every critic and seed is measured on the same states.
+
+    Monte Carlo value of probe ``k``: the mean over ``n_rollouts`` copies of the unwrapped
+    environment (no time limit) at that state of ``sum_{t < T} gamma^t r_t`` under the
+    current stochastic policy, ``T`` the termination or :func:`mc_horizon` steps. SB3's
+    critics bootstrap at time-limit truncations, so they estimate this time-agnostic
+    discounted value rather than the return to the end of an episode.
+
+    Attributes
+    ----------
+    snapshots : list of gymnasium.Env
+        Unwrapped environments at the probe states (never stepped; copied per rollout).
+    obs : ndarray, shape (n, *obs_shape)
+    episode_steps : int
+        The environment's time limit.
+    """
+
+    snapshots: list[gym.Env]
+    obs: np.ndarray
+    episode_steps: int
+
+    @classmethod
+    def build(cls, env_id: str, n: int, seed: int = PROBE_SEED) -> ProbeStates:
+        """Probe states of ``env_id`` (see the class docstring)."""
+        episode_steps = max_episode_steps(env_id)
+        stride = max(1, episode_steps // (2 * n))
+        snapshots: list[gym.Env] = []
+        obs_list = []
+        for k in range(n):
+            env = gym.make(env_id).unwrapped
+            actions = _probe_actions(env, k * stride, seed + k)
+            # Walk until the step before any termination, then replay that many steps.
+            o, _ = env.reset(seed=seed + k)
+            n_ok = 0
+            for a in actions:
+                o_next, _, terminated, _, _ = env.step(a)
+                if terminated:
+                    break
+                n_ok += 1
+                o = o_next
+            if n_ok < len(actions):
+                o, _ = env.reset(seed=seed + k)
+                for a in actions[:n_ok]:
+                    o, *_ = env.step(a)
+            snapshots.append(env)
+            obs_list.append(np.asarray(o))
+        return cls(snapshots=snapshots, obs=np.stack(obs_list), episode_steps=episode_steps)
+
+    def monte_carlo(
+        self,
+        policy: ActorCriticPolicy,
+        gamma: float,
+        n_rollouts: int,
+        seed: int,
+        sde_sample_freq: int = -1,
+    ) -> tuple[np.ndarray, np.ndarray, int]:
+        """Monte Carlo values of the probes, their standard errors and the env steps taken.
+
+        ``sde_sample_freq`` as in :func:`lockstep_returns`; standard errors are NaN with a
+        single rollout per probe. Returns arrays of shape (n,), (n,) and an int.
+        """
+        horizon = mc_horizon(gamma, self.episode_steps)
+        n = len(self.snapshots)
+        envs = []
+        for k, snap in enumerate(self.snapshots):
+            for r in range(n_rollouts):
+                env = copy.deepcopy(snap)
+                env.np_random = np.random.default_rng([seed, k, r])  # independent env noise
+                envs.append(env)
+        obs = np.repeat(self.obs, n_rollouts, axis=0)
+        returns, lengths = lockstep_returns(
+            policy, envs, obs, False, horizon, gamma, sde_sample_freq=sde_sample_freq
+        )
+        returns = returns.reshape(n, n_rollouts)
+        stderr = returns.std(axis=1, ddof=1) / math.sqrt(n_rollouts) if n_rollouts > 1 else None
+        if stderr is None:
+            stderr = np.full(n, np.nan)
+        return returns.mean(axis=1), stderr, int(lengths.sum())
+
+
+def mc_horizon(gamma: float, episode_steps: int) -> int:
+    """Monte Carlo horizon: where ``gamma^H`` falls below :data:`MC_TAIL`, at most
+    :data:`MC_MAX_EPISODES` episode lengths.
+
+    The ignored tail is at most ``gamma^H`` times the value scale (recorded as
+    ``tail_bound``): below 1 % except for MountainCarContinuous-v0 (gamma 0.9999, capped at
+    ``5 * 999`` steps, tail 0.61).
+    """
+    if not 0 < gamma < 1:
+        return MC_MAX_EPISODES * episode_steps
+    needed = math.ceil(math.log(MC_TAIL) / math.log(gamma))
+    return int(max(1, min(needed, MC_MAX_EPISODES * episode_steps)))
+
+
+def _probe_actions(env: gym.Env, n: int, seed: int) -> list[Any]:
+    space = copy.deepcopy(env.action_space)
+    space.seed(seed)
+    return [space.sample() for _ in range(n)]

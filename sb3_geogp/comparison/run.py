@@ -1,0 +1,232 @@
+"""One run: train a model as a user would, measure it, write its result file atomically.
+
+:func:`run_one` trains ``PPO(GPActorCriticPolicy, env, policy_kwargs=dict(gp_kwargs=...))``
+with ``callback=GPValueCallback()``, or with SB3's ``"MlpPolicy"``, and writes one JSON file
+(:func:`result_path`) with the metrics of the run:
+
+* evaluation curve (:mod:`~sb3_geogp.comparison.evaluation`): mean undiscounted return of
+  the deterministic policy over ``n_eval_episodes`` episodes of a separate evaluation
+  environment at every checkpoint;
+* final return (the last evaluation), steps to the environment's threshold
+  (:data:`~sb3_geogp.comparison.hyperparams.THRESHOLDS`);
+* wall clock (and CPU time of the process) of ``learn`` without the measurements made
+  inside it (``train_seconds``, ``train_cpu_seconds``), and for GP critics the seconds
+  spent in the critic: ``GPValueCallback``'s rollout-end work (target assembly, logging and
+  :attr:`GPValueCallback.update_seconds` of GP updates) plus every GP value prediction
+  through ``policy.value_net`` inside ``learn`` (rollout collection and the algorithm's
+  training passes; timed with forward hooks, the measurements excluded);
+* critic accuracy at checkpoints against Monte Carlo returns (:class:`~sb3_geogp.comparison.
+  evaluation.ProbeStates`);
+* provenance: git commit, engine hash and package versions
+  (:func:`~sb3_geogp.toolbox.provenance.provenance`).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import tempfile
+import time
+import warnings
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+import stable_baselines3
+import torch as th
+from stable_baselines3.common.callbacks import BaseCallback, CallbackList
+from stable_baselines3.common.env_util import make_vec_env
+
+import sb3_geogp.envs  # noqa: F401  (registers the package's environments with gymnasium)
+from sb3_geogp.comparison.evaluation import (
+    EVAL_SEED,
+    PROBE_SEED,
+    ProbeStates,
+    mc_horizon,
+)
+from sb3_geogp.comparison.hyperparams import (
+    ALGOS,
+    CRITICS,
+    DEVIATIONS,
+    THRESHOLDS,
+    ZOO_HYPERPARAMS,
+    ZOO_SOURCE,
+    algo_kwargs,
+    hyperparams,
+)
+from sb3_geogp.comparison.measurement import ForwardTimer, MeasureCallback, TimedGPValueCallback
+from sb3_geogp.comparison.specs import RunSpec
+from sb3_geogp.policies import GPActorCriticPolicy
+from sb3_geogp.toolbox.provenance import provenance
+from sb3_geogp.toolbox.stats import steps_to_threshold
+
+#: Version of the result-file layout.
+SCHEMA = 1
+
+
+def result_path(out_dir: str | Path, spec: RunSpec) -> Path:
+    """Where the result of ``spec`` lives: ``out_dir/runs/<run_id>.json``."""
+    return Path(out_dir) / "runs" / f"{spec.run_id}.json"
+
+
+def write_json_atomic(path: Path, data: dict[str, Any]) -> None:
+    """Write ``data`` to ``path`` via a temporary file in the same folder and ``os.replace``."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "w") as f:
+            json.dump(data, f, indent=1, allow_nan=False)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def _finite_or_none(x: float) -> float | None:
+    return float(x) if math.isfinite(x) else None
+
+
+def run_one(spec: RunSpec, out_dir: str | Path) -> dict[str, Any]:
+    """Train one model, measure it, write its result file atomically; return the result.
+
+    Parameters
+    ----------
+    spec : RunSpec
+    out_dir : str or Path
+        Sweep folder; the result goes to :func:`result_path`.
+
+    Returns
+    -------
+    dict
+        The JSON content (see the module docstring).
+    """
+    threads = th.get_num_threads()
+    th.set_num_threads(1)  # small networks and a small GP: one thread is fastest
+    try:
+        return _run_one(spec, out_dir)
+    finally:
+        th.set_num_threads(threads)
+
+
+def _run_one(spec: RunSpec, out_dir: str | Path) -> dict[str, Any]:
+    with warnings.catch_warnings():
+        # The zoo's PPO settings for MountainCarContinuous-v0 (batch_size 256 > n_steps 8)
+        # make SB3 warn about a truncated mini-batch at every construction; expected here.
+        warnings.filterwarnings("ignore", message=".*mini-batch size.*", category=UserWarning)
+        return _train_and_measure(spec, out_dir)
+
+
+def _train_and_measure(spec: RunSpec, out_dir: str | Path) -> dict[str, Any]:
+    if spec.critic not in CRITICS:
+        raise ValueError(f"critic must be one of {CRITICS}, got {spec.critic!r}")
+    n_envs, kwargs, policy_kwargs = algo_kwargs(spec.algo, spec.env_id)
+    env = make_vec_env(spec.env_id, n_envs=n_envs, seed=spec.seed)
+    eval_envs = [gym.make(spec.env_id) for _ in range(spec.n_eval_episodes)]
+    probes = ProbeStates.build(spec.env_id, spec.n_probe_states)
+    gp_callback: TimedGPValueCallback | None = None
+    value_timer: ForwardTimer | None = None
+    if spec.critic == "mlp":
+        model = ALGOS[spec.algo](
+            "MlpPolicy", env, seed=spec.seed, policy_kwargs=policy_kwargs, device="cpu", **kwargs
+        )
+    else:
+        policy_kwargs["gp_kwargs"] = dict(kernel=spec.critic, **dict(spec.gp_kwargs))
+        model = ALGOS[spec.algo](
+            GPActorCriticPolicy,
+            env,
+            seed=spec.seed,
+            policy_kwargs=policy_kwargs,
+            device="cpu",
+            **kwargs,
+        )
+        gp_callback = TimedGPValueCallback()
+        assert isinstance(model.policy, GPActorCriticPolicy)
+        value_timer = ForwardTimer(model.policy.value_net)
+    checkpoints = MeasureCallback(spec, eval_envs, probes, value_timer)
+    callbacks: list[BaseCallback] = [checkpoints] if gp_callback is None else [gp_callback]
+    if gp_callback is not None:
+        callbacks.append(checkpoints)
+    start, cpu_start = time.perf_counter(), time.process_time()
+    model.learn(spec.total_timesteps, callback=CallbackList(callbacks))
+    learn_seconds = time.perf_counter() - start
+    learn_cpu_seconds = time.process_time() - cpu_start
+    # Training time: learn() without the measurements made inside it.
+    train_seconds = learn_seconds - checkpoints.seconds
+    train_cpu_seconds = learn_cpu_seconds - checkpoints.cpu_seconds
+    checkpoints.measure(final=True)
+    env.close()
+
+    timesteps = np.array(checkpoints.eval_timesteps, dtype=np.float64)
+    mean_curve = np.array([np.mean(r) for r in checkpoints.eval_returns])
+    threshold = THRESHOLDS[spec.env_id]
+    critic_seconds: dict[str, float] | None = None
+    critic_share: float | None = None
+    if gp_callback is not None and value_timer is not None:
+        critic_seconds = dict(
+            gp_update=gp_callback.update_seconds,
+            rollout_end=gp_callback.rollout_end_seconds,
+            value_predict=value_timer.seconds,
+        )
+        critic_share = (gp_callback.rollout_end_seconds + value_timer.seconds) / train_seconds
+    result: dict[str, Any] = dict(
+        schema=SCHEMA,
+        run_id=spec.run_id,
+        spec=spec.as_dict(),
+        hyperparams=dict(
+            source=ZOO_SOURCE if spec.env_id in ZOO_HYPERPARAMS[spec.algo] else "ours",
+            values=hyperparams(spec.algo, spec.env_id),
+            deviations=list(DEVIATIONS),
+        ),
+        eval=dict(
+            timesteps=checkpoints.eval_timesteps,
+            mean_return=[float(x) for x in mean_curve],
+            returns=checkpoints.eval_returns,
+            deterministic=True,
+            episode_seeds=[EVAL_SEED + i for i in range(spec.n_eval_episodes)],
+        ),
+        final_return=float(mean_curve[-1]),
+        threshold=threshold,
+        steps_to_threshold=_finite_or_none(
+            float(steps_to_threshold(timesteps, mean_curve, threshold))
+        ),
+        num_timesteps=int(model.num_timesteps),
+        max_episode_steps=probes.episode_steps,
+        wall_clock_seconds=learn_seconds,
+        train_seconds=train_seconds,
+        train_cpu_seconds=train_cpu_seconds,
+        checkpoint_seconds=checkpoints.seconds,
+        checkpoint_cpu_seconds=checkpoints.cpu_seconds,
+        checkpoint_cost=checkpoints.cost,
+        critic_seconds=critic_seconds,
+        critic_share=critic_share,
+        critic_accuracy=dict(
+            **checkpoints.critic,
+            n_states=spec.n_probe_states,
+            n_rollouts=spec.n_mc_rollouts,
+            horizon=mc_horizon(float(model.gamma), probes.episode_steps),
+            gamma=float(model.gamma),
+            tail_bound=float(model.gamma) ** mc_horizon(float(model.gamma), probes.episode_steps),
+            probe_seed=PROBE_SEED,
+        ),
+        gp_n_basis=(
+            int(model.policy.gp.n_basis) if isinstance(model.policy, GPActorCriticPolicy) else None
+        ),
+        provenance=provenance(stable_baselines3, gym),
+        finished_at=time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+    )
+    write_json_atomic(result_path(out_dir, spec), result)
+    return result
+
+
+def load_result(path: Path) -> dict[str, Any] | None:
+    """The result in ``path``, or ``None`` if it is missing or unreadable (then it reruns)."""
+    try:
+        with open(path) as f:
+            data = json.load(f)
+    except (OSError, ValueError):
+        return None
+    return data if isinstance(data, dict) and data.get("schema") == SCHEMA else None

@@ -1,0 +1,142 @@
+"""Runs and sweeps: :class:`RunSpec` defines one run, :class:`SweepConfig` a product of runs."""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+from sb3_geogp.comparison.hyperparams import (
+    ALGOS,
+    CRITICS,
+    ENVS,
+    GP_KWARGS,
+    TIMESTEPS,
+    algo_kwargs,
+)
+
+
+@dataclass(frozen=True)
+class RunSpec:
+    """Everything that defines one run; equal specs give the same result file name.
+
+    Attributes
+    ----------
+    algo : {"ppo", "a2c"}
+    critic : {"mlp", "rbf", "geodesic"}
+    env_id : str
+    seed : int
+        Seed of the model and the training environments.
+    total_timesteps : int
+    n_checkpoints : int
+        Evaluations at ``k * total_timesteps / n_checkpoints``, ``k = 0..n_checkpoints``
+        (at the first rollout start at or after each), plus one at the end of training.
+    n_eval_episodes : int
+        Deterministic evaluation episodes per checkpoint.
+    critic_every : int
+        Critic accuracy at every ``critic_every``-th checkpoint (and the final one).
+    n_probe_states : int
+        Probe states of the critic-accuracy measurement.
+    n_mc_rollouts : int
+        Monte Carlo rollouts of the stochastic policy per probe state.
+    gp_kwargs : tuple of (key, value)
+        Options of the GP critic (ignored for ``mlp``), as sorted items.
+    """
+
+    algo: str
+    critic: str
+    env_id: str
+    seed: int
+    total_timesteps: int
+    n_checkpoints: int = 20
+    n_eval_episodes: int = 10
+    critic_every: int = 4
+    n_probe_states: int = 32
+    n_mc_rollouts: int = 4
+    gp_kwargs: tuple[tuple[str, Any], ...] = field(
+        default_factory=lambda: tuple(sorted(GP_KWARGS.items()))
+    )
+
+    @property
+    def run_id(self) -> str:
+        """File-name stem, e.g. ``ppo__geodesic__sb3_geogp-WallMaze-v0__s3``."""
+        env = self.env_id.replace("/", "-")
+        return f"{self.algo}__{self.critic}__{env}__s{self.seed}"
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON-compatible view (``gp_kwargs`` as a dict)."""
+        d = dataclasses.asdict(self)
+        d["gp_kwargs"] = dict(self.gp_kwargs)
+        return d
+
+
+@dataclass(frozen=True)
+class SweepConfig:
+    """A sweep: the product of its lists, with common run settings.
+
+    Attributes
+    ----------
+    algos, critics, envs : tuple of str
+    seeds : tuple of int
+    timesteps_scale : float
+        Multiplies :data:`TIMESTEPS`; each run gets at least two rollouts.
+    n_checkpoints, n_eval_episodes, critic_every, n_probe_states, n_mc_rollouts : int
+        As :class:`RunSpec`.
+    gp_options : tuple of (key, value)
+        Options of the GP critic on top of :data:`GP_KWARGS` (e.g. ``(("forgetting", 0.9),)``),
+        the same for ``rbf`` and ``geodesic``.
+    """
+
+    algos: tuple[str, ...] = tuple(ALGOS)
+    critics: tuple[str, ...] = CRITICS
+    envs: tuple[str, ...] = ENVS
+    seeds: tuple[int, ...] = (0, 1, 2, 3, 4)
+    timesteps_scale: float = 1.0
+    n_checkpoints: int = 20
+    n_eval_episodes: int = 10
+    critic_every: int = 4
+    n_probe_states: int = 32
+    n_mc_rollouts: int = 4
+    gp_options: tuple[tuple[str, Any], ...] = ()
+
+    @classmethod
+    def quick(cls, seeds: Sequence[int] = (0, 1)) -> SweepConfig:
+        """The ``--quick`` smoke sweep: 5 % budgets, 3 evaluation episodes, small probes."""
+        return cls(
+            seeds=tuple(seeds),
+            timesteps_scale=0.05,
+            n_checkpoints=4,
+            n_eval_episodes=3,
+            critic_every=2,
+            n_probe_states=8,
+            n_mc_rollouts=2,
+        )
+
+    def specs(self) -> list[RunSpec]:
+        """One :class:`RunSpec` per run, environments outermost, seeds innermost."""
+        gp_kwargs = tuple(sorted({**GP_KWARGS, **dict(self.gp_options)}.items()))
+        out = []
+        for env_id in self.envs:
+            for algo in self.algos:
+                n_envs, kwargs, _ = algo_kwargs(algo, env_id)
+                rollout = n_envs * int(kwargs.get("n_steps", 2048 if algo == "ppo" else 5))
+                steps = max(2 * rollout, round(TIMESTEPS[env_id] * self.timesteps_scale))
+                for critic in self.critics:
+                    for seed in self.seeds:
+                        out.append(
+                            RunSpec(
+                                algo=algo,
+                                critic=critic,
+                                env_id=env_id,
+                                seed=seed,
+                                total_timesteps=int(steps),
+                                n_checkpoints=self.n_checkpoints,
+                                n_eval_episodes=self.n_eval_episodes,
+                                critic_every=self.critic_every,
+                                n_probe_states=self.n_probe_states,
+                                n_mc_rollouts=self.n_mc_rollouts,
+                                gp_kwargs=gp_kwargs,
+                            )
+                        )
+        return out

@@ -1,0 +1,165 @@
+"""A sweep: every run of a :class:`~sb3_geogp.comparison.specs.SweepConfig`, resumable.
+
+:func:`run_sweep` skips every run whose result file exists, so an interrupted sweep resumes
+where it stopped and never redoes a finished run. Runs execute in parallel processes
+(:class:`concurrent.futures.ProcessPoolExecutor`) or, with ``use_ray=True``, as Ray tasks
+wrapping the same :func:`~sb3_geogp.comparison.run.run_one`.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import dataclasses
+import json
+import multiprocessing as mp
+from collections.abc import Callable, Iterable
+from pathlib import Path
+from typing import Any
+
+from sb3_geogp.comparison.hyperparams import (
+    DEVIATIONS,
+    GP_KWARGS,
+    THRESHOLDS,
+    TIMESTEPS,
+    ZOO_SOURCE,
+    hyperparams,
+)
+from sb3_geogp.comparison.run import SCHEMA, load_result, result_path, run_one, write_json_atomic
+from sb3_geogp.comparison.specs import RunSpec, SweepConfig
+
+
+def pending_runs(specs: Iterable[RunSpec], out_dir: str | Path) -> list[RunSpec]:
+    """The specs without a finished result in ``out_dir``.
+
+    Raises
+    ------
+    ValueError
+        If a finished result was made with different settings than its spec asks for (a
+        different budget, say) or with other hyperparameters: pick another ``out_dir`` rather
+        than mix sweeps.
+    """
+    todo = []
+    for spec in specs:
+        done = load_result(result_path(out_dir, spec))
+        if done is None:
+            todo.append(spec)
+        elif done.get("spec") != _jsonable(spec.as_dict()) or done.get("hyperparams", {}).get(
+            "values"
+        ) != _jsonable(hyperparams(spec.algo, spec.env_id)):
+            raise ValueError(
+                f"{result_path(out_dir, spec)} was made with other settings (spec "
+                f"{done.get('spec')}, hyperparameters {done.get('hyperparams', {}).get('values')})"
+                f" than requested ({spec.as_dict()}, {hyperparams(spec.algo, spec.env_id)}); "
+                "use another --out"
+            )
+    return todo
+
+
+def _jsonable(x: Any) -> Any:
+    """``x`` as it reads back from JSON (tuples become lists)."""
+    return json.loads(json.dumps(x))
+
+
+def _executor(workers: int) -> cf.ProcessPoolExecutor:
+    # Spawned workers: no forked torch/OpenMP state; each imports the package once.
+    return cf.ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn"))
+
+
+def run_sweep(
+    config: SweepConfig,
+    out_dir: str | Path,
+    workers: int = 1,
+    use_ray: bool = False,
+    progress: bool = True,
+) -> list[str]:
+    """Run every unfinished run of ``config``; return the ids of the runs executed now.
+
+    Parameters
+    ----------
+    config : SweepConfig
+    out_dir : str or Path
+        Results go to ``out_dir/runs/*.json``; ``out_dir/sweep.json`` records the config.
+    workers : int
+        Parallel processes (``1``: in this process). With Ray, the number of CPUs requested
+        from a local Ray instance if none is running.
+    use_ray : bool
+        Run each :func:`run_one` as a Ray task (needs ``ray``).
+    progress : bool
+        Show a tqdm progress bar.
+
+    Returns
+    -------
+    list of str
+        Run ids executed (finished ones are skipped, never redone).
+    """
+    out = Path(out_dir)
+    specs = config.specs()
+    todo = pending_runs(specs, out)
+    write_json_atomic(out / "sweep.json", _sweep_record(config))
+    bar = _progress_bar(len(specs), len(specs) - len(todo), progress)
+    executed: list[str] = []
+
+    def finished(spec: RunSpec, result: dict[str, Any]) -> None:
+        executed.append(spec.run_id)
+        if bar is not None:
+            bar.set_postfix_str(f"{spec.run_id}: {result['final_return']:.1f}")
+            bar.update(1)
+
+    try:
+        if use_ray:
+            _run_ray(todo, out, workers, finished)
+        elif workers <= 1:
+            for spec in todo:
+                finished(spec, run_one(spec, out))
+        else:
+            with _executor(workers) as pool:
+                futures = {pool.submit(run_one, spec, str(out)): spec for spec in todo}
+                for future in cf.as_completed(futures):
+                    finished(futures[future], future.result())
+    finally:
+        if bar is not None:
+            bar.close()
+    return executed
+
+
+def _run_ray(
+    todo: list[RunSpec],
+    out: Path,
+    workers: int,
+    finished: Callable[[RunSpec, dict[str, Any]], None],
+) -> None:
+    try:
+        import ray
+    except ImportError as err:
+        raise ImportError(
+            "--ray needs Ray, which is not installed: pip install 'ray[default]' (or run "
+            "without --ray to use local processes)"
+        ) from err
+    if not ray.is_initialized():
+        ray.init(num_cpus=max(1, workers) if workers else None, ignore_reinit_error=True)
+    remote = ray.remote(num_cpus=1)(run_one)
+    refs = {remote.remote(spec, str(out)): spec for spec in todo}
+    while refs:
+        ready, _ = ray.wait(list(refs), num_returns=1)
+        for ref in ready:
+            finished(refs.pop(ref), ray.get(ref))
+
+
+def _sweep_record(config: SweepConfig) -> dict[str, Any]:
+    return dict(
+        schema=SCHEMA,
+        config=dataclasses.asdict(config),
+        timesteps=TIMESTEPS,
+        thresholds=THRESHOLDS,
+        gp_kwargs=GP_KWARGS,
+        hyperparams_source=ZOO_SOURCE,
+        deviations=list(DEVIATIONS),
+    )
+
+
+def _progress_bar(total: int, done: int, enabled: bool) -> Any:
+    if not enabled:
+        return None
+    from tqdm.auto import tqdm
+
+    return tqdm(total=total, initial=done, desc="runs", unit="run", dynamic_ncols=True)

@@ -1,1 +1,0 @@
-"""Experiments built on the public API: data generators, ground truth, runners, plots."""

@@ -1,0 +1,7 @@
+"""Research studies built on the engine, one subpackage per study (not part of the product API).
+
+* :mod:`~sb3_geogp.studies.pendulum`: the reproduction of the paper's pendulum experiment;
+* :mod:`~sb3_geogp.studies.wall`: geodesic vs Euclidean kernels on a two-room value function.
+
+They share :mod:`sb3_geogp.toolbox` with the critic comparison (:mod:`sb3_geogp.comparison`).
+"""

@@ -1,0 +1,113 @@
+"""Which code made a result: the git commit, one hash of the whole engine, package versions.
+
+The engine hash covers every source file of the GP engine together (:data:`ENGINE_FILES`), so
+a result names the engine it measured in one string; a refactor that moves code between
+engine files changes it once, and the commit says which refactor.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import platform
+import subprocess
+from pathlib import Path
+from types import ModuleType
+from typing import Any
+
+import numpy as np
+import torch
+
+import sb3_geogp
+
+#: The engine's source files, as glob patterns relative to the package (whichever exist).
+ENGINE_FILES = (
+    "kernels.py",
+    "kernels/*.py",
+    "graph.py",
+    "sparse_gp.py",
+    "defaults.py",
+    "targets.py",
+)
+
+_PACKAGE = Path(sb3_geogp.__file__).resolve().parent
+
+
+def engine_files() -> list[str]:
+    """The engine's source files present in this installation, relative to the package, sorted."""
+    found = {p for pattern in ENGINE_FILES for p in _PACKAGE.glob(pattern) if p.is_file()}
+    return sorted(p.relative_to(_PACKAGE).as_posix() for p in found)
+
+
+def engine_sha256() -> str:
+    """SHA-256 over the engine's source files (:func:`engine_files`), names and contents.
+
+    Each file contributes its relative path and byte length before its bytes, so that no two
+    different sets of files hash alike.
+    """
+    digest = hashlib.sha256()
+    for name in engine_files():
+        content = (_PACKAGE / name).read_bytes()
+        digest.update(f"{name}\0{len(content)}\0".encode())
+        digest.update(content)
+    return digest.hexdigest()
+
+
+def git_commit() -> str | None:
+    """The commit checked out where the package's source lives; ``None`` outside a git checkout.
+
+    ``None`` too when the package is not tracked by the repository found (e.g. installed into
+    a virtual environment inside some other checkout), or when git is not installed.
+    """
+
+    def git(*args: str) -> str | None:
+        try:
+            done = subprocess.run(
+                ["git", "-C", str(_PACKAGE), *args],
+                capture_output=True,
+                text=True,
+                timeout=10,
+                check=False,
+            )
+        except (OSError, subprocess.SubprocessError):
+            return None
+        return done.stdout.strip() if done.returncode == 0 else None
+
+    if git("ls-files", "--error-unmatch", "__init__.py") is None:
+        return None
+    return git("rev-parse", "HEAD")
+
+
+def package_versions(*modules: ModuleType) -> dict[str, str]:
+    """Python's version and ``__version__`` of torch, numpy, sb3_geogp and ``modules``.
+
+    Parameters
+    ----------
+    *modules : module
+        Further imported packages to record (e.g. ``stable_baselines3``, ``gymnasium``), keyed
+        by their module name.
+    """
+    versions = {"python": platform.python_version()}
+    for module in (torch, *modules, np, sb3_geogp):
+        versions[module.__name__] = str(module.__version__)
+    return versions
+
+
+def provenance(*modules: ModuleType) -> dict[str, Any]:
+    """Everything above as one JSON-compatible record.
+
+    Parameters
+    ----------
+    *modules : module
+        As :func:`package_versions`.
+
+    Returns
+    -------
+    dict
+        ``git_commit`` (str or None), ``engine_sha256``, ``engine_files`` and ``versions``.
+    """
+    return {
+        "git_commit": git_commit(),
+        "engine_sha256": engine_sha256(),
+        "engine_files": engine_files(),
+        "versions": package_versions(*modules),
+    }

@@ -1,0 +1,67 @@
+"""Tables of results: aligned plain text for the terminal, GitHub markdown for the reports."""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping, Sequence
+from typing import Any
+
+
+def format_cell(value: Any) -> str:
+    """Render one text-table cell: floats with 4 significant digits, ``None`` as ``-``."""
+    if value is None:
+        return "-"
+    if isinstance(value, bool):
+        return "yes" if value else "NO"
+    if isinstance(value, float):
+        return f"{value:.4g}"
+    return str(value)
+
+
+def format_table(rows: Sequence[Mapping[str, Any]], columns: Sequence[str]) -> str:
+    """Left-aligned text table of ``rows`` restricted to ``columns``.
+
+    Parameters
+    ----------
+    rows : sequence of mappings
+        One mapping per row; missing keys print as ``-``.
+    columns : sequence of str
+        Column keys, also used as headers.
+
+    Returns
+    -------
+    str
+        Header, rule and one line per row.
+    """
+    cells = [[format_cell(row.get(col)) for col in columns] for row in rows]
+    widths = [max([len(col)] + [len(r[i]) for r in cells]) for i, col in enumerate(columns)]
+    lines = ["  ".join(col.ljust(w) for col, w in zip(columns, widths, strict=True))]
+    lines.append("  ".join("-" * w for w in widths))
+    lines += ["  ".join(c.ljust(w) for c, w in zip(r, widths, strict=True)) for r in cells]
+    return "\n".join(lines)
+
+
+def markdown_table(header: Sequence[str], rows: Iterable[Sequence[str]], align: str = "") -> str:
+    """A GitHub markdown table of already formatted cells.
+
+    Parameters
+    ----------
+    header : sequence of str
+        Column titles.
+    rows : iterable of sequences of str
+        One sequence of cells per row (an empty cell stays empty).
+    align : str
+        One letter per column, ``"l"`` (left, the default for missing letters) or ``"r"``.
+
+    Returns
+    -------
+    str
+        Header line, alignment rule and one line per row, without a final newline.
+    """
+    if set(align) - {"l", "r"} or len(align) > len(header):
+        raise ValueError(f"align must be at most {len(header)} letters 'l' or 'r', got {align!r}")
+    rule = "|" + "".join("---:|" if a == "r" else "---|" for a in align.ljust(len(header), "l"))
+    return "\n".join([_markdown_row(header), rule, *(_markdown_row(r) for r in rows)])
+
+
+def _markdown_row(cells: Sequence[str]) -> str:
+    return "| " + " | ".join(cells) + " |"

@@ -1,0 +1,122 @@
+"""Aggregation of a critic-comparison sweep, on synthetic result files with known answers."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import pytest
+
+from sb3_geogp.comparison.report import comparisons_markdown
+from sb3_geogp.comparison.results import (
+    METRICS,
+    MIN_SEEDS_FOR_VERDICT,
+    PAIRS,
+    comparisons,
+    summary_rows,
+    verdict,
+)
+
+
+def _result(critic: str, seed: int, final: float, rmse: float) -> dict[str, Any]:
+    curve = [-10.0, final / 2, final]
+    return dict(
+        spec=dict(env_id="E-v0", algo="ppo", critic=critic, seed=seed, total_timesteps=100),
+        final_return=final,
+        eval=dict(timesteps=[0, 50, 100], mean_return=curve),
+        critic_accuracy=dict(timesteps=[0, 100], rmse=[50.0, rmse]),
+        threshold=1.0,
+        steps_to_threshold=None,
+        train_seconds=1.0,
+        critic_share=None,
+    )
+
+
+def _results() -> list[dict[str, Any]]:
+    # geodesic far ahead of mlp in return, rbf equal to mlp; geodesic's critic error lower.
+    out = []
+    for s in range(6):
+        out.append(_result("mlp", s, final=float(s), rmse=20.0 + s))
+        out.append(_result("rbf", s, final=float(s), rmse=20.0 + s))
+        out.append(_result("geodesic", s, final=100.0 + s, rmse=5.0 + s))
+    return out
+
+
+def test_verdict_respects_the_direction_of_the_metric() -> None:
+    assert verdict(1.0, 2.0) == "better" and verdict(-2.0, -1.0) == "worse"
+    assert verdict(1.0, 2.0, higher_is_better=False) == "worse"
+    assert verdict(-2.0, -1.0, higher_is_better=False) == "better"
+    assert verdict(-1.0, 1.0) == "no difference" == verdict(-1.0, 1.0, False)
+
+
+def test_comparisons_against_hand_computed_means() -> None:
+    diffs = comparisons(_results())
+    assert len(diffs) == len(METRICS) * len(PAIRS)
+    by = {(d["metric"], d["a"], d["b"]): d for d in diffs}
+    # hand-computed: final returns 100..105 vs 0..5, curve means (-10 + 1.5 f) / 3.
+    geo_mlp = by[("final_return", "geodesic", "mlp")]
+    assert geo_mlp["diff"] == pytest.approx(100.0)
+    assert geo_mlp["verdict"] == "better" == geo_mlp["fw_verdict"]
+    auc = by[("mean_return", "geodesic", "mlp")]
+    assert auc["diff"] == pytest.approx(1.5 * 100.0 / 3)
+    assert by[("final_return", "rbf", "mlp")]["diff"] == 0.0
+    assert by[("final_return", "rbf", "mlp")]["verdict"] == "no difference"
+    rmse = by[("critic_rmse", "geodesic", "rbf")]
+    assert rmse["diff"] == pytest.approx(-15.0) and rmse["verdict"] == "better"
+    # 3 pairs, Bonferroni per metric; the family-wise interval contains the 95 % one.
+    for d in diffs:
+        assert d["fw_level"] == pytest.approx(1 - 0.05 / 3)
+        assert d["fw_low"] <= d["low"] <= d["diff"] <= d["high"] <= d["fw_high"]
+
+
+def test_familywise_level_can_overturn_a_verdict() -> None:
+    results = [
+        _result(critic, s, final=s + shift, rmse=1.0)
+        for s in range(5)
+        for critic, shift in (("mlp", 0.0), ("rbf", 0.0), ("geodesic", 2.0))
+    ]
+    d = next(
+        d
+        for d in comparisons(results)
+        if (d["metric"], d["a"], d["b"]) == ("final_return", "geodesic", "mlp")
+    )
+    # Normal theory: standard error sqrt(2/5 + 2/5) = 0.894, so 2 +- 1.96 se excludes 0 but
+    # 2 +- 2.39 se (two-sided 1 - 0.05/3) does not: a verdict that does not hold family-wise,
+    # shown in the table but not in bold.
+    assert d["verdict"] == "better" and d["fw_verdict"] == "no difference"
+    table = comparisons_markdown([d])
+    assert " better |" in table and "**better**" not in table
+
+
+def test_no_verdict_from_too_few_seeds() -> None:
+    few = [r for r in _results() if r["spec"]["seed"] < MIN_SEEDS_FOR_VERDICT - 1]
+    for d in comparisons(few):
+        assert d["verdict"] == d["fw_verdict"] == "too few seeds"
+        assert d["low"] <= d["diff"] <= d["high"]  # the interval is still reported
+
+
+def test_summary_rows_hand_computed() -> None:
+    rows = summary_rows(_results())
+    assert [r["critic"] for r in rows] == ["mlp", "rbf", "geodesic"]
+    geo = rows[2]
+    assert geo["final_mean"] == pytest.approx(102.5) and geo["n_seeds"] == 6
+    assert geo["final_iqm"] == pytest.approx(np.mean([101, 102, 103, 104]))
+    assert geo["critic_rmse_mean"] == pytest.approx(7.5)
+
+
+def test_comparison_against_a_baseline_sweep() -> None:
+    base = _results()
+    # The same sweep with every GP critic's final return raised by 50 and the MLP unchanged.
+    arm = [
+        {**r, "final_return": r["final_return"] + (0.0 if r["spec"]["critic"] == "mlp" else 50.0)}
+        for r in base
+    ]
+    diffs = comparisons(arm, baseline=base)
+    final = {d["a"]: d for d in diffs if d["metric"] == "final_return"}
+    assert set(final) == {"mlp", "rbf", "geodesic"}
+    assert all(d["b"] == d["a"] and d["b_sweep"] == "baseline" for d in diffs)
+    assert final["mlp"]["diff"] == 0.0 and final["mlp"]["verdict"] == "no difference"
+    assert final["rbf"]["diff"] == pytest.approx(50.0) and final["rbf"]["verdict"] == "better"
+    assert final["geodesic"]["fw_level"] == pytest.approx(1 - 0.05 / 3)
+    table = comparisons_markdown(diffs)
+    assert "geodesic − baseline geodesic" in table and "rbf − mlp" not in table

@@ -1,0 +1,182 @@
+"""The critic-comparison runner: a tiny sweep end to end, resumption, aggregation."""
+
+from __future__ import annotations
+
+import dataclasses
+import importlib.util
+import json
+import sys
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from sb3_geogp.comparison.command import main
+from sb3_geogp.comparison.evaluation import mc_horizon
+from sb3_geogp.comparison.hyperparams import TIMESTEPS
+from sb3_geogp.comparison.report import write_report
+from sb3_geogp.comparison.results import (
+    comparisons,
+    estimate_sweep_seconds,
+    load_results,
+    summary_rows,
+)
+from sb3_geogp.comparison.run import result_path, run_one
+from sb3_geogp.comparison.specs import SweepConfig
+from sb3_geogp.comparison.sweep import pending_runs, run_sweep
+
+TINY = SweepConfig(
+    algos=("a2c",),
+    critics=("mlp", "geodesic"),
+    envs=("CartPole-v1",),
+    seeds=(0, 1),
+    timesteps_scale=400 / TIMESTEPS["CartPole-v1"],  # 400 steps: 10 rollouts of 8 x 5
+    n_checkpoints=2,
+    n_eval_episodes=2,
+    critic_every=1,
+    n_probe_states=4,
+    n_mc_rollouts=2,
+)
+
+
+def _mtimes(out: Path) -> dict[str, int]:
+    return {p.name: p.stat().st_mtime_ns for p in (out / "runs").glob("*.json")}
+
+
+def test_tiny_sweep_end_to_end_and_resume(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "sweep"
+    specs = TINY.specs()
+    assert len(specs) == 4
+
+    # 1. The sweep, in 2 worker processes.
+    executed = run_sweep(TINY, out, workers=2, progress=False)
+    assert sorted(executed) == sorted(s.run_id for s in specs)
+    for spec in specs:
+        r = json.loads(result_path(out, spec).read_text())
+        assert r["spec"]["critic"] == spec.critic and r["num_timesteps"] >= 400
+        ev = r["eval"]
+        assert ev["timesteps"][0] == 0 and ev["timesteps"][-1] == r["num_timesteps"]
+        assert len(ev["mean_return"]) == len(ev["timesteps"]) >= 3
+        assert r["final_return"] == ev["mean_return"][-1]
+        acc = r["critic_accuracy"]
+        assert len(acc["rmse"]) == len(acc["timesteps"]) >= 2
+        assert all(np.isfinite(acc["rmse"])) and r["max_episode_steps"] == 500
+        assert acc["horizon"] == mc_horizon(0.99, 500) == 459  # A2C's gamma: 0.99^459 < 0.01
+        assert 0 < r["train_seconds"] <= r["wall_clock_seconds"] and r["train_cpu_seconds"] > 0
+        if spec.critic == "mlp":
+            assert r["critic_share"] is None
+        else:
+            assert 0 < r["critic_share"] < 1
+            assert r["critic_seconds"]["gp_update"] > 0
+    assert pending_runs(specs, out) == []
+
+    # 2. Interrupted: one result lost, and a half-written temporary file left behind.
+    lost = specs[1]
+    result_path(out, lost).unlink()
+    (out / "runs" / f".{lost.run_id}.abc.tmp").write_text("{ half")
+    before = _mtimes(out)
+    executed = run_sweep(TINY, out, workers=1, progress=False)
+    assert executed == [lost.run_id]  # only the lost run reran
+    after = _mtimes(out)
+    assert {k: v for k, v in after.items() if k != f"{lost.run_id}.json"} == before
+    assert result_path(out, lost).is_file()
+
+    # 3. Nothing left to do; a sweep with other settings refuses to mix into this folder.
+    assert run_sweep(TINY, out, workers=1, progress=False) == []
+    with pytest.raises(ValueError, match="other settings"):
+        pending_runs(dataclasses.replace(TINY, timesteps_scale=0.1).specs(), out)
+
+    # 4. Aggregation.
+    results = load_results(out)
+    assert len(results) == 4
+    rows = summary_rows(results)
+    assert [r["critic"] for r in rows] == ["mlp", "geodesic"]
+    diffs = [d for d in comparisons(results) if d["metric"] == "final_return"]
+    assert [(d["a"], d["b"]) for d in diffs] == [("geodesic", "mlp")]
+    assert rows[0]["n_seeds"] == 2 and rows[0]["final_low"] <= rows[0]["final_mean"]
+    estimate = estimate_sweep_seconds(results, specs, workers=2)
+    assert estimate["missing"] == [] and estimate["wall_seconds"] > 0
+    bigger = dataclasses.replace(TINY, timesteps_scale=2 * TINY.timesteps_scale).specs()
+    assert estimate_sweep_seconds(results, bigger)["total_seconds"] > estimate["total_seconds"]
+    argv = ["--estimate-from", str(out), "--envs", "CartPole-v1", "--algos", "ppo"]
+    assert main(argv) == 0
+    printed = capsys.readouterr().out
+    assert "CPU hours" in printed and "ppo/mlp" in printed  # only a2c was calibrated
+    if importlib.util.find_spec("matplotlib") is not None:
+        written = write_report(out, baseline_dir=out)  # against itself: every difference 0
+        names = {p.name for p in written}
+        assert {"summary.md", "comparisons.md", "comparisons.json", "critic_accuracy.png"} <= names
+        vs = json.loads((out / "report" / "vs_baseline.json").read_text())
+        assert vs and all(d["diff"] == 0 and d["a"] == d["b"] for d in vs)
+        assert "curves_CartPole-v1.png" in names
+        assert "| CartPole-v1" in (out / "report" / "summary.md").read_text().replace("`", "")
+
+    # 5. --ray without Ray installed: a clear error.
+    if importlib.util.find_spec("ray") is None:
+        with pytest.raises(ImportError, match="pip install"):
+            run_sweep(TINY, out, use_ray=True, progress=False)
+
+
+class _Ref:
+    """A finished task's result (hashable by identity, like Ray's ObjectRef)."""
+
+    def __init__(self, value: Any) -> None:
+        self.value = value
+
+
+class _FakeRay:
+    """The few Ray calls the runner makes, executing each task at once in this process."""
+
+    def __init__(self) -> None:
+        self.initialized = False
+        self.tasks = 0
+
+    def is_initialized(self) -> bool:
+        return self.initialized
+
+    def init(self, **_: object) -> None:
+        self.initialized = True
+
+    def remote(self, **_: object) -> Callable[[Callable[..., Any]], Any]:
+        fake = self
+
+        class _Remote:
+            def __init__(self, fn: Callable[..., Any]) -> None:
+                self.fn = fn
+
+            def remote(self, *args: Any) -> _Ref:
+                fake.tasks += 1
+                return _Ref(self.fn(*args))
+
+        return _Remote
+
+    def wait(self, refs: list[Any], num_returns: int = 1) -> tuple[list[Any], list[Any]]:
+        return refs[:num_returns], refs[num_returns:]
+
+    def get(self, ref: _Ref) -> Any:
+        return ref.value
+
+
+def test_ray_path_runs_the_same_run_function(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    fake = _FakeRay()
+    monkeypatch.setitem(sys.modules, "ray", fake)
+    config = dataclasses.replace(TINY, critics=("mlp",), seeds=(0,))
+    executed = run_sweep(config, tmp_path, use_ray=True, progress=False)
+    assert executed == [config.specs()[0].run_id] and fake.tasks == 1 and fake.initialized
+    assert result_path(tmp_path, config.specs()[0]).is_file()
+    assert run_sweep(config, tmp_path, use_ray=True, progress=False) == []
+
+
+def test_measurements_do_not_change_training(tmp_path: Path) -> None:
+    spec = TINY.specs()[2]  # a2c, geodesic, CartPole, seed 0
+    assert spec.critic == "geodesic"
+    a = run_one(spec, tmp_path / "a")
+    b = run_one(dataclasses.replace(spec, n_mc_rollouts=3, n_probe_states=5), tmp_path / "b")
+    assert a["eval"]["returns"] == b["eval"]["returns"]
+    assert a["gp_n_basis"] == b["gp_n_basis"]
