@@ -69,7 +69,7 @@ class GPValueCallback(BaseCallback):
       to be fed, before it absorbs them (out of sample; with ``target="returns"`` these are
       the rollout's own values, so they cost no extra prediction);
     * ``gp/mean_std``: mean predictive standard deviation on those points (before the update,
-      at most 1024 evenly spaced ones);
+      at most 1024 evenly spaced ones; recomputed once 256 points have been fed since);
     * ``gp/n_basis``, ``gp/update_ms``, ``gp/n_fed``, ``gp/forgetting``, and
       ``gp/n_components`` (graph components, geodesic kernel).
     """
@@ -152,9 +152,16 @@ class GPValueCallback(BaseCallback):
 
     def _on_rollout_end(self) -> None:
         policy = self._policy
+        if not policy.awaiting_feed:
+            raise RuntimeError(
+                "GPValueCallback: this rollout was already fed to the GP critic: the callback "
+                "is passed more than once (directly, in a list, or as a zoo callback too); "
+                "pass one GPValueCallback"
+            )
         policy.defer_values = False
         buffer = self._algo.rollout_buffer
         dones = np.asarray(self.locals["dones"], dtype=bool)
+        _check_rewards(buffer)
         if self.deferred_values:
             # SB3 has just computed returns and advantages from placeholder values; with the
             # values of one batched prediction they are what step-by-step values would give.
@@ -265,6 +272,18 @@ class GPValueCallback(BaseCallback):
             values = policy.predict_values(th.as_tensor(flat_obs, device=policy.device))
         buffer.values[:] = values.cpu().numpy().reshape(n_steps, n_envs)
         buffer.compute_returns_and_advantage(last_values=last_values, dones=dones)
+
+
+def _check_rewards(buffer: RolloutBuffer) -> None:
+    """Name the first non-finite reward of the rollout (the GP would refuse its targets)."""
+    bad = np.argwhere(~np.isfinite(buffer.rewards))
+    if bad.size:
+        step, env = (int(i) for i in bad[0])
+        raise ValueError(
+            f"GPValueCallback: the reward at step {step} of this rollout in env {env} is "
+            f"{buffer.rewards[step, env]} ({len(bad)} non-finite rewards in the rollout); the "
+            "GP critic cannot learn from it. Check the environment or its reward wrappers"
+        )
 
 
 def _empty_segment(obs_shape: tuple[int, ...] | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -132,6 +132,7 @@ class GPActorCriticPolicy(ActorCriticPolicy):
         self.require_gp_feed = True
         self.defer_values = False
         self._awaiting_feed = False
+        self._fed_since_std: int | None = None
 
     # ------------------------------------------------------------------------------------------
     # Construction
@@ -248,6 +249,11 @@ class GPActorCriticPolicy(ActorCriticPolicy):
         """
         return super().predict_values(obs)
 
+    @property
+    def awaiting_feed(self) -> bool:
+        """Whether the rollout collected since the last :meth:`update_critic` awaits its feed."""
+        return self._awaiting_feed
+
     @contextlib.contextmanager
     def _placeholder_values(self, enabled: bool) -> Iterator[None]:
         head = self.value_net
@@ -307,7 +313,9 @@ class GPActorCriticPolicy(ActorCriticPolicy):
             The critic's diagnostics, as :class:`~sb3_geogp.GPValueCallback` logs them under
             ``gp/``: the GP's out-of-sample fit of ``targets`` before absorbing them (``mse``,
             ``explained_variance``; ``mean_std``, the mean predictive standard deviation on at
-            most 1024 evenly spaced points), all three only for a non-empty batch; then
+            most 1024 evenly spaced points, only once at least 256 points have been fed since
+            it was last computed, so that short rollouts do not pay for it every time), only
+            for a non-empty batch; then
             ``update_ms``, ``n_fed``, ``n_basis``, ``forgetting`` and, for a kernel with a
             graph, ``n_components``.
         """
@@ -315,7 +323,9 @@ class GPActorCriticPolicy(ActorCriticPolicy):
         start = time.perf_counter()
         if len(targets) > 0:
             features = self.critic_features(obs)
-            stats.update(_fit_before_update(self.gp, features, targets, values))
+            with_std = self._fed_since_std is None or self._fed_since_std >= _STD_EVERY
+            stats.update(_fit_before_update(self.gp, features, targets, values, with_std))
+            self._fed_since_std = 0 if with_std else (self._fed_since_std or 0) + len(targets)
             start = time.perf_counter()
             self.gp.update(features, targets, episode_starts)
         stats["update_ms"] = 1e3 * (time.perf_counter() - start)
@@ -328,6 +338,8 @@ class GPActorCriticPolicy(ActorCriticPolicy):
 
 #: At most this many (evenly spaced) points are used for the ``mean_std`` diagnostic.
 _STD_SAMPLE = 1024
+#: ``mean_std`` is computed again once this many points have been fed since the last time.
+_STD_EVERY = 256
 
 
 def _fit_before_update(
@@ -335,20 +347,23 @@ def _fit_before_update(
     features: th.Tensor,
     targets: th.Tensor | np.ndarray,
     values: th.Tensor | np.ndarray | None,
+    with_std: bool,
 ) -> dict[str, float]:
     """The GP's out-of-sample fit of the targets it is about to absorb."""
     if values is None:
         values = gp.predict(features, return_var=False)[0]
     pred = np.asarray(th.as_tensor(values).cpu(), dtype=np.float64)
     y = np.asarray(th.as_tensor(targets).cpu(), dtype=np.float64)
-    idx = np.unique(np.linspace(0, len(y) - 1, min(len(y), _STD_SAMPLE)).astype(np.int64))
-    var = gp.predict(features[idx], return_var=True)[1]
-    assert var is not None
-    return {
+    stats = {
         "mse": float(np.mean((pred - y) ** 2)),
         "explained_variance": float(explained_variance(pred, y)),
-        "mean_std": float(var.sqrt().mean()),
     }
+    if with_std:
+        idx = np.unique(np.linspace(0, len(y) - 1, min(len(y), _STD_SAMPLE)).astype(np.int64))
+        var = gp.predict(features[idx], return_var=True)[1]
+        assert var is not None
+        stats["mean_std"] = float(var.sqrt().mean())
+    return stats
 
 
 def _flat_bounds(space: spaces.Space) -> tuple[np.ndarray, np.ndarray]:

@@ -36,6 +36,7 @@ from torch import Tensor, nn
 from sb3_geogp import defaults
 from sb3_geogp.graph import BVGraph
 from sb3_geogp.kernels import Kernel, make_kernel
+from sb3_geogp.kernels.base import check_same_options
 
 ArrayLike = Tensor | np.ndarray | Sequence[Any]
 
@@ -51,6 +52,53 @@ _DELETION_RATE = 0.003
 _FLOOR_MAX = 0.99
 #: Largest growth of ``||Q||`` (times the signal variance) one new BV may cause.
 _Q_GROWTH = 1e4
+
+
+#: Largest state the constructor allocates (bytes); above it, it refuses with the estimate.
+_MAX_STATE_BYTES = 2**36
+_DTYPES = {"float64": torch.float64, "float32": torch.float32}
+
+
+def _count(name: str, value: Any) -> int:
+    if isinstance(value, bool) or not isinstance(value, int | np.integer):
+        raise ValueError(f"{name} must be an integer, got {value!r} ({type(value).__name__})")
+    if value < 1:
+        raise ValueError(f"{name} must be >= 1, got {value}")
+    return int(value)
+
+
+def _check_dtype(dtype: Any, kernel: Kernel) -> torch.dtype:
+    """``dtype`` as a torch dtype the engine computes in safely with ``kernel``."""
+    if isinstance(dtype, str):
+        dtype = _DTYPES.get(dtype.removeprefix("torch."), dtype)
+    if dtype not in _DTYPES.values():
+        raise ValueError(
+            f"dtype must be torch.float64 (default) or torch.float32, got {dtype!r}: the "
+            "engine's distances and Cholesky factorisations need at least single precision"
+        )
+    if dtype == torch.float32 and not kernel.supports_float32():
+        raise ValueError(
+            f"{_describe(kernel)} is not numerically safe in float32 (its basis Gram matrix is too "
+            "ill-conditioned: updates fail or diverge); use dtype=torch.float64, or a Laplacian "
+            "profile (GeodesicKernel(profile='laplacian'), LaplacianKernel) in float32"
+        )
+    return cast(torch.dtype, dtype)
+
+
+def _describe(kernel: Kernel) -> str:
+    options = ", ".join(f"{k}={v!r}" for k, v in kernel.options().items())
+    return f"{type(kernel).__name__}({options})"
+
+
+def _check_memory(capacity: int, input_dim: int, kernel: Kernel, dtype: torch.dtype) -> None:
+    itemsize = torch.empty((), dtype=dtype).element_size()
+    nbytes = itemsize * (2 * capacity * capacity + (input_dim + 4) * capacity)
+    nbytes += kernel.state_nbytes(capacity, input_dim, itemsize)
+    if nbytes > _MAX_STATE_BYTES:
+        raise ValueError(
+            f"max_basis={capacity - 1} needs about {nbytes / 2**30:.3g} GiB of state (more than "
+            f"{_MAX_STATE_BYTES / 2**30:.0f} GiB); choose a smaller max_basis"
+        )
 
 
 _Method = TypeVar("_Method", bound=Callable[..., Any])
@@ -107,10 +155,17 @@ class SparseOnlineGP(nn.Module):
         set for the call and restored after it. The engine's work is many small matrix
         operations, which several threads slow down, by 10-100x on a busy machine (measured in
         docs/benchmarks.md). ``None`` keeps torch's setting.
+    condition_guard : bool
+        Project instead of inserting a novel point whose row would grow ``||Q||`` by more than
+        ``1e4 / variance`` (docs/method.md, 2.5). It keeps long runs well conditioned, and is the
+        one exception to ``novelty_tol=0`` making every point a BV: switch it off for an exact
+        GP on a small, well-spread data set.
     device : torch.device, str or None
         Where the state lives.
-    dtype : torch.dtype
-        Floating type of the state (float64 by default).
+    dtype : torch.dtype or {"float64", "float32"}
+        Floating type of the state (float64 by default). float32 is accepted only with kernels
+        that are safe in it (:meth:`~sb3_geogp.kernels.Kernel.supports_float32`: the Laplacian
+        profiles, checked against float64 in the tests); half precisions are refused.
 
     Notes
     -----
@@ -149,14 +204,12 @@ class SparseOnlineGP(nn.Module):
         target_scale: float | None = None,
         input_bounds: tuple[ArrayLike, ArrayLike] | None = None,
         num_threads: int | None = 1,
+        condition_guard: bool = True,
         device: torch.device | str | None = None,
-        dtype: torch.dtype = torch.float64,
+        dtype: torch.dtype | str = torch.float64,
     ) -> None:
         super().__init__()
-        if input_dim < 1:
-            raise ValueError(f"input_dim must be >= 1, got {input_dim}")
-        if max_basis < 1:
-            raise ValueError(f"max_basis must be >= 1, got {max_basis}")
+        input_dim, max_basis = _count("input_dim", input_dim), _count("max_basis", max_basis)
         if not (noise_var > 0 and math.isfinite(noise_var)):
             raise ValueError(f"noise_var must be positive and finite, got {noise_var}")
         if novelty_tol is not None and not (0 <= novelty_tol < 1):
@@ -167,15 +220,15 @@ class SparseOnlineGP(nn.Module):
             raise ValueError(f"target_scale must be positive and finite, got {target_scale}")
         if target_mean is not None and not math.isfinite(target_mean):
             raise ValueError(f"target_mean must be finite, got {target_mean}")
-        if not dtype.is_floating_point:
-            raise ValueError(f"dtype must be a floating type, got {dtype}")
         if num_threads is not None and not (isinstance(num_threads, int) and num_threads >= 1):
             raise ValueError(f"num_threads must be a positive int or None, got {num_threads!r}")
         self.input_dim = int(input_dim)
         self.max_basis = int(max_basis)
         self.forgetting = float(forgetting)
         self.num_threads = num_threads
+        self.condition_guard = bool(condition_guard)
         self.kernel = make_kernel(kernel)
+        dtype = _check_dtype(dtype, self.kernel)
         self.novelty_tol = (
             self.kernel.novelty_at(defaults.NOVELTY_RADIUS)
             if novelty_tol is None
@@ -183,6 +236,7 @@ class SparseOnlineGP(nn.Module):
         )
         # One spare slot: a new BV is inserted before the least informative one is deleted.
         cap = self.max_basis + 1
+        _check_memory(cap, self.input_dim, self.kernel, dtype)
         self.kernel.bind(self.input_dim, cap)
         if input_bounds is not None and any(np.size(b) != self.input_dim for b in input_bounds):
             raise ValueError(
@@ -301,7 +355,13 @@ class SparseOnlineGP(nn.Module):
             mean = torch.zeros(x.shape[0], dtype=x.dtype, device=x.device)
             var = variance.expand(x.shape[0]).clone() if return_var else None
         else:
-            mean, var = self._latent(self.kernel.scale(x), return_var)
+            xs = self.kernel.scale(x)
+            if not bool(torch.isfinite(xs).all()):
+                raise ValueError(
+                    f"x divided by the lengthscale {self.kernel.lengthscale.tolist()} overflows; "
+                    "rescale the inputs"
+                )
+            mean, var = self._latent(xs, return_var)
         mean = mean * self.y_scale + self.y_mean
         return mean, None if var is None else var * self.y_scale**2
 
@@ -321,10 +381,33 @@ class SparseOnlineGP(nn.Module):
         self._cache = None
         return super()._apply(fn, recurse)
 
+    def options(self) -> dict[str, Any]:
+        """Options that shape the state: a state saved with others is refused on load.
+
+        Checked with the kernel's (:meth:`~sb3_geogp.kernels.Kernel.options`) before anything
+        is loaded. ``novelty_tol`` and ``forgetting`` are stored too (``state_dict()
+        ["_extra_state"]``) but not enforced: they only steer later updates.
+        """
+        return {"input_dim": self.input_dim, "max_basis": self.max_basis}
+
+    def get_extra_state(self) -> dict[str, Any]:
+        return self.options() | {"novelty_tol": self.novelty_tol, "forgetting": self.forgetting}
+
+    def set_extra_state(self, state: Any) -> None:
+        if not isinstance(state, dict):
+            raise ValueError(f"the saved SparseOnlineGP options are not a dict: {state!r}")
+        saved = {key: state.get(key) for key in self.options()}
+        check_same_options("SparseOnlineGP", saved, self.options())
+
     def _load_from_state_dict(
         self, state_dict: dict[str, Any], prefix: str, *args: Any, **kwargs: Any
     ) -> None:
-        _upgrade_v01_state(state_dict, prefix, self.kernel)
+        _upgrade_v01_state(state_dict, prefix, self)
+        # Check every stored option before loading anything, so a refused state leaves this
+        # GP exactly as it was (the kernel's check would otherwise come after the GP's buffers).
+        for key, module in (("_extra_state", self), ("kernel._extra_state", self.kernel)):
+            if prefix + key in state_dict:
+                module.set_extra_state(state_dict[prefix + key])
         super()._load_from_state_dict(state_dict, prefix, *args, **kwargs)
         self._cache = None
 
@@ -383,6 +466,7 @@ class SparseOnlineGP(nn.Module):
             self._initialize(x, y)
             self._cache = None
         yn = (y - self.y_mean) / self.y_scale
+        self._check_scaled(self.kernel.scale(x), yn)
         if self.forgetting < 1 and self.n_basis > 0:
             lam = self.forgetting
             self.alpha.mul_(math.sqrt(lam))
@@ -414,9 +498,35 @@ class SparseOnlineGP(nn.Module):
         mean, scale = defaults.target_standardisation(y, *self._fixed_target)
         self.y_mean.fill_(mean)
         self.y_scale.fill_(scale)
+        if not (math.isfinite(float(self.y_mean)) and 0 < float(self.y_scale) < math.inf):
+            raise ValueError(
+                f"the first batch's targets (|y| up to {float(y.abs().max()):.3g}) give target "
+                f"mean {float(self.y_mean):.3g} and scale {float(self.y_scale):.3g}; rescale "
+                "the targets or pass target_mean and target_scale"
+            )
         ls = self.kernel.lengthscale
         ls.copy_(defaults.resolve_lengthscale(ls, x=x))
+        if not bool((torch.isfinite(ls) & (ls > 0)).all()):
+            raise ValueError(
+                f"the first batch's inputs (|x| up to {float(x.abs().max()):.3g}) give "
+                f"lengthscale {ls.tolist()}; rescale the inputs or give the kernel a lengthscale"
+            )
         self.initialized.fill_(1)
+
+    def _check_scaled(self, xs: Tensor, yn: Tensor) -> None:
+        """Refuse a batch whose inputs or targets overflow in the model's units."""
+        if not bool(torch.isfinite(xs).all()):
+            raise ValueError(
+                f"inputs divided by the lengthscale {self.kernel.lengthscale.tolist()} overflow "
+                f"(|x| up to {float(xs.abs().max() * self.kernel.lengthscale.max()):.3g}); give "
+                "the kernel a larger lengthscale or rescale the inputs"
+            )
+        if not bool(torch.isfinite(yn).all()):
+            raise ValueError(
+                f"targets standardised with mean {float(self.y_mean):.3g} and scale "
+                f"{float(self.y_scale):.3g} overflow; rescale the targets or pass "
+                "target_mean and target_scale"
+            )
 
     def _scale_floor(self, factor: float) -> None:
         floor = (self.novelty_floor * factor).clamp(self.novelty_tol, _FLOOR_MAX)
@@ -575,7 +685,7 @@ class SparseOnlineGP(nn.Module):
         """
         if gamma <= self._novelty_threshold() * variance:
             return True
-        return (1.0 + e_sq) / gamma > _Q_GROWTH / variance
+        return self.condition_guard and (1.0 + e_sq) / gamma > _Q_GROWTH / variance
 
     def _delete(self, j: int) -> None:
         """Remove BV ``j`` by the Csató–Opper KL projection.
@@ -812,17 +922,20 @@ def _sym(M: Tensor) -> Tensor:
     return 0.5 * (M + M.T)
 
 
-def _upgrade_v01_state(state: dict[str, Any], prefix: str, kernel: Kernel) -> None:
+def _upgrade_v01_state(state: dict[str, Any], prefix: str, gp: SparseOnlineGP) -> None:
     """Rename, in place, the entries of a state saved by sb3_geogp 0.1 (SB3 models included).
 
     0.1 kept the BV graph, each BV's graph node and the trajectory's last node in the GP; they
-    now belong to the kernel (the BV nodes as the graph's ``basis_nodes``).
+    now belong to the kernel (the BV nodes as the graph's ``basis_nodes``). 0.1 stored no
+    options: they are taken as this GP's (they cannot be checked).
     """
     if prefix + "bv_node" not in state:
         return
+    state[prefix + "_extra_state"] = gp.get_extra_state()
+    state[prefix + "kernel._extra_state"] = gp.kernel.get_extra_state()
     bv_node = state.pop(prefix + "bv_node")
     traj_node = state.pop(prefix + "traj_node")
-    graph = kernel.graph
+    graph = gp.kernel.graph
     if graph is None:
         return
     for key in [k for k in state if k.startswith(prefix + "graph.")]:

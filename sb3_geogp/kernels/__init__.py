@@ -15,7 +15,15 @@ from __future__ import annotations
 import copy
 from typing import Any, Literal
 
-from sb3_geogp.kernels.base import BasisMatrices, DenseRows, Gram, Kernel, MixedRows, Rows
+from sb3_geogp.kernels.base import (
+    BasisMatrices,
+    DenseRows,
+    Gram,
+    Kernel,
+    MixedRows,
+    Rows,
+    distances,
+)
 from sb3_geogp.kernels.euclidean import EuclideanKernel, LaplacianKernel, RBFKernel
 from sb3_geogp.kernels.geodesic import GeodesicKernel, shepard_weights
 
@@ -50,6 +58,7 @@ __all__ = [
     "MixedRows",
     "RBFKernel",
     "Rows",
+    "distances",
     "make_kernel",
     "shepard_weights",
 ]

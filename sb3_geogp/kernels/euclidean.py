@@ -7,7 +7,7 @@ from collections.abc import Callable
 import torch
 from torch import Tensor
 
-from sb3_geogp.kernels.base import Kernel
+from sb3_geogp.kernels.base import Kernel, distances
 
 
 class EuclideanKernel(Kernel):
@@ -17,17 +17,17 @@ class EuclideanKernel(Kernel):
     """
 
     def gram(self, z: Tensor) -> Tensor:
-        return self(torch.cdist(z, z))
+        return self(distances(z, z))
 
     def cross(self, x: Tensor, z: Tensor) -> Tensor:
-        return self(torch.cdist(x, z))
+        return self(distances(x, z))
 
     def distance_fn(self, x: Tensor) -> tuple[int, Callable[[Tensor], Tensor]]:
-        def distances(log_factor: Tensor) -> Tensor:
+        def scaled(log_factor: Tensor) -> Tensor:
             z = x / (self.lengthscale * log_factor.exp())
-            return torch.cdist(z, z)
+            return distances(z, z)
 
-        return x.shape[1], distances
+        return x.shape[1], scaled
 
 
 class RBFKernel(EuclideanKernel):
@@ -66,3 +66,6 @@ class LaplacianKernel(EuclideanKernel):
 
     def profile(self, r: Tensor) -> Tensor:
         return torch.exp(-r)
+
+    def supports_float32(self) -> bool:
+        return True

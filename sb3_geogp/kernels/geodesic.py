@@ -15,7 +15,7 @@ import torch
 from torch import Tensor
 
 from sb3_geogp.graph import BVGraph
-from sb3_geogp.kernels.base import DenseRows, Gram, Kernel, MixedRows, Rows
+from sb3_geogp.kernels.base import DenseRows, Gram, Kernel, MixedRows, Rows, distances
 
 Profile = Literal["laplacian", "gaussian"]
 Attach = Literal["interpolate", "nearest"]
@@ -108,10 +108,15 @@ class GeodesicKernel(Kernel):
         self.register_buffer("traj_node", torch.full((), -1, dtype=torch.long))
 
     def extra_repr(self) -> str:
-        return (
-            f"profile={self.profile_name!r}, attach={self.attach!r}, "
-            f"n_neighbors={self.n_neighbors}, edges={self.edges!r}"
-        )
+        return ", ".join(f"{k}={v!r}" for k, v in self.options().items())
+
+    def options(self) -> dict[str, Any]:
+        return {
+            "profile": self.profile_name,
+            "attach": self.attach,
+            "n_neighbors": self.n_neighbors,
+            "edges": self.edges,
+        }
 
     # -- set-up and the graph ------------------------------------------------------------------
     def bind(self, input_dim: int, capacity: int) -> None:
@@ -123,6 +128,15 @@ class GeodesicKernel(Kernel):
     @property
     def graph(self) -> BVGraph:
         return self.tree
+
+    def supports_float32(self) -> bool:
+        # The Gaussian profile is not positive definite on trees: in float32 its posterior
+        # covariance loses definiteness and the weights diverge (tested).
+        return self.profile_name == "laplacian"
+
+    def state_nbytes(self, capacity: int, input_dim: int, itemsize: int) -> int:
+        nodes = 2 * capacity
+        return nodes * nodes * (2 * itemsize + 1) + nodes * (input_dim * itemsize + 20)
 
     def profile(self, r: Tensor) -> Tensor:
         if self.profile_name == "laplacian":
@@ -136,19 +150,19 @@ class GeodesicKernel(Kernel):
     def _leaf_factors(self, x: Tensor, z: Tensor) -> MixedRows:
         # As a leaf of the nearest BV b_i at distance w, the Laplacian row is
         # variance * exp(-(w + SP(b_i, .))) = exp(-w) * K_b[i]: a scaled copy of one BV row.
-        w, i = torch.cdist(x, z).min(dim=1)
+        w, i = distances(x, z).min(dim=1)
         return MixedRows(i[:, None], torch.exp(-w)[:, None])
 
     def novelty_rows(self, x: Tensor, z: Tensor) -> Rows:
         if self.profile_name == "laplacian":
             return self._leaf_factors(x, z)
         # Leaf of the nearest BV: r(x, b_j) = ||x - b_i|| + SP(b_i, b_j).
-        w, i = torch.cdist(x, z).min(dim=1)
+        w, i = distances(x, z).min(dim=1)
         return DenseRows(self(w[:, None] + self.tree.basis_distances()[i]))
 
     def rows(self, x: Tensor, z: Tensor) -> Rows:
         if self.attach == "interpolate":
-            return MixedRows(*shepard_weights(torch.cdist(x, z), self.n_neighbors))
+            return MixedRows(*shepard_weights(distances(x, z), self.n_neighbors))
         return self.novelty_rows(x, z)
 
     def cross(self, x: Tensor, z: Tensor) -> Tensor:
@@ -169,7 +183,7 @@ class GeodesicKernel(Kernel):
             return None
         if self.edges == "trajectory" and int(self.traj_node) >= 0:
             return int(self.traj_node)
-        return int(self.tree.basis_nodes[torch.cdist(x[None], z)[0].argmin()])
+        return int(self.tree.basis_nodes[distances(x[None], z)[0].argmin()])
 
     # -- the basis life cycle ------------------------------------------------------------------
     def on_insert(self, x: Tensor, attachment: Any) -> None:

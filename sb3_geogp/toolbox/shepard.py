@@ -16,7 +16,7 @@ import numpy as np
 import torch
 from torch import Tensor
 
-from sb3_geogp.kernels import shepard_weights
+from sb3_geogp.kernels import distances, shepard_weights
 from sb3_geogp.sparse_gp import SparseOnlineGP
 
 PredictionRule = Literal["gp", "shepard"]
@@ -46,7 +46,7 @@ def shepard_interpolate(
     """
     scale = gp.lengthscale
     bv = gp.basis_inputs
-    idx, w = shepard_weights(torch.cdist(x.to(bv.dtype) / scale, bv / scale), n_neighbors)
+    idx, w = shepard_weights(distances(x.to(bv.dtype) / scale, bv / scale), n_neighbors)
     return (w * values.to(w.dtype)[idx]).sum(dim=1)
 
 

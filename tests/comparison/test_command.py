@@ -32,13 +32,14 @@ def test_gp_options_reach_every_gp_run_and_bad_ones_fail_early() -> None:
     default = SweepConfig(algos=("a2c",)).specs()
     assert [s.run_id for s in specs] == [s.run_id for s in default]
     assert all(dict(s.gp_kwargs) == GP_KWARGS for s in default)
-    args = parser.parse_args(["--gp-option", "dtype=float32", "--gp-option", "forgetting=0.99"])
-    assert config_from_args(args).gp_options == (("dtype", "float32"), ("forgetting", 0.99))
+    args = parser.parse_args(["--gp-option", "dtype=float64", "--gp-option", "forgetting=0.99"])
+    assert config_from_args(args).gp_options == (("dtype", "float64"), ("forgetting", 0.99))
     for bad, message in (
         ("forgetting=1.5", "forgetting"),  # rejected by SparseOnlineGP
         ("no_such_option=1", "no_such_option"),
         ("kernel=rbf", "--critics"),
         ("dtype=float7", "dtype"),
+        ("dtype=float32", "float32"),  # the RBF critic is not safe in float32
         ("device='cpu'", "device"),  # the policy sets it
     ):
         with pytest.raises(SystemExit, match=message):
