@@ -27,7 +27,7 @@ from __future__ import annotations
 import functools
 import math
 from collections.abc import Callable, Sequence
-from typing import Any, Literal, TypeVar, cast
+from typing import Any, Literal, NamedTuple, TypeVar, cast
 
 import numpy as np
 import torch
@@ -474,19 +474,37 @@ class SparseOnlineGP(nn.Module):
             self._matrices().posterior_changed()
         n = x.shape[0]
         added_before = int(self.n_added)
-        i = 0
+        screen = _Screen()
+        # Rows [pending, i) wait to be absorbed in one block: non-novel rows and novel ones
+        # that are projected rather than inserted. Rows after the last inserted one may start
+        # a trajectory (checked from ``linked`` on).
+        i = pending = linked = 0
         while i < n:
-            p = self._next_novel(x, i)
-            if p > i:
-                self._absorb(x[i:p], yn[i:p])
-                self._scale_floor(_FLOOR_STEP ** (-_DELETION_RATE * (p - i)))
-                if bool(starts[i:p].any()):
-                    self.kernel.start_trajectory()
-            if p < n:
-                if bool(starts[p]):
-                    self.kernel.start_trajectory()
-                self._insert(x[p], yn[p], y[p])
+            p = self._next_novel(x, i, screen)
+            self._scale_floor(_FLOOR_STEP ** (-_DELETION_RATE * (p - i)))
             i = p + 1
+            if p == n:
+                break
+            if bool(starts[linked : p + 1].any()):
+                self.kernel.start_trajectory()
+            linked = p + 1
+            plan = self._plan_insertion(x[p], yn[p])
+            if plan is not None and plan.inserts and pending < p:
+                # Insert on the posterior that has absorbed the rows before it.
+                self._absorb(x[pending:p], yn[pending:p])
+                pending = p
+                plan = self._plan_insertion(x[p], yn[p])
+            if plan is None:
+                continue
+            if plan.at_capacity:
+                self._scale_floor(_FLOOR_STEP)
+            if plan.inserts:
+                self._insert(plan, x[p], y[p])
+                pending = p + 1
+        if pending < n:
+            self._absorb(x[pending:], yn[pending:])
+        if bool(starts[linked:].any()):
+            self.kernel.start_trajectory()
         if int(self.n_added) > added_before:
             self._refresh_Q()
         self.n_seen += n
@@ -552,23 +570,32 @@ class SparseOnlineGP(nn.Module):
         least = float((1.0 / (torch.diagonal(self.Q[:m, :m]) * prior)).min())
         return max(float(self.novelty_floor), least)
 
-    def _next_novel(self, x: Tensor, start: int) -> int:
+    def _next_novel(self, x: Tensor, start: int, screen: _Screen) -> int:
         """Index of the first novel row of ``x`` at or after ``start`` (``len(x)`` if none).
 
         Novelty depends only on the basis set, not on ``alpha`` or ``P``, so rows can be
-        screened ahead of absorbing them. Rows are screened in chunks that start small (a new
-        basis is often followed by more new BVs, and each addition re-screens) and double while
-        nothing is found.
+        screened ahead of absorbing them, and a screened block stays valid until the basis
+        changes (``screen``; only the threshold moves in between). Rows are screened in chunks
+        that start small (a new basis is often followed by more new BVs, and each addition
+        re-screens) and double while nothing is found.
         """
         n, m = x.shape[0], self.n_basis
         if m == 0:
             return start
         basis, threshold = self._matrices(), self._novelty_threshold()
+        version = (int(self.n_added), int(self.n_deleted))
+        known = screen.novelty(version, start)
+        if known is not None:
+            novel = (known > threshold).nonzero()
+            if novel.numel():
+                return start + int(novel[0])
+            start += known.shape[0]
         chunk = _MIN_CHUNK
         while start < n:
             block = self.kernel.scale(x[start : start + chunk])
             kqk = self.kernel.novelty_rows(block, basis.z).kqk(basis)
             gamma = 1.0 - kqk / self.kernel.variance
+            screen.keep(version, start, gamma)
             novel = (gamma > threshold).nonzero()
             if novel.numel():
                 return start + int(novel[0])
@@ -612,31 +639,27 @@ class SparseOnlineGP(nn.Module):
         self.alpha[:m] += sol[:, m]
         self.P[:m, :m] = _sym(sol[:, :m])
 
-    def _insert(self, x: Tensor, yn: Tensor, y: Tensor) -> None:
-        """Full update: ``x`` becomes a BV (and a graph node); delete one if over capacity.
+    def _plan_insertion(self, x: Tensor, yn: Tensor) -> _Insertion | None:
+        """The full update that would make ``x`` a BV, or ``None`` if its row fails
+        :meth:`_reject_row` (then it is projected). Changes nothing.
 
         With ``k = k(x, BV)``, ``e = Q k``, ``gamma = k(x, x) - k^T e`` (floored by a nugget),
         ``s2 = gamma + k^T P k``, ``q = (y - k^T alpha) / (sigma_n^2 + s2)``,
         ``r = -1 / (sigma_n^2 + s2)`` and ``e~ = [e; -1]``, ``s = [P k; 0] - e~``:
         ``alpha <- [alpha; 0] + q s``, ``Q <- [Q 0; 0 0] + e~ e~^T / gamma``,
-        ``P <- [P 0; 0 0] + e~ e~^T / gamma + r s s^T``.
-
-        A point whose actual row fails :meth:`_reject_row` is absorbed by the projected
-        update instead.
+        ``P <- [P 0; 0 0] + e~ e~^T / gamma + r s s^T``. At capacity the plan also names the BV
+        that would then be deleted (the least informative, possibly the newcomer).
         """
         m = self.n_basis
         xs = self.kernel.scale(x)
         variance = self.kernel.variance
-        basis = self._matrices()
-        k, attachment = self.kernel.insertion_row(xs, basis.z)
+        k, attachment = self.kernel.insertion_row(xs, self._matrices().z)
         Q, P, alpha = self.Q[:m, :m], self.P[:m, :m], self.alpha[:m]
         e = Q @ k
         gamma = variance - k @ e
         if m > 0 and self._reject_row(float(gamma), float(e @ e), float(variance)):
-            self._absorb(x[None], yn[None])
-            return
-        floor = _GAMMA_FLOOR * variance
-        nugget = (floor - gamma).clamp_min(0)
+            return None
+        nugget = (_GAMMA_FLOOR * variance - gamma).clamp_min(0)
         gamma = gamma + nugget
         Pk = P @ k
         denom = self.noise_var + gamma + k @ Pk
@@ -646,29 +669,32 @@ class SparseOnlineGP(nn.Module):
         alpha_new = torch.cat([alpha, alpha.new_zeros(1)]) + q * s
         doomed = None
         if m == self.max_basis:
-            # Scores after the insertion, from its rank-one terms, before mutating anything.
+            # Scores after the insertion, from its rank-one terms.
             p_diag = torch.cat([torch.diagonal(P), P.new_zeros(1)]) + e_ext**2 / gamma
             doomed = _least_informative(alpha_new, p_diag - s**2 / denom)
-            self._scale_floor(_FLOOR_STEP)
-            if doomed == m:  # the newcomer itself would go: a projected update is the same
-                self._absorb(x[None], yn[None])
-                return
-        self.alpha[: m + 1] = alpha_new
+        return _Insertion(m, xs, k, attachment, nugget, gamma, denom, e_ext, s, alpha_new, doomed)
+
+    def _insert(self, plan: _Insertion, x: Tensor, y: Tensor) -> None:
+        """Carry out a planned insertion: ``x`` becomes a BV (and a graph node); delete the
+        doomed BV if over capacity."""
+        m = plan.m
+        self.alpha[: m + 1] = plan.alpha_new
         # In-place rank-one updates (BLAS ger): no (m, m) temporaries.
-        inv_gamma, inv_denom = float(1.0 / gamma), float(1.0 / denom)
+        inv_gamma, inv_denom = float(1.0 / plan.gamma), float(1.0 / plan.denom)
+        e_ext, s = plan.e_ext, plan.s
         self.Q[: m + 1, : m + 1].addr_(e_ext, e_ext, alpha=inv_gamma)
         self.P[: m + 1, : m + 1].addr_(e_ext, e_ext, alpha=inv_gamma).addr_(s, s, alpha=-inv_denom)
         self.bv_x[m] = x
         self.bv_y[m] = y
-        self.nugget[m] = nugget
+        self.nugget[m] = plan.nugget
         assert self._rollback is not None
         self._rollback.before_basis_change()
-        self.kernel.on_insert(xs, attachment)
-        basis.basis_grew(k, variance)
+        self.kernel.on_insert(plan.xs, plan.attachment)
+        self._matrices().basis_grew(plan.k, self.kernel.variance)
         self.count += 1
         self.n_added += 1
-        if doomed is not None:
-            self._delete(doomed)
+        if plan.doomed is not None:
+            self._delete(plan.doomed)
 
     def _reject_row(self, gamma: float, e_sq: float, variance: float) -> bool:
         """Whether a novel point's actual BV row would harm ``Q``; it is projected instead.
@@ -944,6 +970,52 @@ def _upgrade_v01_state(state: dict[str, Any], prefix: str, gp: SparseOnlineGP) -
     basis_nodes[: bv_node.shape[0]] = bv_node
     state[prefix + "kernel.tree.basis_nodes"] = basis_nodes
     state[prefix + "kernel.traj_node"] = traj_node
+
+
+class _Insertion(NamedTuple):
+    """A planned full update (see :meth:`SparseOnlineGP._plan_insertion`)."""
+
+    m: int
+    xs: Tensor
+    k: Tensor
+    attachment: Any
+    nugget: Tensor
+    gamma: Tensor
+    denom: Tensor
+    e_ext: Tensor
+    s: Tensor
+    alpha_new: Tensor
+    doomed: int | None
+
+    @property
+    def at_capacity(self) -> bool:
+        return self.doomed is not None
+
+    @property
+    def inserts(self) -> bool:
+        """False when the newcomer itself is the least informative: it is projected instead."""
+        return self.doomed != self.m
+
+
+class _Screen:
+    """Novelty of the last screened block of a batch, valid while the basis is unchanged."""
+
+    def __init__(self) -> None:
+        self._version: tuple[int, int] | None = None
+        self._start = 0
+        self._gamma: Tensor | None = None
+
+    def keep(self, version: tuple[int, int], start: int, gamma: Tensor) -> None:
+        self._version, self._start, self._gamma = version, start, gamma
+
+    def novelty(self, version: tuple[int, int], start: int) -> Tensor | None:
+        """Relative novelty of the rows from ``start`` to the block's end, if still known."""
+        if self._gamma is None or version != self._version:
+            return None
+        offset = start - self._start
+        if not 0 <= offset < self._gamma.shape[0]:
+            return None
+        return self._gamma[offset:]
 
 
 class _Rollback:

@@ -1074,3 +1074,27 @@ def test_novelty_tol_zero_without_the_guard_is_the_exact_gp() -> None:
     got_mean, got_var = exact.predict(probe)
     np.testing.assert_allclose(got_mean.numpy(), mean, rtol=0, atol=1e-6)
     np.testing.assert_allclose(got_var.numpy(), var, rtol=0, atol=1e-6)
+
+
+def test_projected_newcomers_are_absorbed_in_blocks(monkeypatch) -> None:
+    """The issue's drifting stream at capacity: novel points that are projected rather than
+    inserted join the block of the points around them. The absorptions of a batch are bounded
+    by its insertions (each may first absorb the rows before it, once or, if its plan changes on
+    the updated posterior, twice), not by its projected newcomers (0.1 absorbed each of those
+    alone: 20-60x slower batches)."""
+    rng = np.random.default_rng(7)
+    gp = SparseOnlineGP(3, max_basis=32)
+    calls: list[int] = []
+    absorb = gp._absorb
+    monkeypatch.setattr(gp, "_absorb", lambda x, yn: (calls.append(len(x)), absorb(x, yn)))
+    z = np.zeros(3)
+    for _ in range(30):
+        x = z + np.cumsum(rng.normal(scale=0.05, size=(256, 3)), 0)
+        z = x[-1]
+        calls.clear()
+        added = int(gp.n_added)
+        gp.update(x, np.sin(x).sum(1))
+        inserted = int(gp.n_added) - added
+        assert len(calls) <= 2 * inserted + 1
+        assert sum(calls) == 256 - inserted  # every other point absorbed, exactly once
+    assert gp.n_basis == 32 and int(gp.n_deleted) > 0
