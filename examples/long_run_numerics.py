@@ -50,16 +50,30 @@ from tqdm import tqdm
 from sb3_geogp import SparseOnlineGP
 from sb3_geogp.toolbox.benchmarks import Variant, torch_threads
 from sb3_geogp.toolbox.provenance import provenance
-from sb3_geogp.toolbox.streams import Rollout, pendulum_stream
+from sb3_geogp.toolbox.streams import Rollout, drifting_stream, pendulum_stream
 from sb3_geogp.toolbox.tables import format_table
 
-VARIANTS = (
-    Variant("rbf", "rbf"),
-    Variant("geo laplace interp", "geodesic", {"profile": "laplacian", "attach": "interpolate"}),
-    Variant("geo laplace nearest", "geodesic", {"profile": "laplacian", "attach": "nearest"}),
-    Variant("geo gaussian", "geodesic", {"profile": "gaussian"}),
-    Variant("geo laplace interp f=0.9", "geodesic", {}, {"forgetting": 0.9}),
-)
+VARIANTS = {
+    "pendulum": (
+        Variant("rbf", "rbf"),
+        Variant(
+            "geo laplace interp", "geodesic", {"profile": "laplacian", "attach": "interpolate"}
+        ),
+        Variant("geo laplace nearest", "geodesic", {"profile": "laplacian", "attach": "nearest"}),
+        Variant("geo gaussian", "geodesic", {"profile": "gaussian"}),
+        Variant("geo laplace interp f=0.9", "geodesic", {}, {"forgetting": 0.9}),
+        # Every kernel that float32 allows (Kernel.supports_float32).
+        Variant("geo laplace interp float32", "geodesic", {}, {"dtype": torch.float32}),
+        Variant("laplacian float32", "laplacian", {}, {"dtype": torch.float32}),
+    ),
+    # A full basis facing a stream that keeps moving away from it (issue 11, defect 2).
+    "drift": (
+        Variant("rbf", "rbf"),
+        Variant("geo laplace interp", "geodesic"),
+        Variant("geo laplace interp f=0.9", "geodesic", {}, {"forgetting": 0.9}),
+    ),
+}
+STREAMS = {"pendulum": pendulum_stream, "drift": drifting_stream}
 #: Held-out rollout seed; the stream uses seeds 1, 2, ...
 TEST_SEED = 0
 
@@ -151,7 +165,9 @@ class Soak:
             self.failures.append(f"after {self.points} points: update raised {err!r}")
             self.stopped = True
             return
-        self.update_s += time.perf_counter() - start
+        elapsed = time.perf_counter() - start
+        self.update_s += elapsed
+        self.history.setdefault("batch_ms", []).append(1e3 * elapsed)
         self.points += len(batch)
         start = time.perf_counter()
         self.record(inspect(self.gp, probe), test)
@@ -165,7 +181,8 @@ class Soak:
                 self.worst[check.key] = value
             if not check.passes(value, check.limit):
                 self.failures.append(f"after {self.points} points: {check.key} = {value:.3g}")
-        mse = float(((self.gp.predict(test.x, return_var=False)[0] - test.y) ** 2).mean())
+        pred = self.gp.predict(test.x, return_var=False)[0].to(test.y.dtype)
+        mse = float(((pred - test.y) ** 2).mean())
         row = {
             "points": float(self.points),
             "mse": mse,
@@ -180,11 +197,14 @@ class Soak:
     def summary(self) -> dict[str, Any]:
         """Worst values, counters, time and pass/fail of this variant."""
         ev = self.history.get("explained_variance", [math.nan])
+        batch_ms = self.history.get("batch_ms", [math.nan])
         return {
             "variant": self.variant.label,
             "points": self.points,
             "update_s": self.update_s,
             "us_per_point": 1e6 * self.update_s / max(self.points, 1),
+            "median_batch_ms": float(sorted(batch_ms)[len(batch_ms) // 2]),
+            "max_batch_ms": max(batch_ms),
             "check_s": self.check_s,
             "n_basis": self.gp.n_basis,
             "n_added": int(self.gp.n_added),
@@ -208,8 +228,8 @@ def probe_states(test: Rollout, n_random: int, seed: int) -> torch.Tensor:
 
 
 def plot(soaks: Sequence[Soak], path: Path) -> None:
-    """Explained variance and cumulative deletions against points streamed, one line each."""
-    fig, (ax_ev, ax_del) = plt.subplots(1, 2, figsize=(12, 4.5))
+    """Explained variance, cumulative deletions and time per batch against points streamed."""
+    fig, (ax_ev, ax_del, ax_ms) = plt.subplots(1, 3, figsize=(17, 4.5))
     lowest = 1.0
     for soak in soaks:
         h = soak.history
@@ -217,6 +237,7 @@ def plot(soaks: Sequence[Soak], path: Path) -> None:
             continue
         ax_ev.plot(h["points"], h["explained_variance"], label=soak.variant.label)
         ax_del.plot(h["points"], h["n_deleted"], label=soak.variant.label)
+        ax_ms.plot(h["points"], h["batch_ms"], label=soak.variant.label, lw=0.8)
         lowest = min(lowest, *h["explained_variance"])
     ax_ev.set_ylim(max(lowest, -1.0) - 0.02, 1.01)
     ax_ev.set(
@@ -225,7 +246,9 @@ def plot(soaks: Sequence[Soak], path: Path) -> None:
         title="out-of-sample fit (axis floored at -1)",
     )
     ax_del.set(xlabel="points streamed", ylabel="basis deletions (cumulative)", title="deletions")
-    for ax in (ax_ev, ax_del):
+    ax_ms.set(xlabel="points streamed", ylabel="update ms per batch (log)", title="time per batch")
+    ax_ms.set_yscale("log")
+    for ax in (ax_ev, ax_del, ax_ms):
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8)
     fig.tight_layout()
@@ -234,7 +257,8 @@ def plot(soaks: Sequence[Soak], path: Path) -> None:
 
 
 SUMMARY_COLUMNS = (
-    "variant", "points", "update_s", "us_per_point", "n_added", "n_deleted", "n_basis",
+    "variant", "points", "update_s", "median_batch_ms", "max_batch_ms", "n_added", "n_deleted",
+    "n_basis",
     "worst_asym_P", "worst_asym_Q", "worst_min_eig_P", "worst_min_eig_Q", "worst_min_var",
     "final_ev", "min_ev_2nd_half", "passed",
 )  # fmt: skip
@@ -243,6 +267,7 @@ SUMMARY_COLUMNS = (
 def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--points", type=int, default=1_000_000, help="points per variant")
+    parser.add_argument("--stream", choices=STREAMS, default="pendulum", help="data stream")
     parser.add_argument("--batch-size", type=int, default=2048)
     parser.add_argument("--max-basis", type=int, default=256)
     parser.add_argument("--sym-tol", type=float, default=1e-10, help="relative asymmetry")
@@ -261,13 +286,17 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
 def run(args: argparse.Namespace) -> list[Soak]:
     """Stream the data through every variant, checking after every batch."""
     checks = make_checks(args.sym_tol, args.eig_tol)
-    test = Rollout.pendulum(args.batch_size, TEST_SEED)
-    probe = probe_states(test, 512, TEST_SEED)
+    if args.stream == "pendulum":
+        test = Rollout.pendulum(args.batch_size, TEST_SEED)
+        probe = probe_states(test, 512, TEST_SEED)
+    else:  # the walk's start: out of sample once the stream has moved on
+        test = next(drifting_stream(args.batch_size, args.batch_size, seed=TEST_SEED + 1))
+        probe = test.x
     dim = test.x.shape[1]
-    soaks = [Soak(v, v.build(dim, args.max_basis), checks) for v in VARIANTS]
+    soaks = [Soak(v, v.build(dim, args.max_basis), checks) for v in VARIANTS[args.stream]]
     deadline = time.perf_counter() + (args.time_budget or math.inf)
     with tqdm(total=args.points, desc="soak", unit="pt", unit_scale=True) as bar:
-        for batch in pendulum_stream(args.points, args.batch_size):
+        for batch in STREAMS[args.stream](args.points, args.batch_size):
             for soak in soaks:
                 soak.step(batch, probe, test)
             bar.update(len(batch))
@@ -301,6 +330,7 @@ def write_results(
         "meta": {
             "points_requested": args.points,
             "points_streamed": max(s.points for s in soaks),
+            "stream": args.stream,
             "batch_size": args.batch_size,
             "max_basis": args.max_basis,
             "limits": limits,

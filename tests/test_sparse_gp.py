@@ -381,6 +381,9 @@ VARIANTS: dict[str, Callable[[], dict[str, Any]]] = {
     "gaussian": lambda: {"kernel": GeodesicKernel(profile="gaussian")},
     "edges-nearest": lambda: {"kernel": GeodesicKernel(edges="nearest")},
     "forgetting": lambda: {"kernel": GeodesicKernel(), "forgetting": 0.9},
+    # Every kernel that float32 allows (Kernel.supports_float32).
+    "geodesic-float32": lambda: {"kernel": GeodesicKernel(), "dtype": torch.float32},
+    "laplacian-euclid-float32": lambda: {"kernel": LaplacianKernel(), "dtype": torch.float32},
 }
 
 

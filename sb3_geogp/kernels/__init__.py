@@ -28,7 +28,11 @@ from sb3_geogp.kernels.euclidean import EuclideanKernel, LaplacianKernel, RBFKer
 from sb3_geogp.kernels.geodesic import GeodesicKernel, shepard_weights
 
 #: Kernels that :func:`make_kernel` (and so ``gp_kwargs=dict(kernel=...)``) builds by name.
-KERNELS: dict[str, type[Kernel]] = {"rbf": RBFKernel, "geodesic": GeodesicKernel}
+KERNELS: dict[str, type[Kernel]] = {
+    "rbf": RBFKernel,
+    "laplacian": LaplacianKernel,
+    "geodesic": GeodesicKernel,
+}
 
 
 def make_kernel(kernel: Kernel | Literal["rbf", "geodesic"], **kwargs: Any) -> Kernel:

@@ -146,6 +146,26 @@ def pendulum_stream(
         seed += 1
 
 
+def drifting_stream(
+    n_points: int, batch_size: int, dim: int = 3, step: float = 0.05, seed: int = 0
+) -> Iterator[Rollout]:
+    """A random walk that keeps moving into new regions, target ``sum(sin(x))``.
+
+    The stress case of a full basis (issue 11, defect 2): almost every point is novel, and
+    most novel points are judged least informative and projected. One trajectory throughout.
+    """
+    rng = np.random.default_rng(seed)
+    position, remaining = np.zeros(dim), n_points
+    while remaining > 0:
+        n = min(remaining, batch_size)
+        x = position + np.cumsum(rng.normal(scale=step, size=(n, dim)), axis=0)
+        position, remaining = x[-1], remaining - n
+        starts = np.zeros(n, dtype=bool)
+        yield Rollout(
+            torch.as_tensor(x), torch.as_tensor(np.sin(x).sum(1)), torch.as_tensor(starts)
+        )
+
+
 def episode_batches(episode_starts: np.ndarray, episodes_per_batch: int | None) -> Iterator[slice]:
     """Row ranges of consecutive whole episodes, ``episodes_per_batch`` episodes each.
 
