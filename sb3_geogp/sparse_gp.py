@@ -456,7 +456,7 @@ class SparseOnlineGP(nn.Module):
         try:
             self._update(x, y, starts)
         except BaseException:
-            self.load_state_dict(self._rollback.state(), strict=False)
+            self._rollback.restore()
             raise
         finally:
             self._rollback = None
@@ -1019,31 +1019,58 @@ class _Screen:
 
 
 class _Rollback:
-    """What an update needs to undo itself, copied as late as possible.
+    """What an update needs to undo itself, copied as little and as late as possible.
 
-    The GP's own buffers and the kernel's (hyperparameters, trajectory bookkeeping) are small
-    and copied up front; the kernel's submodules (the geodesic kernel's graph, the large part)
-    only change when the basis does, and are copied just before the first such change.
+    The GP's own buffers are copied up front, those indexed by BV slot only over the slots in
+    use (the rest is zero by construction: a deletion zeroes the freed slot); the kernel's own
+    buffers (hyperparameters, trajectory bookkeeping) are small and copied up front too; its
+    submodules (the geodesic kernel's graph, the large part) only change when the basis does,
+    and are copied just before the first such change.
     """
 
     def __init__(self, gp: SparseOnlineGP) -> None:
         self._gp = gp
-        self._saved = {name: b.clone() for name, b in gp.named_buffers(recurse=False)}
-        self._saved |= {
-            f"kernel.{name}": b.clone() for name, b in gp.kernel.named_buffers(recurse=False)
+        self._m = gp.n_basis
+        self._own = {
+            name: _in_use(name, b, self._m).clone() for name, b in gp.named_buffers(recurse=False)
         }
-        self._basis_saved = False
+        self._kernel = {name: b.clone() for name, b in gp.kernel.named_buffers(recurse=False)}
+        self._children: dict[str, dict[str, Any]] | None = None
 
     def before_basis_change(self) -> None:
-        if not self._basis_saved:
-            for child, module in self._gp.kernel.named_children():
-                for name, b in module.state_dict().items():
-                    self._saved[f"kernel.{child}.{name}"] = b.clone()
-            self._basis_saved = True
+        if self._children is None:
+            self._children = {
+                name: {k: v.clone() for k, v in module.state_dict().items()}
+                for name, module in self._gp.kernel.named_children()
+            }
 
-    def state(self) -> dict[str, Tensor]:
-        """The saved state, for ``load_state_dict(..., strict=False)``."""
-        return self._saved
+    def restore(self) -> None:
+        """Put the state back as it was when the rollback was made."""
+        gp = self._gp
+        for name, b in gp.named_buffers(recurse=False):
+            if name in _PER_SLOT or name in _SLOT_BY_SLOT:
+                b.zero_()
+            _in_use(name, b, self._m).copy_(self._own[name])
+        for name, b in gp.kernel.named_buffers(recurse=False):
+            b.copy_(self._kernel[name])
+        if self._children is not None:
+            for name, module in gp.kernel.named_children():
+                module.load_state_dict(self._children[name])
+        gp._cache = None
+
+
+#: GP buffers with one row per BV slot, and (m, m) ones.
+_PER_SLOT = frozenset({"bv_x", "bv_y", "nugget", "alpha"})
+_SLOT_BY_SLOT = frozenset({"P", "Q"})
+
+
+def _in_use(name: str, buffer: Tensor, m: int) -> Tensor:
+    """The part of the GP buffer ``name`` that holds the ``m`` BVs in use (a view)."""
+    if name in _SLOT_BY_SLOT:
+        return buffer[:m, :m]
+    if name in _PER_SLOT:
+        return buffer[:m]
+    return buffer
 
 
 class _PosteriorMatrices:

@@ -1101,3 +1101,23 @@ def test_projected_newcomers_are_absorbed_in_blocks(monkeypatch) -> None:
         assert len(calls) <= 2 * inserted + 1
         assert sum(calls) == 256 - inserted  # every other point absorbed, exactly once
     assert gp.n_basis == 32 and int(gp.n_deleted) > 0
+
+
+def test_rollback_restores_slots_grown_during_the_failed_update(monkeypatch) -> None:
+    """Only the slots in use are copied before an update; slots it fills are zeroed again.
+    (input_dim equals the capacity here, so per-slot rows and (m, m) blocks look alike.)"""
+    rng = np.random.default_rng(8)
+    gp = SparseOnlineGP(3, "geodesic", max_basis=2)
+    gp.update(rng.normal(size=(1, 3)), [0.5])
+    before, probe = snapshot(gp), rng.normal(size=(5, 3))
+    predicted = gp.predict(probe)
+
+    def fail() -> None:
+        raise FloatingPointError("injected")
+
+    monkeypatch.setattr(gp, "_check_finite", fail)
+    with pytest.raises(FloatingPointError, match="injected"):
+        gp.update(3 * rng.normal(size=(40, 3)), rng.normal(size=40))
+    assert_same_state(before, snapshot(gp))
+    for a, b in zip(predicted, gp.predict(probe), strict=True):
+        assert torch.equal(a, b)
