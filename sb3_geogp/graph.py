@@ -172,6 +172,20 @@ class BVGraph(nn.Module):
         self._prune(node, freed)
         return freed
 
+    def checkpoint(self) -> dict[str, Tensor]:
+        """Copies of the node slots in use, for :meth:`restore` (slots past them are free)."""
+        alive = self.alive.nonzero()
+        hi = int(alive.max()) + 1 if alive.numel() else 0
+        saved = {name: _slots(name, b, hi).clone() for name, b in self.named_buffers()}
+        return saved | {"slots": torch.tensor(hi)}
+
+    def restore(self, saved: dict[str, Tensor]) -> None:
+        """Put the graph back as :meth:`checkpoint` saw it."""
+        hi = int(saved["slots"])
+        for name, b in self.named_buffers():
+            b.fill_(_FREE[name])
+            _slots(name, b, hi).copy_(saved[name])
+
     def rescale(self, factor: float) -> None:
         """Divide every position, edge and distance by ``factor`` (lengthscale times factor)."""
         self.pos /= factor
@@ -206,3 +220,22 @@ class BVGraph(nn.Module):
         self.shortest_paths[node] = float("inf")
         self.shortest_paths[:, node] = float("inf")
         self.pos[node] = 0.0
+
+
+#: Contents of a free slot, per buffer.
+_FREE: dict[str, float | bool] = {
+    "pos": 0.0,
+    "adjacency": False,
+    "edge_length": 0.0,
+    "shortest_paths": float("inf"),
+    "alive": False,
+    "is_bv": False,
+    "basis_nodes": -1,
+}
+
+
+def _slots(name: str, buffer: Tensor, hi: int) -> Tensor:
+    """The part of a graph buffer that covers node slots ``:hi`` (a view)."""
+    return (
+        buffer[:hi, :hi] if name in ("adjacency", "edge_length", "shortest_paths") else buffer[:hi]
+    )

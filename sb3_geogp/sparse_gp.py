@@ -1024,8 +1024,8 @@ class _Rollback:
     The GP's own buffers are copied up front, those indexed by BV slot only over the slots in
     use (the rest is zero by construction: a deletion zeroes the freed slot); the kernel's own
     buffers (hyperparameters, trajectory bookkeeping) are small and copied up front too; its
-    submodules (the geodesic kernel's graph, the large part) only change when the basis does,
-    and are copied just before the first such change.
+    state over the basis (the geodesic kernel's graph) only changes when the basis does, and
+    is checkpointed (over the node slots in use) just before the first such change.
     """
 
     def __init__(self, gp: SparseOnlineGP) -> None:
@@ -1035,14 +1035,13 @@ class _Rollback:
             name: _in_use(name, b, self._m).clone() for name, b in gp.named_buffers(recurse=False)
         }
         self._kernel = {name: b.clone() for name, b in gp.kernel.named_buffers(recurse=False)}
-        self._children: dict[str, dict[str, Any]] | None = None
+        self._basis_saved = False
+        self._basis: Any = None
 
     def before_basis_change(self) -> None:
-        if self._children is None:
-            self._children = {
-                name: {k: v.clone() for k, v in module.state_dict().items()}
-                for name, module in self._gp.kernel.named_children()
-            }
+        if not self._basis_saved:
+            self._basis = self._gp.kernel.basis_checkpoint()
+            self._basis_saved = True
 
     def restore(self) -> None:
         """Put the state back as it was when the rollback was made."""
@@ -1053,9 +1052,8 @@ class _Rollback:
             _in_use(name, b, self._m).copy_(self._own[name])
         for name, b in gp.kernel.named_buffers(recurse=False):
             b.copy_(self._kernel[name])
-        if self._children is not None:
-            for name, module in gp.kernel.named_children():
-                module.load_state_dict(self._children[name])
+        if self._basis_saved:
+            gp.kernel.restore_basis(self._basis)
         gp._cache = None
 
 

@@ -118,3 +118,20 @@ def test_without_episode_starts_every_bv_joins_its_nearest(pendulum) -> None:
     assert torch.equal(blind.graph.shortest_paths, nearest.graph.shortest_paths)
     # ... while trajectory information does change the tree.
     assert not torch.equal(with_starts.graph.adjacency, nearest.graph.adjacency)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_restore_undoes_any_changes_since_the_checkpoint(seed: int) -> None:
+    """A checkpoint copies only the slots in use; restoring gives every buffer back exactly."""
+    rng = np.random.default_rng(100 + seed)
+    graph = BVGraph(40, 2)
+    for _ in range(25):
+        random_operation(graph, rng, max_bv=15)
+    before = {k: v.clone() for k, v in graph.state_dict().items()}
+    saved = graph.checkpoint()
+    for _ in range(30):
+        random_operation(graph, rng, max_bv=18)
+    graph.restore(saved)
+    for key, value in graph.state_dict().items():
+        assert torch.equal(value, before[key]), key
+    assert_valid_forest(graph)

@@ -278,6 +278,15 @@ class Kernel(nn.Module):
         """The kernel's basis-vector graph, if it has one."""
         return None
 
+    def basis_checkpoint(self) -> Any:
+        """What :meth:`restore_basis` needs to undo :meth:`on_insert` and :meth:`on_delete`
+        (the kernel's own buffers are saved by the GP); ``None`` without state over the basis.
+        """
+        return None
+
+    def restore_basis(self, checkpoint: Any) -> None:
+        """Undo every basis change since :meth:`basis_checkpoint` returned ``checkpoint``."""
+
     # -- hyperparameters -----------------------------------------------------------------------
     def distance_fn(self, x: Tensor) -> tuple[int, Callable[[Tensor], Tensor]]:
         """Distances among basis inputs as a function of log lengthscale factors.

@@ -197,6 +197,12 @@ class GeodesicKernel(Kernel):
     def start_trajectory(self) -> None:
         self.traj_node.fill_(-1)
 
+    def basis_checkpoint(self) -> Any:
+        return self.tree.checkpoint()
+
+    def restore_basis(self, checkpoint: Any) -> None:
+        self.tree.restore(checkpoint)
+
     # -- hyperparameters -----------------------------------------------------------------------
     def distance_fn(self, x: Tensor) -> tuple[int, Callable[[Tensor], Tensor]]:
         """One factor on all lengthscales: every graph distance scales by its inverse, so the
