@@ -488,9 +488,15 @@ class SparseOnlineGP(nn.Module):
             if bool(starts[linked : p + 1].any()):
                 self.kernel.start_trajectory()
             linked = p + 1
+            if pending < p and self.n_basis < self.max_basis:
+                # Below capacity every newcomer that passes the row checks is inserted, and
+                # on the posterior that has absorbed the rows before it.
+                self._absorb(x[pending:p], yn[pending:p])
+                pending = p
             plan = self._plan_insertion(x[p], yn[p])
             if plan is not None and plan.inserts and pending < p:
-                # Insert on the posterior that has absorbed the rows before it.
+                # At capacity the plan on the posterior before the pending rows decided
+                # between inserting and projecting; an insertion is redone after them.
                 self._absorb(x[pending:p], yn[pending:p])
                 pending = p
                 plan = self._plan_insertion(x[p], yn[p])

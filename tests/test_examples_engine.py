@@ -47,13 +47,14 @@ def test_benchmark_speed_quick_writes_promised_json(tmp_path: Path) -> None:
     assert "skipped" in peer or {"fit_ms", "predict_std_ms", "mse"} <= peer.keys()
 
 
-def test_long_run_numerics_quick_passes_all_checks(tmp_path: Path) -> None:
+@pytest.mark.parametrize("stream", ["pendulum", "drift"])
+def test_long_run_numerics_quick_passes_all_checks(tmp_path: Path, stream: str) -> None:
     soak = load_script("long_run_numerics")
-    argv = ["--points", "1536", "--batch-size", "512", "--max-basis", "24"]
+    argv = ["--points", "1536", "--batch-size", "512", "--max-basis", "24", "--stream", stream]
     assert soak.main([*argv, "--out", str(tmp_path), "--threads", "1"]) == 0
     result = json.loads((tmp_path / "long_run_numerics.json").read_text())
     assert result["all_passed"] is True
-    assert len(result["summary"]) == len(soak.VARIANTS)
+    assert len(result["summary"]) == len(soak.VARIANTS[stream])
     for row in result["summary"]:
         assert row["passed"] and row["points"] == 1536
         assert row["n_basis"] <= 24
