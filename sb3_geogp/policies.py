@@ -325,7 +325,8 @@ class GPActorCriticPolicy(ActorCriticPolicy):
             features = self.critic_features(obs)
             with_std = self._fed_since_std is None or self._fed_since_std >= _STD_EVERY
             stats.update(_fit_before_update(self.gp, features, targets, values, with_std))
-            self._fed_since_std = 0 if with_std else (self._fed_since_std or 0) + len(targets)
+            # The points of this rollout are fed after the value was computed.
+            self._fed_since_std = len(targets) + (0 if with_std else self._fed_since_std or 0)
             start = time.perf_counter()
             self.gp.update(features, targets, episode_starts)
         stats["update_ms"] = 1e3 * (time.perf_counter() - start)
