@@ -134,6 +134,7 @@ def main() -> None:
     args = parser.parse_args()
     if args.threads != "default":
         th.set_num_threads(int(args.threads))
+    record = provenance()  # at the start: the code the runs import
     results: dict[str, dict[str, list[dict[str, Any]]]] = {
         w: {c: [] for c in CRITICS} for w in args.workloads
     }
@@ -156,9 +157,9 @@ def main() -> None:
     print("\n" + header + "\n\n" + table(results))
     if args.out is not None:
         args.out.parent.mkdir(parents=True, exist_ok=True)
-        record = {"args": vars(args) | {"out": str(args.out)}, "header": header}
-        record |= {"results": results, "provenance": provenance()}
-        args.out.write_text(json.dumps(record, indent=1))
+        out = {"args": vars(args) | {"out": str(args.out)}, "header": header}
+        out |= {"results": results, "provenance": record}
+        args.out.write_text(json.dumps(out, indent=1))
 
 
 if __name__ == "__main__":
