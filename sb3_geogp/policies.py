@@ -84,11 +84,12 @@ class GPActorCriticPolicy(ActorCriticPolicy):
         takes the features directly, so ``vf`` must be empty.
     gp_kwargs : dict, optional
         Options of :class:`~sb3_geogp.SparseOnlineGP` (``max_basis``, ``noise_var``,
-        ``novelty_tol``, ``forgetting``, ``target_mean``, ``target_scale``, ``dtype``) plus
-        ``kernel`` (``"geodesic"`` (default), ``"rbf"`` or a :class:`~sb3_geogp.Kernel`, which
-        is copied) and ``kernel_kwargs`` (options of the named kernel, e.g.
+        ``novelty_tol``, ``forgetting``, ``target_mean``, ``target_scale``, ``dtype``,
+        ``num_threads``, ``condition_guard``) plus ``kernel`` (``"geodesic"`` (default),
+        ``"rbf"``, ``"laplacian"`` or a :class:`~sb3_geogp.Kernel`, which is copied) and
+        ``kernel_kwargs`` (options of the named kernel, e.g.
         ``dict(profile="laplacian", n_neighbors=4)``). ``dtype`` may be a string such as
-        ``"float64"``. ``input_dim`` and ``device`` are set by the policy.
+        ``"float64"``. ``input_dim``, ``device`` and ``input_bounds`` are set by the policy.
     **kwargs
         Every other option of :class:`~stable_baselines3.common.policies.ActorCriticPolicy`.
 
