@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING, Any
 from sb3_geogp.graph import BVGraph
 from sb3_geogp.kernels import GeodesicKernel, Kernel, LaplacianKernel, RBFKernel
 from sb3_geogp.sparse_gp import SparseOnlineGP
+from sb3_geogp.user_warnings import GPCriticWarning
 
 if TYPE_CHECKING:
     from sb3_geogp import envs
@@ -46,6 +47,7 @@ def __dir__() -> list[str]:
 __all__ = [
     "BVGraph",
     "GPActorCriticPolicy",
+    "GPCriticWarning",
     "GPValueCallback",
     "GeodesicKernel",
     "Kernel",

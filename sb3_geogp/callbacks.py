@@ -12,7 +12,6 @@ per-environment trajectories, takes targets from :mod:`sb3_geogp.targets` and lo
 
 from __future__ import annotations
 
-import warnings
 from typing import Literal, cast
 
 import numpy as np
@@ -24,6 +23,7 @@ from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
 
 from sb3_geogp.policies import GPActorCriticPolicy
 from sb3_geogp.targets import discounted_returns, split_completed
+from sb3_geogp.user_warnings import warn_user
 
 Target = Literal["returns", "monte_carlo"]
 
@@ -111,25 +111,21 @@ class GPValueCallback(BaseCallback):
             )
         vec_normalize = self.model.get_vec_normalize_env()
         if vec_normalize is not None and vec_normalize.norm_obs and vec_normalize.training:
-            warnings.warn(
+            warn_user(
                 "VecNormalize keeps updating its observation statistics while the GP's basis "
                 "vectors stay in the units they were fed in, so old basis vectors drift away "
                 "from new observations. Freeze the statistics after a warm-up "
-                "(vec_env.training = False) or use norm_obs=False with the GP critic.",
-                UserWarning,
-                stacklevel=2,
+                "(vec_env.training = False) or use norm_obs=False with the GP critic."
             )
         if isinstance(self.model, A2C) and self.target == "returns" and policy.gp.forgetting == 1.0:
             # Measured in docs/results.md: without forgetting the GP averages A2C's short,
             # self-bootstrapped returns over all past rollouts and lags far behind the values
             # (Acrobot: -500 in 20 of 20 runs; with forgetting 0.9 the best A2C critic).
-            warnings.warn(
+            warn_user(
                 "A2C with GP forgetting=1.0: the GP weighs all past bootstrapped returns "
                 "equally and its values lag behind. Pass "
                 "policy_kwargs=dict(gp_kwargs=dict(forgetting=0.9, ...)) "
-                "(see docs/results.md, 'Control: A2C with GP forgetting 0.9').",
-                UserWarning,
-                stacklevel=2,
+                "(see docs/results.md, 'Control: A2C with GP forgetting 0.9')."
             )
         # Unfinished episodes of an earlier learn() call may have been cut by an env reset.
         self._pending = [_empty_segment(self.model.observation_space.shape)] * self.model.n_envs

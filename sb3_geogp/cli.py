@@ -25,6 +25,7 @@ from stable_baselines3.common.env_util import make_vec_env
 from stable_baselines3.common.logger import configure
 
 import sb3_geogp.envs  # noqa: F401  (registers the package's environments for --env)
+from sb3_geogp import __version__
 from sb3_geogp.callbacks import GPValueCallback
 from sb3_geogp.comparison.command import add_arguments, run_from_args
 from sb3_geogp.comparison.hyperparams import ALGOS, CRITICS
@@ -36,6 +37,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="sb3-geogp", description="Sparse on-line (geodesic) GP critics for SB3."
     )
+    parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     commands = parser.add_subparsers(dest="command", required=True)
     add_arguments(
         commands.add_parser(

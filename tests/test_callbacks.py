@@ -481,3 +481,21 @@ def test_nan_reward_is_named_with_its_step_and_env() -> None:
     for key, value in model.policy.gp.state_dict().items():
         if isinstance(value, th.Tensor):
             assert th.equal(value.nan_to_num(), gp_before[key].nan_to_num()), key
+
+
+def test_warnings_have_their_own_category_and_point_at_the_users_line() -> None:
+    import warnings as std_warnings
+
+    from sb3_geogp import GPCriticWarning
+
+    model = A2C(GPActorCriticPolicy, "Pendulum-v1", n_steps=8, seed=0)
+    with pytest.warns(GPCriticWarning, match="forgetting=1.0") as record:
+        model.learn(8, callback=GPValueCallback())
+    ours = [w for w in record if issubclass(w.category, GPCriticWarning)]
+    assert ours and all(w.filename == __file__ for w in ours)
+    with std_warnings.catch_warnings():
+        std_warnings.simplefilter("error", UserWarning)
+        std_warnings.filterwarnings("ignore", category=GPCriticWarning)
+        A2C(GPActorCriticPolicy, "Pendulum-v1", n_steps=8, seed=0).learn(
+            8, callback=GPValueCallback()
+        )

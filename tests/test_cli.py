@@ -43,3 +43,12 @@ def test_train_writes_model_logs_and_curve(algo: str, critic: str, tmp_path: Pat
 def test_parser_rejects_unknown_critic() -> None:
     with pytest.raises(SystemExit):
         build_parser().parse_args(["train", "--critic", "cnn"])
+
+
+def test_version(capsys: pytest.CaptureFixture[str]) -> None:
+    import sb3_geogp
+
+    with pytest.raises(SystemExit) as exit_info:
+        main(["--version"])
+    assert exit_info.value.code == 0
+    assert capsys.readouterr().out.strip() == f"sb3-geogp {sb3_geogp.__version__}"

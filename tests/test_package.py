@@ -60,3 +60,12 @@ def test_adapter_and_envs_load_on_first_use() -> None:
     assert sb3_geogp.GPValueCallback is GPValueCallback
     assert "sb3_geogp/PaperPendulum-v0" in sb3_geogp.envs.PAPER_PENDULUM_ID
     assert set(sb3_geogp.__all__) <= set(dir(sb3_geogp))
+
+
+def test_package_is_typed_and_licensed() -> None:
+    from importlib import metadata, resources
+
+    assert (resources.files("sb3_geogp") / "py.typed").is_file()
+    meta = metadata.metadata("sb3_geogp")
+    assert meta["License-Expression"] == "MIT"
+    assert any(name.endswith("LICENSE") for name in meta.get_all("License-File") or [])
