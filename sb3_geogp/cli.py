@@ -13,12 +13,14 @@ from __future__ import annotations
 import argparse
 import csv
 import importlib.util
+import json
 import sys
 import time
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+import gymnasium as gym
 import numpy as np
 import torch as th
 from stable_baselines3.common.env_util import make_vec_env
@@ -44,7 +46,11 @@ def build_parser() -> argparse.ArgumentParser:
             "compare", help="compare MLP / RBF-GP / geodesic-GP critics in PPO and A2C"
         )
     )
-    train = commands.add_parser("train", help="train PPO or A2C with a GP or MLP critic")
+    train = commands.add_parser(
+        "train",
+        help="train PPO or A2C with a GP or MLP critic",
+        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+    )
     train.add_argument("--algo", choices=sorted(ALGOS), default="ppo")
     train.add_argument("--env", default="Pendulum-v1", help="gymnasium environment id")
     train.add_argument("--critic", choices=CRITICS, default="geodesic")
@@ -76,17 +82,56 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     if args.command == "compare":
         return run_from_args(args)
-    train(args)
+    try:
+        train(args)
+    except UsageError as err:
+        print(f"sb3-geogp train: error: {err}", file=sys.stderr)
+        return 2
     return 0
+
+
+class UsageError(Exception):
+    """A mistake in the command line, reported as one line on stderr with exit status 2."""
+
+
+def check_train_args(args: argparse.Namespace, out: Path) -> None:
+    """Raise :class:`UsageError` naming the first bad ``train`` argument, before any work."""
+    for name in ("timesteps", "n_envs", "max_basis", "threads", "n_steps"):
+        value = getattr(args, name)
+        if value is not None and value < 1:
+            raise UsageError(f"--{name.replace('_', '-')} must be at least 1, got {value}")
+    if args.forgetting is not None and not 0 < args.forgetting <= 1:
+        raise UsageError(f"--forgetting must be in (0, 1], got {args.forgetting}")
+    try:
+        gym.spec(args.env)
+    except gym.error.Error as err:
+        raise UsageError(
+            f"unknown environment {args.env!r} ({err}); pass a registered gymnasium id, or "
+            "'module:EnvId' to import the module that registers it"
+        ) from None
+    saved = out / _SETTINGS
+    if saved.is_file() and json.loads(saved.read_text()) != _settings(args):
+        raise UsageError(
+            f"{out} holds a run made with other settings ({saved}); pass another --out or "
+            "delete that directory"
+        )
+
+
+#: The ``train`` settings a run directory was made with.
+_SETTINGS = "train_settings.json"
+
+
+def _settings(args: argparse.Namespace) -> dict[str, Any]:
+    return {k: v for k, v in vars(args).items() if k not in ("command", "out", "no_progress")}
 
 
 def train(args: argparse.Namespace) -> Path:
     """Train one model as described by the parsed ``train`` arguments; return the output dir."""
-    if args.timesteps < 1:
-        raise SystemExit("--timesteps must be positive")
-    th.set_num_threads(args.threads)
     out: Path = args.out or Path("runs") / f"{args.algo}_{args.critic}_{args.env}_s{args.seed}"
+    check_train_args(args, out)
+    th.set_num_threads(args.threads)
     out.mkdir(parents=True, exist_ok=True)
+    (out / _SETTINGS).write_text(json.dumps(_settings(args), indent=1))
     env = make_vec_env(
         args.env, n_envs=args.n_envs, seed=args.seed, monitor_dir=str(out / "monitor")
     )

@@ -52,3 +52,38 @@ def test_version(capsys: pytest.CaptureFixture[str]) -> None:
         main(["--version"])
     assert exit_info.value.code == 0
     assert capsys.readouterr().out.strip() == f"sb3-geogp {sb3_geogp.__version__}"
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        (["--env", "NoSuchEnv-v0"], "unknown environment 'NoSuchEnv-v0'"),
+        (["--max-basis", "0"], "--max-basis must be at least 1, got 0"),
+        (["--timesteps", "0"], "--timesteps must be at least 1"),
+        (["--forgetting", "1.5"], "--forgetting must be in (0, 1]"),
+    ],
+)
+def test_user_errors_are_one_line_with_exit_status_2(
+    extra: list[str], message: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    argv = ["train", "--out", str(tmp_path / "run"), "--no-progress", *extra]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and message in err
+    assert not (tmp_path / "run").exists()  # refused before any work
+
+
+def test_existing_out_with_other_settings_is_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "run"
+    out.mkdir()
+    (out / "train_settings.json").write_text('{"algo": "a2c"}')
+    assert main(["train", "--out", str(out), "--no-progress"]) == 2
+    assert "holds a run made with other settings" in capsys.readouterr().err
+
+
+def test_help_shows_defaults(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit):
+        main(["train", "--help"])
+    assert "(default: 256)" in capsys.readouterr().out
