@@ -135,8 +135,10 @@ def run_from_args(args: argparse.Namespace) -> int:
     )
     print(f"ran {len(executed)} runs, {n_total - len(executed)} were already done")
     if not args.no_plots:
-        from sb3_geogp.comparison.report import write_report
+        from sb3_geogp.comparison.report import matplotlib_available, write_report
 
         for path in write_report(args.out, baseline_dir=args.baseline):
             print(f"wrote {path}")
+        if not matplotlib_available():
+            print("figures skipped: matplotlib is not installed (pip install matplotlib)")
     return 0

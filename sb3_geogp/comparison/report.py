@@ -13,6 +13,7 @@ Writes to ``out/report/`` (:func:`write_report`), from :mod:`sb3_geogp.compariso
 
 from __future__ import annotations
 
+import importlib.util
 import json
 import math
 from pathlib import Path
@@ -209,6 +210,8 @@ def write_report(
 ) -> list[Path]:
     """Figures and summary of the sweep in ``out_dir`` into ``out_dir/report``.
 
+    Without matplotlib only the tables (markdown and JSON) are written.
+
     With ``baseline_dir`` (another sweep's folder) also ``vs_baseline.md`` / ``.json``: each
     critic against the same critic there (:func:`comparisons` with ``baseline``).
 
@@ -238,6 +241,13 @@ def write_report(
         paths += [report / "vs_baseline.md", report / "vs_baseline.json"]
         paths[-2].write_text(f"Baseline: `{baseline_dir}`\n\n" + comparisons_markdown(vs))
         paths[-1].write_text(json.dumps(vs, indent=1))
+    if not matplotlib_available():
+        return paths  # the tables; figures need matplotlib
     paths += plot_learning_curves(results, report, seed=seed)
     paths.append(plot_critic_accuracy(results, report / "critic_accuracy.png", seed=seed))
     return paths
+
+
+def matplotlib_available() -> bool:
+    """Whether the report can draw its figures (matplotlib is an optional dependency)."""
+    return importlib.util.find_spec("matplotlib") is not None

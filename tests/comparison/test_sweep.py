@@ -115,6 +115,17 @@ def test_tiny_sweep_end_to_end_and_resume(
         assert "curves_CartPole-v1.png" in names
         assert "| CartPole-v1" in (out / "report" / "summary.md").read_text().replace("`", "")
 
+    # A base install (no matplotlib): the tables, no figures, no crash.
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setitem(sys.modules, "matplotlib", None)
+        written = write_report(out)
+        assert {p.name for p in written} == {
+            "summary.md",
+            "summary.json",
+            "comparisons.md",
+            "comparisons.json",
+        }
+
     # 5. --ray without Ray installed: a clear error.
     if importlib.util.find_spec("ray") is None:
         with pytest.raises(ImportError, match="pip install"):
