@@ -133,7 +133,7 @@ class GPActorCriticPolicy(ActorCriticPolicy):
         self.require_gp_feed = True
         self.defer_values = False
         self._awaiting_feed = False
-        self._fed_since_std: int | None = None
+        self._fed_since_std = _STD_EVERY  # the first rollout gets the diagnostic
 
     # ------------------------------------------------------------------------------------------
     # Construction
@@ -324,10 +324,10 @@ class GPActorCriticPolicy(ActorCriticPolicy):
         start = time.perf_counter()
         if len(targets) > 0:
             features = self.critic_features(obs)
-            with_std = self._fed_since_std is None or self._fed_since_std >= _STD_EVERY
+            with_std = self._fed_since_std >= _STD_EVERY
             stats.update(_fit_before_update(self.gp, features, targets, values, with_std))
             # The points of this rollout are fed after the value was computed.
-            self._fed_since_std = len(targets) + (0 if with_std else self._fed_since_std or 0)
+            self._fed_since_std = len(targets) + (0 if with_std else self._fed_since_std)
             start = time.perf_counter()
             self.gp.update(features, targets, episode_starts)
         stats["update_ms"] = 1e3 * (time.perf_counter() - start)
@@ -394,11 +394,6 @@ def check_gp_kwargs(gp_kwargs: dict[str, Any] | None) -> dict[str, Any]:
     reserved = [k for k in _RESERVED if k in options]
     if reserved:
         raise ValueError(f"gp_kwargs must not contain {reserved}: the policy sets them")
-    if isinstance(options.get("dtype"), str):
-        dtype = getattr(th, options["dtype"], None)
-        if not isinstance(dtype, th.dtype):
-            raise ValueError(f"gp_kwargs dtype {options['dtype']!r} is not a torch dtype")
-        options["dtype"] = dtype
     return options
 
 

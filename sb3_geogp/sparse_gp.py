@@ -54,9 +54,10 @@ _FLOOR_MAX = 0.99
 _Q_GROWTH = 1e4
 
 
+#: Stored options that may differ on load (they only steer later updates).
+_UPDATE_RULES = ("novelty_tol", "forgetting")
 #: Largest state the constructor allocates (bytes); above it, it refuses with the estimate.
 _MAX_STATE_BYTES = 2**36
-_DTYPES = {"float64": torch.float64, "float32": torch.float32}
 
 
 def _count(name: str, value: Any) -> int:
@@ -69,25 +70,21 @@ def _count(name: str, value: Any) -> int:
 
 def _check_dtype(dtype: Any, kernel: Kernel) -> torch.dtype:
     """``dtype`` as a torch dtype the engine computes in safely with ``kernel``."""
-    if isinstance(dtype, str):
-        dtype = _DTYPES.get(dtype.removeprefix("torch."), dtype)
-    if dtype not in _DTYPES.values():
+    if isinstance(dtype, str):  # a torch name: "float64", "double", "torch.float32", ...
+        dtype = getattr(torch, dtype.removeprefix("torch."), dtype)
+    if dtype not in (torch.float64, torch.float32):
         raise ValueError(
             f"dtype must be torch.float64 (default) or torch.float32, got {dtype!r}: the "
             "engine's distances and Cholesky factorisations need at least single precision"
         )
     if dtype == torch.float32 and not kernel.supports_float32():
         raise ValueError(
-            f"{_describe(kernel)} is not numerically safe in float32 (its basis Gram matrix is too "
-            "ill-conditioned: updates fail or diverge); use dtype=torch.float64, or a Laplacian "
+            f"{type(kernel).__name__}({kernel.extra_repr()}) is not numerically safe in "
+            "float32 (its basis Gram matrix is too ill-conditioned: updates fail or diverge); "
+            "use dtype=torch.float64, or a Laplacian "
             "profile (GeodesicKernel(profile='laplacian'), LaplacianKernel) in float32"
         )
     return cast(torch.dtype, dtype)
-
-
-def _describe(kernel: Kernel) -> str:
-    options = ", ".join(f"{k}={v!r}" for k, v in kernel.options().items())
-    return f"{type(kernel).__name__}({options})"
 
 
 def _check_memory(capacity: int, input_dim: int, kernel: Kernel, dtype: torch.dtype) -> None:
@@ -220,8 +217,8 @@ class SparseOnlineGP(nn.Module):
             raise ValueError(f"target_scale must be positive and finite, got {target_scale}")
         if target_mean is not None and not math.isfinite(target_mean):
             raise ValueError(f"target_mean must be finite, got {target_mean}")
-        if num_threads is not None and not (isinstance(num_threads, int) and num_threads >= 1):
-            raise ValueError(f"num_threads must be a positive int or None, got {num_threads!r}")
+        if num_threads is not None:
+            num_threads = _count("num_threads", num_threads)
         self.input_dim = int(input_dim)
         self.max_basis = int(max_basis)
         self.forgetting = float(forgetting)
@@ -355,13 +352,7 @@ class SparseOnlineGP(nn.Module):
             mean = torch.zeros(x.shape[0], dtype=x.dtype, device=x.device)
             var = variance.expand(x.shape[0]).clone() if return_var else None
         else:
-            xs = self.kernel.scale(x)
-            if not bool(torch.isfinite(xs).all()):
-                raise ValueError(
-                    f"x divided by the lengthscale {self.kernel.lengthscale.tolist()} overflows; "
-                    "rescale the inputs"
-                )
-            mean, var = self._latent(xs, return_var)
+            mean, var = self._latent(self._scaled(x), return_var)
         mean = mean * self.y_scale + self.y_mean
         return mean, None if var is None else var * self.y_scale**2
 
@@ -382,22 +373,24 @@ class SparseOnlineGP(nn.Module):
         return super()._apply(fn, recurse)
 
     def options(self) -> dict[str, Any]:
-        """Options that shape the state: a state saved with others is refused on load.
+        """Options stored in the state (``state_dict()["_extra_state"]``).
 
-        Checked with the kernel's (:meth:`~sb3_geogp.kernels.Kernel.options`) before anything
-        is loaded. ``novelty_tol`` and ``forgetting`` are stored too (``state_dict()
-        ["_extra_state"]``) but not enforced: they only steer later updates.
+        A state saved with another ``input_dim`` or ``max_basis`` (or another kernel, see
+        :meth:`~sb3_geogp.kernels.Kernel.options`) is refused on load, before anything is
+        loaded. ``novelty_tol`` and ``forgetting`` may differ: they only steer later updates.
         """
-        return {"input_dim": self.input_dim, "max_basis": self.max_basis}
+        return {
+            "input_dim": self.input_dim,
+            "max_basis": self.max_basis,
+            "novelty_tol": self.novelty_tol,
+            "forgetting": self.forgetting,
+        }
 
     def get_extra_state(self) -> dict[str, Any]:
-        return self.options() | {"novelty_tol": self.novelty_tol, "forgetting": self.forgetting}
+        return self.options()
 
     def set_extra_state(self, state: Any) -> None:
-        if not isinstance(state, dict):
-            raise ValueError(f"the saved SparseOnlineGP options are not a dict: {state!r}")
-        saved = {key: state.get(key) for key in self.options()}
-        check_same_options("SparseOnlineGP", saved, self.options())
+        check_same_options("SparseOnlineGP", state, self.options(), _UPDATE_RULES)
 
     def _load_from_state_dict(
         self, state_dict: dict[str, Any], prefix: str, *args: Any, **kwargs: Any
@@ -465,8 +458,14 @@ class SparseOnlineGP(nn.Module):
         if not bool(self.initialized):
             self._initialize(x, y)
             self._cache = None
+        self._scaled(x)
         yn = (y - self.y_mean) / self.y_scale
-        self._check_scaled(self.kernel.scale(x), yn)
+        if not bool(torch.isfinite(yn).all()):
+            raise ValueError(
+                f"targets standardised with mean {float(self.y_mean):.3g} and scale "
+                f"{float(self.y_scale):.3g} overflow; rescale the targets or pass "
+                "target_mean and target_scale"
+            )
         if self.forgetting < 1 and self.n_basis > 0:
             lam = self.forgetting
             self.alpha.mul_(math.sqrt(lam))
@@ -537,20 +536,16 @@ class SparseOnlineGP(nn.Module):
             )
         self.initialized.fill_(1)
 
-    def _check_scaled(self, xs: Tensor, yn: Tensor) -> None:
-        """Refuse a batch whose inputs or targets overflow in the model's units."""
+    def _scaled(self, x: Tensor) -> Tensor:
+        """``x : (n, d)`` in lengthscale units, refused if that overflows."""
+        xs = self.kernel.scale(x)
         if not bool(torch.isfinite(xs).all()):
             raise ValueError(
                 f"inputs divided by the lengthscale {self.kernel.lengthscale.tolist()} overflow "
-                f"(|x| up to {float(xs.abs().max() * self.kernel.lengthscale.max()):.3g}); give "
-                "the kernel a larger lengthscale or rescale the inputs"
+                f"(|x| up to {float(x.abs().max()):.3g}); give the kernel a larger lengthscale "
+                "or rescale the inputs"
             )
-        if not bool(torch.isfinite(yn).all()):
-            raise ValueError(
-                f"targets standardised with mean {float(self.y_mean):.3g} and scale "
-                f"{float(self.y_scale):.3g} overflow; rescale the targets or pass "
-                "target_mean and target_scale"
-            )
+        return xs
 
     def _scale_floor(self, factor: float) -> None:
         floor = (self.novelty_floor * factor).clamp(self.novelty_tol, _FLOOR_MAX)
@@ -780,10 +775,13 @@ class SparseOnlineGP(nn.Module):
     def _check_finite(self) -> None:
         m = self.n_basis
         blocks = {"alpha": self.alpha[:m], "P": self.P[:m, :m], "Q": self.Q[:m, :m]}
-        # One reduction: a NaN or inf anywhere makes its block's sum non-finite.
+        # One reduction first: a NaN or inf anywhere makes its block's sum non-finite (a sum
+        # can also overflow, so a non-finite sum is only a suspicion, checked block by block).
         if bool(torch.isfinite(torch.stack([b.sum() for b in blocks.values()])).all()):
             return
         bad = [name for name, b in blocks.items() if not bool(torch.isfinite(b).all())]
+        if not bad:
+            return
         raise FloatingPointError(
             f"SparseOnlineGP.{', '.join(bad)} became non-finite; state restored"
         )

@@ -24,7 +24,7 @@ current posterior, so the GP runs one algebra whatever the kernel.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Collection, Sequence
 from typing import Any, NamedTuple, Protocol
 
 import torch
@@ -311,11 +311,14 @@ class Kernel(nn.Module):
         self.lengthscale.mul_(factor)
 
 
-def check_same_options(what: str, saved: Any, current: dict[str, Any]) -> None:
-    """Raise ``ValueError`` naming the first option in which ``saved`` differs from ``current``."""
+def check_same_options(
+    what: str, saved: Any, current: dict[str, Any], ignore: Collection[str] = ()
+) -> None:
+    """Raise ``ValueError`` naming the first option in which ``saved`` differs from ``current``
+    (options in ``ignore`` are stored but free to differ)."""
     if not isinstance(saved, dict):
         raise ValueError(f"the saved {what} options are not a dict: {saved!r}")
-    for key in sorted(set(saved) | set(current)):
+    for key in sorted((set(saved) | set(current)) - set(ignore)):
         if saved.get(key) != current.get(key):
             raise ValueError(
                 f"the state was saved with {what} option {key}={saved.get(key)!r}, but this "
