@@ -24,9 +24,10 @@ grows its graph from them). Default hyperparameters come from :mod:`sb3_geogp.de
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from typing import Any, Literal, NamedTuple, TypeVar, cast
 
 import numpy as np
@@ -34,6 +35,17 @@ import torch
 from torch import Tensor, nn
 
 from sb3_geogp import defaults
+from sb3_geogp.adaptation import (
+    Adaptation,
+    Projection,
+    RetainedWindow,
+    as_adaptation,
+    block_weights,
+    jittered_cholesky,
+    nlpd,
+    sparse_posterior,
+    weighted_moments,
+)
 from sb3_geogp.graph import BVGraph
 from sb3_geogp.kernels import Kernel, make_kernel
 from sb3_geogp.kernels.base import check_same_options
@@ -55,9 +67,22 @@ _Q_GROWTH = 1e4
 
 
 #: Stored options that may differ on load (they only steer later updates).
-_UPDATE_RULES = ("novelty_tol", "forgetting")
+_UPDATE_RULES = ("novelty_tol", "forgetting", "adapt")
+#: Points retained for :meth:`SparseOnlineGP.fit_hyperparameters` without adaptation.
+_DEFAULT_WINDOW = Adaptation.window
 #: Largest state the constructor allocates (bytes); above it, it refuses with the estimate.
 _MAX_STATE_BYTES = 2**36
+#: Long scalar buffers of the GP.
+_COUNTERS = (
+    "count",
+    "initialized",
+    "n_seen",
+    "n_added",
+    "n_deleted",
+    "n_batches",
+    "n_blocks",
+    "block_new",
+)
 
 
 def _count(name: str, value: Any) -> int:
@@ -163,6 +188,21 @@ class SparseOnlineGP(nn.Module):
         Floating type of the state (float64 by default). float32 is accepted only with kernels
         that are safe in it (:meth:`~sb3_geogp.kernels.Kernel.supports_float32`: the Laplacian
         profiles, checked against float64 in the tests); half precisions are refused.
+    adapt : Adaptation, bool or None
+        Adapt hyperparameters, target mean and scale and forgetting to the data stream
+        (:mod:`sb3_geogp.adaptation`); ``True`` takes :class:`Adaptation`'s defaults. Off by
+        default. With it, ``forgetting`` is only the starting value and acts per block.
+
+    Attributes
+    ----------
+    window : RetainedWindow
+        The most recent points fed (``adapt.window`` of them, else 2048): the data
+        :meth:`fit_hyperparameters` and the adaptation fit and rebuild the posterior from.
+    last_stats : dict of str to float
+        With adaptation, after each :meth:`update`: ``nlpd`` and ``explained_variance`` of the
+        batch under the posterior before it was absorbed (out of sample, in the targets'
+        units), and after each adaptation ``forgetting``, ``lengthscale`` (geometric mean),
+        ``lengthscale_<i>``, ``signal_var``, ``noise_var``, ``target_mean``, ``target_scale``.
 
     Notes
     -----
@@ -187,7 +227,12 @@ class SparseOnlineGP(nn.Module):
     n_added: Tensor
     n_deleted: Tensor
     n_batches: Tensor
+    n_blocks: Tensor
+    block_new: Tensor
     novelty_floor: Tensor
+    block_forgetting: Tensor
+    ls_start: Tensor
+    window: RetainedWindow
 
     def __init__(
         self,
@@ -204,6 +249,7 @@ class SparseOnlineGP(nn.Module):
         condition_guard: bool = True,
         device: torch.device | str | None = None,
         dtype: torch.dtype | str = torch.float64,
+        adapt: Adaptation | bool | None = None,
     ) -> None:
         super().__init__()
         input_dim, max_basis = _count("input_dim", input_dim), _count("max_basis", max_basis)
@@ -225,6 +271,7 @@ class SparseOnlineGP(nn.Module):
         self.num_threads = num_threads
         self.condition_guard = bool(condition_guard)
         self.kernel = make_kernel(kernel)
+        self.adaptation = as_adaptation(adapt)
         dtype = _check_dtype(dtype, self.kernel)
         self.novelty_tol = (
             self.kernel.novelty_at(defaults.NOVELTY_RADIUS)
@@ -255,9 +302,14 @@ class SparseOnlineGP(nn.Module):
         self.register_buffer("y_mean", torch.tensor(float(target_mean or 0.0), **kw))
         self.register_buffer("y_scale", torch.tensor(float(target_scale or 1.0), **kw))
         # Counters and flags as long tensors so that they travel with state_dict().
-        for name in ("count", "initialized", "n_seen", "n_added", "n_deleted", "n_batches"):
+        for name in _COUNTERS:
             self.register_buffer(name, torch.zeros((), dtype=torch.long, device=device))
         self.register_buffer("novelty_floor", torch.tensor(self.novelty_tol, **kw))
+        self.register_buffer("block_forgetting", torch.tensor(self.forgetting, **kw))
+        self.register_buffer("ls_start", self.kernel.lengthscale.to(**kw).clone())
+        size = self.adaptation.window if self.adaptation is not None else _DEFAULT_WINDOW
+        self.window = RetainedWindow(size, self.input_dim).to(**kw)
+        self.last_stats: dict[str, float] = {}
         self._cache: _PosteriorMatrices | None = None
         self._rollback: _Rollback | None = None
 
@@ -384,6 +436,8 @@ class SparseOnlineGP(nn.Module):
             "max_basis": self.max_basis,
             "novelty_tol": self.novelty_tol,
             "forgetting": self.forgetting,
+            "window": self.window.size,
+            "adapt": None if self.adaptation is None else self.adaptation.as_dict(),
         }
 
     def get_extra_state(self) -> dict[str, Any]:
@@ -396,6 +450,7 @@ class SparseOnlineGP(nn.Module):
         self, state_dict: dict[str, Any], prefix: str, *args: Any, **kwargs: Any
     ) -> None:
         _upgrade_v01_state(state_dict, prefix, self)
+        _upgrade_v02_state(state_dict, prefix, self)
         # Check every stored option before loading anything, so a refused state leaves this
         # GP exactly as it was (the kernel's check would otherwise come after the GP's buffers).
         for key, module in (("_extra_state", self), ("kernel._extra_state", self.kernel)):
@@ -445,9 +500,15 @@ class SparseOnlineGP(nn.Module):
             exactly as it was (as it is on any error raised inside the update).
         """
         x, y, starts = self._validate(x, y, episode_starts)
+        with self._transaction():
+            self._update(x, y, starts)
+
+    @contextlib.contextmanager
+    def _transaction(self) -> Iterator[None]:
+        """Undo every change of the state if the body raises."""
         self._rollback = _Rollback(self)
         try:
-            self._update(x, y, starts)
+            yield
         except BaseException:
             self._rollback.restore()
             raise
@@ -466,7 +527,9 @@ class SparseOnlineGP(nn.Module):
                 f"{float(self.y_scale):.3g} overflow; rescale the targets or pass "
                 "target_mean and target_scale"
             )
-        if self.forgetting < 1 and self.n_basis > 0:
+        if self.adaptation is not None and self.n_basis > 0:
+            self.last_stats = self._out_of_sample(x, y)
+        if self.adaptation is None and self.forgetting < 1 and self.n_basis > 0:
             lam = self.forgetting
             self.alpha.mul_(math.sqrt(lam))
             self.P.mul_(lam).add_(self.Q, alpha=1 - lam)
@@ -514,6 +577,7 @@ class SparseOnlineGP(nn.Module):
             self._refresh_Q()
         self.n_seen += n
         self.n_batches += 1
+        self._retain(x, y)
         self._check_finite()
 
     def _initialize(self, x: Tensor, y: Tensor) -> None:
@@ -534,6 +598,7 @@ class SparseOnlineGP(nn.Module):
                 f"the first batch's inputs (|x| up to {float(x.abs().max()):.3g}) give "
                 f"lengthscale {ls.tolist()}; rescale the inputs or give the kernel a lengthscale"
             )
+        self.ls_start.copy_(ls)
         self.initialized.fill_(1)
 
     def _scaled(self, x: Tensor) -> Tensor:
@@ -757,20 +822,14 @@ class SparseOnlineGP(nn.Module):
         """Recompute ``Q = (K_b + diag(nugget))^{-1}`` exactly, so rank-one drift cannot build up.
 
         If rounding has made the Gram matrix numerically indefinite, the nuggets grow by a
-        jitter (10x per try, from 1e-10 of the signal variance) until its Cholesky exists.
+        jitter (10x per try, from 1e-6 of the signal variance) until its Cholesky exists.
         """
         m = self.n_basis
         K = self._matrices().K
         self._matrices().Q_changed()
-        jitter = 0.0
-        for _ in range(12):
-            L, info = torch.linalg.cholesky_ex(K + torch.diag(self.nugget[:m] + jitter))
-            if int(info) == 0:
-                self.nugget[:m] += jitter
-                self.Q[:m, :m] = _sym(torch.cholesky_inverse(L))
-                return
-            jitter = max(10 * jitter, _GAMMA_FLOOR * float(self.kernel.variance))
-        raise FloatingPointError("basis Gram matrix is not positive definite even with jitter")
+        L, jitter = jittered_cholesky(K + torch.diag(self.nugget[:m]), float(self.kernel.variance))
+        self.nugget[:m] += jitter
+        self.Q[:m, :m] = _sym(torch.cholesky_inverse(L))
 
     def _check_finite(self) -> None:
         m = self.n_basis
@@ -791,15 +850,17 @@ class SparseOnlineGP(nn.Module):
     # ------------------------------------------------------------------------------------------
     @_engine_threads
     def fit_hyperparameters(self, n_iter: int = 100, lr: float = 0.05) -> dict[str, float]:
-        """Fit lengthscale(s), signal and noise variance by the BV set's marginal likelihood.
+        """Fit lengthscale(s), signal and noise variance to the retained data.
 
-        Maximises ``log N(y_b | 0, K_b(theta) + sigma_n^2 I)`` over the BV inputs and their
-        (standardised) targets with Adam on log-parameters and torch autograd. The kernel says
-        which lengthscale factors are free (:meth:`~sb3_geogp.kernels.Kernel.distance_fn`):
-        one per input dimension for the Euclidean kernels, one on all lengthscales for the
-        geodesic kernel (every graph distance scales by its inverse, so the tree stays exact).
-        The posterior is then rebuilt as the exact GP on the BV set with the new
-        hyperparameters (information from points that were only projected is dropped).
+        Minimises the negative collapsed bound (Titsias 2009) of the points in :attr:`window`,
+        with the BVs as inducing points and each point weighted by the forgetting per block
+        (:mod:`sb3_geogp.adaptation`), by Adam on log-parameters within
+        :class:`~sb3_geogp.adaptation.Adaptation`'s bounds (this GP's, else the defaults). The
+        kernel says which lengthscale factors are free
+        (:meth:`~sb3_geogp.kernels.Kernel.correlation_fn`): one per input dimension for the
+        Euclidean kernels, one on all lengthscales for the geodesic kernel (every graph
+        distance scales by its inverse, so the tree stays exact). The posterior is then the
+        exact sparse posterior of the retained data under the new hyperparameters.
 
         Parameters
         ----------
@@ -812,65 +873,171 @@ class SparseOnlineGP(nn.Module):
         -------
         dict
             The fitted ``lengthscale`` (first dimension), ``variance``, ``noise_var`` and the
-            final negative log marginal likelihood per point ``nlml``.
+            final negative bound per point ``nlml`` (the negative log marginal likelihood per
+            point when every retained point is a BV).
+
+        Raises
+        ------
+        ValueError
+            Before the first :meth:`update`; the state is then unchanged.
         """
-        m = self.n_basis
-        if m < 2:
-            raise ValueError(
-                "fit_hyperparameters needs at least 2 basis vectors; call update first"
-            )
-        kernel = self.kernel
-        self._cache = None
-        y = self.bv_y[:m].clone()
-        y = (y - self.y_mean) / self.y_scale
-        log_var = kernel.variance.log().clone().requires_grad_(True)
-        log_noise = self.noise_var.log().clone().requires_grad_(True)
-        n_ls, distances = kernel.distance_fn(self.bv_x[:m])
-        log_ls = torch.zeros(n_ls, dtype=y.dtype, device=y.device, requires_grad=True)
-        opt = torch.optim.Adam([log_var, log_noise, log_ls], lr=lr)
-        eye = torch.eye(m, dtype=y.dtype, device=y.device)
-
-        def nlml() -> Tensor:
-            K = log_var.exp() * kernel.profile(distances(log_ls)) + (log_noise.exp() + 1e-8) * eye
-            L = torch.linalg.cholesky(K)
-            a = torch.cholesky_solve(y[:, None], L)
-            return (0.5 * (y @ a[:, 0]) + L.diagonal().log().sum()) / m + 0.5 * math.log(
-                2 * math.pi
-            )
-
-        with torch.enable_grad():
-            for _ in range(n_iter):
-                opt.zero_grad()
-                loss = nlml()
-                loss.backward()
-                opt.step()
-        with torch.no_grad():
-            final = float(nlml())
-            kernel.rescale(log_ls.exp())
-            kernel.variance.copy_(log_var.exp())
-            self.noise_var.copy_(log_noise.exp())
-            self._rebuild_exact()
-        self._cache = None
+        x, y, block = self.window.data()
+        if x.shape[0] == 0 or self.n_basis == 0:
+            raise ValueError("fit_hyperparameters needs retained data; call update first")
+        forgetting = float(self.block_forgetting) if self.adaptation else self.forgetting
+        w = block_weights(self._ages(block), forgetting).to(y)
+        yn = (y - self.y_mean) / self.y_scale
+        with self._transaction(), torch.no_grad():
+            final = self._fit(x, yn, w, n_iter, lr, self.adaptation or Adaptation())
+            self._rebuild(x, yn, w)
         return {
-            "lengthscale": float(kernel.lengthscale[0]),
-            "variance": float(kernel.variance),
+            "lengthscale": float(self.kernel.lengthscale[0]),
+            "variance": float(self.kernel.variance),
             "noise_var": float(self.noise_var),
             "nlml": final,
         }
 
-    def _rebuild_exact(self) -> None:
-        """Exact GP posterior on the BV set.
+    # ------------------------------------------------------------------------------------------
+    # Adaptation (sb3_geogp.adaptation)
+    # ------------------------------------------------------------------------------------------
+    def _retain(self, x: Tensor, y: Tensor) -> None:
+        """Keep the batch in the window; close the block (and adapt) when it is due."""
+        self.window.append(x, y, int(self.n_blocks))
+        self.block_new += x.shape[0]
+        a = self.adaptation
+        if a is not None and int(self.block_new) < a.block:
+            return
+        self.n_blocks += 1
+        self.block_new.zero_()
+        if a is not None and self.n_basis > 0:
+            self._adapt(a)
 
-        ``alpha = (K + s I)^{-1} y`` and ``P = Q - (K + s I)^{-1}``, ``s`` the noise variance.
-        """
+    def _ages(self, block: Tensor) -> Tensor:
+        """Age in closed blocks of points that arrived in ``block : (n,)`` (0: the newest)."""
+        return (self.n_blocks - 1 - block).clamp_min(0)
+
+    def _adapt(self, a: Adaptation) -> None:
+        x, y, block = self.window.data()
+        age = self._ages(block)
+        lam = self._choose_forgetting(x, y, age, a.forgetting)
+        w = block_weights(age, lam).to(y)
+        if a.targets:
+            self._restandardise(y, w)
+        yn = (y - self.y_mean) / self.y_scale
+        if a.steps:
+            self._fit(x, yn, w, a.steps, a.lr, a)
+        self._rebuild(x, yn, w)
+        self.block_forgetting.fill_(lam)
+        ls = self.kernel.lengthscale
+        self.last_stats.update(
+            forgetting=lam,
+            lengthscale=float(ls.log().mean().exp()),
+            **{f"lengthscale_{i}": float(v) for i, v in enumerate(ls)},
+            signal_var=float(self.kernel.variance),
+            noise_var=float(self.noise_var),
+            target_mean=float(self.y_mean),
+            target_scale=float(self.y_scale),
+        )
+
+    def _basis_covariances(self, x: Tensor) -> tuple[Tensor, Tensor]:
+        """``K_zz`` (with the nuggets), shape (m, m), and ``K_xz`` of ``x : (n, d)``, (n, m)."""
+        basis = self._matrices()
+        Kzz = basis.K + torch.diag(self.nugget[: self.n_basis])
+        return Kzz, self.kernel.rows(self.kernel.scale(x), basis.z).dense(basis)
+
+    def _out_of_sample(self, x: Tensor, y: Tensor) -> dict[str, float]:
+        """NLPD and explained variance of a batch under the posterior before it is absorbed."""
+        mean, var = self._latent(self._scaled(x), return_var=True)
+        assert var is not None
+        mean = mean * self.y_scale + self.y_mean
+        var = (var + self.noise_var) * self.y_scale**2
+        spread = float(y.var()) if y.shape[0] > 1 else 0.0
+        explained = 1.0 - float((y - mean).var()) / spread if spread > 0 else math.nan
+        return {"nlpd": nlpd(mean, var, y), "explained_variance": explained}
+
+    def _choose_forgetting(
+        self, x: Tensor, y: Tensor, age: Tensor, candidates: tuple[float, ...]
+    ) -> float:
+        """The candidate whose posterior on the earlier blocks best predicts the newest block."""
+        new = age == 0
+        if len(candidates) == 1 or bool(new.all()):
+            return candidates[0] if len(candidates) == 1 else float(self.block_forgetting)
+        yn = (y - self.y_mean) / self.y_scale
+        Kzz, Kxz = self._basis_covariances(x)
+        variance = self.kernel.variance
+        earlier = Projection(Kzz, Kxz[~new], float(variance))
+        rows = Kxz[new]
+        gamma = (variance - _quad_solve(earlier.L, rows)).clamp_min(0) + self.noise_var
+        scores = []
+        for lam in candidates:
+            noise = self.noise_var / block_weights(age[~new] - 1, lam).to(y)
+            alpha, P = earlier.posterior(yn[~new], noise)
+            var = gamma + ((rows @ P) * rows).sum(dim=1)
+            scores.append(nlpd(rows @ alpha, var, yn[new]))
+        return candidates[int(np.argmin(scores))]
+
+    def _restandardise(self, y: Tensor, w: Tensor) -> None:
+        """Weighted mean and scale of the retained targets, where the user fixed neither."""
+        mean, scale = weighted_moments(y, w)
+        fixed_mean, fixed_scale = self._fixed_target
+        if fixed_mean is None:
+            self.y_mean.fill_(mean)
+        if fixed_scale is None and scale > 1e-8 * max(1.0, abs(mean)):
+            self.y_scale.fill_(scale)
+
+    def _fit(
+        self, x: Tensor, yn: Tensor, w: Tensor, steps: int, lr: float, bounds: Adaptation
+    ) -> float:
+        """Adam on the negative collapsed bound of ``(x, yn)`` with weights ``w``; returns its
+        final value per point. Changes the kernel's hyperparameters and the noise only."""
+        kernel, m = self.kernel, self.n_basis
+        n_factors, correlations = kernel.correlation_fn(x, self.bv_x[:m])
+        nugget = torch.diag(self.nugget[:m])
+        log_var = kernel.variance.log().clone().requires_grad_(True)
+        log_noise = self.noise_var.log().clone().requires_grad_(True)
+        log_f = torch.zeros(n_factors, dtype=yn.dtype, device=yn.device, requires_grad=True)
+        ratio = (self.ls_start / kernel.lengthscale)[:n_factors].log()
+        limits = [
+            (log_f, *(ratio + math.log(b) for b in bounds.lengthscale_range)),
+            (log_var, *(torch.tensor(b).log().to(yn) for b in bounds.variance_bounds)),
+            (log_noise, *(torch.tensor(b).log().to(yn) for b in bounds.noise_bounds)),
+        ]
+
+        def loss() -> Tensor:
+            R_xz, R_zz = correlations(log_f)
+            var = log_var.exp()
+            projection = Projection(var * R_zz + nugget, var * R_xz, float(var.detach()))
+            return projection.negative_bound(yn, log_noise.exp() / w, var.expand(yn.shape[0]))
+
+        opt = torch.optim.Adam([log_f, log_var, log_noise], lr=lr)
+        with torch.enable_grad():
+            for _ in range(steps):
+                opt.zero_grad()
+                loss().backward()
+                opt.step()
+                with torch.no_grad():
+                    for param, lo, hi in limits:
+                        param.copy_(torch.clamp(param, lo, hi))
+        final = float(loss())
+        if self._rollback is not None:
+            self._rollback.before_basis_change()
+        kernel.rescale(log_f.detach().exp())
+        kernel.variance.copy_(log_var.detach().exp())
+        self.noise_var.copy_(log_noise.detach().exp())
+        self._cache = None
+        return final
+
+    def _rebuild(self, x: Tensor, yn: Tensor, w: Tensor) -> None:
+        """The exact sparse posterior of ``(x, yn)`` with noise ``sigma_n^2 / w`` replaces the
+        current one (:func:`~sb3_geogp.adaptation.sparse_posterior`)."""
         m = self.n_basis
-        self.nugget[:m] = 0.0
         self._refresh_Q()
-        K = self.kernel.gram(self.kernel.scale(self.bv_x[:m])) + torch.diag(self.nugget[:m])
-        y = (self.bv_y[:m] - self.y_mean) / self.y_scale
-        A = torch.linalg.inv(K + self.noise_var * torch.eye(m, dtype=K.dtype, device=K.device))
-        self.alpha[:m] = A @ y
-        self.P[:m, :m] = _sym(self.Q[:m, :m] - A)
+        Kzz, Kxz = self._basis_covariances(x)
+        variance = float(self.kernel.variance)
+        alpha, P = sparse_posterior(Kzz, Kxz, yn, self.noise_var / w, variance)
+        self.alpha[:m] = alpha
+        self.P[:m, :m] = P
+        self._matrices().posterior_changed()
 
     # ------------------------------------------------------------------------------------------
     # Validation
@@ -950,6 +1117,28 @@ def _kqk(K: Tensor, Q: Tensor, nugget: Tensor) -> Tensor:
 
 def _sym(M: Tensor) -> Tensor:
     return 0.5 * (M + M.T)
+
+
+def _upgrade_v02_state(state: dict[str, Any], prefix: str, gp: SparseOnlineGP) -> None:
+    """Add, in place, what a state saved before the retained window (sb3_geogp 0.1, 0.2) lacks:
+    an empty window, no closed block, and the saved lengthscale as the starting one."""
+    if prefix + "window.count" in state:
+        return
+    extra = state.get(prefix + "_extra_state")
+    if isinstance(extra, dict):
+        state[prefix + "_extra_state"] = {**extra, "window": gp.window.size, "adapt": None}
+    for name, value in gp.window.state_dict().items():
+        state[prefix + "window." + name] = value
+    for name in ("n_blocks", "block_new"):
+        state[prefix + name] = torch.zeros((), dtype=torch.long)
+    state[prefix + "block_forgetting"] = torch.tensor(gp.forgetting, dtype=gp.noise_var.dtype)
+    saved = state.get(prefix + "kernel.lengthscale")
+    state[prefix + "ls_start"] = gp.ls_start.clone() if saved is None else saved.clone()
+
+
+def _quad_solve(L: Tensor, rows: Tensor) -> Tensor:
+    """``k_i^T (L L^T)^{-1} k_i`` for each row of ``rows : (n, m)``, shape (n,)."""
+    return torch.linalg.solve_triangular(L, rows.T, upper=False).square().sum(dim=0)
 
 
 def _upgrade_v01_state(state: dict[str, Any], prefix: str, gp: SparseOnlineGP) -> None:
@@ -1039,6 +1228,7 @@ class _Rollback:
             name: _in_use(name, b, self._m).clone() for name, b in gp.named_buffers(recurse=False)
         }
         self._kernel = {name: b.clone() for name, b in gp.kernel.named_buffers(recurse=False)}
+        self._window = {name: b.clone() for name, b in gp.window.named_buffers()}
         self._basis_saved = False
         self._basis: Any = None
 
@@ -1056,6 +1246,8 @@ class _Rollback:
             _in_use(name, b, self._m).copy_(self._own[name])
         for name, b in gp.kernel.named_buffers(recurse=False):
             b.copy_(self._kernel[name])
+        for name, b in gp.window.named_buffers():
+            b.copy_(self._window[name])
         if self._basis_saved:
             gp.kernel.restore_basis(self._basis)
         gp._cache = None

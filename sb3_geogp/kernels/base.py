@@ -12,8 +12,8 @@ and the GP talks to it only through :class:`Kernel`'s small interface:
 * the basis life cycle: :meth:`Kernel.on_insert`, :meth:`Kernel.on_delete`,
   :meth:`Kernel.start_trajectory`, which a kernel with state of its own over the basis (the
   geodesic kernel's graph) follows, and :meth:`Kernel.rescale` after a lengthscale fit;
-* the evidence fit: :meth:`Kernel.distance_fn`, distances among basis vectors as a function
-  of log lengthscale factors.
+* the evidence fit: :meth:`Kernel.correlation_fn`, correlations from points to the basis and
+  among basis vectors as functions of log lengthscale factors.
 
 A prediction row is either a dense row ``k(x, b_1..b_m)`` (:class:`DenseRows`) or a mixture of
 basis rows, ``k(x, .) = sum_j w_j K_b[idx_j]`` (:class:`MixedRows`); each form computes the
@@ -31,6 +31,9 @@ import torch
 from torch import Tensor, nn
 
 from sb3_geogp.graph import BVGraph
+
+#: ``log_factor : (n_factors,) -> (R_xz (n, m), R_zz (m, m))`` (see Kernel.correlation_fn).
+CorrelationFn = Callable[[Tensor], tuple[Tensor, Tensor]]
 
 
 class HasGram(Protocol):
@@ -288,21 +291,25 @@ class Kernel(nn.Module):
         """Undo every basis change since :meth:`basis_checkpoint` returned ``checkpoint``."""
 
     # -- hyperparameters -----------------------------------------------------------------------
-    def distance_fn(self, x: Tensor) -> tuple[int, Callable[[Tensor], Tensor]]:
-        """Distances among basis inputs as a function of log lengthscale factors.
+    def correlation_fn(self, x: Tensor, z: Tensor) -> tuple[int, CorrelationFn]:
+        """Correlations from points to basis inputs and among them, as functions of log
+        lengthscale factors (the evidence fit differentiates through them).
 
         Parameters
         ----------
-        x : Tensor, shape (m, d)
+        x : Tensor, shape (n, d)
+            Points in the user's units.
+        z : Tensor, shape (m, d)
             Basis inputs in the user's units.
 
         Returns
         -------
         n_factors : int
             Number of free factors (one per dimension, or one for all).
-        distances : callable
-            ``log_factor : Tensor, shape (n_factors,) -> Tensor, shape (m, m)``, differentiable:
-            the distances after :meth:`rescale` by ``exp(log_factor)``.
+        correlations : callable
+            ``log_factor : Tensor, shape (n_factors,) -> (R_xz (n, m), R_zz (m, m))``,
+            differentiable: the rows ``rho`` of :meth:`cross` and :meth:`gram` (without the
+            signal variance) after :meth:`rescale` by ``exp(log_factor)``.
         """
         raise NotImplementedError
 

@@ -2,12 +2,10 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable
-
 import torch
 from torch import Tensor
 
-from sb3_geogp.kernels.base import Kernel, distances
+from sb3_geogp.kernels.base import CorrelationFn, Kernel, distances
 
 
 class EuclideanKernel(Kernel):
@@ -22,12 +20,13 @@ class EuclideanKernel(Kernel):
     def cross(self, x: Tensor, z: Tensor) -> Tensor:
         return self(distances(x, z))
 
-    def distance_fn(self, x: Tensor) -> tuple[int, Callable[[Tensor], Tensor]]:
-        def scaled(log_factor: Tensor) -> Tensor:
-            z = x / (self.lengthscale * log_factor.exp())
-            return distances(z, z)
+    def correlation_fn(self, x: Tensor, z: Tensor) -> tuple[int, CorrelationFn]:
+        def correlations(log_factor: Tensor) -> tuple[Tensor, Tensor]:
+            ls = self.lengthscale * log_factor.exp()
+            zs = z / ls
+            return self.profile(distances(x / ls, zs)), self.profile(distances(zs, zs))
 
-        return x.shape[1], scaled
+        return x.shape[1], correlations
 
 
 class RBFKernel(EuclideanKernel):

@@ -8,14 +8,22 @@ lengthscale fit. The sparse GP only tells it of each insertion and deletion.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from typing import Any, Literal
 
 import torch
 from torch import Tensor
 
 from sb3_geogp.graph import BVGraph
-from sb3_geogp.kernels.base import DenseRows, Gram, Kernel, MixedRows, Rows, distances
+from sb3_geogp.kernels.base import (
+    CorrelationFn,
+    DenseRows,
+    Gram,
+    Kernel,
+    MixedRows,
+    Rows,
+    distances,
+)
 
 Profile = Literal["laplacian", "gaussian"]
 Attach = Literal["interpolate", "nearest"]
@@ -204,12 +212,29 @@ class GeodesicKernel(Kernel):
         self.tree.restore(checkpoint)
 
     # -- hyperparameters -----------------------------------------------------------------------
-    def distance_fn(self, x: Tensor) -> tuple[int, Callable[[Tensor], Tensor]]:
+    def correlation_fn(self, x: Tensor, z: Tensor) -> tuple[int, CorrelationFn]:
         """One factor on all lengthscales: every graph distance scales by its inverse, so the
         tree and its shortest paths stay exact (per-dimension factors would change which
-        paths are shortest)."""
+        paths are shortest). The interpolation weights are invariant to it; a leaf's distance
+        scales with the paths."""
         base = self.tree.basis_distances().clone()
-        return 1, lambda log_factor: base / log_factor.exp()
+        near = distances(self.scale(x), self.scale(z))
+        if self.attach == "interpolate":
+            idx, w = shepard_weights(near, self.n_neighbors)
+
+            def interpolated(log_factor: Tensor) -> tuple[Tensor, Tensor]:
+                R = self.profile(base / log_factor.exp())
+                return torch.einsum("nk,nkm->nm", w, R[idx]), R
+
+            return 1, interpolated
+        dist, i = near.min(dim=1)
+        leaf = dist[:, None] + base[i]
+
+        def as_leaves(log_factor: Tensor) -> tuple[Tensor, Tensor]:
+            f = log_factor.exp()
+            return self.profile(leaf / f), self.profile(base / f)
+
+        return 1, as_leaves
 
     def rescale(self, factor: Tensor) -> None:
         super().rescale(factor)

@@ -1,0 +1,306 @@
+"""Adaptation of the sparse GP to its data stream: hyperparameters, target scale, forgetting.
+
+A :class:`~sb3_geogp.SparseOnlineGP` built with ``adapt=Adaptation(...)`` retains the last
+``window`` points it was fed. Once ``interval`` new points have arrived (one PPO rollout, a few
+dozen A2C rollouts), it closes a *block* and adapts, in this order:
+
+1. **Forgetting.** Each candidate ``lambda`` weights the window's points by
+   ``w_i = lambda^{age_i}``, ``age`` counted in blocks. The candidate whose sparse posterior
+   on the earlier blocks gives the newest block the lowest negative log predictive density
+   (NLPD) is chosen: an out-of-sample test of how fast the targets drift.
+2. **Targets.** Mean and scale of the targets become the ``w``-weighted mean and standard
+   deviation of the window's targets (unless the user fixed them).
+3. **Hyperparameters.** ``steps`` Adam steps on the log lengthscale factors (as the kernel
+   allows: one per dimension for the Euclidean kernels, one for the geodesic kernel, whose
+   shortest paths then stay exact), the log signal and log noise variance, minimising the
+   negative collapsed variational bound (Titsias 2009) of the window per point, with the basis
+   vectors as inducing points and noise ``sigma_n^2 / w_i`` on point ``i``:
+
+   .. math::  -\\mathcal{F} = -\\log \\mathcal{N}(y \\mid 0, Q_{xx} + \\Lambda)
+              + \\tfrac12 \\sum_i (k_{ii} - q_{ii}) / \\Lambda_{ii},
+              \\qquad Q_{xx} = K_{xz} K_{zz}^{-1} K_{zx}.
+
+   Each parameter is kept within its bounds.
+4. **Posterior.** The exact sparse posterior of the window under the new hyperparameters
+   replaces the on-line one (:func:`sparse_posterior`): nothing is rebuilt from the targets
+   stored with the basis vectors, which are stale in RL.
+
+Between adaptations the GP learns on-line as without adaptation (and without on-line
+forgetting: forgetting acts per block, through the weights).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+from typing import Any
+
+import torch
+from torch import Tensor, nn
+
+#: Multiplies the signal variance for the first jitter a failed Cholesky factorisation gets.
+_JITTER_START = 1e-6
+_JITTER_TRIES = 12
+
+
+@dataclass(frozen=True)
+class Adaptation:
+    """Settings of a GP's adaptation to its data stream (see the module docstring).
+
+    Parameters
+    ----------
+    window : int
+        Points retained (the most recent).
+    interval : int or None
+        New points per block: the GP adapts once this many have arrived since the last
+        adaptation. ``None``: half the window.
+    steps : int
+        Adam steps on the hyperparameters per adaptation (0: only forgetting, targets and the
+        rebuild).
+    lr : float
+        Adam step size on the log-parameters.
+    forgetting : tuple of float
+        Candidates for ``lambda`` per block, each in (0, 1].
+    lengthscale_range : (float, float)
+        Bounds on the lengthscales as factors of those the GP started with.
+    variance_bounds, noise_bounds : (float, float)
+        Bounds on the signal and the noise variance (standardised target units).
+    targets : bool
+        Re-estimate the target mean and scale (ignored where the user fixed them).
+
+    Raises
+    ------
+    ValueError
+        For a non-positive count, a bad step size, an empty or out-of-range candidate list, or
+        bounds that are not ``0 < low <= high < inf``.
+    """
+
+    window: int = 2048
+    interval: int | None = None
+    steps: int = 5
+    lr: float = 0.05
+    forgetting: tuple[float, ...] = (1.0, 0.9, 0.7, 0.5)
+    lengthscale_range: tuple[float, float] = (0.01, 100.0)
+    variance_bounds: tuple[float, float] = (1e-2, 1e2)
+    noise_bounds: tuple[float, float] = (1e-4, 1.0)
+    targets: bool = True
+
+    def __post_init__(self) -> None:
+        for name in ("window", "interval"):
+            value = getattr(self, name)
+            if value is not None and (isinstance(value, bool) or not isinstance(value, int)):
+                raise ValueError(f"Adaptation.{name} must be an integer, got {value!r}")
+            if value is not None and value < 1:
+                raise ValueError(f"Adaptation.{name} must be >= 1, got {value}")
+        if isinstance(self.steps, bool) or not isinstance(self.steps, int) or self.steps < 0:
+            raise ValueError(f"Adaptation.steps must be an integer >= 0, got {self.steps!r}")
+        if not (self.lr > 0 and math.isfinite(self.lr)):
+            raise ValueError(f"Adaptation.lr must be positive and finite, got {self.lr}")
+        candidates = tuple(float(c) for c in self.forgetting)
+        if not candidates or not all(0 < c <= 1 for c in candidates):
+            raise ValueError(
+                f"Adaptation.forgetting must be a non-empty tuple of values in (0, 1], got "
+                f"{self.forgetting!r}; pass (1.0,) for no forgetting"
+            )
+        object.__setattr__(self, "forgetting", candidates)
+        for name in ("lengthscale_range", "variance_bounds", "noise_bounds"):
+            bounds = getattr(self, name)
+            if len(bounds) != 2 or not (0 < bounds[0] <= bounds[1] < math.inf):
+                raise ValueError(
+                    f"Adaptation.{name} must be (low, high) with 0 < low <= high < inf, got "
+                    f"{bounds!r}"
+                )
+            object.__setattr__(self, name, (float(bounds[0]), float(bounds[1])))
+
+    @property
+    def block(self) -> int:
+        """New points per block."""
+        return self.interval if self.interval is not None else max(1, self.window // 2)
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON-compatible settings (stored in the GP's state)."""
+        return {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(self).items()}
+
+
+def as_adaptation(adapt: Adaptation | bool | None) -> Adaptation | None:
+    """``adapt`` as settings: ``True`` gives the defaults, ``False``/``None`` none."""
+    if adapt is None or adapt is False:
+        return None
+    if adapt is True:
+        return Adaptation()
+    if not isinstance(adapt, Adaptation):
+        raise ValueError(f"adapt must be True, False, None or an Adaptation, got {adapt!r}")
+    return adapt
+
+
+def jittered_cholesky(A: Tensor, scale: float) -> tuple[Tensor, float]:
+    """Cholesky factor of the symmetric ``A : (m, m)``, with jitter if it needs one.
+
+    As GPyTorch does, a failed factorisation is retried with ``jitter * I`` added, starting at
+    ``1e-6 * scale`` (``scale``: the size of ``A``'s diagonal, e.g. the signal variance) and
+    growing 10x per try, up to 12 tries (``1e4 * scale``).
+
+    Returns
+    -------
+    L : Tensor, shape (m, m)
+    jitter : float
+        What was added to the diagonal (0.0 when none was needed).
+
+    Raises
+    ------
+    FloatingPointError
+        Only if ``A`` is not finite or not even ``A + 1e4 * scale * I`` factorises.
+    """
+    eye = torch.eye(A.shape[0], dtype=A.dtype, device=A.device)
+    jitter = 0.0
+    for _ in range(_JITTER_TRIES):
+        L, info = torch.linalg.cholesky_ex(A + jitter * eye)
+        if int(info) == 0:
+            return L, jitter
+        jitter = max(10 * jitter, _JITTER_START * scale)
+    raise FloatingPointError(
+        f"a ({A.shape[0]}, {A.shape[0]}) matrix is not positive definite even with jitter "
+        f"{jitter:.3g}"
+    )
+
+
+class Projection:
+    """The window seen through the inducing points: ``K_zz`` factored, ``A = L^{-1} K_zx``.
+
+    Parameters
+    ----------
+    Kzz : Tensor, shape (m, m)
+        Prior covariance of the inducing points (with their nuggets).
+    Kxz : Tensor, shape (n, m)
+        Cross covariance of the points with the inducing points.
+    variance : float
+        Signal variance (the jitter scale).
+    """
+
+    def __init__(self, Kzz: Tensor, Kxz: Tensor, variance: float) -> None:
+        self.L, _ = jittered_cholesky(Kzz, variance)
+        self.A = torch.linalg.solve_triangular(self.L, Kxz.T, upper=False)  # (m, n)
+
+    def q_diag(self) -> Tensor:
+        """``diag(K_xz K_zz^{-1} K_zx)``, shape (n,)."""
+        return self.A.square().sum(dim=0)
+
+    def posterior(self, y: Tensor, noise: Tensor) -> tuple[Tensor, Tensor]:
+        """:func:`sparse_posterior` from this projection."""
+        B, Ay = self._system(y, noise)
+        LB, _ = jittered_cholesky(B, 1.0)
+        # P = L^-T B^-1 L^-1, alpha = L^-T B^-1 A N^-1 y.
+        eye = torch.eye(self.L.shape[0], dtype=self.L.dtype, device=self.L.device)
+        Linv = torch.linalg.solve_triangular(self.L, eye, upper=False)
+        W = torch.cholesky_solve(torch.cat([Linv, Ay[:, None]], dim=1), LB)
+        P = Linv.T @ W[:, :-1]
+        return Linv.T @ W[:, -1], 0.5 * (P + P.T)
+
+    def _system(self, y: Tensor, noise: Tensor) -> tuple[Tensor, Tensor]:
+        scaled = self.A / noise.sqrt()
+        B = torch.eye(self.A.shape[0], dtype=y.dtype, device=y.device) + scaled @ scaled.T
+        return 0.5 * (B + B.T), self.A @ (y / noise)
+
+    def negative_bound(self, y: Tensor, noise: Tensor, kxx: Tensor) -> Tensor:
+        """The negative collapsed bound ``-F`` per point (module docstring); differentiable."""
+        n = y.shape[0]
+        B, Ay = self._system(y, noise)
+        LB = torch.linalg.cholesky(B)
+        c = torch.linalg.solve_triangular(LB, Ay[:, None], upper=False)[:, 0]
+        quad = (y * y / noise).sum() - c @ c
+        logdet = 2 * LB.diagonal().log().sum() + noise.log().sum()
+        trace = ((kxx - self.q_diag()).clamp_min(0) / noise).sum()
+        return 0.5 * (quad + logdet + trace + n * math.log(2 * math.pi)) / n
+
+
+def sparse_posterior(
+    Kzz: Tensor, Kxz: Tensor, y: Tensor, noise: Tensor, variance: float
+) -> tuple[Tensor, Tensor]:
+    """Exact sparse (DTC / projected-process) posterior of data in Csató–Opper form.
+
+    The model ``y_i = f(x_i) + eps_i``, ``eps_i ~ N(0, noise_i)``, with ``f`` restricted to
+    the span of the inducing points ``z``: the posterior mean is ``mu(x) = k_xz^T alpha`` and
+    the latent variance ``k(x, x) - k_xz^T K_zz^{-1} k_zx + k_xz^T P k_zx``, where
+
+    .. math::  P = (K_{zz} + K_{zx} N^{-1} K_{xz})^{-1}, \\qquad
+               \\alpha = P K_{zx} N^{-1} y,
+
+    computed through ``K_zz = L L^T`` and ``B = I + L^{-1} K_zx N^{-1} K_xz L^{-T}`` (whose
+    eigenvalues are at least 1), never by inverting ``K_zz + K_zx N^{-1} K_xz`` directly.
+
+    Parameters
+    ----------
+    Kzz : Tensor, shape (m, m)
+    Kxz : Tensor, shape (n, m)
+    y : Tensor, shape (n,)
+    noise : Tensor, shape (n,)
+        Noise variance of each point.
+    variance : float
+        Signal variance (the jitter scale of the factorisations).
+
+    Returns
+    -------
+    alpha : Tensor, shape (m,)
+    P : Tensor, shape (m, m)
+        Symmetric positive definite.
+    """
+    return Projection(Kzz, Kxz, variance).posterior(y, noise)
+
+
+def block_weights(age: Tensor, forgetting: float) -> Tensor:
+    """Weights ``forgetting ** age`` of points ``age : (n,)`` blocks old."""
+    return torch.as_tensor(forgetting, dtype=torch.float64).pow(age.double())
+
+
+def nlpd(mean: Tensor, var: Tensor, y: Tensor) -> float:
+    """Mean negative log predictive density of ``y`` under ``N(mean, var)``, all shape (n,)."""
+    var = var.clamp_min(torch.finfo(var.dtype).tiny)
+    return float((0.5 * (torch.log(2 * math.pi * var) + (y - mean).square() / var)).mean())
+
+
+def weighted_moments(y: Tensor, w: Tensor) -> tuple[float, float]:
+    """Weighted mean and standard deviation of ``y : (n,)`` with weights ``w : (n,)``."""
+    w = w / w.sum()
+    mean = (w * y).sum()
+    return float(mean), float((w * (y - mean).square()).sum().sqrt())
+
+
+class RetainedWindow(nn.Module):
+    """The last ``size`` points fed to a GP, oldest first, with the block each arrived in.
+
+    Parameters
+    ----------
+    size : int
+        Capacity.
+    input_dim : int
+    """
+
+    x: Tensor
+    y: Tensor
+    block: Tensor
+    count: Tensor
+
+    def __init__(self, size: int, input_dim: int) -> None:
+        super().__init__()
+        self.size = int(size)
+        self.register_buffer("x", torch.zeros(self.size, input_dim, dtype=torch.float64))
+        self.register_buffer("y", torch.zeros(self.size, dtype=torch.float64))
+        self.register_buffer("block", torch.zeros(self.size, dtype=torch.long))
+        self.register_buffer("count", torch.zeros((), dtype=torch.long))
+
+    def append(self, x: Tensor, y: Tensor, block: int) -> None:
+        """Keep ``x : (n, d)``, ``y : (n,)`` as arrivals of ``block``, dropping the oldest."""
+        n, kept = min(x.shape[0], self.size), int(self.count)
+        keep = min(kept, self.size - n)
+        self.x[:keep] = self.x[kept - keep : kept].clone()
+        self.y[:keep] = self.y[kept - keep : kept].clone()
+        self.block[:keep] = self.block[kept - keep : kept].clone()
+        self.x[keep : keep + n] = x[-n:]
+        self.y[keep : keep + n] = y[-n:]
+        self.block[keep : keep + n] = block
+        self.count.fill_(keep + n)
+
+    def data(self) -> tuple[Tensor, Tensor, Tensor]:
+        """Retained ``x (n, d)``, ``y (n,)`` and ``block (n,)``, oldest first (views)."""
+        n = int(self.count)
+        return self.x[:n], self.y[:n], self.block[:n]

@@ -1,0 +1,187 @@
+"""sb3_geogp.adaptation: settings, the sparse posterior, and the GP adapting to its stream."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import torch
+from scipy.optimize import minimize
+
+from sb3_geogp import RBFKernel, SparseOnlineGP
+from sb3_geogp.adaptation import Adaptation, jittered_cholesky, sparse_posterior
+from tests.test_sparse_gp import assert_same_state, nystrom_posterior, rbf, snapshot
+
+
+# -- settings -----------------------------------------------------------------------------------
+@pytest.mark.parametrize(
+    "bad",
+    [
+        dict(lengthscale_range=(2.0, 1.0)),
+        dict(noise_bounds=(0.0, 1.0)),
+        dict(variance_bounds=(1.0, float("inf"))),
+        dict(noise_bounds=(1e-3,)),
+        dict(forgetting=()),
+        dict(forgetting=(1.0, 1.2)),
+        dict(window=0),
+        dict(interval=2.5),
+        dict(steps=-1),
+        dict(lr=float("nan")),
+    ],
+)
+def test_bad_settings_raise_naming_the_setting(bad: dict) -> None:
+    name = next(iter(bad))
+    with pytest.raises(ValueError, match=f"Adaptation.{name}"):
+        Adaptation(**bad)
+
+
+def test_bad_adapt_argument_leaves_nothing_built() -> None:
+    with pytest.raises(ValueError, match="adapt must be"):
+        SparseOnlineGP(2, "rbf", adapt="yes")  # type: ignore[arg-type]
+
+
+# -- numerics -----------------------------------------------------------------------------------
+def test_jittered_cholesky_repairs_a_singular_matrix() -> None:
+    v = torch.randn(6, 2, dtype=torch.float64, generator=torch.Generator().manual_seed(0))
+    A = v @ v.T  # rank 2
+    L, jitter = jittered_cholesky(A, 1.0)
+    assert jitter > 0
+    torch.testing.assert_close(L @ L.T, A + jitter * torch.eye(6, dtype=A.dtype))
+    L, jitter = jittered_cholesky(A + torch.eye(6, dtype=A.dtype), 1.0)
+    assert jitter == 0.0
+
+
+def test_sparse_posterior_is_the_nystrom_gp_with_per_point_noise() -> None:
+    rng = np.random.default_rng(0)
+    x, z, probe = rng.uniform(size=(40, 2)), rng.uniform(size=(9, 2)), rng.uniform(size=(7, 2))
+    y, noise = rng.normal(size=40), rng.uniform(0.05, 2.0, size=40)
+    Kzz, Kxz, Kpz = rbf(z, z, 0.4), rbf(x, z, 0.4), rbf(probe, z, 0.4)
+    t = torch.as_tensor
+    alpha, P = sparse_posterior(t(Kzz), t(Kxz), t(y), t(noise), 1.0)
+    mean = Kpz @ alpha.numpy()
+    Q = np.linalg.inv(Kzz)
+    var = 1.0 - np.sum(Kpz @ Q * Kpz, axis=1) + np.sum(Kpz @ P.numpy() * Kpz, axis=1)
+    # Reference with per-point noise: whiten the data, then the scalar-noise reference applies.
+    white = 1 / np.sqrt(noise)
+    ref_mean, ref_var = nystrom_posterior(Kzz, Kxz * white[:, None], Kpz, 1.0, y * white, 1.0)
+    np.testing.assert_allclose(mean, ref_mean, atol=1e-10)
+    np.testing.assert_allclose(var, ref_var, atol=1e-10)
+    torch.testing.assert_close(P, P.T, rtol=0, atol=0)
+    assert float(torch.linalg.eigvalsh(P).min()) > 0
+
+
+# -- the adapting GP ----------------------------------------------------------------------------
+def gp_draw(
+    rng: np.random.Generator, x: np.ndarray, ls: np.ndarray, noise: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """A draw of a zero-mean unit-variance RBF GP at ``x`` and its noisy observations."""
+    K = rbf(x, x, ls) + 1e-9 * np.eye(len(x))
+    f = np.linalg.cholesky(K) @ rng.normal(size=len(x))
+    return f, f + np.sqrt(noise) * rng.normal(size=len(x))
+
+
+def exact_ml_optimum(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Lengthscales, signal and noise variance maximising the exact marginal likelihood."""
+
+    def nlml(log_p: np.ndarray) -> float:
+        ls, var, noise = np.exp(log_p[:-2]), np.exp(log_p[-2]), np.exp(log_p[-1])
+        L = np.linalg.cholesky(rbf(x, x, ls, var) + noise * np.eye(len(x)))
+        a = np.linalg.solve(L, y)
+        return 0.5 * a @ a + np.log(np.diag(L)).sum()
+
+    starts = [np.log([0.3, 0.3, 1.0, 0.1]), np.log([0.1, 1.0, 0.5, 0.01])]
+    best = min(
+        (minimize(nlml, s, method="Nelder-Mead", options=dict(maxiter=4000)) for s in starts),
+        key=lambda r: r.fun,
+    )
+    return np.exp(best.x)
+
+
+def test_adaptation_recovers_the_marginal_likelihood_optimum() -> None:
+    """Draws of a known GP; the reference is the exact-GP optimum on the retained window."""
+    rng = np.random.default_rng(1)
+    true_ls, true_noise = np.array([0.15, 0.6]), 0.04
+    x = rng.uniform(size=(2400, 2))
+    _, y = gp_draw(rng, x, true_ls, true_noise)
+    y = 3.0 + 2.0 * y  # the adaptation also learns the target mean and scale
+    adapt = Adaptation(window=400, interval=200, steps=10, lr=0.1, forgetting=(1.0,))
+    gp = SparseOnlineGP(2, "rbf", max_basis=150, novelty_tol=1e-3, adapt=adapt)
+    for i in range(0, len(x), 200):
+        gp.update(x[i : i + 200], y[i : i + 200])
+    wx, wy, _ = (t.numpy() for t in gp.window.data())
+    ref = exact_ml_optimum(wx, (wy - wy.mean()))
+    scale2 = float(gp.y_scale) ** 2
+    np.testing.assert_allclose(gp.lengthscale.numpy(), ref[:2], rtol=0.25)
+    np.testing.assert_allclose(float(gp.noise_var) * scale2, ref[3], rtol=0.5)
+    assert gp.last_stats["noise_var"] == float(gp.noise_var)
+    assert np.isfinite(gp.last_stats["nlpd"])
+
+
+def test_forgetting_is_chosen_from_the_newest_block() -> None:
+    """A target that jumps each block is predicted best by forgetting; a fixed one is not."""
+    rng = np.random.default_rng(2)
+    adapt = Adaptation(window=600, interval=100, steps=0, forgetting=(1.0, 0.5, 0.1))
+    chosen = {}
+    for drift in (0.0, 3.0):
+        gp = SparseOnlineGP(1, RBFKernel(lengthscale=0.3), max_basis=30, adapt=adapt)
+        for block in range(6):
+            x = rng.uniform(size=(100, 1))
+            gp.update(x, np.sin(4 * x[:, 0]) + drift * block + 0.1 * rng.normal(size=100))
+        chosen[drift] = gp.last_stats["forgetting"]
+    assert chosen[0.0] == 1.0
+    assert chosen[3.0] < 1.0
+
+
+def test_rebuilt_posterior_is_the_sparse_posterior_of_the_weighted_window() -> None:
+    rng = np.random.default_rng(3)
+    adapt = Adaptation(window=250, interval=100, steps=3, forgetting=(0.5,))
+    gp = SparseOnlineGP(2, "rbf", max_basis=40, adapt=adapt)
+    for _ in range(4):
+        x = rng.uniform(size=(100, 2))
+        gp.update(x, np.sin(3 * x[:, 0]) + x[:, 1] + 0.1 * rng.normal(size=100))
+    x, y, block = (t.numpy() for t in gp.window.data())
+    age = block.max() - block
+    yn = (y - float(gp.y_mean)) / float(gp.y_scale)
+    ls, var, z = gp.lengthscale.numpy(), float(gp.kernel.variance), gp.basis_inputs.numpy()
+    white = np.sqrt(0.5**age / float(gp.noise_var))
+    Kzz = rbf(z, z, ls, var) + np.diag(gp.nugget[: gp.n_basis].numpy())
+    probe = rng.uniform(size=(9, 2))
+    ref_mean, ref_var = nystrom_posterior(
+        Kzz, rbf(x, z, ls, var) * white[:, None], rbf(probe, z, ls, var), var, yn * white, 1.0
+    )
+    mean, latent = gp.predict(probe)
+    s = float(gp.y_scale)
+    np.testing.assert_allclose(mean.numpy(), ref_mean * s + float(gp.y_mean), atol=1e-8 * s)
+    np.testing.assert_allclose(latent.numpy(), ref_var * s**2, atol=1e-8 * s**2)
+
+
+def test_adaptation_state_round_trips_bit_for_bit() -> None:
+    rng = np.random.default_rng(4)
+    adapt = Adaptation(window=300, interval=150, steps=2)
+    batches = [(rng.uniform(size=(100, 2)), rng.normal(size=100)) for _ in range(6)]
+    gp = SparseOnlineGP(2, "geodesic", max_basis=40, adapt=adapt)
+    for x, y in batches[:3]:
+        gp.update(x, y)
+    copy = SparseOnlineGP(2, "geodesic", max_basis=40, adapt=adapt)
+    copy.load_state_dict(gp.state_dict())
+    assert_same_state(snapshot(gp), snapshot(copy))
+    for x, y in batches[3:]:
+        gp.update(x, y)
+        copy.update(x, y)
+    assert_same_state(snapshot(gp), snapshot(copy))
+    assert gp.n_blocks == 3  # a block closes once 150 points have arrived: after 200, 400, 600
+
+
+def test_a_failure_inside_the_adaptation_leaves_the_state_unchanged(monkeypatch) -> None:
+    """The fit has already rescaled the kernel (and the geodesic graph) when the rebuild fails."""
+    rng = np.random.default_rng(5)
+    gp = SparseOnlineGP(2, "geodesic", max_basis=30, adapt=Adaptation(window=200, interval=100))
+    gp.update(rng.uniform(size=(120, 2)), rng.normal(size=120))
+    before = snapshot(gp)
+
+    def broken(*args: object) -> None:
+        raise FloatingPointError("simulated")
+
+    monkeypatch.setattr("sb3_geogp.sparse_gp.sparse_posterior", broken)
+    with pytest.raises(FloatingPointError, match="simulated"):
+        gp.update(rng.uniform(size=(100, 2)), rng.normal(size=100))
+    assert_same_state(before, snapshot(gp))
