@@ -17,13 +17,21 @@ The published comparison (see docs/results.md)::
 Only some cells, on a Ray cluster (``pip install 'ray[default]'``)::
 
     python examples/compare_critics.py --envs sb3_geogp/WallMaze-v0 --algos ppo --ray
+
+Your own environment (``my_pkg.envs`` registers ``MyEnv-v0``) with rl-baselines3-zoo
+hyperparameters from ``ppo.yml``, your threshold and budget (see docs/usage.md)::
+
+    python examples/compare_critics.py --envs my_pkg.envs:MyEnv-v0 --hyperparams ppo=ppo.yml \
+        --threshold 200 --timesteps 50000 --seeds 5 --out results/my_env
+
+The same options as ``sb3-geogp compare``; ``--help`` lists them.
 """
 
 from __future__ import annotations
 
 import sys
 
-from sb3_geogp.comparison.command import main
+from sb3_geogp.cli import main
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(main(["compare", *sys.argv[1:]]))

@@ -3,9 +3,12 @@
 ``sb3-geogp compare ...`` runs the critic comparison (:mod:`sb3_geogp.comparison`).
 
 Trains PPO or A2C with the GP critic (or SB3's MLP critic for comparison), with SB3's progress
-bar, and writes to ``--out``: the model (``model.zip``), SB3's logs (``progress.csv``, plus a
-TensorBoard log when ``tensorboard`` is installed), the Monitor episode logs (``monitor/``) and
-a learning curve (``learning_curve.png``, when ``matplotlib`` is installed).
+bar, and writes to ``--out``: the model (``model.zip``), SB3's logs of every rollout
+(``progress.csv``, plus a TensorBoard log when ``tensorboard`` is installed; the terminal gets
+a table at SB3's usual pace), the Monitor episode logs (``monitor/``) and a learning curve
+(``learning_curve.png``, when ``matplotlib`` is installed: episode returns with the
+environment's threshold, and below them the critic's out-of-sample explained variance per
+rollout and, for a GP critic, its number of basis vectors).
 """
 
 from __future__ import annotations
@@ -13,25 +16,38 @@ from __future__ import annotations
 import argparse
 import csv
 import importlib.util
+import inspect
 import json
 import sys
 import time
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, NamedTuple
 
-import gymnasium as gym
 import numpy as np
 import torch as th
 from stable_baselines3.common.env_util import make_vec_env
-from stable_baselines3.common.logger import configure
+from stable_baselines3.common.logger import HumanOutputFormat, KVWriter, SeqWriter, configure
 
 import sb3_geogp.envs  # noqa: F401  (registers the package's environments for --env)
 from sb3_geogp import __version__
 from sb3_geogp.callbacks import GPValueCallback
-from sb3_geogp.comparison.command import add_arguments, run_from_args
+from sb3_geogp.comparison.command import (
+    DESCRIPTION,
+    EPILOG,
+    UsageError,
+    add_arguments,
+    check_env,
+    run_from_args,
+)
 from sb3_geogp.comparison.hyperparams import ALGOS, CRITICS
+from sb3_geogp.comparison.hyperparams import threshold as comparison_threshold
+from sb3_geogp.comparison.report import pyplot
 from sb3_geogp.policies import GPActorCriticPolicy
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -43,7 +59,11 @@ def build_parser() -> argparse.ArgumentParser:
     commands = parser.add_subparsers(dest="command", required=True)
     add_arguments(
         commands.add_parser(
-            "compare", help="compare MLP / RBF-GP / geodesic-GP critics in PPO and A2C"
+            "compare",
+            help="compare MLP / RBF-GP / geodesic-GP critics in PPO and A2C",
+            description=DESCRIPTION,
+            epilog=EPILOG,
+            formatter_class=argparse.RawDescriptionHelpFormatter,
         )
     )
     train = commands.add_parser(
@@ -80,18 +100,14 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of ``sb3-geogp``; returns the exit status."""
     args = build_parser().parse_args(argv)
-    if args.command == "compare":
-        return run_from_args(args)
     try:
+        if args.command == "compare":
+            return run_from_args(args)
         train(args)
     except UsageError as err:
-        print(f"sb3-geogp train: error: {err}", file=sys.stderr)
+        print(f"sb3-geogp {args.command}: error: {err}", file=sys.stderr)
         return 2
     return 0
-
-
-class UsageError(Exception):
-    """A mistake in the command line, reported as one line on stderr with exit status 2."""
 
 
 def check_train_args(args: argparse.Namespace, out: Path) -> None:
@@ -102,13 +118,7 @@ def check_train_args(args: argparse.Namespace, out: Path) -> None:
             raise UsageError(f"--{name.replace('_', '-')} must be at least 1, got {value}")
     if args.forgetting is not None and not 0 < args.forgetting <= 1:
         raise UsageError(f"--forgetting must be in (0, 1], got {args.forgetting}")
-    try:
-        gym.spec(args.env)
-    except gym.error.Error as err:
-        raise UsageError(
-            f"unknown environment {args.env!r} ({err}); pass a registered gymnasium id, or "
-            "'module:EnvId' to import the module that registers it"
-        ) from None
+    check_env(args.env)
     saved = out / _SETTINGS
     if saved.is_file() and json.loads(saved.read_text()) != _settings(args):
         raise UsageError(
@@ -156,62 +166,266 @@ def train(args: argparse.Namespace) -> Path:
     formats = ["stdout", "csv"]
     if importlib.util.find_spec("tensorboard") is not None:
         formats.append("tensorboard")
-    model.set_logger(configure(str(out), formats))
+    logger = configure(str(out), formats)
+    # Every rollout is logged (log_interval=1) for the learning curve's critic panel; the
+    # terminal keeps the algorithm's own pace, as A2C's 5-step rollouts would flood it.
+    stdout_every = inspect.signature(model.learn).parameters["log_interval"].default
+    logger.output_formats = [
+        _EveryNth(f, stdout_every) if isinstance(f, HumanOutputFormat) else f
+        for f in logger.output_formats
+    ]
+    model.set_logger(logger)
     progress = not args.no_progress and _progress_bar_available()
     start = time.perf_counter()
-    model.learn(args.timesteps, callback=callback, progress_bar=progress)
+    model.learn(args.timesteps, callback=callback, log_interval=1, progress_bar=progress)
     seconds = time.perf_counter() - start
     model.save(out / "model.zip")
     env.close()
     title = f"{args.algo.upper()} on {args.env}, {args.critic} critic, seed {args.seed}"
-    curve = plot_learning_curve(out / "monitor", out / "learning_curve.png", title=title)
+    curve = plot_learning_curve(
+        out / "monitor",
+        out / "learning_curve.png",
+        title=title,
+        progress=out / "progress.csv",
+        threshold=reward_threshold(args.env),
+    )
     print(f"trained {model.num_timesteps} steps in {seconds:.1f} s; saved {out / 'model.zip'}")
     if curve is not None:
         print(f"learning curve: {curve}")
     return out
 
 
-def plot_learning_curve(monitor_dir: Path, path: Path, title: str = "") -> Path | None:
-    """Episode return against timesteps from SB3 Monitor logs, as a PNG.
+class _EveryNth(KVWriter, SeqWriter):
+    """A log writer passing on only every ``n``-th table of values (and every message)."""
+
+    def __init__(self, writer: HumanOutputFormat, n: int) -> None:
+        self.writer = writer
+        self.n = n
+        self.count = 0
+
+    def write(
+        self, key_values: dict[str, Any], key_excluded: dict[str, tuple[str, ...]], step: int = 0
+    ) -> None:
+        self.count += 1
+        if self.count % self.n == 0:
+            self.writer.write(key_values, key_excluded, step)
+
+    def write_sequence(self, sequence: list[str]) -> None:
+        self.writer.write_sequence(sequence)
+
+    def close(self) -> None:
+        self.writer.close()
+
+
+def reward_threshold(env_id: str) -> float | None:
+    """The return at which ``env_id`` counts as solved, for the learning curve.
+
+    The level the critic comparison uses (:func:`~sb3_geogp.comparison.hyperparams.threshold`:
+    its own, e.g. -200 for Pendulum-v1, else gymnasium's ``reward_threshold``), or ``None``
+    where there is none.
+    """
+    try:
+        return comparison_threshold(env_id)
+    except ValueError:
+        return None
+
+
+class CriticLog(NamedTuple):
+    """The critic's per-rollout statistics from SB3's ``progress.csv`` (:func:`read_critic_log`).
+
+    Attributes
+    ----------
+    timesteps : ndarray, shape (n,)
+        Total environment steps at the end of each rollout.
+    explained_variance : ndarray, shape (n,)
+        Out-of-sample explained variance of the rollout's value targets by the critic's values
+        from before it was trained on them (NaN where a rollout has none).
+    n_basis : ndarray, shape (n,), or None
+        The GP's number of basis vectors after the rollout; ``None`` for an MLP critic.
+    """
+
+    timesteps: np.ndarray
+    explained_variance: np.ndarray
+    n_basis: np.ndarray | None
+
+
+def read_critic_log(progress_csv: Path) -> CriticLog | None:
+    """The critic's statistics per rollout, from the ``progress.csv`` that ``train`` writes.
+
+    A GP critic's are ``gp/explained_variance`` and ``gp/n_basis``
+    (:class:`~sb3_geogp.GPValueCallback`: the GP's prediction of the targets it is about to
+    absorb). An MLP critic's is SB3's ``train/explained_variance``: the rollout's values,
+    predicted while collecting it, against its returns.
+
+    Parameters
+    ----------
+    progress_csv : Path
+        SB3's CSV log with one row per rollout (``log_interval=1``).
+
+    Returns
+    -------
+    CriticLog or None
+        ``None`` when the file is missing or has no rollout yet.
+    """
+    if not Path(progress_csv).is_file():
+        return None
+    with Path(progress_csv).open(newline="") as handle:
+        rows = list(csv.DictReader(handle))
+    if not rows:
+        return None
+
+    def column(key: str) -> np.ndarray:
+        return np.array([float(r[key]) if r.get(key) else np.nan for r in rows])
+
+    steps = column("time/total_timesteps")
+    if "gp/n_basis" in rows[0]:
+        return CriticLog(steps, column("gp/explained_variance"), column("gp/n_basis"))
+    # SB3 dumps an iteration's log before its train(), which records that rollout's
+    # explained variance: the value in a row belongs to the rollout of the row before.
+    return CriticLog(steps[:-1], column("train/explained_variance")[1:], None)
+
+
+def plot_learning_curve(
+    monitor_dir: Path,
+    path: Path,
+    title: str = "",
+    *,
+    progress: Path | None = None,
+    threshold: float | None = None,
+) -> Path | None:
+    """Learning curve of a run as a PNG (:func:`learning_curve_figure` of its logs).
 
     Parameters
     ----------
     monitor_dir : Path
-        Folder of ``*.monitor.csv`` files.
+        Folder of SB3 ``*.monitor.csv`` files.
     path : Path
         PNG to write.
+    title : str
+        Figure title.
+    progress : Path, optional
+        SB3's ``progress.csv`` logged every rollout: adds the critic panel.
+    threshold : float, optional
+        Return at which the task counts as solved (:func:`reward_threshold`), drawn dashed.
+
+    Returns
+    -------
+    Path or None
+        ``path``, or ``None`` when matplotlib is missing or there is nothing to draw yet.
+    """
+    if importlib.util.find_spec("matplotlib") is None:
+        print("matplotlib not installed: no learning curve (pip install sb3_geogp[plot])")
+        return None
+    steps, returns = read_monitor_logs(monitor_dir)
+    critic = None if progress is None else read_critic_log(progress)
+    if len(returns) == 0 and critic is None:
+        return None
+    fig = learning_curve_figure(steps, returns, critic, threshold, title)
+    fig.savefig(path, dpi=100)
+    pyplot().close(fig)
+    return path
+
+
+def learning_curve_figure(
+    steps: np.ndarray,
+    returns: np.ndarray,
+    critic: CriticLog | None = None,
+    threshold: float | None = None,
+    title: str = "",
+) -> Figure:
+    """Episode returns against timesteps and, with ``critic``, a critic panel below.
+
+    Parameters
+    ----------
+    steps, returns : ndarray, shape (n_episodes,)
+        :func:`read_monitor_logs`.
+    critic : CriticLog, optional
+        :func:`read_critic_log`: explained variance per rollout (left axis) and, for a GP
+        critic, the number of basis vectors (right axis).
+    threshold : float, optional
+        Drawn as a dashed line labelled "threshold".
     title : str
         Figure title.
 
     Returns
     -------
-    Path or None
-        ``path``, or ``None`` when matplotlib is missing or no episode has finished.
+    matplotlib.figure.Figure
+        Axes: the returns panel, then the explained-variance panel, then its basis-vector
+        twin (the last two with ``critic`` only).
     """
-    if importlib.util.find_spec("matplotlib") is None:
-        print("matplotlib not installed: no learning curve (pip install sb3_geogp[plot])")
-        return None
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    steps, returns = read_monitor_logs(monitor_dir)
-    if len(returns) == 0:
-        return None
-    window = max(1, min(20, len(returns) // 5))
-    smooth = np.convolve(returns, np.ones(window) / window, mode="valid")
-    fig, ax = plt.subplots(figsize=(6, 4))
-    ax.plot(steps, returns, ".", alpha=0.3, label="episode return")
-    ax.plot(steps[window - 1 :], smooth, label=f"mean of {window}")
-    ax.set_xlabel("timesteps")
+    plt = pyplot()
+    n_panels = 1 if critic is None else 2
+    fig, axes = plt.subplots(
+        n_panels,
+        1,
+        sharex=True,
+        squeeze=False,
+        figsize=(7, 2.2 + 2.6 * n_panels),
+        height_ratios=[3, 2][:n_panels],
+    )
+    ax = axes[0, 0]
+    if len(returns):
+        _raw_and_mean(ax, steps, returns, "tab:blue", "episode return", "episodes")
+    else:
+        ax.text(0.5, 0.5, "no episode finished yet", ha="center", transform=ax.transAxes)
+    if threshold is not None:
+        ax.axhline(threshold, color="k", lw=1, ls="--", label=f"threshold ({threshold:g})")
     ax.set_ylabel("episode return")
-    ax.set_title(title)
-    ax.legend()
+    _legend_above(ax, *ax.get_legend_handles_labels())
+    fig.suptitle(title)
+    if critic is not None:
+        _critic_panel(axes[1, 0], critic)
+    axes[-1, 0].set_xlabel("timesteps")
     fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
-    return path
+    return fig
+
+
+def _critic_panel(ax: Axes, critic: CriticLog) -> None:
+    """Explained variance per rollout and, on a twin axis, the GP's basis vectors."""
+    keep = np.isfinite(critic.explained_variance)
+    t, ev = critic.timesteps[keep], critic.explained_variance[keep]
+    # Early rollouts can be far below -1 and would squash everything else; they are counted
+    # in the legend instead.
+    off_scale = int((ev < -1).sum())
+    label = "explained variance per rollout"
+    if off_scale:
+        label += f" ({off_scale} below −1, off scale)"
+    ax.axhline(0, color="0.6", lw=0.8)
+    if len(ev):
+        _raw_and_mean(ax, t, ev, "tab:purple", label, "rollouts")
+    ax.set_ylim(max(-1.0, float(ev.min(initial=0.0))) - 0.05, 1.05)
+    ax.set_ylabel("explained variance\n(out of sample)")
+    handles, labels = ax.get_legend_handles_labels()
+    if critic.n_basis is not None:
+        twin = ax.twinx()
+        twin.step(
+            critic.timesteps,
+            critic.n_basis,
+            where="post",
+            color="tab:green",
+            label="basis vectors (right axis)",
+        )
+        twin.set_ylim(bottom=0)
+        twin.set_ylabel("basis vectors (GP)")
+        more = twin.get_legend_handles_labels()
+        handles, labels = handles + more[0], labels + more[1]
+    _legend_above(ax, handles, labels)
+
+
+def _legend_above(ax: Axes, handles: list[Any], labels: list[str]) -> None:
+    """The legend in a strip above the panel, where it cannot hide any data."""
+    ax.legend(handles, labels, loc="lower left", bbox_to_anchor=(0, 1), ncol=2, fontsize=8)
+
+
+def _raw_and_mean(
+    ax: Axes, x: np.ndarray, y: np.ndarray, color: str, label: str, unit: str
+) -> None:
+    """``y`` as faint points and its moving mean over up to 20 ``unit`` as a line."""
+    window = max(1, min(20, len(y) // 5))
+    ax.plot(x, y, ".", color=color, alpha=0.3, label=label)
+    if window > 1:
+        smooth = np.convolve(y, np.ones(window) / window, mode="valid")
+        ax.plot(x[window - 1 :], smooth, color=color, label=f"mean of last {window} {unit}")
 
 
 def read_monitor_logs(monitor_dir: Path) -> tuple[np.ndarray, np.ndarray]:

@@ -5,12 +5,22 @@ from __future__ import annotations
 from collections.abc import Iterator
 from pathlib import Path
 
+import gymnasium as gym
+import numpy as np
 import pytest
 import torch as th
 from stable_baselines3 import A2C, PPO
 
 from sb3_geogp import GPActorCriticPolicy
-from sb3_geogp.cli import build_parser, main
+from sb3_geogp.cli import (
+    CriticLog,
+    build_parser,
+    learning_curve_figure,
+    main,
+    read_critic_log,
+    read_monitor_logs,
+    reward_threshold,
+)
 
 
 @pytest.fixture(autouse=True)
@@ -21,23 +31,86 @@ def _restore_threads() -> Iterator[None]:
     th.set_num_threads(threads)
 
 
-@pytest.mark.parametrize(("algo", "critic"), [("ppo", "geodesic"), ("a2c", "rbf"), ("ppo", "mlp")])
-def test_train_writes_model_logs_and_curve(algo: str, critic: str, tmp_path: Path) -> None:
-    pytest.importorskip("matplotlib")
+@pytest.mark.parametrize(
+    ("algo", "critic"),
+    [("ppo", "geodesic"), ("a2c", "geodesic"), ("a2c", "rbf"), ("ppo", "mlp"), ("a2c", "mlp")],
+)
+def test_train_writes_model_logs_and_curve(
+    algo: str, critic: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    plt = pytest.importorskip("matplotlib.pyplot")
     out = tmp_path / "run"
     argv = ["train", "--algo", algo, "--env", "CartPole-v1", "--critic", critic]
     argv += ["--timesteps", "256", "--seed", "1", "--out", str(out), "--n-envs", "2"]
     argv += ["--n-steps", "64", "--max-basis", "32", "--no-progress"]
     assert main(argv) == 0
     assert (out / "model.zip").is_file()
-    assert (out / "progress.csv").is_file()
     assert (out / "learning_curve.png").stat().st_size > 0
     model = {"ppo": PPO, "a2c": A2C}[algo].load(out / "model.zip")
-    assert isinstance(model.policy, GPActorCriticPolicy) == (critic != "mlp")
-    if algo == "ppo" and critic != "mlp":  # A2C logs every 100 rollouts only
-        assert "gp/n_basis" in (out / "progress.csv").read_text().splitlines()[0]
-    if critic != "mlp":  # default forgetting: 0.9 with A2C (docs/results.md), 1.0 with PPO
+    gp = critic != "mlp"
+    assert isinstance(model.policy, GPActorCriticPolicy) == gp
+    if gp:  # default forgetting: 0.9 with A2C (docs/results.md), 1.0 with PPO
         assert model.policy.gp.forgetting == (0.9 if algo == "a2c" else 1.0)
+
+    # Every rollout (256 steps of 2 x 64) is in progress.csv; the terminal keeps SB3's pace.
+    header = (out / "progress.csv").read_text().splitlines()[0].split(",")
+    ev_key = "gp/explained_variance" if gp else "train/explained_variance"
+    assert ev_key in header and ("gp/n_basis" in header) == gp
+    assert capsys.readouterr().out.count("total_timesteps") == (2 if algo == "ppo" else 0)
+    log = read_critic_log(out / "progress.csv")
+    assert log is not None
+    # An MLP's explained variance is logged with the next rollout: the last one is never.
+    np.testing.assert_array_equal(log.timesteps, [128, 256] if gp else [128])
+    assert np.all(np.isfinite(log.explained_variance)) and np.all(log.explained_variance <= 1)
+    assert (log.n_basis is not None) == gp
+
+    steps, returns = read_monitor_logs(out / "monitor")
+    fig = learning_curve_figure(steps, returns, log, reward_threshold("CartPole-v1"))
+    returns_ax, ev_ax, *twin = fig.axes
+    assert returns_ax.get_ylabel() == "episode return" and ev_ax.get_xlabel() == "timesteps"
+    assert ev_ax.get_ylabel() == "explained variance\n(out of sample)"
+    assert [ax.get_ylabel() for ax in twin] == (["basis vectors (GP)"] if gp else [])
+    (line,) = [ln for ln in returns_ax.get_lines() if ln.get_label().startswith("threshold")]
+    assert set(line.get_ydata()) == {gym.spec("CartPole-v1").reward_threshold}
+    plt.close(fig)
+
+
+def test_read_critic_log_pairs_the_mlp_explained_variance_with_its_rollout(
+    tmp_path: Path,
+) -> None:
+    # SB3 writes a row before train(), so train/ values describe the rollout of the row before.
+    progress = tmp_path / "progress.csv"
+    progress.write_text("time/total_timesteps,train/explained_variance\n100,\n200,0.25\n300,0.5\n")
+    log = read_critic_log(progress)
+    assert log is not None and log.n_basis is None
+    np.testing.assert_array_equal(log.timesteps, [100, 200])
+    np.testing.assert_array_equal(log.explained_variance, [0.25, 0.5])
+    progress.write_text("time/total_timesteps,train/explained_variance\n")
+    assert read_critic_log(progress) is None
+    assert read_critic_log(tmp_path / "missing.csv") is None
+
+
+def test_reward_threshold_is_the_comparison_level_else_none() -> None:
+    assert reward_threshold("CartPole-v1") == 475.0 == gym.spec("CartPole-v1").reward_threshold
+    assert gym.spec("Pendulum-v1").reward_threshold is None
+    assert reward_threshold("Pendulum-v1") == -200.0  # the comparison's own
+    assert gym.spec("Blackjack-v1").reward_threshold is None
+    assert reward_threshold("Blackjack-v1") is None
+
+
+def test_learning_curve_without_critic_log_threshold_or_episodes() -> None:
+    plt = pytest.importorskip("matplotlib.pyplot")
+    fig = learning_curve_figure(np.array([10, 20, 30]), np.array([1.0, 2.0, 3.0]))
+    (ax,) = fig.axes
+    assert ax.get_xlabel() == "timesteps"
+    assert not [ln for ln in ax.get_lines() if ln.get_label().startswith("threshold")]
+    plt.close(fig)
+    log = CriticLog(np.array([64.0, 128.0]), np.array([np.nan, -3.0]), None)
+    fig = learning_curve_figure(np.empty(0), np.empty(0), log)
+    returns_ax, ev_ax = fig.axes
+    assert [t.get_text() for t in returns_ax.texts] == ["no episode finished yet"]
+    assert "1 below −1, off scale" in ev_ax.get_legend_handles_labels()[1][0]
+    plt.close(fig)
 
 
 def test_parser_rejects_unknown_critic() -> None:

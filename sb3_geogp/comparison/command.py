@@ -1,36 +1,115 @@
-"""The ``sb3-geogp compare`` command (also ``examples/compare_critics.py``): options, main."""
+"""The ``sb3-geogp compare`` command (also ``examples/compare_critics.py``): options, checks.
+
+:mod:`sb3_geogp.cli` builds the parser with :func:`add_arguments` and calls
+:func:`run_from_args`.
+
+Every mistake in the options ends, before any run starts, in a :class:`UsageError`:
+``sb3-geogp`` prints it as one line on stderr and exits with status 2.
+"""
 
 from __future__ import annotations
 
 import argparse
 import ast
 import dataclasses
-from collections.abc import Sequence
+import warnings
 from pathlib import Path
 from typing import Any
 
-from sb3_geogp.comparison.hyperparams import ALGOS, CRITICS, ENVS, GP_KWARGS
-from sb3_geogp.comparison.specs import SweepConfig
-from sb3_geogp.comparison.sweep import run_sweep
+import gymnasium as gym
+from gymnasium.envs.registration import EnvSpec
+
+from sb3_geogp.comparison.evaluation import env_spec, max_episode_steps
+from sb3_geogp.comparison.hyperparams import (
+    ALGOS,
+    CRITICS,
+    ENVS,
+    GP_KWARGS,
+    HyperparamsFile,
+)
+from sb3_geogp.comparison.run import build_model
+from sb3_geogp.comparison.specs import RunSpec, SweepConfig
+from sb3_geogp.comparison.sweep import pending_runs, run_sweep
 from sb3_geogp.policies import build_gp_critic, check_gp_kwargs
 
 #: First line of ``--help``.
 DESCRIPTION = "Compare critics inside ordinary SB3 training: MLP vs RBF-GP vs geodesic-GP."
+#: End of ``--help``.
+EPILOG = """\
+On your own environment, with rl-baselines3-zoo hyperparameters (ppo.yml: an entry MyEnv-v0
+with the zoo's keys, e.g. n_envs, n_timesteps, n_steps, gamma, learning_rate, policy_kwargs):
+
+  sb3-geogp compare --envs my_pkg.envs:MyEnv-v0 --hyperparams ppo=ppo.yml \\
+      --threshold 200 --timesteps 50000 --seeds 5 --out results/my_env
+
+'my_pkg.envs:' makes gymnasium import my_pkg.envs (which registers MyEnv-v0) in every worker.
+See docs/usage.md, "Comparing critics on your environment".
+"""
+
+
+class UsageError(Exception):
+    """A mistake in the command line, reported as one line on stderr with exit status 2.
+
+    Shared by ``sb3-geogp train`` and ``sb3-geogp compare``. The message is kept on one line
+    (it may quote the message of a library's exception).
+    """
+
+    def __init__(self, message: str) -> None:
+        super().__init__(" ".join(message.split()))
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
-    """Add the comparison's options to ``parser`` (shared by the example and the CLI)."""
+    """Add the comparison's options to ``parser``."""
     parser.add_argument("--out", type=Path, default=Path("results/compare"), help="results dir")
     parser.add_argument("--quick", action="store_true", help="smoke sweep: 5%% budgets, 2 seeds")
     parser.add_argument("--workers", type=int, default=2, help="parallel processes")
     parser.add_argument("--seeds", type=int, default=None, help="number of seeds (0..n-1)")
     parser.add_argument(
-        "--timesteps-scale", type=float, default=None, help="multiply the per-env budgets"
+        "--timesteps",
+        type=int,
+        default=None,
+        metavar="N",
+        help="budget of every run (default: the built-in one per env, or n_timesteps of "
+        "--hyperparams, times --timesteps-scale)",
+    )
+    parser.add_argument(
+        "--timesteps-scale", type=float, default=None, help="multiply the default budgets"
     )
     parser.add_argument("--ray", action="store_true", help="run the runs as Ray tasks")
-    parser.add_argument("--algos", nargs="+", choices=sorted(ALGOS), default=None)
+    parser.add_argument(
+        "--algos",
+        nargs="+",
+        choices=sorted(ALGOS),
+        default=None,
+        help="default: both, or those of --hyperparams",
+    )
     parser.add_argument("--critics", nargs="+", choices=CRITICS, default=None)
-    parser.add_argument("--envs", nargs="+", choices=ENVS, default=None, metavar="ENV")
+    parser.add_argument(
+        "--envs",
+        nargs="+",
+        default=None,
+        metavar="ENV",
+        help=f"gymnasium ids; 'module:EnvId' imports module first (default: {' '.join(ENVS)})",
+    )
+    parser.add_argument(
+        "--hyperparams",
+        action="extend",
+        nargs="+",
+        default=None,
+        metavar="ALGO=FILE",
+        help="rl-baselines3-zoo yaml file of one algorithm, e.g. ppo=ppo.yml a2c=a2c.yml: "
+        "its entries (keyed by env id) replace that algorithm's built-in hyperparameters; "
+        "--algos defaults to the algorithms given",
+    )
+    parser.add_argument(
+        "--threshold",
+        nargs="+",
+        type=float,
+        default=None,
+        metavar="X",
+        help="return that counts as solved (steps to threshold), one per --envs (default: "
+        "built in, else the env's reward_threshold)",
+    )
     parser.add_argument(
         "--gp-option",
         action="append",
@@ -68,12 +147,28 @@ def _gp_option(text: str) -> tuple[str, Any]:
         return key, value  # a bare word, e.g. dtype=float32
 
 
+def check_env(env_id: str) -> EnvSpec:
+    """The spec of ``env_id``; a :class:`UsageError` naming the fix if gymnasium has none."""
+    try:
+        return env_spec(env_id)
+    except ImportError as err:
+        raise UsageError(
+            f"environment {env_id!r}: cannot import its module ({err}); install it or add its "
+            "folder to PYTHONPATH"
+        ) from None
+    except gym.error.Error as err:
+        raise UsageError(
+            f"unknown environment {env_id!r} ({err}); pass a registered gymnasium id, or "
+            "'module:EnvId' to import the module that registers it"
+        ) from None
+
+
 def _check_gp_options(options: list[tuple[str, Any]]) -> tuple[tuple[str, Any], ...]:
-    """``options`` if both GP critics accept them; else exit naming the problem, before any run
-    starts (a bad option would otherwise fail in every worker)."""
+    """``options`` if both GP critics accept them (a bad option would otherwise fail in every
+    worker)."""
     merged = {**GP_KWARGS, **dict(options)}
     if "kernel" in merged:
-        raise SystemExit(
+        raise UsageError(
             "--gp-option kernel=...: the kernel is the critic, choose it with --critics"
         )
     try:
@@ -81,47 +176,126 @@ def _check_gp_options(options: list[tuple[str, Any]]) -> tuple[tuple[str, Any], 
         for kernel in ("rbf", "geodesic"):
             build_gp_critic({**checked, "kernel": kernel}, input_dim=1)
     except (TypeError, ValueError) as e:
-        raise SystemExit(f"--gp-option: the GP critic rejects {dict(options)}: {e}") from e
+        raise UsageError(f"--gp-option: the GP critic rejects {dict(options)}: {e}") from None
     return tuple(options)
 
 
+def _hyperparams_files(items: list[str]) -> tuple[tuple[str, HyperparamsFile], ...]:
+    """The files of ``--hyperparams ALGO=FILE ...``, read."""
+    files: dict[str, HyperparamsFile] = {}
+    for item in items:
+        algo, sep, path = item.partition("=")
+        if not sep or algo not in ALGOS or not path:
+            raise UsageError(
+                f"--hyperparams takes ALGO=FILE with ALGO one of {', '.join(sorted(ALGOS))} "
+                f"(e.g. ppo=ppo.yml), got {item!r}"
+            )
+        if algo in files:
+            raise UsageError(f"--hyperparams: {algo} is given twice")
+        try:
+            files[algo] = HyperparamsFile.read(path)
+        except ValueError as err:
+            raise UsageError(f"--hyperparams {item}: {err}") from None
+    return tuple(files.items())
+
+
 def config_from_args(args: argparse.Namespace) -> SweepConfig:
-    """The :class:`SweepConfig` described by parsed :func:`add_arguments` options."""
+    """The :class:`SweepConfig` described by parsed :func:`add_arguments` options.
+
+    Raises
+    ------
+    UsageError
+        Naming the first mistake: a count below 1, an unknown environment, an unreadable or
+        unusable hyperparameter file, an environment without hyperparameters, budget or
+        threshold, or hyperparameters that do not build a model.
+    """
     config = SweepConfig.quick() if args.quick else SweepConfig()
+    for name in ("workers", "seeds", "timesteps"):
+        value = getattr(args, name)
+        if value is not None and value < 1:
+            raise UsageError(f"--{name} must be at least 1, got {value}")
     changes: dict[str, Any] = {}
     if args.seeds is not None:
-        if args.seeds < 1:
-            raise SystemExit("--seeds must be positive")
         changes["seeds"] = tuple(range(args.seeds))
     if args.timesteps_scale is not None:
         if not args.timesteps_scale > 0:
-            raise SystemExit("--timesteps-scale must be positive")
+            raise UsageError(f"--timesteps-scale must be positive, got {args.timesteps_scale}")
+        if args.timesteps is not None:
+            raise UsageError("--timesteps sets every budget: drop --timesteps-scale")
         changes["timesteps_scale"] = args.timesteps_scale
+    if args.timesteps is not None:
+        changes["timesteps"] = args.timesteps
+    if args.hyperparams:
+        files = _hyperparams_files(args.hyperparams)
+        changes["hyperparams_files"] = files
+        changes["algos"] = tuple(algo for algo, _ in files)
+        unused = [algo for algo, _ in files if args.algos and algo not in args.algos]
+        if unused:
+            raise UsageError(f"--hyperparams {unused[0]}=...: {unused[0]} is not among --algos")
     for name in ("algos", "critics", "envs"):
         if getattr(args, name) is not None:
             changes[name] = tuple(getattr(args, name))
+    envs = changes.get("envs", config.envs)
+    for env_id in envs:
+        check_env(env_id)
+    if args.threshold is not None:
+        if len(args.threshold) != len(envs):
+            raise UsageError(
+                f"--threshold takes one value per environment ({len(envs)}: {' '.join(envs)}), "
+                f"got {len(args.threshold)}"
+            )
+        changes["thresholds"] = tuple(zip(envs, args.threshold, strict=True))
     if args.gp_option:
         changes["gp_options"] = _check_gp_options(args.gp_option)
-    return dataclasses.replace(config, **changes)
+    config = dataclasses.replace(config, **changes)
+    try:
+        for env_id in envs:
+            max_episode_steps(env_id)
+        specs = config.specs()
+    except ValueError as err:
+        raise UsageError(str(err)) from None
+    _check_models([spec for spec in specs if spec.algo in dict(config.hyperparams_files)])
+    return config
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """Run (or resume) a sweep, then aggregate it; returns the exit status."""
-    parser = add_arguments(argparse.ArgumentParser(description=DESCRIPTION))
-    args = parser.parse_args(argv)
-    return run_from_args(args)
+def _check_models(specs: list[RunSpec]) -> None:
+    """Build the model of every algorithm, environment and kind of critic (MLP or GP) of
+    ``specs``, so that SB3's, the policy's and the environment's own checks run before any run.
+    """
+    cells: dict[tuple[str, str, bool], RunSpec] = {}
+    for spec in specs:
+        cells.setdefault((spec.algo, spec.env_id, spec.critic == "mlp"), spec)
+    for spec in cells.values():
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")  # the runs show them, once per sweep
+                model = build_model(spec)
+        except Exception as err:  # anything SB3, the policy or the environment reject
+            raise UsageError(
+                f"{spec.hyperparams_source}: {spec.algo} with the {spec.critic} critic on "
+                f"{spec.env_id} fails to build: {type(err).__name__}: {err}"
+            ) from None
+        env = model.get_env()
+        if env is not None:
+            env.close()
 
 
 def run_from_args(args: argparse.Namespace) -> int:
-    """Body of :func:`main` for already parsed arguments (used by ``sb3-geogp compare``)."""
+    """Run (or resume) the sweep of parsed ``compare`` arguments, then aggregate it; returns the
+    exit status.
+
+    Raises
+    ------
+    UsageError
+        See :func:`config_from_args`; also if ``--out`` holds runs made with other settings.
+    """
     config = config_from_args(args)
-    n_total = len(config.specs())
+    specs = config.specs()
+    n_total = len(specs)
     if args.estimate_from is not None:
         from sb3_geogp.comparison.results import estimate_sweep_seconds, load_results
 
-        est = estimate_sweep_seconds(
-            load_results(args.estimate_from), config.specs(), workers=args.workers
-        )
+        est = estimate_sweep_seconds(load_results(args.estimate_from), specs, workers=args.workers)
         print(
             f"estimate for {n_total} runs: {est['total_seconds'] / 3600:.2f} CPU hours, "
             f"{est['wall_seconds'] / 3600:.2f} h with {args.workers} workers on idle cores"
@@ -129,6 +303,10 @@ def run_from_args(args: argparse.Namespace) -> int:
         if est["missing"]:
             print(f"no calibration data (not counted): {', '.join(est['missing'])}")
         return 0
+    try:
+        pending_runs(specs, args.out)  # refuses the folder of another sweep
+    except ValueError as err:
+        raise UsageError(str(err)) from None
     print(f"sweep: {n_total} runs -> {args.out} ({args.workers} workers)")
     executed = run_sweep(
         config, args.out, workers=args.workers, use_ray=args.ray, progress=not args.no_progress

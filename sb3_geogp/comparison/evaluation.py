@@ -10,6 +10,7 @@
 from __future__ import annotations
 
 import copy
+import importlib
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -17,6 +18,7 @@ from typing import Any
 
 import gymnasium as gym
 import numpy as np
+from gymnasium.envs.registration import EnvSpec
 from stable_baselines3.common.policies import ActorCriticPolicy
 
 import sb3_geogp.envs  # noqa: F401  (registers the package's environments with gymnasium)
@@ -31,11 +33,37 @@ EVAL_SEED = 10_000
 PROBE_SEED = 20_000
 
 
+def env_spec(env_id: str) -> EnvSpec:
+    """The registered spec of ``env_id``; for ``"module:EnvId"`` the module is imported first,
+    as ``gymnasium.make`` does (``gymnasium.spec`` does not).
+
+    Raises
+    ------
+    gymnasium.error.Error
+        If the id is not registered.
+    ImportError
+        If the module cannot be imported.
+    """
+    module, _, name = env_id.rpartition(":")
+    if module:
+        importlib.import_module(module)
+    return gym.spec(name)
+
+
 def max_episode_steps(env_id: str) -> int:
-    """The registered time limit of ``env_id``."""
-    spec = gym.spec(env_id)
+    """The registered time limit of ``env_id``.
+
+    Raises
+    ------
+    ValueError
+        If it has none.
+    """
+    spec = env_spec(env_id)
     if spec.max_episode_steps is None:
-        raise ValueError(f"{env_id} has no time limit")
+        raise ValueError(
+            f"{env_id} has no time limit: register it with max_episode_steps=N (the evaluations "
+            "and the critic's Monte Carlo check need episodes that end)"
+        )
     return int(spec.max_episode_steps)
 
 

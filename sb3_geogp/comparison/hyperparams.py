@@ -2,18 +2,29 @@
 
 Hyperparameters: rl-baselines3-zoo's (:data:`ZOO_HYPERPARAMS`), identical for the three
 critics, with the deviations listed in :data:`DEVIATIONS`; ours for the environments the zoo
-does not cover (:data:`OWN_HYPERPARAMS`).
+does not cover (:data:`OWN_HYPERPARAMS`); or the user's, from zoo-format yaml files
+(:class:`HyperparamsFile`). Built-in tables and files are entries in the zoo's format, read by
+the same :func:`algo_kwargs`.
 """
 
 from __future__ import annotations
 
+import ast
 import copy
-from collections.abc import Callable
-from typing import Any
+import inspect
+import json
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, NamedTuple
 
+import torch as th
+import yaml
 from stable_baselines3 import A2C, PPO
 from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
 
+from sb3_geogp.comparison.evaluation import env_spec
 from sb3_geogp.envs import PAPER_PENDULUM_ID
 from sb3_geogp.envs.wall_maze import REWARD_THRESHOLD as WALL_MAZE_THRESHOLD
 from sb3_geogp.envs.wall_maze import WALL_MAZE_DISCRETE_ID, WALL_MAZE_ID
@@ -104,6 +115,10 @@ DEVIATIONS = (
     "statistics would put critic values in drifting units that cannot be compared with Monte "
     "Carlo returns",
     "n_timesteps is replaced by the sweep's budget (TIMESTEPS x --timesteps-scale)",
+    "with --hyperparams, a file's n_timesteps x --timesteps-scale is the budget (TIMESTEPS "
+    "where it has none); --timesteps N replaces every budget",
+    "net_arch's vf layers (the MLP critic's network) are dropped for the GP critics, which take "
+    "the features directly",
 )
 
 #: Options of the GP critic, identical for ``rbf`` and ``geodesic`` (everything else: the
@@ -140,26 +155,109 @@ THRESHOLDS: dict[str, float] = {
 }
 
 
-def hyperparams(algo: str, env_id: str) -> dict[str, Any]:
-    """The zoo's (or our) hyperparameters of ``algo`` on ``env_id``, as recorded.
+def threshold(env_id: str, given: float | None = None) -> float:
+    """The steps-to-threshold level of ``env_id``: ``given``, else :data:`THRESHOLDS`, else the
+    environment's registered ``reward_threshold``.
 
-    Parameters
+    Raises
+    ------
+    ValueError
+        If none of the three exists.
+    """
+    if given is not None:
+        return float(given)
+    if env_id in THRESHOLDS:
+        return THRESHOLDS[env_id]
+    level = env_spec(env_id).reward_threshold
+    if level is None:
+        raise ValueError(
+            f"no threshold for {env_id}: it is not built in and registers no reward_threshold; "
+            "pass --threshold X (the mean evaluation return that counts as solved)"
+        )
+    return float(level)
+
+
+@dataclass(frozen=True)
+class HyperparamsFile:
+    """One algorithm's hyperparameters per environment id, from a yaml file in the format of
+    rl-baselines3-zoo's ``hyperparams/ppo.yml`` (environment ids mapping to their keys).
+
+    Attributes
     ----------
-    algo : {"ppo", "a2c"}
-    env_id : str
+    path : str
+        The file, as given.
+    entries : dict
+        Environment id -> entry, as read.
+    """
 
-    Returns
-    -------
-    dict
-        A copy with the keys of the yml entry (``n_envs``, ``policy_kwargs``, algorithm
-        options, ``normalize``, ``n_timesteps``); missing keys take SB3's defaults.
+    path: str
+    entries: dict[str, dict[str, Any]]
+
+    @classmethod
+    def read(cls, path: str | Path) -> HyperparamsFile:
+        """Read ``path``; raise ValueError if it is missing, not YAML or not in that format."""
+        try:
+            text = Path(path).read_text()
+        except OSError as err:
+            raise ValueError(f"cannot read {path}: {err.strerror}") from None
+        try:
+            data = yaml.safe_load(text)
+        except yaml.YAMLError as err:
+            raise ValueError(f"{path} is not valid YAML: {' '.join(str(err).split())}") from None
+        if not isinstance(data, dict) or not all(
+            isinstance(k, str) and isinstance(v, dict) for k, v in data.items()
+        ):
+            raise ValueError(
+                f"{path} is not in rl-baselines3-zoo's format: environment ids, each mapping to "
+                "its hyperparameters (e.g. a line 'MyEnv-v0:' followed by '  n_steps: 256')"
+            )
+        try:
+            json.dumps(data)  # the sweep and its result files record the entries
+        except TypeError as err:
+            raise ValueError(f"{path} holds a value JSON cannot record: {err}") from None
+        return cls(str(path), data)
+
+
+class Hyperparams(NamedTuple):
+    """One algorithm's hyperparameters on one environment, and where they come from."""
+
+    #: The entry in the zoo's format (:func:`algo_kwargs` reads it).
+    values: dict[str, Any]
+    #: :data:`ZOO_SOURCE`, ``"ours"`` or the path of a :class:`HyperparamsFile`.
+    source: str
+    #: Budget of a run before ``--timesteps-scale``; None if neither the file nor
+    #: :data:`TIMESTEPS` has one.
+    n_timesteps: float | None
+
+
+def hyperparams(algo: str, env_id: str, file: HyperparamsFile | None = None) -> Hyperparams:
+    """The hyperparameters of ``algo`` on ``env_id``: from ``file`` if given, else built in.
+
+    ``file`` may key an entry by ``env_id`` or, for a ``"module:EnvId"`` id, by ``EnvId``.
+
+    Raises
+    ------
+    ValueError
+        If ``algo`` is unknown or there is no entry for ``env_id``.
     """
     if algo not in ALGOS:
         raise ValueError(f"algo must be one of {sorted(ALGOS)}, got {algo!r}")
-    table = {**OWN_HYPERPARAMS[algo], **ZOO_HYPERPARAMS[algo]}
-    if env_id not in table:
-        raise ValueError(f"no hyperparameters for {algo} on {env_id}; known: {sorted(table)}")
-    return copy.deepcopy(table[env_id])
+    if file is None:
+        table = {**OWN_HYPERPARAMS[algo], **ZOO_HYPERPARAMS[algo]}
+        if env_id not in table:
+            raise ValueError(
+                f"no built-in {algo} hyperparameters for {env_id} (built in: {', '.join(ENVS)}); "
+                f"pass --hyperparams {algo}=FILE, a zoo yaml file with an entry {env_id!r}"
+            )
+        source = ZOO_SOURCE if env_id in ZOO_HYPERPARAMS[algo] else "ours"
+        return Hyperparams(copy.deepcopy(table[env_id]), source, TIMESTEPS[env_id])
+    for key in (env_id, env_id.rpartition(":")[2]):
+        if key in file.entries:
+            values = copy.deepcopy(file.entries[key])
+            return Hyperparams(values, file.path, values.get("n_timesteps", TIMESTEPS.get(env_id)))
+    raise ValueError(
+        f"{file.path} has no entry {env_id!r} (its entries: {', '.join(file.entries) or 'none'})"
+    )
 
 
 def _linear(initial: float) -> Callable[[float], float]:
@@ -171,14 +269,204 @@ def _linear(initial: float) -> Callable[[float], float]:
     return schedule
 
 
-def algo_kwargs(algo: str, env_id: str) -> tuple[int, dict[str, Any], dict[str, Any]]:
-    """``(n_envs, algorithm kwargs, policy_kwargs)`` to build the model, deviations applied."""
-    hp = hyperparams(algo, env_id)
-    n_envs = int(hp.pop("n_envs", 1))
-    policy_kwargs = dict(hp.pop("policy_kwargs", {}))
-    for dropped in ("normalize", "n_timesteps"):
-        hp.pop(dropped, None)
-    for key, value in list(hp.items()):
-        if isinstance(value, str) and value.startswith("lin_"):
-            hp[key] = _linear(float(value[4:]))
-    return n_envs, hp, policy_kwargs
+#: Keys of the algorithms that take a schedule: a number, or the zoo's ``"lin_<initial>"``.
+_SCHEDULES = ("learning_rate", "clip_range", "clip_range_vf")
+#: Arguments of PPO and A2C that the comparison sets itself.
+_SET_HERE = frozenset(
+    ("self", "policy", "env", "policy_kwargs", "seed", "device", "verbose", "tensorboard_log",
+     "_init_setup_model", "rollout_buffer_class", "rollout_buffer_kwargs")
+)  # fmt: skip
+_WRAPPED = (
+    "is not supported by compare: the evaluations and the critic's Monte Carlo check run the "
+    "environment as registered; remove it"
+)
+#: Keys of the zoo's format that the comparison cannot honour, and what to do instead.
+_UNSUPPORTED = {
+    "env_wrapper": _WRAPPED,
+    "vec_env_wrapper": _WRAPPED,
+    "frame_stack": _WRAPPED,
+    "env_kwargs": "is not supported by compare: register an id with these kwargs "
+    "(gymnasium.register(..., kwargs=...)) and compare on that id",
+    "callback": "is not supported by compare: it sets the callbacks itself (GPValueCallback "
+    "for the GP critics); remove it",
+}
+#: Classes a ``policy_kwargs`` string may name: torch activation functions, as the zoo writes
+#: them (``nn.ReLU``), also as ``th.nn.ReLU`` and ``torch.nn.ReLU``.
+_NAMED_CLASSES: dict[str, type] = {
+    f"{prefix}{name}": getattr(th.nn, name)
+    for name in ("ReLU", "Tanh", "ELU", "LeakyReLU", "GELU", "SiLU", "Sigmoid", "Softplus",
+                 "SELU", "CELU", "Mish", "Hardtanh")
+    for prefix in ("nn.", "th.nn.", "torch.nn.")
+}  # fmt: skip
+
+
+def algo_kwargs(algo: str, entry: Mapping[str, Any]) -> tuple[int, dict[str, Any], dict[str, Any]]:
+    """``(n_envs, algorithm kwargs, policy_kwargs)`` of a zoo entry, deviations applied.
+
+    Parameters
+    ----------
+    algo : {"ppo", "a2c"}
+    entry : mapping
+        Keys of rl-baselines3-zoo's yaml format: ``n_envs``, ``n_timesteps`` (the budget, see
+        :class:`Hyperparams`), ``policy`` (``MlpPolicy`` only: the critic picks the policy),
+        ``policy_kwargs`` (a mapping, or the zoo's string ``"dict(...)"``, read by
+        :func:`parse_policy_kwargs`), ``normalize`` (dropped, see :data:`DEVIATIONS`) and the
+        algorithm's own arguments; ``learning_rate``, ``clip_range`` and ``clip_range_vf`` also
+        as ``"lin_<x>"`` (linear from x to 0).
+
+    Raises
+    ------
+    ValueError
+        Naming the first key that is unknown, unsupported or has a value of the wrong type.
+    """
+    arguments = {
+        name: p.default
+        for name, p in inspect.signature(ALGOS[algo].__init__).parameters.items()
+        if name not in _SET_HERE
+    }
+    n_envs, kwargs, policy_kwargs = 1, {}, {}
+    for key, value in entry.items():
+        if key == "n_envs":
+            n_envs = _checked(key, value, 1)
+            if n_envs < 1:
+                raise ValueError(f"n_envs must be at least 1, got {n_envs}")
+        elif key == "n_timesteps":
+            if not (_is_number(value) and value > 0):
+                raise ValueError(f"n_timesteps must be a positive number, got {value!r}")
+        elif key == "normalize":
+            continue  # dropped for every critic, see DEVIATIONS
+        elif key == "policy":
+            if value != "MlpPolicy":
+                raise ValueError(
+                    f"policy: compare trains SB3's MlpPolicy and the GP policy (--critics picks "
+                    f"the critic); remove 'policy: {value}' or write 'policy: MlpPolicy'"
+                )
+        elif key == "policy_kwargs":
+            policy_kwargs = _policy_kwargs(value)
+        elif key in _UNSUPPORTED:
+            raise ValueError(f"{key} {_UNSUPPORTED[key]}")
+        elif key in _SCHEDULES and key in arguments:
+            kwargs[key] = _schedule(key, value, arguments[key])
+        elif key in arguments:
+            kwargs[key] = _checked(key, value, arguments[key])
+        else:
+            raise ValueError(
+                f"unknown key {key!r} for {algo} (the zoo's n_envs, n_timesteps, policy, "
+                f"policy_kwargs, normalize, or an argument of {ALGOS[algo].__name__}: "
+                f"{', '.join(arguments)})"
+            )
+    return n_envs, kwargs, policy_kwargs
+
+
+def _is_number(value: Any) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def _checked(key: str, value: Any, default: Any) -> Any:
+    """``value`` if it has the type of the argument's default (a number where it is None)."""
+    if isinstance(default, bool):
+        ok, kind = isinstance(value, bool), "true or false"
+    elif isinstance(default, int):
+        ok, kind = _is_number(value) and isinstance(value, int), "an integer"
+    else:
+        ok, kind = _is_number(value) or (default is None and value is None), "a number"
+    if ok:
+        return value
+    hint = ""
+    if isinstance(value, str):
+        try:
+            float(value)
+            hint = f" (YAML reads {value} as text: write it with a decimal point, e.g. 1.0e-3)"
+        except ValueError:
+            pass
+    raise ValueError(f"{key} must be {kind}, got {value!r}{hint}")
+
+
+def _schedule(key: str, value: Any, default: Any) -> Any:
+    if not (isinstance(value, str) and value.startswith("lin_")):
+        return _checked(key, value, default)
+    try:
+        return _linear(float(value[4:]))
+    except ValueError:
+        raise ValueError(
+            f"{key}: expected 'lin_<number>' (e.g. lin_0.001), got {value!r}"
+        ) from None
+
+
+def _policy_kwargs(value: Any) -> dict[str, Any]:
+    if isinstance(value, str):
+        return parse_policy_kwargs(value)
+    if isinstance(value, dict):
+        return _named(value)
+    raise ValueError(
+        f"policy_kwargs must be a mapping or the zoo's string 'dict(...)', got {value!r}"
+    )
+
+
+def parse_policy_kwargs(text: str) -> dict[str, Any]:
+    """The zoo's ``policy_kwargs`` string as a dict, without evaluating code.
+
+    The zoo evaluates e.g. ``"dict(log_std_init=-2, activation_fn=nn.ReLU,
+    net_arch=dict(pi=[64], vf=[64]))"`` as Python; here only ``dict(...)`` calls, ``{...}``,
+    lists, tuples, numbers, strings, booleans, ``None`` and torch activation functions
+    (``nn.ReLU``, ``nn.Tanh``, ...) are read.
+
+    Raises
+    ------
+    ValueError
+        Naming the first part of ``text`` that is not one of those.
+    """
+    try:
+        tree = ast.parse(text.strip(), mode="eval")
+    except SyntaxError:
+        raise ValueError(f"policy_kwargs is not a Python expression: {text!r}") from None
+    value = _literal(tree.body)
+    if not isinstance(value, dict):
+        raise ValueError(f"policy_kwargs must be dict(...), got {text!r}")
+    return value
+
+
+def _literal(node: ast.expr) -> Any:
+    if isinstance(node, ast.Constant) and (
+        node.value is None or isinstance(node.value, (bool, int, float, str))
+    ):
+        return node.value
+    if isinstance(node, ast.UnaryOp) and isinstance(node.op, ast.USub):
+        operand = _literal(node.operand)
+        if _is_number(operand):
+            return -operand
+    if isinstance(node, (ast.List, ast.Tuple)):
+        items = [_literal(e) for e in node.elts]
+        return items if isinstance(node, ast.List) else tuple(items)
+    if isinstance(node, ast.Dict) and all(
+        isinstance(k, ast.Constant) and isinstance(k.value, str) for k in node.keys
+    ):
+        return {
+            k.value: _literal(v)
+            for k, v in zip(node.keys, node.values, strict=True)
+            if isinstance(k, ast.Constant)
+        }
+    if (
+        isinstance(node, ast.Call)
+        and isinstance(node.func, ast.Name)
+        and node.func.id == "dict"
+        and not node.args
+        and all(kw.arg is not None for kw in node.keywords)
+    ):
+        return {kw.arg: _literal(kw.value) for kw in node.keywords}
+    if isinstance(node, (ast.Name, ast.Attribute)) and ast.unparse(node) in _NAMED_CLASSES:
+        return _NAMED_CLASSES[ast.unparse(node)]
+    raise ValueError(
+        f"policy_kwargs: {ast.unparse(node)!r} is not allowed (only dict(...), literals and "
+        "activation functions such as nn.ReLU)"
+    )
+
+
+def _named(value: Any) -> Any:
+    """``value`` with strings naming an activation function (``"nn.ReLU"``) replaced by it, as
+    in the string form (a yaml mapping can only write the name)."""
+    if isinstance(value, dict):
+        return {k: _named(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_named(v) for v in value]
+    return _NAMED_CLASSES.get(value, value) if isinstance(value, str) else value

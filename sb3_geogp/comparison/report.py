@@ -3,12 +3,17 @@
 Writes to ``out/report/`` (:func:`write_report`), from :mod:`sb3_geogp.comparison.results`:
 
 * ``curves_<env>.png``: evaluation return against timesteps, one panel per algorithm, the
-  mean over seeds of each critic with its 95 % percentile-bootstrap band;
+  mean over seeds of each critic with the 95 % percentile-bootstrap interval of that mean at
+  every checkpoint as a band, and the steps-to-threshold level;
 * ``critic_accuracy.png``: RMSE of the critic's value against Monte Carlo returns at the probe
   states, per environment and algorithm, mean and band over seeds;
 * ``summary.md`` / ``summary.json``: :func:`~sb3_geogp.comparison.results.summary_rows`;
 * ``comparisons.md`` / ``comparisons.json``: :func:`~sb3_geogp.comparison.results.comparisons`
   (and ``vs_baseline.md`` / ``.json`` against another sweep).
+
+Each figure says what its bands are in a caption (:data:`BAND_CAPTION`). Neither the figures
+nor the tables give an interval from fewer than
+:data:`~sb3_geogp.toolbox.tables.MIN_SAMPLES_FOR_INTERVAL` seeds.
 """
 
 from __future__ import annotations
@@ -16,6 +21,8 @@ from __future__ import annotations
 import importlib.util
 import json
 import math
+import textwrap
+from collections.abc import Collection
 from pathlib import Path
 from typing import Any
 
@@ -32,10 +39,17 @@ from sb3_geogp.comparison.results import (
     stack_curves,
     summary_rows,
 )
-from sb3_geogp.toolbox.stats import bootstrap_ci
-from sb3_geogp.toolbox.tables import markdown_table
+from sb3_geogp.toolbox.stats import N_RESAMPLES, bootstrap_ci
+from sb3_geogp.toolbox.tables import (
+    MIN_SAMPLES_FOR_INTERVAL,
+    NO_INTERVAL,
+    estimate_cell,
+    markdown_table,
+)
 
 COLORS = {"mlp": "tab:gray", "rbf": "tab:blue", "geodesic": "tab:red"}
+#: Confidence level of the figures' bands.
+LEVEL = 0.95
 
 
 def _fmt(x: float) -> str:
@@ -48,14 +62,23 @@ def _fmt(x: float) -> str:
     return f"{x:.3g}"
 
 
-def _ci(est: float, low: float, high: float) -> str:
-    return f"{_fmt(est)} [{_fmt(low)}, {_fmt(high)}]"
+def _ci(est: float, low: float, high: float, n: int) -> str:
+    return estimate_cell(_fmt(est), f"[{_fmt(low)}, {_fmt(high)}]", n)
+
+
+def _few_seeds_note(n_seeds: Collection[int], consequence: str) -> str:
+    """The caption's sentence on cells without an interval, if the table has any."""
+    if min(n_seeds, default=MIN_SAMPLES_FOR_INTERVAL) >= MIN_SAMPLES_FOR_INTERVAL:
+        return ""
+    return f' With fewer than {MIN_SAMPLES_FOR_INTERVAL} seeds{consequence} ("{NO_INTERVAL}").'
 
 
 def comparisons_markdown(rows: list[dict[str, Any]]) -> str:
     """One table per metric: a row per ``(env, algo)``, a column per critic pair.
 
-    A verdict in bold also holds at the family-wise level.
+    A verdict in bold also holds at the family-wise level. With fewer than
+    :data:`~sb3_geogp.toolbox.tables.MIN_SAMPLES_FOR_INTERVAL` seeds on either side a cell
+    gives the difference alone, without interval or verdict.
     """
     against_baseline = bool(rows) and rows[0]["b_sweep"] == "baseline"
     columns = [
@@ -77,7 +100,11 @@ def comparisons_markdown(rows: list[dict[str, Any]]) -> str:
             "",
             f"Difference of means [95 % bootstrap CI] and verdict; **bold**: the verdict also "
             f"holds at the family-wise level (Bonferroni over {len(mine)} comparisons, "
-            f"{100 * fw:.3g} % intervals).",
+            f"{100 * fw:.3g} % intervals)."
+            + _few_seeds_note(
+                [min(r["n_a"], r["n_b"]) for r in mine],
+                " on either side: the difference alone, no interval and no verdict",
+            ),
             "",
             markdown_table(["env", "algo", *labels], body),
             "",
@@ -88,10 +115,14 @@ def comparisons_markdown(rows: list[dict[str, Any]]) -> str:
 def _comparison_cell(r: dict[str, Any] | None) -> str:
     if r is None:
         return ""
+    n = min(r["n_a"], r["n_b"])
+    cell = _ci(r["diff"], r["low"], r["high"], n)
+    if n < MIN_SAMPLES_FOR_INTERVAL:
+        return cell  # a verdict rests on the interval
     word = r["verdict"]
     if word in ("better", "worse") and r["fw_verdict"] == word:
         word = f"**{word}**"
-    return f"{_ci(r['diff'], r['low'], r['high'])} {word}"
+    return f"{cell} {word}"
 
 
 def _num(x: float | None) -> float:
@@ -99,12 +130,14 @@ def _num(x: float | None) -> float:
 
 
 def summary_markdown(rows: list[dict[str, Any]]) -> str:
-    """The summary rows as a markdown table (one table, environments in blocks)."""
+    """The summary rows as a markdown table (one table, environments in blocks), captioned."""
     header = [
         "env", "algo", "critic", "seeds", "steps", "final return mean [95% CI]", "IQM",
         "steps to threshold (median, reached)", "critic RMSE [95% CI]", "train s", "GP share",
     ]  # fmt: skip
-    return markdown_table(header, (_summary_cells(r) for r in rows)) + "\n"
+    caption = "Final return and final critic RMSE: mean over seeds [95 % percentile-bootstrap CI]."
+    caption += _few_seeds_note([r["n_seeds"] for r in rows], ": the mean alone")
+    return caption + "\n\n" + markdown_table(header, (_summary_cells(r) for r in rows)) + "\n"
 
 
 def _summary_cells(r: dict[str, Any]) -> list[str]:
@@ -116,16 +149,20 @@ def _summary_cells(r: dict[str, Any]) -> list[str]:
         r["critic"],
         str(r["n_seeds"]),
         str(r["timesteps"]),
-        _ci(r["final_mean"], r["final_low"], r["final_high"]),
+        _ci(r["final_mean"], r["final_low"], r["final_high"], r["n_seeds"]),
         _fmt(r["final_iqm"]),
         f"{_fmt(stt)} ({r['reached']}/{r['n_seeds']} ≥ {_fmt(r['threshold'])})",
-        _ci(r["critic_rmse_mean"], r["critic_rmse_low"], r["critic_rmse_high"]),
+        _ci(r["critic_rmse_mean"], r["critic_rmse_low"], r["critic_rmse_high"], r["n_seeds"]),
         _fmt(r["train_seconds_mean"]),
         "—" if share is None else f"{100 * share:.0f} %",
     ]
 
 
-def _plt() -> Any:
+def pyplot() -> Any:
+    """matplotlib's ``pyplot`` on the headless Agg backend.
+
+    matplotlib is optional: check :func:`matplotlib_available` before calling this.
+    """
     import matplotlib
 
     matplotlib.use("Agg")
@@ -134,37 +171,91 @@ def _plt() -> Any:
     return plt
 
 
-def _band(ax: Any, t: np.ndarray, values: np.ndarray, critic: str, seed: int) -> None:
-    est, low, high = bootstrap_ci(values, seed=seed)
-    ax.plot(t, est, color=COLORS.get(critic), label=f"{critic} (n={len(values)})")
-    ax.fill_between(t, low, high, color=COLORS.get(critic), alpha=0.2, linewidth=0)
+#: The caption under each figure: what its lines and bands are (:func:`_band`).
+BAND_CAPTION = (
+    f"Lines: mean over seeds (n in the legend). Shaded: {100 * LEVEL:g} % percentile-bootstrap "
+    f"confidence interval of that mean at each checkpoint ({N_RESAMPLES:,} resamples of whole "
+    f"runs); none from fewer than {MIN_SAMPLES_FOR_INTERVAL} seeds."
+)
+
+
+def _band(ax: Any, t: np.ndarray, values: np.ndarray, critic: str, seed: int) -> int:
+    """Mean over runs (rows) and its bootstrap band, as :data:`BAND_CAPTION` says; returns n."""
+    n = len(values)
+    est, low, high = bootstrap_ci(values, level=LEVEL, seed=seed)
+    ax.plot(t, est, color=COLORS.get(critic))
+    if n >= MIN_SAMPLES_FOR_INTERVAL:
+        ax.fill_between(t, low, high, color=COLORS.get(critic), alpha=0.2, linewidth=0)
+    return n
+
+
+def _finish(
+    fig: Any, path: Path, n_seeds: dict[str, list[int]], threshold: float | None = None
+) -> None:
+    """Write ``fig`` with one legend above its panels and :data:`BAND_CAPTION` below.
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+    path : Path
+    n_seeds : dict of str to list of int
+        Per critic drawn, the number of seeds of each of its lines.
+    threshold : float, optional
+        The level drawn as a dotted line in every panel.
+    """
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
+
+    handles: list[Any] = []
+    for critic in sorted(n_seeds, key=CRITICS.index):
+        lo, hi = min(n_seeds[critic]), max(n_seeds[critic])
+        n = f"{lo}" if lo == hi else f"{lo}-{hi}"
+        handles.append(Line2D([], [], color=COLORS.get(critic), label=f"{critic} (n = {n})"))
+    if max(max(n) for n in n_seeds.values()) >= MIN_SAMPLES_FOR_INTERVAL:
+        label = f"{100 * LEVEL:g} % CI of the mean"
+        handles.append(Patch(color="0.5", alpha=0.3, linewidth=0, label=label))
+    if threshold is not None:
+        label = f"threshold ({threshold:g})"
+        handles.append(Line2D([], [], color="k", lw=0.8, ls=":", label=label))
+    # Legend entries take up to 1.8 inches and 8-point text about 1/15 inch per character.
+    width = fig.get_figwidth()
+    ncol = max(1, min(len(handles), int(width / 1.8)))
+    fig.legend(handles=handles, loc="upper center", ncol=ncol, fontsize=9, frameon=False)
+    caption = textwrap.fill(BAND_CAPTION, width=int(15 * width), break_on_hyphens=False)
+    fig.text(0.01, 0.01, caption, fontsize=8, va="bottom")
+    legend_rows = -(-len(handles) // ncol)
+    caption_lines = caption.count("\n") + 1
+    inch = 1 / fig.get_figheight()  # figure fraction
+    bottom, top = (0.1 + 0.15 * caption_lines) * inch, (0.1 + 0.25 * legend_rows) * inch
+    fig.tight_layout(rect=(0, bottom, 1, 1 - top))
+    fig.savefig(path, dpi=110)
+    pyplot().close(fig)
 
 
 def plot_learning_curves(
     results: list[dict[str, Any]], out_dir: str | Path, seed: int = 0
 ) -> list[Path]:
     """One ``curves_<env>.png`` per environment; returns the paths."""
-    plt = _plt()
+    plt = pyplot()
     groups = group_runs(results)
     paths = []
     for env_id in sorted({k[0] for k in groups}):
         algos = sorted({k[1] for k in groups if k[0] == env_id})
-        fig, axes = plt.subplots(1, len(algos), figsize=(5 * len(algos), 3.6), squeeze=False)
+        fig, axes = plt.subplots(1, len(algos), figsize=(5 * len(algos), 4), squeeze=False)
+        n_seeds: dict[str, list[int]] = {}
+        threshold = runs_threshold(groups, env_id)
         for ax, algo in zip(axes[0], algos, strict=True):
             for critic in CRITICS:
                 runs = groups.get((env_id, algo, critic))
                 if runs:
                     t, values = stack_curves(runs)
-                    _band(ax, t, values, critic, seed)
-            ax.axhline(runs_threshold(groups, env_id), color="k", lw=0.8, ls=":")
+                    n_seeds.setdefault(critic, []).append(_band(ax, t, values, critic, seed))
+            ax.axhline(threshold, color="k", lw=0.8, ls=":")
             ax.set_title(f"{env_id} — {algo.upper()}")
             ax.set_xlabel("timesteps")
             ax.set_ylabel("evaluation return (deterministic)")
-            ax.legend(fontsize=8)
-        fig.tight_layout()
         path = Path(out_dir) / f"curves_{env_id.replace('/', '-')}.png"
-        fig.savefig(path, dpi=110)
-        plt.close(fig)
+        _finish(fig, path, n_seeds, threshold)
         paths.append(path)
     return paths
 
@@ -179,13 +270,22 @@ def runs_threshold(groups: dict[Key, list[dict[str, Any]]], env_id: str) -> floa
 
 def plot_critic_accuracy(results: list[dict[str, Any]], path: str | Path, seed: int = 0) -> Path:
     """``critic_accuracy.png``: critic RMSE vs Monte Carlo returns over training."""
-    plt = _plt()
+    plt = pyplot()
+    from matplotlib.ticker import LogFormatter
+
+    class PlainLogFormatter(LogFormatter):
+        """matplotlib's choice of labelled log ticks, written 0.4 and 30, not 4e-01 and 3x10^1."""
+
+        def __call__(self, x: float, pos: int | None = None) -> str:
+            return f"{x:g}" if super().__call__(x, pos) else ""
+
     groups = group_runs(results)
     envs = sorted({k[0] for k in groups})
     algos = sorted({k[1] for k in groups})
     fig, axes = plt.subplots(
-        len(envs), len(algos), figsize=(4.5 * len(algos), 3 * len(envs)), squeeze=False
+        len(envs), len(algos), figsize=(4.5 * len(algos), 3.2 * len(envs)), squeeze=False
     )
+    n_seeds: dict[str, list[int]] = {}
     for i, env_id in enumerate(envs):
         for j, algo in enumerate(algos):
             ax = axes[i, j]
@@ -193,15 +293,14 @@ def plot_critic_accuracy(results: list[dict[str, Any]], path: str | Path, seed: 
                 runs = groups.get((env_id, algo, critic))
                 if runs:
                     t, values = stack_curves(runs, "critic_accuracy", "rmse")
-                    _band(ax, t, values, critic, seed)
+                    n_seeds.setdefault(critic, []).append(_band(ax, t, values, critic, seed))
             ax.set_yscale("log")
+            ax.yaxis.set_major_formatter(PlainLogFormatter())
+            ax.yaxis.set_minor_formatter(PlainLogFormatter(labelOnlyBase=False))
             ax.set_title(f"{env_id} — {algo.upper()}", fontsize=9)
             ax.set_xlabel("timesteps")
             ax.set_ylabel("critic RMSE vs MC")
-            ax.legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    _finish(fig, Path(path), n_seeds)
     return Path(path)
 
 

@@ -7,8 +7,8 @@ with ``callback=GPValueCallback()``, or with SB3's ``"MlpPolicy"``, and writes o
 * evaluation curve (:mod:`~sb3_geogp.comparison.evaluation`): mean undiscounted return of
   the deterministic policy over ``n_eval_episodes`` episodes of a separate evaluation
   environment at every checkpoint;
-* final return (the last evaluation), steps to the environment's threshold
-  (:data:`~sb3_geogp.comparison.hyperparams.THRESHOLDS`);
+* final return (the last evaluation), steps to the run's threshold (:attr:`RunSpec.threshold
+  <sb3_geogp.comparison.specs.RunSpec>`);
 * wall clock (and CPU time of the process) of ``learn`` without the measurements made
   inside it (``train_seconds``, ``train_cpu_seconds``), and for GP critics the seconds
   spent in the critic: ``GPValueCallback``'s rollout-end work (target assembly, logging and
@@ -18,7 +18,9 @@ with ``callback=GPValueCallback()``, or with SB3's ``"MlpPolicy"``, and writes o
 * critic accuracy at checkpoints against Monte Carlo returns (:class:`~sb3_geogp.comparison.
   evaluation.ProbeStates`);
 * provenance: git commit, engine hash and package versions
-  (:func:`~sb3_geogp.toolbox.provenance.provenance`).
+  (:func:`~sb3_geogp.toolbox.provenance.provenance`);
+* the distinct warnings raised during the run (``"Category: message"``), caught so that a
+  sweep can show each once instead of every worker printing it into the progress bar.
 """
 
 from __future__ import annotations
@@ -38,6 +40,7 @@ import stable_baselines3
 import torch as th
 from stable_baselines3.common.callbacks import BaseCallback, CallbackList
 from stable_baselines3.common.env_util import make_vec_env
+from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
 
 import sb3_geogp.envs  # noqa: F401  (registers the package's environments with gymnasium)
 from sb3_geogp.comparison.evaluation import (
@@ -46,16 +49,7 @@ from sb3_geogp.comparison.evaluation import (
     ProbeStates,
     mc_horizon,
 )
-from sb3_geogp.comparison.hyperparams import (
-    ALGOS,
-    CRITICS,
-    DEVIATIONS,
-    THRESHOLDS,
-    ZOO_HYPERPARAMS,
-    ZOO_SOURCE,
-    algo_kwargs,
-    hyperparams,
-)
+from sb3_geogp.comparison.hyperparams import ALGOS, CRITICS, DEVIATIONS, algo_kwargs
 from sb3_geogp.comparison.measurement import ForwardTimer, MeasureCallback, TimedGPValueCallback
 from sb3_geogp.comparison.specs import RunSpec
 from sb3_geogp.policies import GPActorCriticPolicy
@@ -107,44 +101,57 @@ def run_one(spec: RunSpec, out_dir: str | Path) -> dict[str, Any]:
     threads = th.get_num_threads()
     th.set_num_threads(1)  # small networks and a small GP: one thread is fastest
     try:
-        return _run_one(spec, out_dir)
+        with warnings.catch_warnings(record=True) as caught:
+            # The zoo's PPO settings for MountainCarContinuous-v0 (batch_size 256 > n_steps 8)
+            # make SB3 warn about a truncated mini-batch at every construction; expected here.
+            warnings.filterwarnings("ignore", message=".*mini-batch size.*", category=UserWarning)
+            result = _train_and_measure(spec)
     finally:
         th.set_num_threads(threads)
+    result["warnings"] = list(dict.fromkeys(f"{w.category.__name__}: {w.message}" for w in caught))
+    write_json_atomic(result_path(out_dir, spec), result)
+    return result
 
 
-def _run_one(spec: RunSpec, out_dir: str | Path) -> dict[str, Any]:
-    with warnings.catch_warnings():
-        # The zoo's PPO settings for MountainCarContinuous-v0 (batch_size 256 > n_steps 8)
-        # make SB3 warn about a truncated mini-batch at every construction; expected here.
-        warnings.filterwarnings("ignore", message=".*mini-batch size.*", category=UserWarning)
-        return _train_and_measure(spec, out_dir)
+def build_model(spec: RunSpec) -> OnPolicyAlgorithm:
+    """The model of ``spec`` on its training environments, built as a user would build it.
 
-
-def _train_and_measure(spec: RunSpec, out_dir: str | Path) -> dict[str, Any]:
+    SB3's ``"MlpPolicy"`` for the ``mlp`` critic, else :class:`~sb3_geogp.GPActorCriticPolicy`
+    with the spec's GP options and without ``net_arch``'s ``vf`` layers (see
+    :data:`~sb3_geogp.comparison.hyperparams.DEVIATIONS`). Close ``model.get_env()`` when done.
+    """
     if spec.critic not in CRITICS:
         raise ValueError(f"critic must be one of {CRITICS}, got {spec.critic!r}")
-    n_envs, kwargs, policy_kwargs = algo_kwargs(spec.algo, spec.env_id)
+    n_envs, kwargs, policy_kwargs = algo_kwargs(spec.algo, spec.hyperparams)
     env = make_vec_env(spec.env_id, n_envs=n_envs, seed=spec.seed)
-    eval_envs = [gym.make(spec.env_id) for _ in range(spec.n_eval_episodes)]
-    probes = ProbeStates.build(spec.env_id, spec.n_probe_states)
-    gp_callback: TimedGPValueCallback | None = None
-    value_timer: ForwardTimer | None = None
     if spec.critic == "mlp":
-        model = ALGOS[spec.algo](
+        return ALGOS[spec.algo](
             "MlpPolicy", env, seed=spec.seed, policy_kwargs=policy_kwargs, device="cpu", **kwargs
         )
-    else:
-        policy_kwargs["gp_kwargs"] = dict(kernel=spec.critic, **dict(spec.gp_kwargs))
-        model = ALGOS[spec.algo](
-            GPActorCriticPolicy,
-            env,
-            seed=spec.seed,
-            policy_kwargs=policy_kwargs,
-            device="cpu",
-            **kwargs,
-        )
+    net_arch = policy_kwargs.get("net_arch")
+    if isinstance(net_arch, dict):
+        policy_kwargs["net_arch"] = {k: v for k, v in net_arch.items() if k != "vf"}
+    policy_kwargs["gp_kwargs"] = dict(kernel=spec.critic, **dict(spec.gp_kwargs))
+    return ALGOS[spec.algo](
+        GPActorCriticPolicy,
+        env,
+        seed=spec.seed,
+        policy_kwargs=policy_kwargs,
+        device="cpu",
+        **kwargs,
+    )
+
+
+def _train_and_measure(spec: RunSpec) -> dict[str, Any]:
+    eval_envs = [gym.make(spec.env_id) for _ in range(spec.n_eval_episodes)]
+    probes = ProbeStates.build(spec.env_id, spec.n_probe_states)
+    model = build_model(spec)  # last: it seeds the global random streams training uses
+    env = model.get_env()
+    assert env is not None
+    gp_callback: TimedGPValueCallback | None = None
+    value_timer: ForwardTimer | None = None
+    if isinstance(model.policy, GPActorCriticPolicy):
         gp_callback = TimedGPValueCallback()
-        assert isinstance(model.policy, GPActorCriticPolicy)
         value_timer = ForwardTimer(model.policy.value_net)
     checkpoints = MeasureCallback(spec, eval_envs, probes, value_timer)
     callbacks: list[BaseCallback] = [checkpoints] if gp_callback is None else [gp_callback]
@@ -162,7 +169,7 @@ def _train_and_measure(spec: RunSpec, out_dir: str | Path) -> dict[str, Any]:
 
     timesteps = np.array(checkpoints.eval_timesteps, dtype=np.float64)
     mean_curve = np.array([np.mean(r) for r in checkpoints.eval_returns])
-    threshold = THRESHOLDS[spec.env_id]
+    threshold = spec.threshold
     critic_seconds: dict[str, float] | None = None
     critic_share: float | None = None
     if gp_callback is not None and value_timer is not None:
@@ -177,8 +184,8 @@ def _train_and_measure(spec: RunSpec, out_dir: str | Path) -> dict[str, Any]:
         run_id=spec.run_id,
         spec=spec.as_dict(),
         hyperparams=dict(
-            source=ZOO_SOURCE if spec.env_id in ZOO_HYPERPARAMS[spec.algo] else "ours",
-            values=hyperparams(spec.algo, spec.env_id),
+            source=spec.hyperparams_source,
+            values=spec.hyperparams,
             deviations=list(DEVIATIONS),
         ),
         eval=dict(
@@ -218,7 +225,6 @@ def _train_and_measure(spec: RunSpec, out_dir: str | Path) -> dict[str, Any]:
         provenance=provenance(stable_baselines3, gym),
         finished_at=time.strftime("%Y-%m-%dT%H:%M:%S%z"),
     )
-    write_json_atomic(result_path(out_dir, spec), result)
     return result
 
 

@@ -12,8 +12,10 @@ from sb3_geogp.comparison.hyperparams import (
     CRITICS,
     ENVS,
     GP_KWARGS,
-    TIMESTEPS,
+    HyperparamsFile,
     algo_kwargs,
+    hyperparams,
+    threshold,
 )
 
 
@@ -42,6 +44,13 @@ class RunSpec:
         Monte Carlo rollouts of the stochastic policy per probe state.
     gp_kwargs : tuple of (key, value)
         Options of the GP critic (ignored for ``mlp``), as sorted items.
+    hyperparams : dict
+        The algorithm's hyperparameters, an entry in rl-baselines3-zoo's format
+        (:func:`~sb3_geogp.comparison.hyperparams.algo_kwargs`).
+    hyperparams_source : str
+        Where they come from (:class:`~sb3_geogp.comparison.hyperparams.Hyperparams`).
+    threshold : float
+        Mean evaluation return that counts as solved (steps to threshold).
     """
 
     algo: str
@@ -57,17 +66,27 @@ class RunSpec:
     gp_kwargs: tuple[tuple[str, Any], ...] = field(
         default_factory=lambda: tuple(sorted(GP_KWARGS.items()))
     )
+    hyperparams: dict[str, Any] = field(kw_only=True, hash=False)
+    hyperparams_source: str = field(kw_only=True)
+    threshold: float = field(kw_only=True)
 
     @property
     def run_id(self) -> str:
-        """File-name stem, e.g. ``ppo__geodesic__sb3_geogp-WallMaze-v0__s3``."""
-        env = self.env_id.replace("/", "-")
+        """File-name stem, e.g. ``ppo__geodesic__sb3_geogp-WallMaze-v0__s3`` (without the
+        module of a ``"module:EnvId"`` id)."""
+        env = self.env_id.rpartition(":")[2].replace("/", "-")
         return f"{self.algo}__{self.critic}__{env}__s{self.seed}"
 
     def as_dict(self) -> dict[str, Any]:
-        """JSON-compatible view (``gp_kwargs`` as a dict)."""
+        """JSON-compatible view of the run settings (``gp_kwargs`` as a dict).
+
+        Without ``hyperparams``, ``hyperparams_source`` and ``threshold``: a result file
+        records them beside the spec (``hyperparams``, ``threshold``).
+        """
         d = dataclasses.asdict(self)
         d["gp_kwargs"] = dict(self.gp_kwargs)
+        for recorded_beside in ("hyperparams", "hyperparams_source", "threshold"):
+            del d[recorded_beside]
         return d
 
 
@@ -78,9 +97,19 @@ class SweepConfig:
     Attributes
     ----------
     algos, critics, envs : tuple of str
+        ``envs``: gymnasium ids, ``"module:EnvId"`` to import the module that registers one.
     seeds : tuple of int
     timesteps_scale : float
-        Multiplies :data:`TIMESTEPS`; each run gets at least two rollouts.
+        Multiplies the budgets (:data:`~sb3_geogp.comparison.hyperparams.TIMESTEPS`, or a
+        file's ``n_timesteps``); each run gets at least two rollouts.
+    timesteps : int, optional
+        Budget of every run instead (``timesteps_scale`` then does not apply).
+    thresholds : tuple of (env id, float)
+        Steps-to-threshold levels replacing the default ones
+        (:func:`~sb3_geogp.comparison.hyperparams.threshold`).
+    hyperparams_files : tuple of (algo, HyperparamsFile)
+        The hyperparameters of these algorithms come from these files instead of the
+        built-in tables.
     n_checkpoints, n_eval_episodes, critic_every, n_probe_states, n_mc_rollouts : int
         As :class:`RunSpec`.
     gp_options : tuple of (key, value)
@@ -99,6 +128,9 @@ class SweepConfig:
     n_probe_states: int = 32
     n_mc_rollouts: int = 4
     gp_options: tuple[tuple[str, Any], ...] = ()
+    timesteps: int | None = None
+    thresholds: tuple[tuple[str, float], ...] = ()
+    hyperparams_files: tuple[tuple[str, HyperparamsFile], ...] = ()
 
     @classmethod
     def quick(cls, seeds: Sequence[int] = (0, 1)) -> SweepConfig:
@@ -114,14 +146,27 @@ class SweepConfig:
         )
 
     def specs(self) -> list[RunSpec]:
-        """One :class:`RunSpec` per run, environments outermost, seeds innermost."""
+        """One :class:`RunSpec` per run, environments outermost, seeds innermost.
+
+        Raises
+        ------
+        ValueError
+            If an environment has no hyperparameters, a bad one, no budget or no threshold.
+        """
         gp_kwargs = tuple(sorted({**GP_KWARGS, **dict(self.gp_options)}.items()))
+        files = dict(self.hyperparams_files)
+        levels = dict(self.thresholds)
         out = []
         for env_id in self.envs:
+            level = threshold(env_id, levels.get(env_id))
             for algo in self.algos:
-                n_envs, kwargs, _ = algo_kwargs(algo, env_id)
+                hp = hyperparams(algo, env_id, files.get(algo))
+                try:
+                    n_envs, kwargs, _ = algo_kwargs(algo, hp.values)
+                except ValueError as err:
+                    raise ValueError(f"{hp.source}, {algo} on {env_id}: {err}") from None
                 rollout = n_envs * int(kwargs.get("n_steps", 2048 if algo == "ppo" else 5))
-                steps = max(2 * rollout, round(TIMESTEPS[env_id] * self.timesteps_scale))
+                steps = max(2 * rollout, self._budget(algo, env_id, hp.n_timesteps))
                 for critic in self.critics:
                     for seed in self.seeds:
                         out.append(
@@ -137,6 +182,19 @@ class SweepConfig:
                                 n_probe_states=self.n_probe_states,
                                 n_mc_rollouts=self.n_mc_rollouts,
                                 gp_kwargs=gp_kwargs,
+                                hyperparams=hp.values,
+                                hyperparams_source=hp.source,
+                                threshold=level,
                             )
                         )
         return out
+
+    def _budget(self, algo: str, env_id: str, n_timesteps: float | None) -> int:
+        if self.timesteps is not None:
+            return self.timesteps
+        if n_timesteps is None:
+            raise ValueError(
+                f"no budget for {algo} on {env_id}: pass --timesteps N, or set n_timesteps in "
+                "its --hyperparams file"
+            )
+        return round(n_timesteps * self.timesteps_scale)

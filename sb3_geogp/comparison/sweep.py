@@ -3,7 +3,8 @@
 :func:`run_sweep` skips every run whose result file exists, so an interrupted sweep resumes
 where it stopped and never redoes a finished run. Runs execute in parallel processes
 (:class:`concurrent.futures.ProcessPoolExecutor`) or, with ``use_ray=True``, as Ray tasks
-wrapping the same :func:`~sb3_geogp.comparison.run.run_one`.
+wrapping the same :func:`~sb3_geogp.comparison.run.run_one`. Each distinct warning of the runs
+is shown once per sweep, above the progress bar.
 """
 
 from __future__ import annotations
@@ -12,9 +13,12 @@ import concurrent.futures as cf
 import dataclasses
 import json
 import multiprocessing as mp
+import sys
 from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import Any
+
+from tqdm.auto import tqdm
 
 from sb3_geogp.comparison.hyperparams import (
     DEVIATIONS,
@@ -22,7 +26,6 @@ from sb3_geogp.comparison.hyperparams import (
     THRESHOLDS,
     TIMESTEPS,
     ZOO_SOURCE,
-    hyperparams,
 )
 from sb3_geogp.comparison.run import SCHEMA, load_result, result_path, run_one, write_json_atomic
 from sb3_geogp.comparison.specs import RunSpec, SweepConfig
@@ -35,23 +38,25 @@ def pending_runs(specs: Iterable[RunSpec], out_dir: str | Path) -> list[RunSpec]
     ------
     ValueError
         If a finished result was made with different settings than its spec asks for (a
-        different budget, say) or with other hyperparameters: pick another ``out_dir`` rather
-        than mix sweeps.
+        different budget, say), with other hyperparameters or another threshold: pick another
+        ``out_dir`` rather than mix sweeps.
     """
     todo = []
     for spec in specs:
         done = load_result(result_path(out_dir, spec))
         if done is None:
             todo.append(spec)
-        elif done.get("spec") != _jsonable(spec.as_dict()) or done.get("hyperparams", {}).get(
-            "values"
-        ) != _jsonable(hyperparams(spec.algo, spec.env_id)):
-            raise ValueError(
-                f"{result_path(out_dir, spec)} was made with other settings (spec "
-                f"{done.get('spec')}, hyperparameters {done.get('hyperparams', {}).get('values')})"
-                f" than requested ({spec.as_dict()}, {hyperparams(spec.algo, spec.env_id)}); "
-                "use another --out"
-            )
+            continue
+        for what, made, asked in (
+            ("settings", done.get("spec"), spec.as_dict()),
+            ("hyperparameters", done.get("hyperparams", {}).get("values"), spec.hyperparams),
+            ("threshold", done.get("threshold"), spec.threshold),
+        ):
+            if made != _jsonable(asked):
+                raise ValueError(
+                    f"{result_path(out_dir, spec)} was made with other {what} ({made}) than "
+                    f"requested ({asked}); use another --out"
+                )
     return todo
 
 
@@ -98,9 +103,15 @@ def run_sweep(
     write_json_atomic(out / "sweep.json", _sweep_record(config))
     bar = _progress_bar(len(specs), len(specs) - len(todo), progress)
     executed: list[str] = []
+    shown: set[str] = set()
 
     def finished(spec: RunSpec, result: dict[str, Any]) -> None:
         executed.append(spec.run_id)
+        for text in result["warnings"]:
+            if text not in shown:
+                shown.add(text)
+                # tqdm.write prints above a running bar instead of through it.
+                tqdm.write(f"{text} (first in {spec.run_id}; shown once)", file=sys.stderr)
         if bar is not None:
             bar.set_postfix_str(f"{spec.run_id}: {result['final_return']:.1f}")
             bar.update(1)
@@ -160,6 +171,4 @@ def _sweep_record(config: SweepConfig) -> dict[str, Any]:
 def _progress_bar(total: int, done: int, enabled: bool) -> Any:
     if not enabled:
         return None
-    from tqdm.auto import tqdm
-
     return tqdm(total=total, initial=done, desc="runs", unit="run", dynamic_ncols=True)

@@ -1,38 +1,70 @@
-"""The ``sb3-geogp compare`` options: sweep settings and GP options checked before any run."""
+"""The ``sb3-geogp compare`` options: sweep settings, GP options, an environment and
+hyperparameters of the user's own, and every mistake stopped before any run."""
 
 from __future__ import annotations
 
 import argparse
+import json
+import sys
+from pathlib import Path
 
 import pytest
 
-from sb3_geogp.comparison.command import add_arguments, config_from_args
+from sb3_geogp.cli import main
+from sb3_geogp.comparison.command import UsageError, add_arguments, config_from_args
 from sb3_geogp.comparison.hyperparams import GP_KWARGS
+from sb3_geogp.comparison.report import write_report
 from sb3_geogp.comparison.specs import SweepConfig
+
+MODULE = "tests.comparison.toy_env"
+TOY = f"{MODULE}:ToyEnv-v0"  # no reward_threshold
+WARNS = f"{MODULE}:ToyEnvWarns-v0"  # reward_threshold -2, warns when made
+#: rl-baselines3-zoo's ppo.yml format, policy_kwargs as the zoo writes it (a string).
+PPO_YML = """\
+ToyEnv-v0: &toy
+  n_envs: 2
+  n_timesteps: !!float 256
+  policy: 'MlpPolicy'
+  n_steps: 16
+  batch_size: 32
+  gamma: 0.9
+  learning_rate: lin_1e-3
+  clip_range: 0.2
+  normalize: true
+  policy_kwargs: "dict(ortho_init=False, activation_fn=nn.ReLU,
+                       net_arch=dict(pi=[16], vf=[16]))"
+ToyEnvWarns-v0: *toy
+"""
+
+
+@pytest.fixture(autouse=True)
+def _tests_importable(monkeypatch: pytest.MonkeyPatch) -> None:
+    """``tests.comparison.toy_env`` importable however pytest was started (spawned workers
+    inherit ``sys.path``)."""
+    monkeypatch.syspath_prepend(str(Path(__file__).parents[2]))
+
+
+def _parse(*argv: str) -> argparse.Namespace:
+    return add_arguments(argparse.ArgumentParser()).parse_args(argv)
 
 
 def test_cli_arguments() -> None:
-    parser = add_arguments(argparse.ArgumentParser())
-    args = parser.parse_args(["--quick", "--seeds", "3", "--timesteps-scale", "0.5"])
-    config = config_from_args(args)
+    config = config_from_args(_parse("--quick", "--seeds", "3", "--timesteps-scale", "0.5"))
     assert config.seeds == (0, 1, 2) and config.timesteps_scale == 0.5
     assert config.n_eval_episodes == SweepConfig.quick().n_eval_episodes
-    args = parser.parse_args(["--envs", "CartPole-v1", "--algos", "ppo", "--critics", "mlp"])
-    config = config_from_args(args)
+    config = config_from_args(_parse("--envs", "CartPole-v1", "--algos", "ppo", "--critics", "mlp"))
     assert config.envs == ("CartPole-v1",) and config.seeds == (0, 1, 2, 3, 4)
     assert len(config.specs()) == 5
 
 
 def test_gp_options_reach_every_gp_run_and_bad_ones_fail_early() -> None:
-    parser = add_arguments(argparse.ArgumentParser())
-    args = parser.parse_args(["--algos", "a2c", "--gp-option", "forgetting=0.9"])
-    specs = config_from_args(args).specs()
+    specs = config_from_args(_parse("--algos", "a2c", "--gp-option", "forgetting=0.9")).specs()
     for spec in specs:
         assert dict(spec.gp_kwargs) == {**GP_KWARGS, "forgetting": 0.9}
     default = SweepConfig(algos=("a2c",)).specs()
     assert [s.run_id for s in specs] == [s.run_id for s in default]
     assert all(dict(s.gp_kwargs) == GP_KWARGS for s in default)
-    args = parser.parse_args(["--gp-option", "dtype=float64", "--gp-option", "forgetting=0.99"])
+    args = _parse("--gp-option", "dtype=float64", "--gp-option", "forgetting=0.99")
     assert config_from_args(args).gp_options == (("dtype", "float64"), ("forgetting", 0.99))
     for bad, message in (
         ("forgetting=1.5", "forgetting"),  # rejected by SparseOnlineGP
@@ -42,7 +74,129 @@ def test_gp_options_reach_every_gp_run_and_bad_ones_fail_early() -> None:
         ("dtype=float32", "float32"),  # the RBF critic is not safe in float32
         ("device='cpu'", "device"),  # the policy sets it
     ):
-        with pytest.raises(SystemExit, match=message):
-            config_from_args(parser.parse_args(["--gp-option", bad]))
+        with pytest.raises(UsageError, match=message):
+            config_from_args(_parse("--gp-option", bad))
     with pytest.raises(SystemExit):  # argparse: not KEY=VALUE
-        parser.parse_args(["--gp-option", "forgetting"])
+        _parse("--gp-option", "forgetting")
+
+
+def test_budget_and_threshold_of_an_own_environment(tmp_path: Path) -> None:
+    yml = tmp_path / "ppo.yml"
+    yml.write_text(PPO_YML)
+    own = ("--envs", WARNS, "--hyperparams", f"ppo={yml}", "--critics", "mlp")
+    specs = config_from_args(_parse(*own)).specs()
+    # --algos defaults to the file's; budget: its n_timesteps; threshold: reward_threshold.
+    assert [s.algo for s in specs] == ["ppo"] * 5
+    assert {(s.total_timesteps, s.threshold, s.hyperparams["n_steps"]) for s in specs} == {
+        (256, -2.0, 16)
+    }
+    assert specs[0].run_id == "ppo__mlp__ToyEnvWarns-v0__s0"
+    for extra, budget in (
+        (("--timesteps", "96"), 96),
+        (("--timesteps-scale", "0.5"), 128),
+        (("--quick",), 64),  # 5 % of 256, raised to two rollouts of 2 x 16 steps
+        (("--quick", "--timesteps", "96"), 96),
+    ):
+        assert config_from_args(_parse(*own, *extra)).specs()[0].total_timesteps == budget
+    # One threshold per environment; the file's entry for a built-in environment, with the
+    # built-in budget where the entry has none.
+    yml.write_text(PPO_YML + "CartPole-v1:\n  n_steps: 64\n")
+    both = ("--envs", WARNS, "CartPole-v1", "--hyperparams", f"ppo={yml}", "--critics", "mlp")
+    specs = config_from_args(_parse(*both, "--threshold", "-3", "400", "--seeds", "1")).specs()
+    assert [(s.env_id, s.threshold, s.total_timesteps, s.hyperparams) for s in specs] == [
+        (WARNS, -3.0, 256, specs[0].hyperparams),
+        ("CartPole-v1", 400.0, 30_000, dict(n_steps=64)),
+    ]
+    # A2C has no file, and no built-in entry for the environment of the test.
+    with pytest.raises(UsageError, match=f"no built-in a2c hyperparameters for {WARNS}"):
+        config_from_args(_parse(*both, "--algos", "ppo", "a2c"))
+
+
+def test_compare_on_an_environment_only_the_test_knows(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The real command on ``module:EnvId`` in 2 spawned workers, with a zoo yaml file, a
+    threshold of its own, and a warning that every run raises shown once."""
+    from tests.comparison.toy_env import WARNING
+
+    yml = tmp_path / "ppo.yml"
+    yml.write_text(PPO_YML)
+    out = tmp_path / "out"
+    argv = ["compare", "--envs", WARNS, "--hyperparams", f"ppo={yml}", "--threshold", "-3"]
+    argv += ["--critics", "mlp", "geodesic", "--seeds", "1", "--workers", "2", "--out", str(out)]
+    assert main([*argv, "--no-progress", "--no-plots"]) == 0
+    assert capsys.readouterr().err.count(WARNING) == 1
+    runs = sorted((out / "runs").glob("*.json"))
+    assert [p.name for p in runs] == [
+        "ppo__geodesic__ToyEnvWarns-v0__s0.json",
+        "ppo__mlp__ToyEnvWarns-v0__s0.json",
+    ]
+    for path in runs:
+        r = json.loads(path.read_text())
+        assert r["spec"]["env_id"] == WARNS and r["num_timesteps"] == 256  # n_timesteps
+        assert r["hyperparams"]["source"] == str(yml)
+        assert r["hyperparams"]["values"]["n_steps"] == 16
+        assert r["critic_accuracy"]["gamma"] == 0.9  # the file's gamma trained the model
+        assert r["threshold"] == -3.0 and f"UserWarning: {WARNING}" in r["warnings"]
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setitem(sys.modules, "matplotlib", None)  # the tables only, in a blink
+        write_report(out)
+    summary = json.loads((out / "report" / "summary.json").read_text())
+    assert [row["threshold"] for row in summary] == [-3.0, -3.0]
+    assert "≥ -3" in (out / "report" / "summary.md").read_text()
+    # Another threshold into the same folder would mix two sweeps.
+    argv[argv.index("-3")] = "-4"
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "was made with other threshold (-3.0) than requested" in err
+
+
+def test_mistakes_end_in_one_line_and_status_2_before_any_run(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    good = tmp_path / "ppo.yml"
+    good.write_text(PPO_YML)
+
+    def yml(name: str, text: str) -> str:
+        (tmp_path / name).write_text(text)
+        return f"ppo={tmp_path / name}"
+
+    own = ("--envs", TOY, "--threshold", "-3")
+    for argv, message in (
+        (("--envs", "NoSuchEnv-v0"), "unknown environment 'NoSuchEnv-v0'"),
+        (
+            ("--envs", "no_such_module:Foo-v0"),
+            "cannot import its module (No module named 'no_such_module')",
+        ),
+        (("--envs", f"{MODULE}:ToyEnvEndless-v0"), "has no time limit: register it with"),
+        (own, f"no built-in ppo hyperparameters for {TOY}"),
+        ((*own, "--hyperparams", "ppo.yml"), "--hyperparams takes ALGO=FILE"),
+        ((*own, "--hyperparams", f"ppo={tmp_path / 'missing.yml'}"), "cannot read"),
+        ((*own, "--hyperparams", yml("bad.yml", "ToyEnv-v0: [\n")), "is not valid YAML"),
+        ((*own, "--hyperparams", yml("other.yml", "Other-v0: {}\n")), "has no entry"),
+        ((*own, "--hyperparams", yml("k.yml", "ToyEnv-v0: {n_step: 8}\n")), "key 'n_step'"),
+        ((*own, "--hyperparams", yml("w.yml", "ToyEnv-v0: {frame_stack: 4}\n")), "frame_stack"),
+        ((*own, "--hyperparams", yml("t.yml", "ToyEnv-v0: {}\n")), "no budget for ppo on"),
+        (
+            (
+                *own,
+                "--hyperparams",
+                yml("p.yml", "ToyEnv-v0: {n_timesteps: 64, policy_kwargs: 'dict(a=1)'}\n"),
+            ),
+            "the mlp critic on tests.comparison.toy_env:ToyEnv-v0 fails to build: TypeError",
+        ),
+        (("--envs", TOY, "--hyperparams", f"ppo={good}"), "pass --threshold X"),
+        (("--threshold", "1", "2"), "--threshold takes one value per environment (7:"),
+        (("--algos", "a2c", "--hyperparams", f"ppo={good}"), "ppo is not among --algos"),
+        (("--timesteps", "0"), "--timesteps must be at least 1, got 0"),
+        (("--seeds", "0"), "--seeds must be at least 1, got 0"),
+        (("--workers", "0"), "--workers must be at least 1, got 0"),
+        (("--timesteps", "9", "--timesteps-scale", "2"), "drop --timesteps-scale"),
+        (("--gp-option", "forgetting=1.5"), "--gp-option: the GP critic rejects"),
+    ):
+        out = tmp_path / "out"
+        assert main(["compare", "--out", str(out), *argv]) == 2, argv
+        err = capsys.readouterr().err
+        assert err.startswith("sb3-geogp compare: error: ") and err.count("\n") == 1, err
+        assert message in err, (message, err)
+        assert not out.exists()

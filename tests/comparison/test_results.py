@@ -1,13 +1,21 @@
-"""Aggregation of a critic-comparison sweep, on synthetic result files with known answers."""
+"""Aggregation of a critic-comparison sweep and its report, on synthetic result files with known
+answers."""
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
 
-from sb3_geogp.comparison.report import comparisons_markdown
+from sb3_geogp.comparison.report import (
+    BAND_CAPTION,
+    comparisons_markdown,
+    plot_critic_accuracy,
+    plot_learning_curves,
+    summary_markdown,
+)
 from sb3_geogp.comparison.results import (
     METRICS,
     MIN_SEEDS_FOR_VERDICT,
@@ -16,6 +24,7 @@ from sb3_geogp.comparison.results import (
     summary_rows,
     verdict,
 )
+from sb3_geogp.toolbox.tables import MIN_SAMPLES_FOR_INTERVAL, NO_INTERVAL, estimate_cell
 
 
 def _result(critic: str, seed: int, final: float, rmse: float) -> dict[str, Any]:
@@ -120,3 +129,71 @@ def test_comparison_against_a_baseline_sweep() -> None:
     assert final["geodesic"]["fw_level"] == pytest.approx(1 - 0.05 / 3)
     table = comparisons_markdown(diffs)
     assert "geodesic − baseline geodesic" in table and "rbf − mlp" not in table
+
+
+def _percentile_bootstrap_of_mean(x: np.ndarray, seed: int = 0) -> tuple[float, float]:
+    """95 % percentile-bootstrap interval of the mean, written out from its definition."""
+    rng = np.random.default_rng(seed)
+    means = np.array([x[rng.integers(0, len(x), len(x))].mean() for _ in range(10_000)])
+    low, high = np.percentile(means, [2.5, 97.5])
+    return float(low), float(high)
+
+
+def test_estimate_cell_gives_no_interval_below_five_samples() -> None:
+    assert MIN_SAMPLES_FOR_INTERVAL == 5 == MIN_SEEDS_FOR_VERDICT  # one rule for both
+    assert estimate_cell("1.5", "[1, 2]", 4) == "1.5 (n < 5: no interval)"
+    assert estimate_cell("1.5", "± 0.5", 5) == "1.5 ± 0.5"
+
+
+def test_summary_table_interval_only_from_five_seeds() -> None:
+    finals = np.array([100.0, 130.0, 170.0, 220.0, 300.0])
+    results = [_result("geodesic", s, final=f, rmse=20.0) for s, f in enumerate(finals)]
+    results += [_result("mlp", s, final=50.0 + s, rmse=20.0) for s in range(2)]
+    table = summary_markdown(summary_rows(results, seed=3))
+    mlp = next(line for line in table.splitlines() if "| mlp |" in line)
+    geo = next(line for line in table.splitlines() if "| geodesic |" in line)
+    assert f"| 50.5 ({NO_INTERVAL}) |" in mlp and "[" not in mlp
+    low, high = _percentile_bootstrap_of_mean(finals, seed=3)
+    assert f"| {finals.mean():.1f} [{low:.1f}, {high:.1f}] |" in geo
+    assert "With fewer than 5 seeds: the mean alone" in table.splitlines()[0]
+    five = summary_markdown(summary_rows([r for r in results if r["spec"]["critic"] != "mlp"]))
+    assert NO_INTERVAL not in five and "fewer than" not in five
+
+
+def test_comparison_table_gives_neither_interval_nor_verdict_below_five_seeds() -> None:
+    two = [r for r in _results() if r["spec"]["seed"] < 2]
+    table = comparisons_markdown(comparisons(two))
+    cells = [line for line in table.splitlines() if line.startswith("| `E-v0`")]
+    assert len(cells) == len(METRICS)
+    for line in cells:
+        assert line.count(NO_INTERVAL) == len(PAIRS)
+        assert "[" not in line and "too few seeds" not in line
+    assert "on either side: the difference alone, no interval and no verdict" in table
+    five = comparisons([r for r in _results() if r["spec"]["seed"] < 5], seed=4)
+    d = next(
+        d for d in five if (d["metric"], d["a"], d["b"]) == ("final_return", "geodesic", "mlp")
+    )
+    assert f"{d['diff']:.1f} [{d['low']:.1f}, {d['high']:.1f}] **better**" in comparisons_markdown(
+        [d]
+    )
+
+
+def test_figures_say_what_their_bands_are(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+    plt = pytest.importorskip("matplotlib.pyplot")
+    figures: list[Any] = []
+    monkeypatch.setattr(plt, "close", figures.append)
+    results = [r for r in _results() if r["spec"]["critic"] != "rbf" or r["spec"]["seed"] < 2]
+    plot_learning_curves(results, tmp_path)
+    plot_critic_accuracy(results, tmp_path / "critic_accuracy.png")
+    assert len(figures) == 2
+    for fig, threshold in zip(figures, ("threshold (1)", None), strict=True):
+        (legend,) = fig.legends
+        labels = [t.get_text() for t in legend.get_texts()]
+        expected = ["mlp (n = 6)", "rbf (n = 2)", "geodesic (n = 6)", "95 % CI of the mean"]
+        assert labels == [*expected, *([threshold] if threshold else [])]
+        assert [t.get_text().replace("\n", " ") for t in fig.texts] == [BAND_CAPTION]
+        (ax,) = fig.axes
+        assert len(ax.collections) == 2  # bands of the 6-seed critics, none of the 2-seed one
+    monkeypatch.undo()
+    for fig in figures:
+        plt.close(fig)

@@ -13,9 +13,9 @@ from typing import Any
 import numpy as np
 import pytest
 
-from sb3_geogp.comparison.command import main
+from sb3_geogp.cli import main
 from sb3_geogp.comparison.evaluation import mc_horizon
-from sb3_geogp.comparison.hyperparams import TIMESTEPS
+from sb3_geogp.comparison.hyperparams import TIMESTEPS, HyperparamsFile
 from sb3_geogp.comparison.report import write_report
 from sb3_geogp.comparison.results import (
     comparisons,
@@ -23,7 +23,7 @@ from sb3_geogp.comparison.results import (
     load_results,
     summary_rows,
 )
-from sb3_geogp.comparison.run import result_path, run_one
+from sb3_geogp.comparison.run import build_model, result_path, run_one
 from sb3_geogp.comparison.specs import SweepConfig
 from sb3_geogp.comparison.sweep import pending_runs, run_sweep
 
@@ -102,7 +102,7 @@ def test_tiny_sweep_end_to_end_and_resume(
     assert estimate["missing"] == [] and estimate["wall_seconds"] > 0
     bigger = dataclasses.replace(TINY, timesteps_scale=2 * TINY.timesteps_scale).specs()
     assert estimate_sweep_seconds(results, bigger)["total_seconds"] > estimate["total_seconds"]
-    argv = ["--estimate-from", str(out), "--envs", "CartPole-v1", "--algos", "ppo"]
+    argv = ["compare", "--estimate-from", str(out), "--envs", "CartPole-v1", "--algos", "ppo"]
     assert main(argv) == 0
     printed = capsys.readouterr().out
     assert "CPU hours" in printed and "ppo/mlp" in printed  # only a2c was calibrated
@@ -191,3 +191,35 @@ def test_measurements_do_not_change_training(tmp_path: Path) -> None:
     b = run_one(dataclasses.replace(spec, n_mc_rollouts=3, n_probe_states=5), tmp_path / "b")
     assert a["eval"]["returns"] == b["eval"]["returns"]
     assert a["gp_n_basis"] == b["gp_n_basis"]
+
+
+def test_gp_critics_drop_only_the_mlp_critics_layers() -> None:
+    """net_arch's vf layers are the MLP critic's network; the GP critic takes the features."""
+    entry = dict(n_steps=8, policy_kwargs="dict(net_arch=dict(pi=[16], vf=[24]))")
+    mlp, geodesic = dataclasses.replace(TINY, critics=("mlp", "geodesic"), seeds=(0,)).specs()
+    for spec in (mlp, geodesic):
+        model = build_model(dataclasses.replace(spec, hyperparams=entry))
+        extractor = model.policy.mlp_extractor
+        assert extractor.latent_dim_pi == 16
+        assert extractor.latent_dim_vf == (24 if spec.critic == "mlp" else 4)  # CartPole's obs
+        model.get_env().close()
+
+
+def test_a_warning_of_every_run_is_shown_once(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.syspath_prepend(str(Path(__file__).parents[2]))
+    from tests.comparison.toy_env import WARNING
+
+    file = HyperparamsFile("inline", {"ToyEnvWarns-v0": dict(n_envs=2, n_steps=8)})
+    config = dataclasses.replace(
+        TINY,
+        algos=("ppo",),
+        critics=("mlp",),
+        envs=("tests.comparison.toy_env:ToyEnvWarns-v0",),
+        timesteps=32,
+        hyperparams_files=(("ppo", file),),
+    )
+    assert len(run_sweep(config, tmp_path, workers=1, progress=True)) == 2
+    assert capsys.readouterr().err.count(WARNING) == 1
+    assert all(f"UserWarning: {WARNING}" in r["warnings"] for r in load_results(tmp_path))
