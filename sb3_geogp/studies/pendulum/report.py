@@ -33,7 +33,12 @@ from sb3_geogp.studies.pendulum.reproduction import (
 )
 from sb3_geogp.toolbox.provenance import provenance
 from sb3_geogp.toolbox.stats import mean_ci
-from sb3_geogp.toolbox.tables import markdown_table
+from sb3_geogp.toolbox.tables import (
+    MIN_SAMPLES_FOR_INTERVAL,
+    NO_INTERVAL,
+    estimate_cell,
+    markdown_table,
+)
 
 #: Figure files written by :func:`write_figures`.
 FIGURES = ("fig1_value_maps.png", "fig2_bv_graph.png", "fig3_mse_variance.png", "fig4_controls.png")
@@ -181,6 +186,21 @@ def summary_records(result: ReproductionResult) -> list[dict[str, Any]]:
     return out
 
 
+def _n_finite(samples: np.ndarray) -> np.ndarray:
+    """Samples per row that ``mean_ci(..., nan_policy="omit")`` uses (the finite ones)."""
+    return np.isfinite(samples).sum(axis=-1)
+
+
+def _with_note(table: str, estimate: str) -> str:
+    """``table``, and below it the rule for its cells without an interval if it has any."""
+    if NO_INTERVAL not in table:
+        return table
+    return (
+        f"{table}\n\nWith fewer than {MIN_SAMPLES_FOR_INTERVAL} seeds a cell gives {estimate} "
+        f'alone ("{NO_INTERVAL}").'
+    )
+
+
 def metric_table(
     result: ReproductionResult,
     max_basis: Sequence[int] | None = None,
@@ -189,7 +209,12 @@ def metric_table(
     metric: str = "mse",
 ) -> str:
     """Markdown table of ``metric`` (mean ± 95% CI over seeds): rows = model and setting,
-    columns = capacities (default: all), with the MLP and the TD baseline as reference rows."""
+    columns = capacities (default: all), with the MLP and the TD baseline as reference rows.
+
+    A cell from fewer than :data:`~sb3_geogp.toolbox.tables.MIN_SAMPLES_FOR_INTERVAL` seeds
+    (finite values) gives the mean alone
+    (:func:`~sb3_geogp.toolbox.tables.estimate_cell`); a note under the table then says so.
+    """
     cfg = result.config
     caps = list(max_basis or cfg.max_basis)
     rows = []
@@ -199,21 +224,23 @@ def metric_table(
             if np.all(np.isnan(vals)):
                 continue
             mean, half = mean_ci(vals, nan_policy="omit")
-            cells = [
-                f"{mean[cfg.max_basis.index(m)]:.2f} ± {half[cfg.max_basis.index(m)]:.2f}"
-                for m in caps
-            ]
+            n = _n_finite(vals)
+            cells = []
+            for m in caps:
+                i = cfg.max_basis.index(m)
+                cells.append(estimate_cell(f"{mean[i]:.2f}", f"± {half[i]:.2f}", int(n[i])))
             rows.append([model, setting, *cells])
-    mlp_mean, mlp_half = mean_ci(result.mlp_values(metric)[None], nan_policy="omit")
+    mlp_vals = result.mlp_values(metric)
+    mlp_mean, mlp_half = mean_ci(mlp_vals[None], nan_policy="omit")
     if metric in ("mse", "mse_jump", "mse_smooth"):
-        mlp = f"{mlp_mean[0]:.2f} ± {mlp_half[0]:.2f}"
+        mlp = estimate_cell(f"{mlp_mean[0]:.2f}", f"± {mlp_half[0]:.2f}", int(_n_finite(mlp_vals)))
         rows.append(["mlp (64, 64)", "—", *[mlp] * len(caps)])
         td = result.truth.summary()[
             {"mse": "td_mse", "mse_jump": "td_mse_jump", "mse_smooth": "td_mse_smooth"}[metric]
         ]
         rows.append(["TD, 800 episodes", "—", *[f"{td:.2f}"] * len(caps)])
     header = ["model", "setting", *(f"max_BV={m}" for m in caps)]
-    return markdown_table(header, rows, align="ll" + "r" * len(caps))
+    return _with_note(markdown_table(header, rows, align="ll" + "r" * len(caps)), "the mean")
 
 
 def ratio_table(
@@ -225,7 +252,10 @@ def ratio_table(
     """Markdown table of paired error ratios ``model / reference``
     (:func:`~sb3_geogp.studies.pendulum.reproduction.paired_log_ratio`).
 
-    Cells: geometric mean over seeds and its 95% interval; below 1 ``model`` is better.
+    Cells: geometric mean over seeds and its 95% interval; below 1 ``model`` is better. A
+    cell from fewer than :data:`~sb3_geogp.toolbox.tables.MIN_SAMPLES_FOR_INTERVAL` seeds with
+    a finite log ratio gives the geometric mean alone
+    (:func:`~sb3_geogp.toolbox.tables.estimate_cell`); a note under the table then says so.
     """
     caps = result.config.max_basis
     rows = []
@@ -234,12 +264,20 @@ def ratio_table(
             ratio, low, high = paired_log_ratio(result, model, reference, setting, metric)
             if np.all(np.isnan(ratio)):
                 continue
+            with np.errstate(divide="ignore", invalid="ignore"):
+                logs = np.log(
+                    result.values(model, setting, metric)
+                    / result.values(reference, setting, metric)
+                )
             cells = [
-                f"{r:.2f} [{lo:.2f}, {hi:.2f}]" for r, lo, hi in zip(ratio, low, high, strict=True)
+                estimate_cell(f"{r:.2f}", f"[{lo:.2f}, {hi:.2f}]", int(n))
+                for r, lo, hi, n in zip(ratio, low, high, _n_finite(logs), strict=True)
             ]
             rows.append([reference, setting, *cells])
     header = ["versus", "setting", *(f"max_BV={m}" for m in caps)]
-    return markdown_table(header, rows, align="ll" + "r" * len(caps))
+    return _with_note(
+        markdown_table(header, rows, align="ll" + "r" * len(caps)), "the geometric mean"
+    )
 
 
 def config_dict(result: ReproductionResult) -> dict[str, Any]:

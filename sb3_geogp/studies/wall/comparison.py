@@ -36,7 +36,12 @@ from sb3_geogp.studies.wall.rooms import TwoRooms, WalkData, goal_walks
 from sb3_geogp.toolbox.shepard import PredictionRule, predict_mean
 from sb3_geogp.toolbox.stats import mean_ci
 from sb3_geogp.toolbox.streams import fit_online
-from sb3_geogp.toolbox.tables import markdown_table
+from sb3_geogp.toolbox.tables import (
+    MIN_SAMPLES_FOR_INTERVAL,
+    NO_INTERVAL,
+    estimate_cell,
+    markdown_table,
+)
 
 #: Grid points predicted at a time (bounds the memory of the Shepard interpolation).
 PREDICT_CHUNK = 2048
@@ -333,17 +338,26 @@ def paired_table(
 
 def summary_table(result: ComparisonResult) -> str:
     """One row per model and capacity: mean ± 95% CI half-width over seeds of the errors,
-    then the means of the diagnostics (see :func:`evaluate`)."""
+    then the means of the diagnostics (see :func:`evaluate`).
+
+    With fewer than :data:`~sb3_geogp.toolbox.tables.MIN_SAMPLES_FOR_INTERVAL` seeds the error
+    cells give the mean alone (:func:`~sb3_geogp.toolbox.tables.estimate_cell`), and a note
+    under the table says so.
+    """
     rows = []
     for model in result.values:
         cell = {k: mean_ci(result.array(model, k), nan_policy="propagate") for k in METRICS}
+        n = result.array(model, "mse").shape[-1]  # seeds per capacity
         for i, m in enumerate(result.max_basis):
             mean = {k: float(v[0][i]) for k, v in cell.items()}
             rows.append(
                 [
                     model,
                     str(m),
-                    *(f"{mean[k]:.4f} ± {cell[k][1][i]:.4f}" for k in ("mse", "mse_wall")),
+                    *(
+                        estimate_cell(f"{mean[k]:.4f}", f"± {cell[k][1][i]:.4f}", n)
+                        for k in ("mse", "mse_wall")
+                    ),
                     f"{mean['n_basis']:.0f}",
                     f"{mean['wall_across_frac']:.0%} ({mean['wall_across_err_share']:.0%})",
                     f"{mean['shortcut_frac']:.2%}",
@@ -354,4 +368,10 @@ def summary_table(result: ComparisonResult) -> str:
         "model", "max_basis", "MSE", "MSE near wall", "BVs",
         "band pts w/ nearest BV across wall (share of band error)", "shortcut BV pairs", "s/fit",
     ]  # fmt: skip
-    return markdown_table(header, rows, align="lrrrrrrr")
+    table = markdown_table(header, rows, align="lrrrrrrr")
+    if NO_INTERVAL not in table:
+        return table
+    return (
+        f"{table}\n\nWith fewer than {MIN_SAMPLES_FOR_INTERVAL} seeds the MSE cells give the mean "
+        f'alone ("{NO_INTERVAL}").'
+    )

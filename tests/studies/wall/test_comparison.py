@@ -2,15 +2,24 @@
 
 from __future__ import annotations
 
+import math
+import statistics
+
 import numpy as np
 import pytest
+from scipy import stats as sps
 
 from sb3_geogp.studies.wall.comparison import (
+    METRICS,
+    ComparisonResult,
     WalkSettings,
     paired_table,
     run_comparison,
     summary_table,
 )
+from sb3_geogp.toolbox.tables import NO_INTERVAL
+
+NOTE = f'With fewer than 5 seeds the MSE cells give the mean alone ("{NO_INTERVAL}").'
 
 
 def test_quick_comparison_gives_finite_errors() -> None:
@@ -24,6 +33,38 @@ def test_quick_comparison_gives_finite_errors() -> None:
             assert np.all(np.isfinite(values)) and np.all(values > 0)
     assert "geo_default" in summary_table(result)
     assert "euclid_lap_shepard" in paired_table(result)
+
+
+def _result(mse: list[float], mse_wall: list[float]) -> ComparisonResult:
+    """One model (``rbf``) at one capacity (10), one value per seed."""
+    result = ComparisonResult([10], list(range(len(mse))))
+    result.values = {"rbf": {k: [[0.5] * len(mse)] for k in METRICS}}
+    result.values["rbf"]["mse"] = [mse]
+    result.values["rbf"]["mse_wall"] = [mse_wall]
+    return result
+
+
+def _row(table: str) -> list[str]:
+    line = next(line for line in table.splitlines() if line.startswith("| rbf |"))
+    return [cell.strip() for cell in line.strip("|").split("|")]
+
+
+def test_summary_table_gives_the_mean_alone_from_two_seeds() -> None:
+    table = summary_table(_result([0.011, 0.017], [0.05, 0.07]))
+    assert _row(table)[2:4] == [f"0.0140 ({NO_INTERVAL})", f"0.0600 ({NO_INTERVAL})"]
+    assert "±" not in table
+    assert table.count(NOTE) == 1 and table.endswith(NOTE)
+
+
+def test_summary_table_gives_the_t_interval_from_five_seeds() -> None:
+    mse, mse_wall = [0.011, 0.017, 0.013, 0.021, 0.0155], [0.05, 0.07, 0.062, 0.048, 0.081]
+    table = summary_table(_result(mse, mse_wall))
+    cells = []
+    for x in (mse, mse_wall):  # mean and 95 % Student-t half-width, computed independently
+        half = sps.t.ppf(0.975, len(x) - 1) * statistics.stdev(x) / math.sqrt(len(x))
+        cells.append(f"{statistics.fmean(x):.4f} ± {half:.4f}")
+    assert _row(table)[2:4] == cells
+    assert NO_INTERVAL not in table and "fewer than" not in table
 
 
 @pytest.fixture(scope="module")
