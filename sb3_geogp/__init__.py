@@ -2,10 +2,12 @@
 
 ``import sb3_geogp`` loads the GP engine only (torch, numpy): :class:`SparseOnlineGP`, the
 kernels and the BV graph. The SB3 adapter (:class:`GPActorCriticPolicy`,
-:class:`GPValueCallback`) and the environments (:mod:`sb3_geogp.envs`, whose import registers
-``sb3_geogp/PaperPendulum-v0``, ``sb3_geogp/WallMaze-v0`` and ``sb3_geogp/WallMazeDiscrete-v0``
-with gymnasium) load on first use, so the engine works where stable-baselines3 and gymnasium
-are not installed.
+:class:`GPValueCallback`), the policy for sb3-contrib's MaskablePPO
+(:class:`MaskableGPActorCriticPolicy`, which needs sb3-contrib) and the environments
+(:mod:`sb3_geogp.envs`, whose import registers ``sb3_geogp/PaperPendulum-v0``,
+``sb3_geogp/WallMaze-v0`` and ``sb3_geogp/WallMazeDiscrete-v0`` with gymnasium) load on first
+use, so the engine works where stable-baselines3, sb3-contrib and gymnasium are not
+installed.
 """
 
 from __future__ import annotations
@@ -13,6 +15,7 @@ from __future__ import annotations
 import importlib
 from typing import TYPE_CHECKING, Any
 
+from sb3_geogp.adaptation import Adaptation
 from sb3_geogp.graph import BVGraph
 from sb3_geogp.kernels import GeodesicKernel, Kernel, LaplacianKernel, RBFKernel
 from sb3_geogp.sparse_gp import SparseOnlineGP
@@ -21,14 +24,17 @@ from sb3_geogp.user_warnings import GPCriticWarning
 if TYPE_CHECKING:
     from sb3_geogp import envs
     from sb3_geogp.callbacks import GPValueCallback
+    from sb3_geogp.contrib import MaskableGPActorCriticPolicy
     from sb3_geogp.policies import GPActorCriticPolicy
 
-__version__ = "0.1.0"
+__version__ = "0.2.0"
 
-#: Names loaded on first access (PEP 562): they import stable-baselines3 or gymnasium.
+#: Names loaded on first access (PEP 562): they import stable-baselines3, sb3-contrib or
+#: gymnasium.
 _LAZY = {
     "GPActorCriticPolicy": "sb3_geogp.policies",
     "GPValueCallback": "sb3_geogp.callbacks",
+    "MaskableGPActorCriticPolicy": "sb3_geogp.contrib",
     "envs": "sb3_geogp.envs",
 }
 
@@ -45,6 +51,7 @@ def __dir__() -> list[str]:
 
 
 __all__ = [
+    "Adaptation",
     "BVGraph",
     "GPActorCriticPolicy",
     "GPCriticWarning",
@@ -52,6 +59,7 @@ __all__ = [
     "GeodesicKernel",
     "Kernel",
     "LaplacianKernel",
+    "MaskableGPActorCriticPolicy",
     "RBFKernel",
     "SparseOnlineGP",
     "__version__",

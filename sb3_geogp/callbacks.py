@@ -1,4 +1,4 @@
-"""``GPValueCallback``: feeds the GP critic each rollout of PPO or A2C.
+"""``GPValueCallback``: feeds the GP critic each rollout of PPO, A2C, TRPO or MaskablePPO.
 
 SB3 computes a rollout's returns and advantages in ``collect_rollouts`` with the critic that
 collected it, then calls ``on_rollout_end``, then ``train``. Feeding the GP at
@@ -21,7 +21,7 @@ from stable_baselines3.common.buffers import RolloutBuffer
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
 
-from sb3_geogp.policies import GPActorCriticPolicy
+from sb3_geogp.policies import GPCriticMixin, _contrib_algorithms, check_algorithm
 from sb3_geogp.targets import discounted_returns, split_completed
 from sb3_geogp.user_warnings import warn_user
 
@@ -29,7 +29,10 @@ Target = Literal["returns", "monte_carlo"]
 
 
 class GPValueCallback(BaseCallback):
-    """Feed a :class:`~sb3_geogp.GPActorCriticPolicy`'s GP critic at the end of every rollout.
+    """Feed a GP critic policy's GP at the end of every rollout.
+
+    The policy is a :class:`~sb3_geogp.GPActorCriticPolicy` (PPO, A2C, sb3-contrib's TRPO) or
+    a :class:`~sb3_geogp.MaskableGPActorCriticPolicy` (MaskablePPO).
 
     Parameters
     ----------
@@ -71,7 +74,9 @@ class GPValueCallback(BaseCallback):
     * ``gp/mean_std``: mean predictive standard deviation on those points (before the update,
       at most 1024 evenly spaced ones; recomputed once 256 points have been fed since);
     * ``gp/n_basis``, ``gp/update_ms``, ``gp/n_fed``, ``gp/forgetting``, and
-      ``gp/n_components`` (graph components, geodesic kernel).
+      ``gp/n_components`` (graph components, geodesic kernel);
+    * with ``gp_kwargs=dict(adapt=...)``: ``gp/nlpd``, ``gp/lengthscale`` (and per dimension),
+      ``gp/signal_var``, ``gp/noise_var``, ``gp/target_mean``, ``gp/target_scale``.
     """
 
     def __init__(
@@ -99,16 +104,16 @@ class GPValueCallback(BaseCallback):
     # ------------------------------------------------------------------------------------------
     def _init_callback(self) -> None:
         policy = self.model.policy
-        if not isinstance(policy, GPActorCriticPolicy):
+        if not isinstance(policy, GPCriticMixin):
             raise TypeError(
-                f"GPValueCallback needs a GPActorCriticPolicy, got {type(policy).__name__}"
+                "GPValueCallback needs a GP critic policy (GPActorCriticPolicy, or "
+                f"MaskableGPActorCriticPolicy for MaskablePPO), got {type(policy).__name__}"
             )
-        buffer = getattr(self.model, "rollout_buffer", None)
-        if not isinstance(self.model, OnPolicyAlgorithm) or type(buffer) is not RolloutBuffer:
-            raise TypeError(
-                "GPValueCallback works with on-policy algorithms using a RolloutBuffer "
-                f"(PPO, A2C), got {type(self.model).__name__}"
-            )
+        check_algorithm(self.model, type(policy))
+        if isinstance(self.model, _contrib_algorithms("TRPO")):
+            # TRPO follows its actor step with gradient steps on the critic's squared error;
+            # the GP has no parameters (its values carry no gradient) and learns here instead.
+            self.model.n_critic_updates = 0  # type: ignore[attr-defined]
         vec_normalize = self.model.get_vec_normalize_env()
         if vec_normalize is not None and vec_normalize.norm_obs and vec_normalize.training:
             warn_user(
@@ -189,9 +194,9 @@ class GPValueCallback(BaseCallback):
         return cast(OnPolicyAlgorithm, self.model)
 
     @property
-    def _policy(self) -> GPActorCriticPolicy:
+    def _policy(self) -> GPCriticMixin:
         """The model's policy, as checked in ``_init_callback``."""
-        return cast(GPActorCriticPolicy, self.model.policy)
+        return cast(GPCriticMixin, self.model.policy)
 
     def _completed_episodes(
         self, buffer: RolloutBuffer, dones: np.ndarray
@@ -225,7 +230,7 @@ class GPValueCallback(BaseCallback):
         obs_all, y_all, s_all = zip(*parts, strict=True)
         return np.concatenate(obs_all), np.concatenate(y_all), np.concatenate(s_all)
 
-    def _bootstrap_values(self, policy: GPActorCriticPolicy) -> np.ndarray:
+    def _bootstrap_values(self, policy: GPCriticMixin) -> np.ndarray:
         """Critic values of this rollout's truncated terminal observations, shape (k,)."""
         if not self._truncations:
             return np.empty(0, dtype=np.float32)
@@ -236,7 +241,7 @@ class GPValueCallback(BaseCallback):
 
     def _recompute(
         self,
-        policy: GPActorCriticPolicy,
+        policy: GPCriticMixin,
         buffer: RolloutBuffer,
         dones: np.ndarray,
         old_bootstrap: np.ndarray,
@@ -256,7 +261,7 @@ class GPValueCallback(BaseCallback):
 
     @staticmethod
     def _fill_values(
-        policy: GPActorCriticPolicy,
+        policy: GPCriticMixin,
         buffer: RolloutBuffer,
         last_values: th.Tensor,
         dones: np.ndarray,

@@ -1,9 +1,14 @@
-"""``GPActorCriticPolicy``: SB3's actor-critic policy with a sparse on-line GP as the critic.
+"""GP-critic policies: SB3's actor-critic policies with a sparse on-line GP as the critic.
 
 The actor is SB3's, unchanged. The critic is a :class:`~sb3_geogp.SparseOnlineGP` on the
 flattened observation features; it has no network parameters, so the optimiser holds only
 the actor's. The GP learns outside gradient descent: :class:`~sb3_geogp.GPValueCallback` feeds
-it each rollout through :meth:`GPActorCriticPolicy.update_critic`.
+it each rollout through :meth:`GPCriticMixin.update_critic`.
+
+:class:`GPCriticMixin` holds the GP-critic behaviour; :class:`GPActorCriticPolicy` puts it on
+SB3's ``ActorCriticPolicy`` (PPO, A2C, sb3-contrib's TRPO) and
+:class:`~sb3_geogp.contrib.MaskableGPActorCriticPolicy` on sb3-contrib's
+``MaskableActorCriticPolicy`` (MaskablePPO).
 
 This module only adapts (spaces, shapes, dtypes, devices, bookkeeping); the maths lives in
 :mod:`sb3_geogp.sparse_gp`.
@@ -12,13 +17,16 @@ This module only adapts (spaces, shapes, dtypes, devices, bookkeeping); the math
 from __future__ import annotations
 
 import contextlib
+import sys
 import time
 from collections.abc import Iterator
-from typing import Any
+from typing import TYPE_CHECKING, Any, Self
 
 import numpy as np
 import torch as th
 from gymnasium import spaces
+from stable_baselines3 import A2C, PPO
+from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.policies import ActorCriticPolicy, BaseModel
 from stable_baselines3.common.preprocessing import is_image_space
 from stable_baselines3.common.torch_layers import FlattenExtractor
@@ -29,13 +37,30 @@ from torch import nn
 from sb3_geogp.kernels import make_kernel
 from sb3_geogp.sparse_gp import SparseOnlineGP
 
+if TYPE_CHECKING:
+    # The mixin relies on the attributes and methods of the SB3 policy it is mixed into.
+    _PolicyBase = ActorCriticPolicy
+else:
+    _PolicyBase = object
+
 #: ``gp_kwargs`` keys the policy sets itself.
 _RESERVED = ("input_dim", "device", "input_bounds")
 
 _SUPPORTED = (
-    "GPActorCriticPolicy supports Box observations of any shape (flattened; not images) with "
+    "the GP critic supports Box observations of any shape (flattened; not images) with "
     "Box, Discrete, MultiDiscrete or MultiBinary actions"
 )
+
+#: Which algorithm trains which GP policy: the message of every error about it.
+SUPPORTED_ALGORITHMS = (
+    "GPActorCriticPolicy works with PPO, A2C and sb3-contrib's TRPO; for sb3-contrib's "
+    "MaskablePPO use MaskableGPActorCriticPolicy (from sb3_geogp import "
+    "MaskableGPActorCriticPolicy); other algorithms (RecurrentPPO, ARS, the off-policy "
+    "algorithms) are not supported"
+)
+
+#: How many frames above the policy's construction are searched for the algorithm building it.
+_MAX_FRAMES = 8
 
 
 class GPValueHead(nn.Module):
@@ -65,54 +90,23 @@ class GPValueHead(nn.Module):
         return self.gp(latent_vf).to(device=latent_vf.device, dtype=th.float32).unsqueeze(1)
 
 
-class GPActorCriticPolicy(ActorCriticPolicy):
-    """Actor-critic policy for PPO/A2C whose critic is a sparse on-line (geodesic) GP.
+class GPCriticMixin(_PolicyBase):
+    """The GP critic, mixed into an SB3 actor-critic policy class (put it first in the bases).
 
-    Use it as ``PPO(GPActorCriticPolicy, env, policy_kwargs=dict(gp_kwargs=...))`` and pass
-    ``callback=GPValueCallback()`` to ``learn``.
-
-    Parameters
-    ----------
-    observation_space : gymnasium.spaces.Box
-        Non-image Box of any shape; the GP sees the flattened observation.
-    action_space : gymnasium.spaces.Space
-        Box, Discrete, MultiDiscrete or MultiBinary.
-    lr_schedule : Schedule
-        Learning-rate schedule of the actor.
-    net_arch : dict or list of int, optional
-        Actor layers. ``dict(pi=[64, 64], vf=[])`` by default; a list means ``pi``. The critic
-        takes the features directly, so ``vf`` must be empty.
-    gp_kwargs : dict, optional
-        Options of :class:`~sb3_geogp.SparseOnlineGP` (``max_basis``, ``noise_var``,
-        ``novelty_tol``, ``forgetting``, ``target_mean``, ``target_scale``, ``dtype``,
-        ``num_threads``, ``condition_guard``) plus ``kernel`` (``"geodesic"`` (default),
-        ``"rbf"``, ``"laplacian"`` or a :class:`~sb3_geogp.Kernel`, which is copied) and
-        ``kernel_kwargs`` (options of the named kernel, e.g.
-        ``dict(profile="laplacian", n_neighbors=4)``). ``dtype`` may be a string such as
-        ``"float64"``. ``input_dim``, ``device`` and ``input_bounds`` are set by the policy.
-    **kwargs
-        Every other option of :class:`~stable_baselines3.common.policies.ActorCriticPolicy`.
-
-    Raises
-    ------
-    ValueError
-        For unsupported spaces, a non-empty ``vf`` architecture, a trainable critic
-        features extractor or bad ``gp_kwargs``.
-
-    Attributes
-    ----------
-    defer_values : bool
-        While ``True``, :meth:`forward` (SB3's rollout collection) returns zeros as values
-        instead of asking the GP at every step; :class:`~sb3_geogp.GPValueCallback` switches it
-        on for each rollout and fills in the rollout's values with one batched GP prediction
-        at its end. :meth:`predict_values` (time-limit bootstraps, the last values, any call by
-        a user) always asks the GP.
-    require_gp_feed : bool
-        When ``True`` (default), :meth:`evaluate_actions` in training mode raises if the
-        observations collected since the last rollout (calls of :meth:`forward`) have not
-        been passed to :meth:`update_critic`: the symptom of ``learn`` without
-        :class:`~sb3_geogp.GPValueCallback`.
+    :class:`GPActorCriticPolicy` and :class:`~sb3_geogp.contrib.MaskableGPActorCriticPolicy`
+    are this mixin on SB3's ``ActorCriticPolicy`` and on sb3-contrib's
+    ``MaskableActorCriticPolicy``; the parameters, errors and attributes are documented on
+    :class:`GPActorCriticPolicy`.
     """
+
+    def __new__(cls, *args: Any, **kwargs: Any) -> Self:
+        # Here rather than in __init__: this runs before the arguments are bound, so that an
+        # algorithm that builds its policy with other arguments (ARS passes no lr_schedule)
+        # or reads attributes right after building it (RecurrentPPO) meets this error first.
+        algorithm = _constructing_algorithm()
+        if algorithm is not None:
+            check_algorithm(algorithm, cls)
+        return super().__new__(cls)
 
     def __init__(
         self,
@@ -124,22 +118,28 @@ class GPActorCriticPolicy(ActorCriticPolicy):
         **kwargs: Any,
     ) -> None:
         _check_spaces(observation_space, action_space)
-        # Needed by _build(), which ActorCriticPolicy.__init__ calls.
+        # Needed by _build(), which the SB3 policy's __init__ calls.
         self._gp_options = check_gp_kwargs(gp_kwargs)
-        super().__init__(
-            observation_space, action_space, lr_schedule, net_arch=_gp_net_arch(net_arch), **kwargs
-        )
+        super().__init__(observation_space, action_space, lr_schedule, net_arch=net_arch, **kwargs)
         self.gp_kwargs = dict(gp_kwargs or {})
         self.require_gp_feed = True
         self.defer_values = False
         self._awaiting_feed = False
         self._fed_since_std = _STD_EVERY  # the first rollout gets the diagnostic
 
+    @classmethod
+    def supported_algorithms(cls) -> tuple[type[BaseAlgorithm], ...]:
+        """The algorithm classes (and their subclasses) that train this policy."""
+        raise NotImplementedError
+
     # ------------------------------------------------------------------------------------------
     # Construction
     # ------------------------------------------------------------------------------------------
     def _build(self, lr_schedule: Schedule) -> None:
-        """Build SB3's actor, replace the value head by the GP, optimise actor parameters only."""
+        """Build SB3's networks, replace the critic's by the GP, optimise actor parameters only."""
+        # The critic's layers of net_arch["vf"] and its linear value head are built and
+        # initialised as for an MLP critic, so that the actor's initialisation draws the same
+        # random numbers as SB3's MLP policy with this net_arch and seed; then they are dropped.
         super()._build(lr_schedule)
         if any(p.requires_grad for p in self.vf_features_extractor.parameters()):
             raise ValueError(
@@ -147,6 +147,9 @@ class GPActorCriticPolicy(ActorCriticPolicy):
                 f"({type(self.vf_features_extractor).__name__}) has trainable parameters; use "
                 "the default FlattenExtractor or freeze the extractor"
             )
+        # The GP reads the critic's features directly.
+        self.mlp_extractor.value_net = nn.Sequential()
+        self.mlp_extractor.latent_dim_vf = self.vf_features_extractor.features_dim
         # The observation bounds bound the GP's inputs only when the features are the
         # flattened observations.
         bounds = (
@@ -177,14 +180,16 @@ class GPActorCriticPolicy(ActorCriticPolicy):
     # SB3 entry points
     # ------------------------------------------------------------------------------------------
     def forward(
-        self, obs: th.Tensor, deterministic: bool = False
+        self, obs: th.Tensor, *args: Any, **kwargs: Any
     ) -> tuple[th.Tensor, th.Tensor, th.Tensor]:
         """Actions, values and log-probabilities, as SB3's ``forward`` (rollout collection).
 
         Parameters
         ----------
         obs : Tensor, shape (N, *obs_shape)
-        deterministic : bool
+        *args, **kwargs
+            The SB3 policy's other arguments: ``deterministic``, and ``action_masks`` for
+            MaskablePPO.
 
         Returns
         -------
@@ -194,10 +199,10 @@ class GPActorCriticPolicy(ActorCriticPolicy):
         """
         self._awaiting_feed = True
         with self._placeholder_values(self.defer_values):
-            return super().forward(obs, deterministic)
+            return super().forward(obs, *args, **kwargs)
 
     def evaluate_actions(
-        self, obs: PyTorchObs, actions: th.Tensor
+        self, obs: PyTorchObs, actions: th.Tensor, *args: Any, **kwargs: Any
     ) -> tuple[th.Tensor, th.Tensor, th.Tensor | None]:
         """Values, log-likelihood and entropy of ``actions`` (SB3's training path).
 
@@ -205,6 +210,8 @@ class GPActorCriticPolicy(ActorCriticPolicy):
         ----------
         obs : Tensor, shape (N, *obs_shape)
         actions : Tensor, shape (N, *action_shape)
+        *args, **kwargs
+            The SB3 policy's other arguments (``action_masks`` for MaskablePPO).
 
         Returns
         -------
@@ -225,16 +232,21 @@ class GPActorCriticPolicy(ActorCriticPolicy):
         RuntimeError
             In training mode, if the last rollout was never given to :meth:`update_critic`.
         """
-        if self.training and self.require_gp_feed and self._awaiting_feed:
-            raise RuntimeError(
-                "GPActorCriticPolicy: the GP critic was not fed the rollout before training, so "
-                "it would never learn. Pass the callback to learn, e.g. "
-                "model.learn(total_timesteps, callback=GPValueCallback()) "
-                "(from sb3_geogp import GPValueCallback); combine it with other callbacks in "
-                "a list"
-            )
+        self._check_fed()
         with self._placeholder_values(self.training):
-            return super().evaluate_actions(obs, actions)
+            return super().evaluate_actions(obs, actions, *args, **kwargs)
+
+    def get_distribution(self, obs: PyTorchObs, *args: Any, **kwargs: Any) -> Any:
+        """The actor's action distribution, as SB3's ``get_distribution``.
+
+        Raises
+        ------
+        RuntimeError
+            In training mode (TRPO's ``train()`` asks for it), if the last rollout was never
+            given to :meth:`update_critic`.
+        """
+        self._check_fed()
+        return super().get_distribution(obs, *args, **kwargs)
 
     def predict_values(self, obs: PyTorchObs) -> th.Tensor:
         """GP posterior mean of the state values.
@@ -254,6 +266,16 @@ class GPActorCriticPolicy(ActorCriticPolicy):
     def awaiting_feed(self) -> bool:
         """Whether the rollout collected since the last :meth:`update_critic` awaits its feed."""
         return self._awaiting_feed
+
+    def _check_fed(self) -> None:
+        if self.training and self.require_gp_feed and self._awaiting_feed:
+            raise RuntimeError(
+                f"{type(self).__name__}: the GP critic was not fed the rollout before training, "
+                "so it would never learn. Pass the callback to learn, e.g. "
+                "model.learn(total_timesteps, callback=GPValueCallback()) "
+                "(from sb3_geogp import GPValueCallback); combine it with other callbacks in "
+                "a list"
+            )
 
     @contextlib.contextmanager
     def _placeholder_values(self, enabled: bool) -> Iterator[None]:
@@ -318,7 +340,11 @@ class GPActorCriticPolicy(ActorCriticPolicy):
             it was last computed, so that short rollouts do not pay for it every time), only
             for a non-empty batch; then
             ``update_ms``, ``n_fed``, ``n_basis``, ``forgetting`` and, for a kernel with a
-            graph, ``n_components``.
+            graph, ``n_components``; with ``gp_kwargs=dict(adapt=...)`` also the engine's
+            :attr:`~sb3_geogp.SparseOnlineGP.last_stats` (``nlpd`` of the batch before it was
+            absorbed, and after each adaptation the forgetting in effect, ``lengthscale`` (the
+            geometric mean) and ``lengthscale_<i>``, ``signal_var``, ``noise_var``,
+            ``target_mean``, ``target_scale``).
         """
         stats: dict[str, float] = {}
         start = time.perf_counter()
@@ -333,9 +359,75 @@ class GPActorCriticPolicy(ActorCriticPolicy):
         stats["update_ms"] = 1e3 * (time.perf_counter() - start)
         self._awaiting_feed = False
         stats.update(n_fed=len(targets), n_basis=self.gp.n_basis, forgetting=self.gp.forgetting)
+        # The explained variance above is the same out-of-sample measure on the same points.
+        stats.update({k: v for k, v in self.gp.last_stats.items() if k != "explained_variance"})
         if self.gp.graph is not None:
             stats["n_components"] = self.gp.graph.n_components
         return stats
+
+
+class GPActorCriticPolicy(GPCriticMixin, ActorCriticPolicy):
+    """Actor-critic policy for PPO, A2C and TRPO whose critic is a sparse on-line (geodesic) GP.
+
+    Use it as ``PPO(GPActorCriticPolicy, env, policy_kwargs=dict(gp_kwargs=...))`` and pass
+    ``callback=GPValueCallback()`` to ``learn``. The same works with A2C and sb3-contrib's
+    TRPO; MaskablePPO takes :class:`~sb3_geogp.contrib.MaskableGPActorCriticPolicy`.
+
+    Parameters
+    ----------
+    observation_space : gymnasium.spaces.Box
+        Non-image Box of any shape; the GP sees the flattened observation.
+    action_space : gymnasium.spaces.Space
+        Box, Discrete, MultiDiscrete or MultiBinary.
+    lr_schedule : Schedule
+        Learning-rate schedule of the actor.
+    net_arch : dict or list of int, optional
+        As for SB3's MLP policy: ``dict(pi=[64, 64], vf=[64, 64])`` by default; a list gives
+        the layers of both ``pi`` and ``vf``. ``pi`` are the actor's layers. The ``vf`` layers
+        (and SB3's linear value head) are built and initialised only to pair the actor's
+        initialisation with SB3's MLP critic of the same ``net_arch``: building them draws
+        from torch's random stream before the actor's output layer is initialised, so with
+        the same seed the actor starts from the same parameters as ``"MlpPolicy"``'s. They are
+        then discarded: the GP reads the features directly.
+    gp_kwargs : dict, optional
+        Options of :class:`~sb3_geogp.SparseOnlineGP` (``max_basis``, ``noise_var``,
+        ``novelty_tol``, ``forgetting``, ``target_mean``, ``target_scale``, ``dtype``,
+        ``num_threads``, ``condition_guard``) plus ``kernel`` (``"geodesic"`` (default),
+        ``"rbf"``, ``"laplacian"`` or a :class:`~sb3_geogp.Kernel`, which is copied) and
+        ``kernel_kwargs`` (options of the named kernel, e.g.
+        ``dict(profile="laplacian", n_neighbors=4)``). ``dtype`` may be a string such as
+        ``"float64"``. ``input_dim``, ``device`` and ``input_bounds`` are set by the policy.
+    **kwargs
+        Every other option of :class:`~stable_baselines3.common.policies.ActorCriticPolicy`.
+
+    Raises
+    ------
+    ValueError
+        For unsupported spaces, a trainable critic features extractor or bad ``gp_kwargs``.
+    TypeError
+        When an algorithm other than those of :meth:`supported_algorithms` builds it
+        (message: :data:`SUPPORTED_ALGORITHMS`).
+
+    Attributes
+    ----------
+    defer_values : bool
+        While ``True``, :meth:`forward` (SB3's rollout collection) returns zeros as values
+        instead of asking the GP at every step; :class:`~sb3_geogp.GPValueCallback` switches it
+        on for each rollout and fills in the rollout's values with one batched GP prediction
+        at its end. :meth:`predict_values` (time-limit bootstraps, the last values, any call by
+        a user) always asks the GP.
+    require_gp_feed : bool
+        When ``True`` (default), :meth:`evaluate_actions` and :meth:`get_distribution` in
+        training mode (the algorithms' ``train()``) raise if the observations collected since
+        the last rollout (calls of :meth:`forward`) have not been passed to
+        :meth:`update_critic`: the symptom of ``learn`` without
+        :class:`~sb3_geogp.GPValueCallback`.
+    """
+
+    @classmethod
+    def supported_algorithms(cls) -> tuple[type[BaseAlgorithm], ...]:
+        """PPO, A2C and sb3-contrib's TRPO."""
+        return (PPO, A2C, *_contrib_algorithms("TRPO"))
 
 
 #: At most this many (evenly spaced) points are used for the ``mean_std`` diagnostic.
@@ -425,16 +517,43 @@ def build_gp_critic(
     )
 
 
-def _gp_net_arch(net_arch: list[int] | dict[str, list[int]] | None) -> dict[str, list[int]]:
-    if net_arch is None:
-        return dict(pi=[64, 64], vf=[])
-    if isinstance(net_arch, list) and net_arch and isinstance(net_arch[0], dict):
-        net_arch = net_arch[0]  # SB3 < 1.8 style: [dict(pi=..., vf=...)]
-    if isinstance(net_arch, list):
-        return dict(pi=list(net_arch), vf=[])
-    if net_arch.get("vf"):
-        raise ValueError(
-            f"the GP critic takes the features directly, so net_arch['vf'] must be empty; got "
-            f"{net_arch['vf']}"
+def check_algorithm(algorithm: BaseAlgorithm, policy_class: type[GPCriticMixin]) -> None:
+    """Check that ``algorithm`` can train a policy of ``policy_class``.
+
+    Raises
+    ------
+    TypeError
+        Naming the algorithm, the policy and :data:`SUPPORTED_ALGORITHMS`.
+    """
+    if not isinstance(algorithm, policy_class.supported_algorithms()):
+        raise TypeError(
+            f"{type(algorithm).__name__} cannot train a {policy_class.__name__}: "
+            f"{SUPPORTED_ALGORITHMS}"
         )
-    return dict(pi=list(net_arch.get("pi", [])), vf=[])
+
+
+def _contrib_algorithms(*names: str) -> tuple[type[BaseAlgorithm], ...]:
+    """sb3-contrib's algorithm classes ``names``, or none where sb3-contrib is not loaded.
+
+    Looked up, not imported: an instance of one of them means that sb3-contrib is loaded, and
+    importing this module must not need sb3-contrib.
+    """
+    contrib = sys.modules.get("sb3_contrib")
+    return () if contrib is None else tuple(getattr(contrib, name) for name in names)
+
+
+def _constructing_algorithm() -> BaseAlgorithm | None:
+    """The SB3 algorithm building the policy being constructed, if any.
+
+    SB3 and sb3-contrib build the policy in a method of the algorithm (``_setup_model``), which
+    passes no reference to itself; it is the nearest caller whose ``self`` is an algorithm.
+    """
+    frame = sys._getframe(2)  # the caller of GPCriticMixin.__new__
+    for _ in range(_MAX_FRAMES):
+        candidate = frame.f_locals.get("self")
+        if isinstance(candidate, BaseAlgorithm):
+            return candidate
+        if frame.f_back is None:
+            return None
+        frame = frame.f_back
+    return None

@@ -528,7 +528,7 @@ class SparseOnlineGP(nn.Module):
                 "target_mean and target_scale"
             )
         if self.adaptation is not None and self.n_basis > 0:
-            self.last_stats = self._out_of_sample(x, y)
+            self.last_stats.update(self._out_of_sample(x, y))
         if self.adaptation is None and self.forgetting < 1 and self.n_basis > 0:
             lam = self.forgetting
             self.alpha.mul_(math.sqrt(lam))
@@ -925,7 +925,8 @@ class SparseOnlineGP(nn.Module):
             self._restandardise(y, w)
         yn = (y - self.y_mean) / self.y_scale
         if a.steps:
-            self._fit(x, yn, w, a.steps, a.lr, a)
+            k = a.fit_points
+            self._fit(x[-k:], yn[-k:], w[-k:], a.steps, a.lr, a)
         self._rebuild(x, yn, w)
         self.block_forgetting.fill_(lam)
         ls = self.kernel.lengthscale
@@ -968,10 +969,11 @@ class SparseOnlineGP(nn.Module):
         earlier = Projection(Kzz, Kxz[~new], float(variance))
         rows = Kxz[new]
         gamma = (variance - _quad_solve(earlier.L, rows)).clamp_min(0) + self.noise_var
+        # Noise per age: the ages of the window are its (few) groups.
+        ages = torch.arange(int(age.max()) + 1, device=age.device)
+        noises = [self.noise_var / block_weights(ages - 1, lam).to(y) for lam in candidates]
         scores = []
-        for lam in candidates:
-            noise = self.noise_var / block_weights(age[~new] - 1, lam).to(y)
-            alpha, P = earlier.posterior(yn[~new], noise)
+        for alpha, P in earlier.group_posteriors(yn[~new], age[~new], noises):
             var = gamma + ((rows @ P) * rows).sum(dim=1)
             scores.append(nlpd(rows @ alpha, var, yn[new]))
         return candidates[int(np.argmin(scores))]

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 import warnings
 from typing import Any
 
@@ -11,13 +12,14 @@ import pytest
 import torch as th
 from gymnasium import spaces
 from gymnasium.wrappers import TimeLimit
-from stable_baselines3 import A2C, PPO
+from stable_baselines3 import A2C, PPO, SAC
 from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.callbacks import BaseCallback, CallbackList
 from stable_baselines3.common.env_util import make_vec_env
 from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
 
 from sb3_geogp import GPActorCriticPolicy, GPValueCallback
+from sb3_geogp.policies import SUPPORTED_ALGORITHMS
 from sb3_geogp.targets import discounted_returns, split_completed
 
 GAMMA = 0.9
@@ -415,6 +417,14 @@ def test_logged_metrics(kernel: str) -> None:
 def test_callback_rejects_other_policies() -> None:
     model = PPO("MlpPolicy", "Pendulum-v1", n_steps=64, batch_size=64)
     with pytest.raises(TypeError, match="GPActorCriticPolicy"):
+        model.learn(64, callback=GPValueCallback())
+
+
+def test_callback_rejects_other_algorithms() -> None:
+    """A GP policy put into a model after its construction meets the policy's check in learn."""
+    model = SAC("MlpPolicy", "Pendulum-v1")
+    model.policy = GPActorCriticPolicy(model.observation_space, model.action_space, lambda _: 1e-3)
+    with pytest.raises(TypeError, match=re.escape(SUPPORTED_ALGORITHMS)):
         model.learn(64, callback=GPValueCallback())
 
 

@@ -117,8 +117,6 @@ DEVIATIONS = (
     "n_timesteps is replaced by the sweep's budget (TIMESTEPS x --timesteps-scale)",
     "with --hyperparams, a file's n_timesteps x --timesteps-scale is the budget (TIMESTEPS "
     "where it has none); --timesteps N replaces every budget",
-    "net_arch's vf layers (the MLP critic's network) are dropped for the GP critics, which take "
-    "the features directly",
 )
 
 #: Options of the GP critic, identical for ``rbf`` and ``geodesic`` (everything else: the

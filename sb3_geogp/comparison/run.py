@@ -117,8 +117,8 @@ def build_model(spec: RunSpec) -> OnPolicyAlgorithm:
     """The model of ``spec`` on its training environments, built as a user would build it.
 
     SB3's ``"MlpPolicy"`` for the ``mlp`` critic, else :class:`~sb3_geogp.GPActorCriticPolicy`
-    with the spec's GP options and without ``net_arch``'s ``vf`` layers (see
-    :data:`~sb3_geogp.comparison.hyperparams.DEVIATIONS`). Close ``model.get_env()`` when done.
+    with the spec's GP options and the same ``policy_kwargs``: its actor starts from the MLP
+    policy's parameters for the same seed. Close ``model.get_env()`` when done.
     """
     if spec.critic not in CRITICS:
         raise ValueError(f"critic must be one of {CRITICS}, got {spec.critic!r}")
@@ -128,9 +128,6 @@ def build_model(spec: RunSpec) -> OnPolicyAlgorithm:
         return ALGOS[spec.algo](
             "MlpPolicy", env, seed=spec.seed, policy_kwargs=policy_kwargs, device="cpu", **kwargs
         )
-    net_arch = policy_kwargs.get("net_arch")
-    if isinstance(net_arch, dict):
-        policy_kwargs["net_arch"] = {k: v for k, v in net_arch.items() if k != "vf"}
     policy_kwargs["gp_kwargs"] = dict(kernel=spec.critic, **dict(spec.gp_kwargs))
     return ALGOS[spec.algo](
         GPActorCriticPolicy,

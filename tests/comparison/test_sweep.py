@@ -12,6 +12,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+import torch
 
 from sb3_geogp.cli import main
 from sb3_geogp.comparison.evaluation import mc_horizon
@@ -193,16 +194,21 @@ def test_measurements_do_not_change_training(tmp_path: Path) -> None:
     assert a["gp_n_basis"] == b["gp_n_basis"]
 
 
-def test_gp_critics_drop_only_the_mlp_critics_layers() -> None:
-    """net_arch's vf layers are the MLP critic's network; the GP critic takes the features."""
+def test_every_critic_starts_from_the_same_actor() -> None:
+    """A file's net_arch with vf layers reaches every critic unchanged: the GP critics build the
+    MLP critic's layers (then drop them) so that their actor starts identically."""
     entry = dict(n_steps=8, policy_kwargs="dict(net_arch=dict(pi=[16], vf=[24]))")
-    mlp, geodesic = dataclasses.replace(TINY, critics=("mlp", "geodesic"), seeds=(0,)).specs()
-    for spec in (mlp, geodesic):
+    specs = dataclasses.replace(TINY, critics=("mlp", "rbf", "geodesic"), seeds=(3,)).specs()
+    actors = []
+    for spec in specs:
         model = build_model(dataclasses.replace(spec, hyperparams=entry))
-        extractor = model.policy.mlp_extractor
-        assert extractor.latent_dim_pi == 16
-        assert extractor.latent_dim_vf == (24 if spec.critic == "mlp" else 4)  # CartPole's obs
+        assert model.policy.mlp_extractor.latent_dim_pi == 16
+        state = model.policy.state_dict()
+        actors.append({k: v for k, v in state.items() if "value_net" not in k and "gp" not in k})
         model.get_env().close()
+    assert actors[0].keys() == actors[1].keys() == actors[2].keys()
+    for key, value in actors[0].items():
+        assert all(torch.equal(value, other[key]) for other in actors[1:]), key
 
 
 def test_a_warning_of_every_run_is_shown_once(
