@@ -65,12 +65,16 @@ VARIANTS = {
         # Every kernel that float32 allows (Kernel.supports_float32).
         Variant("geo laplace interp float32", "geodesic", {}, {"dtype": torch.float32}),
         Variant("laplacian float32", "laplacian", {}, {"dtype": torch.float32}),
+        # The adaptive GP (issue 13): hyperparameters, targets and forgetting from the stream.
+        Variant("rbf adapt", "rbf", {}, {"adapt": True}),
+        Variant("geo laplace interp adapt", "geodesic", {}, {"adapt": True}),
     ),
     # A full basis facing a stream that keeps moving away from it (issue 11, defect 2).
     "drift": (
         Variant("rbf", "rbf"),
         Variant("geo laplace interp", "geodesic"),
         Variant("geo laplace interp f=0.9", "geodesic", {}, {"forgetting": 0.9}),
+        Variant("geo laplace interp adapt", "geodesic", {}, {"adapt": True}),
     ),
 }
 STREAMS = {"pendulum": pendulum_stream, "drift": drifting_stream}
@@ -279,6 +283,9 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
         default=None,
         help="stop after this many seconds (a whole batch)",
     )
+    parser.add_argument(
+        "--variants", nargs="+", default=None, metavar="LABEL", help="only these variants"
+    )
     parser.add_argument("--out", type=Path, default=Path("runs/long_run_numerics"))
     return parser.parse_args(argv)
 
@@ -293,7 +300,10 @@ def run(args: argparse.Namespace) -> list[Soak]:
         test = next(drifting_stream(args.batch_size, args.batch_size, seed=TEST_SEED + 1))
         probe = test.x
     dim = test.x.shape[1]
-    soaks = [Soak(v, v.build(dim, args.max_basis), checks) for v in VARIANTS[args.stream]]
+    variants = [v for v in VARIANTS[args.stream] if not args.variants or v.label in args.variants]
+    if not variants:
+        raise SystemExit(f"--variants: none of {args.variants} is a variant of {args.stream!r}")
+    soaks = [Soak(v, v.build(dim, args.max_basis), checks) for v in variants]
     deadline = time.perf_counter() + (args.time_budget or math.inf)
     with tqdm(total=args.points, desc="soak", unit="pt", unit_scale=True) as bar:
         for batch in STREAMS[args.stream](args.points, args.batch_size):

@@ -17,9 +17,10 @@ from stable_baselines3 import A2C, DQN, PPO, SAC
 from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.callbacks import BaseCallback, CallbackList
 from stable_baselines3.common.env_util import make_vec_env
+from stable_baselines3.common.logger import configure
 from stable_baselines3.common.vec_env import SubprocVecEnv
 
-from sb3_geogp import GPActorCriticPolicy, GPValueCallback, RBFKernel
+from sb3_geogp import Adaptation, GPActorCriticPolicy, GPValueCallback, RBFKernel
 from sb3_geogp.policies import SUPPORTED_ALGORITHMS
 
 ALGOS = [PPO, A2C]
@@ -455,6 +456,30 @@ def test_save_load_is_exact_and_training_continues(
     loaded.learn(256, callback=GPValueCallback(), reset_num_timesteps=False)
     assert int(loaded.policy.gp.n_seen) == seen + 256
     assert not th.equal(loaded.policy.predict_values(obs), expected)
+
+
+@pytest.mark.parametrize("kernel", KERNELS)
+def test_adaptation_is_logged_and_survives_save_load_bit_for_bit(
+    kernel: str, tmp_path: Path
+) -> None:
+    adapt = Adaptation(window=256, interval=128, steps=2, fit_points=128)
+    model = make_model(PPO, kernel=kernel, n_envs=2, adapt=adapt)
+    model.set_logger(configure(str(tmp_path / "log"), ["csv"]))
+    model.learn(512, callback=GPValueCallback())
+    gp = model.policy.gp
+    assert int(gp.n_blocks) >= 2 and "lengthscale_0" in gp.last_stats
+    logged = (tmp_path / "log" / "progress.csv").read_text().splitlines()[0].split(",")
+    assert {"gp/nlpd", "gp/lengthscale", "gp/signal_var", "gp/noise_var"} <= set(logged)
+    model.save(tmp_path / "model.zip")
+    loaded = PPO.load(tmp_path / "model.zip", env=make_vec_env("Pendulum-v1", n_envs=2))
+    assert loaded.policy.gp.adaptation == adapt
+    for name, value in model.policy.state_dict().items():
+        other = loaded.policy.state_dict()[name]
+        assert th.equal(other, value) if isinstance(value, th.Tensor) else other == value, name
+    obs = flat_obs(model)
+    assert th.equal(loaded.policy.predict_values(obs), model.policy.predict_values(obs))
+    loaded.learn(256, callback=GPValueCallback(), reset_num_timesteps=False)
+    assert th.isfinite(loaded.policy.predict_values(obs)).all()
 
 
 def test_model_saved_by_v0_1_loads_and_predicts_the_same() -> None:
