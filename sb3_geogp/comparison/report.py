@@ -99,14 +99,42 @@ def comparisons_markdown(rows: list[dict[str, Any]]) -> str:
             f"### {metric.label}",
             "",
             f"Difference of means [95 % bootstrap CI] and verdict; **bold**: the verdict also "
-            f"holds at the family-wise level (Bonferroni over {len(mine)} comparisons, "
-            f"{100 * fw:.3g} % intervals)."
+            f"holds at the family-wise level (Bonferroni over {mine[0]['family_size']} "
+            f"comparisons, {100 * fw:.3g} % intervals)."
             + _few_seeds_note(
                 [min(r["n_a"], r["n_b"]) for r in mine],
                 " on either side: the difference alone, no interval and no verdict",
             ),
             "",
             markdown_table(["env", "algo", *labels], body),
+            "",
+        ]
+    return "\n".join(lines)
+
+
+def rerun_markdown(before: list[dict[str, Any]], after: list[dict[str, Any]]) -> str:
+    """Before and after side by side (see :func:`~sb3_geogp.comparison.results.rerun_comparisons`):
+    one table per metric, a row per cell and critic pair, cells as in :func:`comparisons_markdown`.
+    """
+    lines: list[str] = []
+    for name, metric in METRICS.items():
+        old = {(r["env"], r["algo"], r["a"], r["b"]): r for r in before if r["metric"] == name}
+        new = {(r["env"], r["algo"], r["a"], r["b"]): r for r in after if r["metric"] == name}
+        if not new:
+            continue
+        fw = next(iter(new.values()))["fw_level"]
+        body = [
+            [f"`{env}`", algo, f"{a} − {b}", _comparison_cell(old.get(k)), _comparison_cell(new[k])]
+            for k in sorted(new)
+            for env, algo, a, b in [k]
+        ]
+        lines += [
+            f"### {metric.label}",
+            "",
+            f"Difference of means [95 % bootstrap CI] and verdict; **bold**: the verdict also "
+            f"holds at the published family-wise level ({100 * fw:.3g} % intervals).",
+            "",
+            markdown_table(["env", "algo", "critics", "published", "re-run"], body),
             "",
         ]
     return "\n".join(lines)

@@ -172,6 +172,7 @@ def comparisons(
     seed: int = 0,
     level: float = 0.95,
     baseline: list[dict[str, Any]] | None = None,
+    family_size: int | None = None,
 ) -> list[dict[str, Any]]:
     """Differences of means between critics, per environment, algorithm and metric.
 
@@ -193,19 +194,23 @@ def comparisons(
         Results of another sweep (e.g. the same critics with default GP options). Then each
         critic of ``results`` is compared with the same critic of ``baseline`` (``a - b`` with
         ``a == b`` and ``b_sweep == "baseline"``) instead of with the other critics.
+    family_size : int, optional
+        Number of comparisons per metric the family-wise level corrects for; by default the
+        number made here. A re-run of some cells keeps the published sweep's family this way.
 
     Returns
     -------
     list of dict
         Keys ``env, algo, metric, a, b, b_sweep, n_a, n_b, diff, low, high, verdict,
-        fw_level, fw_low, fw_high, fw_verdict``.
+        family_size, fw_level, fw_low, fw_high, fw_verdict``.
     """
     groups = group_runs(results)
     ref = groups if baseline is None else group_runs(baseline)
     pairs = [(e, al, a, b) for e, al in sorted({(k[0], k[1]) for k in groups})
              for a, b in critic_pairs(baseline is not None)
              if (e, al, a) in groups and (e, al, b) in ref]  # fmt: skip
-    fw_level = 1 - (1 - level) / max(len(pairs), 1)
+    family = max(family_size or len(pairs), 1)
+    fw_level = 1 - (1 - level) / family
     out = []
     for name, metric in METRICS.items():
         for env_id, algo, a, b in pairs:
@@ -222,10 +227,43 @@ def comparisons(
                      b_sweep="same" if baseline is None else "baseline",
                      n_a=len(xa), n_b=len(xb), diff=d, low=low, high=high,
                      verdict=verdict(low, high, better) if enough else "too few seeds",
-                     fw_level=fw_level, fw_low=fw_low, fw_high=fw_high,
+                     family_size=family, fw_level=fw_level, fw_low=fw_low, fw_high=fw_high,
                      fw_verdict=verdict(fw_low, fw_high, better) if enough else "too few seeds")
             )  # fmt: skip
     return out
+
+
+def rerun_comparisons(
+    published: list[dict[str, Any]], rerun: list[dict[str, Any]], seed: int = 0
+) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
+    """The published comparisons of the critics re-run in some cells, and the re-run's.
+
+    The re-run replaces the published runs of its critics in its ``(env, algo)`` cells; the
+    other critics of those cells (e.g. the MLP) keep their published runs, and the family-wise
+    level stays the published sweep's (``family_size``), so both sides follow the same rule.
+
+    Returns
+    -------
+    before, after : list of dict
+        :func:`comparisons` rows of the re-run critics against the critics not re-run, in the
+        re-run cells: from the published sweep, and with the re-run.
+    """
+    cells = {(r["spec"]["env_id"], r["spec"]["algo"]) for r in rerun}
+    critics = {r["spec"]["critic"] for r in rerun}
+
+    def wanted(row: dict[str, Any]) -> bool:
+        return (
+            (row["env"], row["algo"]) in cells and row["a"] in critics and row["b"] not in critics
+        )
+
+    before = comparisons(published, seed=seed)
+    family = before[0]["family_size"] if before else None
+    kept = [
+        r for r in published
+        if (r["spec"]["env_id"], r["spec"]["algo"]) in cells and r["spec"]["critic"] not in critics
+    ]  # fmt: skip
+    after = comparisons(kept + rerun, seed=seed, family_size=family)
+    return [r for r in before if wanted(r)], [r for r in after if wanted(r)]
 
 
 def critic_pairs(against_baseline: bool) -> tuple[tuple[str, str], ...]:

@@ -14,6 +14,7 @@ from sb3_geogp.comparison.report import (
     comparisons_markdown,
     plot_critic_accuracy,
     plot_learning_curves,
+    rerun_markdown,
     summary_markdown,
 )
 from sb3_geogp.comparison.results import (
@@ -21,9 +22,11 @@ from sb3_geogp.comparison.results import (
     MIN_SEEDS_FOR_VERDICT,
     PAIRS,
     comparisons,
+    rerun_comparisons,
     summary_rows,
     verdict,
 )
+from sb3_geogp.toolbox.stats import difference_ci
 from sb3_geogp.toolbox.tables import MIN_SAMPLES_FOR_INTERVAL, NO_INTERVAL, estimate_cell
 
 
@@ -76,6 +79,20 @@ def test_comparisons_against_hand_computed_means() -> None:
     for d in diffs:
         assert d["fw_level"] == pytest.approx(1 - 0.05 / 3)
         assert d["fw_low"] <= d["low"] <= d["diff"] <= d["high"] <= d["fw_high"]
+
+
+def test_a_rerun_keeps_the_published_family() -> None:
+    """family_size sets the Bonferroni level; the interval is the bootstrap at that level."""
+    runs = _results()
+    for d in comparisons(runs, family_size=42):
+        assert d["family_size"] == 42 and d["fw_level"] == pytest.approx(1 - 0.05 / 42)
+        metric = METRICS[d["metric"]]
+        xa, xb = (
+            np.array([metric.of_run(r) for r in runs if r["spec"]["critic"] == c], dtype=float)
+            for c in (d["a"], d["b"])
+        )
+        _, low, high = difference_ci(xa, xb, level=d["fw_level"], seed=0)
+        assert (d["fw_low"], d["fw_high"]) == (float(low), float(high))
 
 
 def test_familywise_level_can_overturn_a_verdict() -> None:
@@ -197,3 +214,19 @@ def test_figures_say_what_their_bands_are(monkeypatch: pytest.MonkeyPatch, tmp_p
     monkeypatch.undo()
     for fig in figures:
         plt.close(fig)
+
+
+def test_a_rerun_is_compared_under_the_published_rule() -> None:
+    """Re-run RBF runs replace the published ones; the MLP keeps its published runs."""
+    published = _results()
+    rerun = [_result("rbf", s, final=50.0 + s, rmse=1.0) for s in range(6)]
+    before, after = rerun_comparisons(published, rerun)
+    assert (
+        {(r["a"], r["b"]) for r in before} == {("rbf", "mlp")} == {(r["a"], r["b"]) for r in after}
+    )
+    final = {r["metric"]: r for r in after}["final_return"]
+    assert final["diff"] == pytest.approx(50.0) and final["fw_verdict"] == "better"
+    assert {r["metric"]: r for r in before}["final_return"]["verdict"] == "no difference"
+    assert all(r["family_size"] == 3 for r in before + after)  # the published sweep's 3 pairs
+    text = rerun_markdown(before, after)
+    assert text.count("| `E-v0` | ppo | rbf − mlp |") == len(METRICS)
