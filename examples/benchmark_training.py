@@ -42,6 +42,8 @@ WORKLOADS = {
     "A2C CartPole-v1": (A2C, "a2c", "CartPole-v1", 30_000, {"forgetting": 0.9}),
 }
 CRITICS = ("mlp", "rbf", "geodesic")
+#: GP critics with adaptation (``gp_kwargs=dict(adapt=True)``), measured with ``--adapt``.
+ADAPTIVE = ("rbf+adapt", "geodesic+adapt")
 
 
 def _timed(method: Callable[..., Any], clock: list[float]) -> Callable[..., Any]:
@@ -66,7 +68,8 @@ def run(workload: str, critic: str, seed: int, max_basis: int, scale: float) -> 
         model = algo_cls("MlpPolicy", env, seed=seed, policy_kwargs=policy_kwargs, **kwargs)
         callback = None
     else:
-        gp_kwargs = dict(kernel=critic, max_basis=max_basis, **gp_options)
+        kernel, _, adapt = critic.partition("+")
+        gp_kwargs = dict(kernel=kernel, max_basis=max_basis, adapt=bool(adapt), **gp_options)
         policy_kwargs = {**policy_kwargs, "gp_kwargs": gp_kwargs}
         model = algo_cls(GPActorCriticPolicy, env, seed=seed, policy_kwargs=policy_kwargs, **kwargs)
         gp = model.policy.gp
@@ -130,18 +133,22 @@ def main() -> None:
     parser.add_argument("--load", type=int, default=0, help="busy background processes")
     parser.add_argument("--scale", type=float, default=1.0, help="multiply the step budgets")
     parser.add_argument("--workloads", nargs="+", default=list(WORKLOADS), choices=WORKLOADS)
+    parser.add_argument(
+        "--adapt", action="store_true", help="also the GP critics with adapt=True, interleaved"
+    )
     parser.add_argument("--out", type=Path, default=None, help="write the figures as JSON")
     args = parser.parse_args()
+    critics = CRITICS + (ADAPTIVE if args.adapt else ())
     if args.threads != "default":
         th.set_num_threads(int(args.threads))
     record = provenance()  # at the start: the code the runs import
     results: dict[str, dict[str, list[dict[str, Any]]]] = {
-        w: {c: [] for c in CRITICS} for w in args.workloads
+        w: {c: [] for c in critics} for w in args.workloads
     }
     with background_load(args.load):
         for seed in args.seeds:
             for workload in args.workloads:
-                for critic in CRITICS:
+                for critic in critics:
                     r = run(workload, critic, seed, args.max_basis, args.scale)
                     results[workload][critic].append(r)
                     print(
