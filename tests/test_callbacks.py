@@ -509,3 +509,15 @@ def test_warnings_have_their_own_category_and_point_at_the_users_line() -> None:
         A2C(GPActorCriticPolicy, "Pendulum-v1", n_steps=8, seed=0).learn(
             8, callback=GPValueCallback()
         )
+
+
+def test_no_forgetting_warning_when_the_gp_adapts_its_forgetting() -> None:
+    import warnings as std_warnings
+
+    from sb3_geogp import GPCriticWarning
+
+    kwargs = dict(gp_kwargs=dict(adapt=True))
+    model = A2C(GPActorCriticPolicy, "Pendulum-v1", n_steps=8, seed=0, policy_kwargs=kwargs)
+    with std_warnings.catch_warnings():
+        std_warnings.simplefilter("error", GPCriticWarning)
+        model.learn(8, callback=GPValueCallback())
