@@ -82,6 +82,7 @@ _COUNTERS = (
     "n_batches",
     "n_blocks",
     "block_new",
+    "n_pruned",
 )
 
 
@@ -229,6 +230,7 @@ class SparseOnlineGP(nn.Module):
     n_batches: Tensor
     n_blocks: Tensor
     block_new: Tensor
+    n_pruned: Tensor
     novelty_floor: Tensor
     block_forgetting: Tensor
     ls_start: Tensor
@@ -693,7 +695,7 @@ class SparseOnlineGP(nn.Module):
         if x.shape[0] < m:
             PK = P @ rows.T
             S = rows @ PK + torch.diag(noise)
-            L = torch.linalg.cholesky(_sym(S))
+            L, _ = jittered_cholesky(_sym(S), float(noise.mean()))
             gain = torch.cholesky_solve(PK.T, L)  # S^{-1} K_x P, shape (n, m)
             self.alpha[:m] += gain.T @ resid
             self.P[:m, :m] = _sym(P - PK @ gain)
@@ -1032,14 +1034,34 @@ class SparseOnlineGP(nn.Module):
     def _rebuild(self, x: Tensor, yn: Tensor, w: Tensor) -> None:
         """The exact sparse posterior of ``(x, yn)`` with noise ``sigma_n^2 / w`` replaces the
         current one (:func:`~sb3_geogp.adaptation.sparse_posterior`)."""
-        m = self.n_basis
         self._refresh_Q()
+        self._prune_redundant()
+        m = self.n_basis
         Kzz, Kxz = self._basis_covariances(x)
         variance = float(self.kernel.variance)
         alpha, P = sparse_posterior(Kzz, Kxz, yn, self.noise_var / w, variance)
         self.alpha[:m] = alpha
         self.P[:m, :m] = P
         self._matrices().posterior_changed()
+
+    def _prune_redundant(self) -> None:
+        """Delete, least novel first, the BVs that new hyperparameters made near-duplicates.
+
+        A longer lengthscale makes neighbouring BVs nearly collinear; their Gram matrix is then
+        numerically singular and the posterior's weights grow until predictions off the data
+        are meaningless (measured: critic RMSE 1e5 on CartPole, then a failed Cholesky). A
+        BV's residual variance given the others is ``1 / Q_jj``; each must keep the share of
+        the signal variance that the insertion guard requires of a newcomer's whole row
+        (:meth:`_reject_row`), ``Q_jj <= 1e4 / variance``. The posterior is rebuilt afterwards.
+        """
+        limit = _Q_GROWTH / float(self.kernel.variance)
+        while self.n_basis > 1:
+            q = torch.diagonal(self.Q[: self.n_basis, : self.n_basis])
+            j = int(q.argmax())
+            if float(q[j]) <= limit:
+                return
+            self._delete(j)
+            self.n_pruned += 1
 
     # ------------------------------------------------------------------------------------------
     # Validation
@@ -1131,7 +1153,7 @@ def _upgrade_v02_state(state: dict[str, Any], prefix: str, gp: SparseOnlineGP) -
         state[prefix + "_extra_state"] = {**extra, "window": gp.window.size, "adapt": None}
     for name, value in gp.window.state_dict().items():
         state[prefix + "window." + name] = value
-    for name in ("n_blocks", "block_new"):
+    for name in ("n_blocks", "block_new", "n_pruned"):
         state[prefix + name] = torch.zeros((), dtype=torch.long)
     state[prefix + "block_forgetting"] = torch.tensor(gp.forgetting, dtype=gp.noise_var.dtype)
     saved = state.get(prefix + "kernel.lengthscale")

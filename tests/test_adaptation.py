@@ -185,3 +185,20 @@ def test_a_failure_inside_the_adaptation_leaves_the_state_unchanged(monkeypatch)
     with pytest.raises(FloatingPointError, match="simulated"):
         gp.update(rng.uniform(size=(100, 2)), rng.normal(size=100))
     assert_same_state(before, snapshot(gp))
+
+
+def test_bvs_made_redundant_by_a_longer_lengthscale_are_pruned() -> None:
+    """35x longer lengthscales make a dense basis nearly collinear: the near-duplicates go and
+    the rebuilt GP still fits (without pruning its weights blow up off the data)."""
+    rng = np.random.default_rng(0)
+    x = rng.uniform(-1, 1, size=(400, 2))
+    y = x[:, 0] + 0.5 * x[:, 1] + 0.01 * rng.normal(size=400)
+    gp = SparseOnlineGP(2, RBFKernel(lengthscale=0.05), max_basis=200, novelty_tol=1e-3)
+    gp.update(x, y)
+    gp.fit_hyperparameters(n_iter=200, lr=0.1)
+    m = gp.n_basis
+    assert float(gp.lengthscale.min()) > 20 * 0.05 and int(gp.n_pruned) > 0
+    assert float(gp.Q[:m, :m].diagonal().max() * gp.kernel.variance) <= 1e4
+    probe = rng.uniform(-1, 1, size=(500, 2))
+    truth = probe[:, 0] + 0.5 * probe[:, 1]
+    assert float(np.abs(gp.predict(probe)[0].numpy() - truth).max()) < 0.05
