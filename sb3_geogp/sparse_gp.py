@@ -113,14 +113,18 @@ def _check_dtype(dtype: Any, kernel: Kernel) -> torch.dtype:
     return cast(torch.dtype, dtype)
 
 
-def _check_memory(capacity: int, input_dim: int, kernel: Kernel, dtype: torch.dtype) -> None:
+def _check_memory(
+    capacity: int, input_dim: int, kernel: Kernel, dtype: torch.dtype, window: int
+) -> None:
     itemsize = torch.empty((), dtype=dtype).element_size()
     nbytes = itemsize * (2 * capacity * capacity + (input_dim + 4) * capacity)
+    nbytes += window * (itemsize * (input_dim + 1) + 8)
     nbytes += kernel.state_nbytes(capacity, input_dim, itemsize)
     if nbytes > _MAX_STATE_BYTES:
         raise ValueError(
-            f"max_basis={capacity - 1} needs about {nbytes / 2**30:.3g} GiB of state (more than "
-            f"{_MAX_STATE_BYTES / 2**30:.0f} GiB); choose a smaller max_basis"
+            f"max_basis={capacity - 1} with a {window}-point window needs about "
+            f"{nbytes / 2**30:.3g} GiB of state (more than {_MAX_STATE_BYTES / 2**30:.0f} GiB); "
+            "choose a smaller max_basis (or Adaptation.window)"
         )
 
 
@@ -282,7 +286,8 @@ class SparseOnlineGP(nn.Module):
         )
         # One spare slot: a new BV is inserted before the least informative one is deleted.
         cap = self.max_basis + 1
-        _check_memory(cap, self.input_dim, self.kernel, dtype)
+        size = self.adaptation.window if self.adaptation is not None else _DEFAULT_WINDOW
+        _check_memory(cap, self.input_dim, self.kernel, dtype, size)
         self.kernel.bind(self.input_dim, cap)
         if input_bounds is not None and any(np.size(b) != self.input_dim for b in input_bounds):
             raise ValueError(
@@ -309,7 +314,6 @@ class SparseOnlineGP(nn.Module):
         self.register_buffer("novelty_floor", torch.tensor(self.novelty_tol, **kw))
         self.register_buffer("block_forgetting", torch.tensor(self.forgetting, **kw))
         self.register_buffer("ls_start", self.kernel.lengthscale.to(**kw).clone())
-        size = self.adaptation.window if self.adaptation is not None else _DEFAULT_WINDOW
         self.window = RetainedWindow(size, self.input_dim).to(**kw)
         self.last_stats: dict[str, float] = {}
         self._cache: _PosteriorMatrices | None = None

@@ -202,3 +202,8 @@ def test_bvs_made_redundant_by_a_longer_lengthscale_are_pruned() -> None:
     probe = rng.uniform(-1, 1, size=(500, 2))
     truth = probe[:, 0] + 0.5 * probe[:, 1]
     assert float(np.abs(gp.predict(probe)[0].numpy() - truth).max()) < 0.05
+
+
+def test_a_window_too_large_for_memory_is_refused_up_front() -> None:
+    with pytest.raises(ValueError, match="1000000-point window"):
+        SparseOnlineGP(10**5, "rbf", max_basis=4, adapt=Adaptation(window=10**6))
