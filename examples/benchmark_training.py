@@ -34,7 +34,7 @@ from stable_baselines3 import A2C, PPO
 from stable_baselines3.common.env_util import make_vec_env
 
 from sb3_geogp import GPActorCriticPolicy, GPValueCallback, SparseOnlineGP
-from sb3_geogp.comparison.hyperparams import algo_kwargs
+from sb3_geogp.comparison.hyperparams import algo_kwargs, hyperparams
 from sb3_geogp.toolbox.provenance import provenance
 
 WORKLOADS = {
@@ -61,7 +61,7 @@ def _timed(method: Callable[..., Any], clock: list[float]) -> Callable[..., Any]
 def run(workload: str, critic: str, seed: int, max_basis: int, scale: float) -> dict[str, Any]:
     """Train once; wall clock, and for a GP critic the seconds in its updates and predictions."""
     algo_cls, algo, env_id, steps, gp_options = WORKLOADS[workload]
-    n_envs, kwargs, policy_kwargs = algo_kwargs(algo, env_id)
+    n_envs, kwargs, policy_kwargs = algo_kwargs(algo, hyperparams(algo, env_id).values)
     env = make_vec_env(env_id, n_envs=n_envs, seed=seed)
     update, predict = [0.0], [0.0]
     if critic == "mlp":
