@@ -24,7 +24,7 @@ import multiprocessing as mp
 import os
 import statistics
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
@@ -123,7 +123,7 @@ def table(results: dict[str, dict[str, list[dict[str, Any]]]]) -> str:
     return "\n".join(lines)
 
 
-def main() -> None:
+def main(argv: Sequence[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1])
     parser.add_argument("--max-basis", type=int, default=256)
@@ -137,7 +137,7 @@ def main() -> None:
         "--adapt", action="store_true", help="also the GP critics with adapt=True, interleaved"
     )
     parser.add_argument("--out", type=Path, default=None, help="write the figures as JSON")
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     critics = CRITICS + (ADAPTIVE if args.adapt else ())
     if args.threads != "default":
         th.set_num_threads(int(args.threads))
