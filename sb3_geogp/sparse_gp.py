@@ -1027,8 +1027,8 @@ class SparseOnlineGP(nn.Module):
                     for param, lo, hi in limits:
                         param.copy_(torch.clamp(param, lo, hi))
         final = float(loss())
-        if self._rollback is not None:
-            self._rollback.before_basis_change()
+        assert self._rollback is not None
+        self._rollback.before_basis_change()
         kernel.rescale(log_f.detach().exp())
         kernel.variance.copy_(log_var.detach().exp())
         self.noise_var.copy_(log_noise.detach().exp())

@@ -8,7 +8,6 @@ import numpy as np
 import pytest
 
 from sb3_geogp import RBFKernel
-from sb3_geogp.adaptation import Adaptation
 from sb3_geogp.studies.pendulum.batch_check import (
     CheckConfig,
     Hyper,
@@ -92,21 +91,13 @@ def test_max_iter_zero_evaluates_the_start() -> None:
     assert fit.evaluations == 1
 
 
-def test_run_check_tiny() -> None:
-    config = CheckConfig(
-        max_basis=(5, 10),
-        seeds=(0,),
-        n_episodes=8,
-        episodes_per_batch=4,
-        adaptation=Adaptation(window=128),
-        grid_n=6,
-        mc_rollouts=2,
-        batch_iters=10,
-    )
+def test_run_check_quick() -> None:
+    """The configuration ``examples/fixed_policy_check.py --quick`` runs."""
+    config = CheckConfig.quick()
     result = run_check(config)
     assert len(result.rows) == 4
     for row in result.rows:
-        assert row["n_points"] == 8 * 38
+        assert row["n_points"] == 16 * 38
         assert row["n_basis"] <= row["max_basis"]
         for key in ("mse_adaptive", "mse_default", "mse_batch", "mse_batch_online_hyper"):
             assert math.isfinite(row[key]) and row[key] > 0
@@ -114,7 +105,7 @@ def test_run_check_tiny() -> None:
             assert math.isfinite(row[key])
     summary = result.summary()
     assert {(s["kernel"], s["max_basis"]) for s in summary} == {
-        (k, m) for k in ("rbf", "geodesic") for m in (5, 10)
+        (k, m) for k in ("rbf", "geodesic") for m in (10, 20)
     }
     assert "no interval" in result.table()
     assert set(result.to_json()) >= {"config", "rows", "summary", "n_points", "truth"}
