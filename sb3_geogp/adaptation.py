@@ -21,9 +21,19 @@ dozen A2C rollouts), it closes a *block* and adapts, in this order:
               \\qquad Q_{xx} = K_{xz} K_{zz}^{-1} K_{zx}.
 
    Each parameter is kept within its bounds.
-4. **Posterior.** The exact sparse posterior of the window under the new hyperparameters
-   replaces the on-line one (:func:`sparse_posterior`): nothing is rebuilt from the targets
-   stored with the basis vectors, which are stale in RL.
+4. **Posterior.** The exact sparse posterior of the window under the new hyperparameters,
+   times the :class:`Summary` of the points that have left the window, replaces the on-line
+   one (:func:`sparse_posterior`): nothing is rebuilt from the targets stored with the basis
+   vectors, which are stale in RL.
+
+A point leaving the window is projected onto the basis vectors of that moment, as the sparse
+posterior projects every point, and added, with its weight, to the summary: a Gaussian
+likelihood of the function values at the basis vectors. It does not depend on the kernel, so
+it survives a change of hyperparameters; it ages with the window's points (times ``lambda``
+per block), follows a change of the target units, and a deletion of a basis vector
+substitutes that vector's conditional mean given the others, as the on-line deletion does.
+Without it a rebuild would forget everything older than the window (measured: 2-4x the batch
+sparse GP's error on the fixed-policy pendulum check, against about 1x without adaptation).
 
 Between adaptations the GP learns on-line as without adaptation (and without on-line
 forgetting: forgetting acts per block, through the weights).
@@ -34,7 +44,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterator
 from dataclasses import asdict, dataclass
-from typing import Any
+from typing import Any, NamedTuple
 
 import torch
 from torch import Tensor, nn
@@ -190,9 +200,16 @@ class Projection:
         """``diag(K_xz K_zz^{-1} K_zx)``, shape (n,)."""
         return self.A.square().sum(dim=0)
 
-    def posterior(self, y: Tensor, noise: Tensor) -> tuple[Tensor, Tensor]:
+    def posterior(
+        self, y: Tensor, noise: Tensor, summary: Summary | None = None
+    ) -> tuple[Tensor, Tensor]:
         """:func:`sparse_posterior` from this projection."""
-        return self.solve(*self._system(y, noise))
+        B, Ay = self._system(y, noise)
+        if summary is not None:
+            # The summary's precision and shift in the whitened coordinates v = L^-1 f_z.
+            B = B + self.L.T @ summary.precision @ self.L
+            Ay = Ay + self.L.T @ summary.shift
+        return self.solve(0.5 * (B + B.T), Ay)
 
     def group_posteriors(
         self, y: Tensor, group: Tensor, noises: list[Tensor]
@@ -242,7 +259,12 @@ class Projection:
 
 
 def sparse_posterior(
-    Kzz: Tensor, Kxz: Tensor, y: Tensor, noise: Tensor, variance: float
+    Kzz: Tensor,
+    Kxz: Tensor,
+    y: Tensor,
+    noise: Tensor,
+    variance: float,
+    summary: Summary | None = None,
 ) -> tuple[Tensor, Tensor]:
     """Exact sparse (DTC / projected-process) posterior of data in Csató–Opper form.
 
@@ -255,6 +277,9 @@ def sparse_posterior(
 
     computed through ``K_zz = L L^T`` and ``B = I + L^{-1} K_zx N^{-1} K_xz L^{-T}`` (whose
     eigenvalues are at least 1), never by inverting ``K_zz + K_zx N^{-1} K_xz`` directly.
+    A ``summary`` of further data (a Gaussian likelihood ``exp(-f^T Lambda f / 2 + eta^T f)``
+    of the function values ``f`` at ``z``) multiplies in: with ``Lambda`` and ``eta`` of data
+    projected as above, the result is the posterior of both data sets together.
 
     Parameters
     ----------
@@ -266,13 +291,39 @@ def sparse_posterior(
     variance : float
         Signal variance (the jitter scale of the factorisations).
 
+    summary : Summary, optional
+
     Returns
     -------
     alpha : Tensor, shape (m,)
     P : Tensor, shape (m, m)
         Symmetric positive definite.
     """
-    return Projection(Kzz, Kxz, variance).posterior(y, noise)
+    return Projection(Kzz, Kxz, variance).posterior(y, noise, summary)
+
+
+class Summary(NamedTuple):
+    """A Gaussian likelihood of the function values ``f : (m,)`` at the inducing points,
+    ``exp(-f^T precision f / 2 + shift^T f)``: what data that is no longer retained says.
+
+    Data ``(x, y)`` with noise ``N`` contributes, as in :func:`sparse_posterior`,
+    ``precision = K_zz^{-1} K_zx N^{-1} K_xz K_zz^{-1}`` and
+    ``shift = K_zz^{-1} K_zx N^{-1} y`` (:meth:`of_data`); ``unit_shift`` is the shift the
+    same points would give with every target 1, which a change of the targets' origin needs
+    (the projection of a constant is not constant).
+    """
+
+    precision: Tensor
+    shift: Tensor
+    unit_shift: Tensor
+
+    @staticmethod
+    def of_data(Kzz: Tensor, Kxz: Tensor, y: Tensor, noise: Tensor, variance: float) -> Summary:
+        """The summary of ``y : (n,)`` at rows ``Kxz : (n, m)`` with noise ``noise : (n,)``."""
+        L, _ = jittered_cholesky(Kzz, variance)
+        B = torch.cholesky_solve(Kxz.T, L)  # K_zz^-1 K_zx, shape (m, n)
+        scaled = B / noise.sqrt()
+        return Summary(scaled @ scaled.T, B @ (y / noise), B @ (1 / noise))
 
 
 def block_weights(age: Tensor, forgetting: float) -> Tensor:
@@ -316,10 +367,22 @@ class RetainedWindow(nn.Module):
         self.register_buffer("block", torch.zeros(self.size, dtype=torch.long))
         self.register_buffer("count", torch.zeros((), dtype=torch.long))
 
-    def append(self, x: Tensor, y: Tensor, block: int) -> None:
-        """Keep ``x : (n, d)``, ``y : (n,)`` as arrivals of ``block``, dropping the oldest."""
+    def append(self, x: Tensor, y: Tensor, block: int) -> tuple[Tensor, Tensor, Tensor]:
+        """Keep ``x : (n, d)``, ``y : (n,)`` as arrivals of ``block``, dropping the oldest.
+
+        Returns
+        -------
+        x, y, block : Tensor, shapes (k, d), (k,), (k,)
+            The ``k`` points that no longer fit (copies), oldest first.
+        """
         n, kept = min(x.shape[0], self.size), int(self.count)
         keep = min(kept, self.size - n)
+        arrived = torch.full((x.shape[0] - n,), block, dtype=torch.long, device=x.device)
+        dropped = (
+            torch.cat([self.x[: kept - keep], x[: x.shape[0] - n]]),
+            torch.cat([self.y[: kept - keep], y[: y.shape[0] - n]]),
+            torch.cat([self.block[: kept - keep], arrived]),
+        )
         self.x[:keep] = self.x[kept - keep : kept].clone()
         self.y[:keep] = self.y[kept - keep : kept].clone()
         self.block[:keep] = self.block[kept - keep : kept].clone()
@@ -327,6 +390,7 @@ class RetainedWindow(nn.Module):
         self.y[keep : keep + n] = y[-n:]
         self.block[keep : keep + n] = block
         self.count.fill_(keep + n)
+        return dropped
 
     def data(self) -> tuple[Tensor, Tensor, Tensor]:
         """Retained ``x (n, d)``, ``y (n,)`` and ``block (n,)``, oldest first (views)."""

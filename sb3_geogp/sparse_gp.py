@@ -39,6 +39,7 @@ from sb3_geogp.adaptation import (
     Adaptation,
     Projection,
     RetainedWindow,
+    Summary,
     as_adaptation,
     block_weights,
     jittered_cholesky,
@@ -117,7 +118,7 @@ def _check_memory(
     capacity: int, input_dim: int, kernel: Kernel, dtype: torch.dtype, window: int
 ) -> None:
     itemsize = torch.empty((), dtype=dtype).element_size()
-    nbytes = itemsize * (2 * capacity * capacity + (input_dim + 4) * capacity)
+    nbytes = itemsize * (3 * capacity * capacity + (input_dim + 6) * capacity)
     nbytes += window * (itemsize * (input_dim + 1) + 8)
     nbytes += kernel.state_nbytes(capacity, input_dim, itemsize)
     if nbytes > _MAX_STATE_BYTES:
@@ -203,6 +204,10 @@ class SparseOnlineGP(nn.Module):
     window : RetainedWindow
         The most recent points fed (``adapt.window`` of them, else 2048): the data
         :meth:`fit_hyperparameters` and the adaptation fit and rebuild the posterior from.
+    summary_prec, summary_shift, summary_unit : Tensor, shapes (m_max + 1, m_max + 1), (m_max + 1,)
+        With adaptation, the :class:`~sb3_geogp.adaptation.Summary` of the points that left the
+        window (a Gaussian likelihood of the standardised function values at the BVs), so that
+        a rebuild keeps what they said.
     last_stats : dict of str to float
         With adaptation, after each :meth:`update`: ``nlpd`` and ``explained_variance`` of the
         batch under the posterior before it was absorbed (out of sample, in the targets'
@@ -223,6 +228,9 @@ class SparseOnlineGP(nn.Module):
     alpha: Tensor
     P: Tensor
     Q: Tensor
+    summary_prec: Tensor
+    summary_shift: Tensor
+    summary_unit: Tensor
     noise_var: Tensor
     y_mean: Tensor
     y_scale: Tensor
@@ -305,6 +313,9 @@ class SparseOnlineGP(nn.Module):
         self.register_buffer("alpha", torch.zeros(cap, **kw))
         self.register_buffer("P", torch.zeros(cap, cap, **kw))
         self.register_buffer("Q", torch.zeros(cap, cap, **kw))
+        self.register_buffer("summary_prec", torch.zeros(cap, cap, **kw))
+        self.register_buffer("summary_shift", torch.zeros(cap, **kw))
+        self.register_buffer("summary_unit", torch.zeros(cap, **kw))
         self._fixed_target = (target_mean, target_scale)
         self.register_buffer("y_mean", torch.tensor(float(target_mean or 0.0), **kw))
         self.register_buffer("y_scale", torch.tensor(float(target_scale or 1.0), **kw))
@@ -789,27 +800,26 @@ class SparseOnlineGP(nn.Module):
         """Remove BV ``j`` by the Csató–Opper KL projection.
 
         With ``T = [I, -Q_{r j} / Q_jj]`` (rows ``r`` = the other BVs):
-        ``alpha <- T alpha``, ``P <- T P T^T``, ``Q <- Q_rr - Q_rj Q_rj^T / Q_jj``.
+        ``alpha <- T alpha``, ``P <- T P T^T``, ``Q <- Q_rr - Q_rj Q_rj^T / Q_jj``. The summary
+        of the points that left the window transforms as ``alpha`` and ``P``: for a quadratic
+        form in the function values ``f``, ``T^T`` substitutes for ``f_j`` its conditional mean
+        given the others, ``K_jr K_rr^{-1} f_r = -Q_jr f_r / Q_jj``.
         """
         m = self.n_basis
         keep = torch.cat([torch.arange(j), torch.arange(j + 1, m)]).to(self.alpha.device)
         Q, P = self.Q[:m, :m], self.P[:m, :m]
         q_star = Q[keep, j] / Q[j, j]
-        p_col = P[keep, j]
-        alpha = self.alpha[keep] - self.alpha[j] * q_star
-        new_P = (
-            P[keep][:, keep]
-            - torch.outer(q_star, p_col)
-            - torch.outer(p_col, q_star)
-            + P[j, j] * torch.outer(q_star, q_star)
-        )
         new_Q = Q[keep][:, keep] - torch.outer(q_star, Q[keep, j])
+        for vec, mat in ((self.alpha, self.P), (self.summary_shift, self.summary_prec)):
+            vec[: m - 1], mat_new = _substitute(vec[:m], mat[:m, :m], j, keep, q_star)
+            vec[m - 1] = 0.0
+            self._set_square(mat, _sym(mat_new))
+        unit = self.summary_unit
+        unit[: m - 1] = unit[keep] - unit[j] * q_star
+        unit[m - 1] = 0.0
         for buf in (self.bv_x, self.bv_y, self.nugget):
             buf[: m - 1] = buf[keep].clone()
             buf[m - 1] = 0
-        self.alpha[: m - 1] = alpha
-        self.alpha[m - 1] = 0.0
-        self._set_square(self.P, _sym(new_P))
         self._set_square(self.Q, _sym(new_Q))
         assert self._rollback is not None
         self._rollback.before_basis_change()
@@ -908,15 +918,36 @@ class SparseOnlineGP(nn.Module):
     # ------------------------------------------------------------------------------------------
     def _retain(self, x: Tensor, y: Tensor) -> None:
         """Keep the batch in the window; close the block (and adapt) when it is due."""
-        self.window.append(x, y, int(self.n_blocks))
+        dropped = self.window.append(x, y, int(self.n_blocks))
         self.block_new += x.shape[0]
         a = self.adaptation
+        if a is not None and self.n_basis > 0 and dropped[0].shape[0] > 0:
+            self._summarise(*dropped)
         if a is not None and int(self.block_new) < a.block:
             return
         self.n_blocks += 1
         self.block_new.zero_()
         if a is not None and self.n_basis > 0:
             self._adapt(a)
+
+    def _summarise(self, x: Tensor, y: Tensor, block: Tensor) -> None:
+        """Add what the points leaving the window say to the summary, with their weights.
+
+        A point of the open block gets age -1: the block's closing ages it to 0, as it does
+        the points still in the window.
+        """
+        m = self.n_basis
+        Kzz, Kxz = self._basis_covariances(x)
+        w = block_weights(self.n_blocks - 1 - block, float(self.block_forgetting)).to(y)
+        yn = (y - self.y_mean) / self.y_scale
+        part = Summary.of_data(Kzz, Kxz, yn, self.noise_var / w, float(self.kernel.variance))
+        self.summary_prec[:m, :m] += part.precision
+        self.summary_shift[:m] += part.shift
+        self.summary_unit[:m] += part.unit_shift
+
+    def _summary(self) -> Summary:
+        m = self.n_basis
+        return Summary(self.summary_prec[:m, :m], self.summary_shift[:m], self.summary_unit[:m])
 
     def _ages(self, block: Tensor) -> Tensor:
         """Age in closed blocks of points that arrived in ``block : (n,)`` (0: the newest)."""
@@ -926,6 +957,9 @@ class SparseOnlineGP(nn.Module):
         x, y, block = self.window.data()
         age = self._ages(block)
         lam = self._choose_forgetting(x, y, age, a.forgetting)
+        # Every point ages by one block, those in the summary too.
+        for buf in (self.summary_prec, self.summary_shift, self.summary_unit):
+            buf.mul_(lam)
         w = block_weights(age, lam).to(y)
         if a.targets:
             self._restandardise(y, w)
@@ -985,13 +1019,27 @@ class SparseOnlineGP(nn.Module):
         return candidates[int(np.argmin(scores))]
 
     def _restandardise(self, y: Tensor, w: Tensor) -> None:
-        """Weighted mean and scale of the retained targets, where the user fixed neither."""
+        """Weighted mean and scale of the retained targets, where the user fixed neither.
+
+        The summary follows the new units: with ``y_old = a y_new + b``, ``a`` the ratio of
+        the new scale to the old and ``b`` the mean's shift in old units, its precision
+        becomes ``a^2 Lambda``, its shift ``a (eta - b u)`` and its unit shift ``a^2 u``
+        (:class:`~sb3_geogp.adaptation.Summary`). The noise variance stays in standardised
+        units, so the summarised points keep theirs in the targets' units.
+        """
+        old_mean, old_scale = self.y_mean.clone(), self.y_scale.clone()
         mean, scale = weighted_moments(y, w)
         fixed_mean, fixed_scale = self._fixed_target
         if fixed_mean is None:
             self.y_mean.fill_(mean)
         if fixed_scale is None and scale > 1e-8 * max(1.0, abs(mean)):
             self.y_scale.fill_(scale)
+        a, b = self.y_scale / old_scale, (self.y_mean - old_mean) / old_scale
+        m = self.n_basis
+        unit = self.summary_unit[:m]
+        self.summary_shift[:m].sub_(b * unit).mul_(a)
+        unit.mul_(a * a)
+        self.summary_prec[:m, :m].mul_(a * a)
 
     def _fit(
         self, x: Tensor, yn: Tensor, w: Tensor, steps: int, lr: float, bounds: Adaptation
@@ -1043,7 +1091,7 @@ class SparseOnlineGP(nn.Module):
         m = self.n_basis
         Kzz, Kxz = self._basis_covariances(x)
         variance = float(self.kernel.variance)
-        alpha, P = sparse_posterior(Kzz, Kxz, yn, self.noise_var / w, variance)
+        alpha, P = sparse_posterior(Kzz, Kxz, yn, self.noise_var / w, variance, self._summary())
         self.alpha[:m] = alpha
         self.P[:m, :m] = P
         self._matrices().posterior_changed()
@@ -1133,6 +1181,21 @@ def _least_informative(alpha: Tensor, p_diag: Tensor) -> int:
     return int((alpha**2 / p_diag.clamp_min(torch.finfo(p_diag.dtype).tiny)).argmin())
 
 
+def _substitute(
+    vec: Tensor, mat: Tensor, j: int, keep: Tensor, q_star: Tensor
+) -> tuple[Tensor, Tensor]:
+    """``T vec`` and ``T mat T^T`` for ``T = [I, -q_star]`` (column ``j`` removed): a deletion's
+    projection of ``vec : (m,)`` and ``mat : (m, m)`` onto the other ``m - 1`` slots."""
+    col = mat[keep, j]
+    projected = (
+        mat[keep][:, keep]
+        - torch.outer(q_star, col)
+        - torch.outer(col, q_star)
+        + mat[j, j] * torch.outer(q_star, q_star)
+    )
+    return vec[keep] - vec[j] * q_star, projected
+
+
 def _kqk(K: Tensor, Q: Tensor, nugget: Tensor) -> Tensor:
     """``K Q K`` for ``Q = (K + N)^{-1}``, ``N = diag(nugget)``: ``K - N + N Q N``, in O(m^2).
 
@@ -1149,7 +1212,11 @@ def _sym(M: Tensor) -> Tensor:
 
 def _upgrade_v02_state(state: dict[str, Any], prefix: str, gp: SparseOnlineGP) -> None:
     """Add, in place, what a state saved before the retained window (sb3_geogp 0.1, 0.2) lacks:
-    an empty window, no closed block, and the saved lengthscale as the starting one."""
+    an empty window, no closed block, and the saved lengthscale as the starting one; and what
+    one saved before the summary of the points that left the window lacks: an empty one."""
+    for name in ("summary_prec", "summary_shift", "summary_unit"):
+        if prefix + name not in state:
+            state[prefix + name] = torch.zeros_like(getattr(gp, name))
     if prefix + "window.count" in state:
         return
     extra = state.get(prefix + "_extra_state")
@@ -1282,8 +1349,8 @@ class _Rollback:
 
 
 #: GP buffers with one row per BV slot, and (m, m) ones.
-_PER_SLOT = frozenset({"bv_x", "bv_y", "nugget", "alpha"})
-_SLOT_BY_SLOT = frozenset({"P", "Q"})
+_PER_SLOT = frozenset({"bv_x", "bv_y", "nugget", "alpha", "summary_shift", "summary_unit"})
+_SLOT_BY_SLOT = frozenset({"P", "Q", "summary_prec"})
 
 
 def _in_use(name: str, buffer: Tensor, m: int) -> Tensor:

@@ -133,7 +133,8 @@ def test_forgetting_is_chosen_from_the_newest_block() -> None:
 
 def test_rebuilt_posterior_is_the_sparse_posterior_of_the_weighted_window() -> None:
     rng = np.random.default_rng(3)
-    adapt = Adaptation(window=250, interval=100, steps=3, forgetting=(0.5,))
+    # The window holds every point fed: the summary of dropped points stays empty.
+    adapt = Adaptation(window=400, interval=100, steps=3, forgetting=(0.5,))
     gp = SparseOnlineGP(2, "rbf", max_basis=40, adapt=adapt)
     for _ in range(4):
         x = rng.uniform(size=(100, 2))
@@ -145,6 +146,45 @@ def test_rebuilt_posterior_is_the_sparse_posterior_of_the_weighted_window() -> N
     white = np.sqrt(0.5**age / float(gp.noise_var))
     Kzz = rbf(z, z, ls, var) + np.diag(gp.nugget[: gp.n_basis].numpy())
     probe = rng.uniform(size=(9, 2))
+    ref_mean, ref_var = nystrom_posterior(
+        Kzz, rbf(x, z, ls, var) * white[:, None], rbf(probe, z, ls, var), var, yn * white, 1.0
+    )
+    mean, latent = gp.predict(probe)
+    s = float(gp.y_scale)
+    np.testing.assert_allclose(mean.numpy(), ref_mean * s + float(gp.y_mean), atol=1e-8 * s)
+    np.testing.assert_allclose(latent.numpy(), ref_var * s**2, atol=1e-8 * s**2)
+
+
+@pytest.mark.parametrize(("forgetting", "drift"), [(1.0, 0.0), (0.7, 0.0), (0.7, 0.5)])
+def test_summary_keeps_what_the_dropped_points_said(forgetting: float, drift: float) -> None:
+    """With hyperparameters and basis fixed, a 150-point window on a 1200-point stream gives the
+    exact sparse posterior of all 1200 points, weighted ``forgetting ** age``; also when the
+    target mean, re-estimated each block, follows a drift (the scale is fixed, since the
+    noise variance is in standardised units)."""
+    rng = np.random.default_rng(5)
+    adapt = Adaptation(
+        window=150, interval=100, steps=0, forgetting=(forgetting,), targets=drift > 0
+    )
+    gp = SparseOnlineGP(
+        1, RBFKernel(lengthscale=0.2), max_basis=30, adapt=adapt, target_scale=0.8
+    )
+    grid = np.linspace(0.0, 1.0, 11)[:, None]  # half a lengthscale apart: later points project
+    xs = [np.concatenate([grid, rng.uniform(size=(89, 1))])]
+    xs += [rng.uniform(size=(100, 1)) for _ in range(11)]
+    ys = [np.sin(5 * x[:, 0]) + drift * i + 0.1 * rng.normal(size=100) for i, x in enumerate(xs)]
+    gp.update(xs[0], ys[0])
+    basis = gp.basis_inputs.clone()
+    for x, y in zip(xs[1:], ys[1:], strict=True):
+        gp.update(x, y)
+    torch.testing.assert_close(gp.basis_inputs, basis, rtol=0, atol=0)  # the basis stayed
+    assert gp.summary_prec.abs().sum() > 0
+    x, y = np.concatenate(xs), np.concatenate(ys)
+    age = np.repeat(np.arange(len(xs))[::-1], 100)
+    yn = (y - float(gp.y_mean)) / float(gp.y_scale)
+    ls, var, z = gp.lengthscale.numpy(), float(gp.kernel.variance), gp.basis_inputs.numpy()
+    white = np.sqrt(forgetting**age / float(gp.noise_var))
+    Kzz = rbf(z, z, ls, var) + np.diag(gp.nugget[: gp.n_basis].numpy())
+    probe = rng.uniform(size=(9, 1))
     ref_mean, ref_var = nystrom_posterior(
         Kzz, rbf(x, z, ls, var) * white[:, None], rbf(probe, z, ls, var), var, yn * white, 1.0
     )
