@@ -2,9 +2,16 @@
 
 from __future__ import annotations
 
+import os
+import re
+import shutil
 import subprocess
 import sys
+import tarfile
 import textwrap
+from pathlib import Path
+
+import pytest
 
 _ENGINE_WITHOUT_SB3 = textwrap.dedent(
     """
@@ -69,3 +76,37 @@ def test_package_is_typed_and_licensed() -> None:
     meta = metadata.metadata("sb3_geogp")
     assert meta["License-Expression"] == "MIT"
     assert any(name.endswith("LICENSE") for name in meta.get_all("License-File") or [])
+
+
+_ROOT = Path(__file__).resolve().parents[1]
+
+
+def test_readme_links_work_off_the_repository() -> None:
+    """PyPI shows the README without the repository: a relative link would be broken there."""
+    readme = (_ROOT / "README.md").read_text()
+    targets = re.findall(r"\]\(([^)]+)\)", readme)
+    assert targets, "the README's links were not found"
+    relative = [t for t in targets if not t.startswith(("https://", "#"))]
+    assert not relative, f"relative links in README.md: {relative}"
+
+
+def test_source_distribution_ships_every_path_the_readme_names(tmp_path: Path) -> None:
+    build_meta = pytest.importorskip("setuptools.build_meta")
+    readme = (_ROOT / "README.md").read_text()
+    named = set(re.findall(r"`((?:docs|examples)/[\w./-]+\.(?:md|py))`", readme))
+    named |= set(re.findall(r"`python (examples/\S+\.py)", readme))
+    assert "docs/method.md" in named and "docs/results.md" in named
+    # A copy without build leftovers: setuptools reuses an existing egg-info's file list.
+    source = tmp_path / "source"
+    shutil.copytree(_ROOT, source, ignore=shutil.ignore_patterns("*.egg-info", ".*", "runs"))
+    cwd = os.getcwd()
+    os.chdir(source)
+    try:
+        archive = build_meta.build_sdist(str(tmp_path))
+    finally:
+        os.chdir(cwd)
+    with tarfile.open(tmp_path / archive) as sdist:
+        shipped = {name.split("/", 1)[1] for name in sdist.getnames() if "/" in name}
+    missing = sorted(p for p in named if p not in shipped)
+    assert not missing, f"named in README.md but not in the sdist: {missing}"
+    assert all((_ROOT / p).is_file() for p in named)
