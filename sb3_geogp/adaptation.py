@@ -1,13 +1,15 @@
 """Adaptation of the sparse GP to its data stream: hyperparameters, target scale, forgetting.
 
 A :class:`~sb3_geogp.SparseOnlineGP` built with ``adapt=Adaptation(...)`` retains the last
-``window`` points it was fed. Once ``interval`` new points have arrived (one PPO rollout, a few
-dozen A2C rollouts), it closes a *block* and adapts, in this order:
+``window`` points it was fed. Forgetting acts per *batch* (one :meth:`update` call: a PPO
+rollout, or one A2C rollout of a few steps): a point ``age`` batches old has weight
+``w = lambda^age``. Once ``interval`` new points have arrived (one PPO rollout, a dozen or more
+A2C rollouts), the GP closes a *block* and adapts, in this order:
 
-1. **Forgetting.** Each candidate ``lambda`` weights the window's points by
-   ``w_i = lambda^{age_i}``, ``age`` counted in blocks. The candidate whose sparse posterior
-   on the earlier blocks gives the newest block the lowest negative log predictive density
-   (NLPD) is chosen: an out-of-sample test of how fast the targets drift.
+1. **Forgetting.** Each candidate ``lambda`` weights the earlier points by ``lambda^age``
+   (the most recent earlier batch at weight 1). The candidate whose sparse posterior on them
+   gives the newest block the lowest negative log predictive density (NLPD) is chosen: an
+   out-of-sample test of how fast the targets drift.
 2. **Targets.** Mean and scale of the targets become the ``w``-weighted mean and standard
    deviation of the window's targets (unless the user fixed them).
 3. **Hyperparameters.** ``steps`` Adam steps on the log lengthscale factors (as the kernel
@@ -35,8 +37,9 @@ substitutes that vector's conditional mean given the others, as the on-line dele
 Without it a rebuild would forget everything older than the window (measured: 2-4x the batch
 sparse GP's error on the fixed-policy pendulum check, against about 1x without adaptation).
 
-Between adaptations the GP learns on-line as without adaptation (and without on-line
-forgetting: forgetting acts per block, through the weights).
+Between adaptations the GP learns on-line as without adaptation, forgetting with the chosen
+``lambda`` before each batch (``alpha <- sqrt(lambda) alpha``, ``C <- lambda C``), which the
+next rebuild's weights then make exact.
 """
 
 from __future__ import annotations
@@ -64,7 +67,7 @@ class Adaptation:
         Points retained (the most recent).
     interval : int or None
         New points per block: the GP adapts once this many have arrived since the last
-        adaptation. ``None``: half the window.
+        adaptation (at the end of the batch that completes them). ``None``: half the window.
     steps : int
         Adam steps on the hyperparameters per adaptation (0: only forgetting, targets and the
         rebuild).
@@ -74,7 +77,9 @@ class Adaptation:
     lr : float
         Adam step size on the log-parameters.
     forgetting : tuple of float
-        Candidates for ``lambda`` per block, each in (0, 1].
+        Candidates for ``lambda`` per batch, each in (0, 1]. The default spans what PPO
+        (a few batches per window) and A2C (dozens) need; A2C's recommended fixed value is
+        0.9 (docs/results.md).
     lengthscale_range : (float, float)
         Bounds on the lengthscales as factors of those the GP started with.
     variance_bounds, noise_bounds : (float, float)
@@ -94,7 +99,7 @@ class Adaptation:
     steps: int = 5
     fit_points: int = 512
     lr: float = 0.05
-    forgetting: tuple[float, ...] = (1.0, 0.9, 0.7, 0.5)
+    forgetting: tuple[float, ...] = (1.0, 0.97, 0.9, 0.7, 0.5)
     lengthscale_range: tuple[float, float] = (0.01, 100.0)
     variance_bounds: tuple[float, float] = (1e-2, 1e2)
     noise_bounds: tuple[float, float] = (1e-4, 1.0)
@@ -345,7 +350,7 @@ def weighted_moments(y: Tensor, w: Tensor) -> tuple[float, float]:
 
 
 class RetainedWindow(nn.Module):
-    """The last ``size`` points fed to a GP, oldest first, with the block each arrived in.
+    """The last ``size`` points fed to a GP, oldest first, with the batch each arrived in.
 
     Parameters
     ----------
@@ -356,7 +361,7 @@ class RetainedWindow(nn.Module):
 
     x: Tensor
     y: Tensor
-    block: Tensor
+    batch: Tensor
     count: Tensor
 
     def __init__(self, size: int, input_dim: int) -> None:
@@ -364,35 +369,35 @@ class RetainedWindow(nn.Module):
         self.size = int(size)
         self.register_buffer("x", torch.zeros(self.size, input_dim, dtype=torch.float64))
         self.register_buffer("y", torch.zeros(self.size, dtype=torch.float64))
-        self.register_buffer("block", torch.zeros(self.size, dtype=torch.long))
+        self.register_buffer("batch", torch.zeros(self.size, dtype=torch.long))
         self.register_buffer("count", torch.zeros((), dtype=torch.long))
 
-    def append(self, x: Tensor, y: Tensor, block: int) -> tuple[Tensor, Tensor, Tensor]:
-        """Keep ``x : (n, d)``, ``y : (n,)`` as arrivals of ``block``, dropping the oldest.
+    def append(self, x: Tensor, y: Tensor, batch: int) -> tuple[Tensor, Tensor, Tensor]:
+        """Keep ``x : (n, d)``, ``y : (n,)`` as arrivals of ``batch``, dropping the oldest.
 
         Returns
         -------
-        x, y, block : Tensor, shapes (k, d), (k,), (k,)
+        x, y, batch : Tensor, shapes (k, d), (k,), (k,)
             The ``k`` points that no longer fit (copies), oldest first.
         """
         n, kept = min(x.shape[0], self.size), int(self.count)
         keep = min(kept, self.size - n)
-        arrived = torch.full((x.shape[0] - n,), block, dtype=torch.long, device=x.device)
+        arrived = torch.full((x.shape[0] - n,), batch, dtype=torch.long, device=x.device)
         dropped = (
             torch.cat([self.x[: kept - keep], x[: x.shape[0] - n]]),
             torch.cat([self.y[: kept - keep], y[: y.shape[0] - n]]),
-            torch.cat([self.block[: kept - keep], arrived]),
+            torch.cat([self.batch[: kept - keep], arrived]),
         )
         self.x[:keep] = self.x[kept - keep : kept].clone()
         self.y[:keep] = self.y[kept - keep : kept].clone()
-        self.block[:keep] = self.block[kept - keep : kept].clone()
+        self.batch[:keep] = self.batch[kept - keep : kept].clone()
         self.x[keep : keep + n] = x[-n:]
         self.y[keep : keep + n] = y[-n:]
-        self.block[keep : keep + n] = block
+        self.batch[keep : keep + n] = batch
         self.count.fill_(keep + n)
         return dropped
 
     def data(self) -> tuple[Tensor, Tensor, Tensor]:
-        """Retained ``x (n, d)``, ``y (n,)`` and ``block (n,)``, oldest first (views)."""
+        """Retained ``x (n, d)``, ``y (n,)`` and ``batch (n,)``, oldest first (views)."""
         n = int(self.count)
-        return self.x[:n], self.y[:n], self.block[:n]
+        return self.x[:n], self.y[:n], self.batch[:n]

@@ -83,6 +83,7 @@ _COUNTERS = (
     "n_batches",
     "n_blocks",
     "block_new",
+    "block_start",
     "n_pruned",
 )
 
@@ -197,7 +198,7 @@ class SparseOnlineGP(nn.Module):
     adapt : Adaptation, bool or None
         Adapt hyperparameters, target mean and scale and forgetting to the data stream
         (:mod:`sb3_geogp.adaptation`); ``True`` takes :class:`Adaptation`'s defaults. Off by
-        default. With it, ``forgetting`` is only the starting value and acts per block.
+        default. With it, ``forgetting`` is only the starting value, then chosen per block.
 
     Attributes
     ----------
@@ -242,6 +243,7 @@ class SparseOnlineGP(nn.Module):
     n_batches: Tensor
     n_blocks: Tensor
     block_new: Tensor
+    block_start: Tensor
     n_pruned: Tensor
     novelty_floor: Tensor
     block_forgetting: Tensor
@@ -546,11 +548,9 @@ class SparseOnlineGP(nn.Module):
             )
         if self.adaptation is not None and self.n_basis > 0:
             self.last_stats.update(self._out_of_sample(x, y))
-        if self.adaptation is None and self.forgetting < 1 and self.n_basis > 0:
-            lam = self.forgetting
-            self.alpha.mul_(math.sqrt(lam))
-            self.P.mul_(lam).add_(self.Q, alpha=1 - lam)
-            self._matrices().posterior_changed()
+        lam = self.forgetting if self.adaptation is None else float(self.block_forgetting)
+        if lam < 1 and self.n_basis > 0:
+            self._forget(lam)
         n = x.shape[0]
         added_before = int(self.n_added)
         screen = _Screen()
@@ -596,6 +596,15 @@ class SparseOnlineGP(nn.Module):
         self.n_batches += 1
         self._retain(x, y)
         self._check_finite()
+
+    def _forget(self, lam: float) -> None:
+        """Age everything absorbed by one batch: ``alpha <- sqrt(lam) alpha``,
+        ``C <- lam C`` (``P <- lam P + (1 - lam) Q``), and the summary's weights times ``lam``."""
+        self.alpha.mul_(math.sqrt(lam))
+        self.P.mul_(lam).add_(self.Q, alpha=1 - lam)
+        for buf in (self.summary_prec, self.summary_shift, self.summary_unit):
+            buf.mul_(lam)
+        self._matrices().posterior_changed()
 
     def _initialize(self, x: Tensor, y: Tensor) -> None:
         """Standardise targets and choose the remaining lengthscales from the first batch."""
@@ -807,7 +816,7 @@ class SparseOnlineGP(nn.Module):
         """
         m = self.n_basis
         keep = torch.cat([torch.arange(j), torch.arange(j + 1, m)]).to(self.alpha.device)
-        Q, P = self.Q[:m, :m], self.P[:m, :m]
+        Q = self.Q[:m, :m]
         q_star = Q[keep, j] / Q[j, j]
         new_Q = Q[keep][:, keep] - torch.outer(q_star, Q[keep, j])
         for vec, mat in ((self.alpha, self.P), (self.summary_shift, self.summary_prec)):
@@ -869,7 +878,7 @@ class SparseOnlineGP(nn.Module):
         """Fit lengthscale(s), signal and noise variance to the retained data.
 
         Minimises the negative collapsed bound (Titsias 2009) of the points in :attr:`window`,
-        with the BVs as inducing points and each point weighted by the forgetting per block
+        with the BVs as inducing points and each point weighted by the forgetting per batch
         (:mod:`sb3_geogp.adaptation`), by Adam on log-parameters within
         :class:`~sb3_geogp.adaptation.Adaptation`'s bounds (this GP's, else the defaults). The
         kernel says which lengthscale factors are free
@@ -897,11 +906,11 @@ class SparseOnlineGP(nn.Module):
         ValueError
             Before the first :meth:`update`; the state is then unchanged.
         """
-        x, y, block = self.window.data()
+        x, y, batch = self.window.data()
         if x.shape[0] == 0 or self.n_basis == 0:
             raise ValueError("fit_hyperparameters needs retained data; call update first")
         forgetting = float(self.block_forgetting) if self.adaptation else self.forgetting
-        w = block_weights(self._ages(block), forgetting).to(y)
+        w = block_weights(self._ages(batch), forgetting).to(y)
         yn = (y - self.y_mean) / self.y_scale
         with self._transaction(), torch.no_grad():
             final = self._fit(x, yn, w, n_iter, lr, self.adaptation or Adaptation())
@@ -918,7 +927,7 @@ class SparseOnlineGP(nn.Module):
     # ------------------------------------------------------------------------------------------
     def _retain(self, x: Tensor, y: Tensor) -> None:
         """Keep the batch in the window; close the block (and adapt) when it is due."""
-        dropped = self.window.append(x, y, int(self.n_blocks))
+        dropped = self.window.append(x, y, int(self.n_batches) - 1)
         self.block_new += x.shape[0]
         a = self.adaptation
         if a is not None and self.n_basis > 0 and dropped[0].shape[0] > 0:
@@ -929,16 +938,13 @@ class SparseOnlineGP(nn.Module):
         self.block_new.zero_()
         if a is not None and self.n_basis > 0:
             self._adapt(a)
+        self.block_start.fill_(self.n_batches)
 
-    def _summarise(self, x: Tensor, y: Tensor, block: Tensor) -> None:
-        """Add what the points leaving the window say to the summary, with their weights.
-
-        A point of the open block gets age -1: the block's closing ages it to 0, as it does
-        the points still in the window.
-        """
+    def _summarise(self, x: Tensor, y: Tensor, batch: Tensor) -> None:
+        """Add what the points leaving the window say to the summary, with their weights."""
         m = self.n_basis
         Kzz, Kxz = self._basis_covariances(x)
-        w = block_weights(self.n_blocks - 1 - block, float(self.block_forgetting)).to(y)
+        w = block_weights(self._ages(batch), float(self.block_forgetting)).to(y)
         yn = (y - self.y_mean) / self.y_scale
         part = Summary.of_data(Kzz, Kxz, yn, self.noise_var / w, float(self.kernel.variance))
         self.summary_prec[:m, :m] += part.precision
@@ -949,17 +955,14 @@ class SparseOnlineGP(nn.Module):
         m = self.n_basis
         return Summary(self.summary_prec[:m, :m], self.summary_shift[:m], self.summary_unit[:m])
 
-    def _ages(self, block: Tensor) -> Tensor:
-        """Age in closed blocks of points that arrived in ``block : (n,)`` (0: the newest)."""
-        return (self.n_blocks - 1 - block).clamp_min(0)
+    def _ages(self, batch: Tensor) -> Tensor:
+        """Age in batches of points that arrived in ``batch : (n,)`` (0: the newest batch)."""
+        return self.n_batches - 1 - batch
 
     def _adapt(self, a: Adaptation) -> None:
-        x, y, block = self.window.data()
-        age = self._ages(block)
-        lam = self._choose_forgetting(x, y, age, a.forgetting)
-        # Every point ages by one block, those in the summary too.
-        for buf in (self.summary_prec, self.summary_shift, self.summary_unit):
-            buf.mul_(lam)
+        x, y, batch = self.window.data()
+        age = self._ages(batch)
+        lam = self._choose_forgetting(x, y, age, batch >= self.block_start, a.forgetting)
         w = block_weights(age, lam).to(y)
         if a.targets:
             self._restandardise(y, w)
@@ -997,10 +1000,10 @@ class SparseOnlineGP(nn.Module):
         return {"nlpd": nlpd(mean, var, y), "explained_variance": explained}
 
     def _choose_forgetting(
-        self, x: Tensor, y: Tensor, age: Tensor, candidates: tuple[float, ...]
+        self, x: Tensor, y: Tensor, age: Tensor, new: Tensor, candidates: tuple[float, ...]
     ) -> float:
-        """The candidate whose posterior on the earlier blocks best predicts the newest block."""
-        new = age == 0
+        """The candidate whose posterior on the earlier batches best predicts the newest block
+        (``new : (n,)`` bool), the most recent earlier batch at weight 1."""
         if len(candidates) == 1 or bool(new.all()):
             return candidates[0] if len(candidates) == 1 else float(self.block_forgetting)
         yn = (y - self.y_mean) / self.y_scale
@@ -1009,9 +1012,10 @@ class SparseOnlineGP(nn.Module):
         earlier = Projection(Kzz, Kxz[~new], float(variance))
         rows = Kxz[new]
         gamma = (variance - _quad_solve(earlier.L, rows)).clamp_min(0) + self.noise_var
-        # Noise per age: the ages of the window are its (few) groups.
+        # Noise per age: the ages of the window are its groups.
         ages = torch.arange(int(age.max()) + 1, device=age.device)
-        noises = [self.noise_var / block_weights(ages - 1, lam).to(y) for lam in candidates]
+        shifted = (ages - int(age[~new].min())).clamp_min(0)
+        noises = [self.noise_var / block_weights(shifted, lam).to(y) for lam in candidates]
         scores = []
         for alpha, P in earlier.group_posteriors(yn[~new], age[~new], noises):
             var = gamma + ((rows @ P) * rows).sum(dim=1)
@@ -1213,10 +1217,19 @@ def _sym(M: Tensor) -> Tensor:
 def _upgrade_v02_state(state: dict[str, Any], prefix: str, gp: SparseOnlineGP) -> None:
     """Add, in place, what a state saved before the retained window (sb3_geogp 0.1, 0.2) lacks:
     an empty window, no closed block, and the saved lengthscale as the starting one; and what
-    one saved before the summary of the points that left the window lacks: an empty one."""
+    one saved by 0.2 lacks: an empty summary of the points that left the window, and batch
+    indices for the window (0.2's block indices stand in: only the weights of the points
+    retained at saving are approximate, until they leave the window)."""
     for name in ("summary_prec", "summary_shift", "summary_unit"):
         if prefix + name not in state:
             state[prefix + name] = torch.zeros_like(getattr(gp, name))
+    if prefix + "window.block" in state:
+        # 0.2 counted ages in blocks, not batches: the oldest retained points keep their rank.
+        state[prefix + "window.batch"] = state.pop(prefix + "window.block")
+    if prefix + "block_start" not in state:
+        state[prefix + "block_start"] = state.get(
+            prefix + "n_batches", torch.zeros((), dtype=torch.long)
+        ).clone()
     if prefix + "window.count" in state:
         return
     extra = state.get(prefix + "_extra_state")

@@ -157,10 +157,11 @@ def test_rebuilt_posterior_is_the_sparse_posterior_of_the_weighted_window() -> N
 
 @pytest.mark.parametrize(("forgetting", "drift"), [(1.0, 0.0), (0.7, 0.0), (0.7, 0.5)])
 def test_summary_keeps_what_the_dropped_points_said(forgetting: float, drift: float) -> None:
-    """With hyperparameters and basis fixed, a 150-point window on a 1200-point stream gives the
-    exact sparse posterior of all 1200 points, weighted ``forgetting ** age``; also when the
-    target mean, re-estimated each block, follows a drift (the scale is fixed, since the
-    noise variance is in standardised units)."""
+    """With hyperparameters and basis fixed, a 150-point window on a 1200-point stream, fed in
+    50-point batches and adapting every 100 points, gives the exact sparse posterior of all
+    1200 points, weighted ``forgetting ** age`` with ``age`` in batches; also when the target
+    mean, re-estimated each block, follows a drift (the scale is fixed, since the noise
+    variance is in standardised units)."""
     rng = np.random.default_rng(5)
     adapt = Adaptation(
         window=150, interval=100, steps=0, forgetting=(forgetting,), targets=drift > 0
@@ -169,17 +170,17 @@ def test_summary_keeps_what_the_dropped_points_said(forgetting: float, drift: fl
         1, RBFKernel(lengthscale=0.2), max_basis=30, adapt=adapt, target_scale=0.8
     )
     grid = np.linspace(0.0, 1.0, 11)[:, None]  # half a lengthscale apart: later points project
-    xs = [np.concatenate([grid, rng.uniform(size=(89, 1))])]
-    xs += [rng.uniform(size=(100, 1)) for _ in range(11)]
-    ys = [np.sin(5 * x[:, 0]) + drift * i + 0.1 * rng.normal(size=100) for i, x in enumerate(xs)]
+    xs = [np.concatenate([grid, rng.uniform(size=(39, 1))])]
+    xs += [rng.uniform(size=(50, 1)) for _ in range(23)]
+    ys = [np.sin(5 * x[:, 0]) + drift * i + 0.1 * rng.normal(size=50) for i, x in enumerate(xs)]
     gp.update(xs[0], ys[0])
     basis = gp.basis_inputs.clone()
     for x, y in zip(xs[1:], ys[1:], strict=True):
         gp.update(x, y)
     torch.testing.assert_close(gp.basis_inputs, basis, rtol=0, atol=0)  # the basis stayed
-    assert gp.summary_prec.abs().sum() > 0
+    assert int(gp.n_blocks) == 12 and gp.summary_prec.abs().sum() > 0
     x, y = np.concatenate(xs), np.concatenate(ys)
-    age = np.repeat(np.arange(len(xs))[::-1], 100)
+    age = np.repeat(np.arange(len(xs))[::-1], 50)
     yn = (y - float(gp.y_mean)) / float(gp.y_scale)
     ls, var, z = gp.lengthscale.numpy(), float(gp.kernel.variance), gp.basis_inputs.numpy()
     white = np.sqrt(forgetting**age / float(gp.noise_var))
