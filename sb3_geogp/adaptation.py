@@ -44,6 +44,7 @@ next rebuild's weights then make exact.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Iterator
 from dataclasses import asdict, dataclass
@@ -199,7 +200,12 @@ class Projection:
 
     def __init__(self, Kzz: Tensor, Kxz: Tensor, variance: float) -> None:
         self.L, _ = jittered_cholesky(Kzz, variance)
-        self.A = torch.linalg.solve_triangular(self.L, Kxz.T, upper=False)  # (m, n)
+        self.Kxz = Kxz
+
+    @functools.cached_property
+    def A(self) -> Tensor:
+        """``L^{-1} K_zx``, shape (m, n)."""
+        return torch.linalg.solve_triangular(self.L, self.Kxz.T, upper=False)
 
     def q_diag(self) -> Tensor:
         """``diag(K_xz K_zz^{-1} K_zx)``, shape (n,)."""
@@ -247,19 +253,29 @@ class Projection:
         return Linv.T @ W[:, -1], 0.5 * (P + P.T)
 
     def _system(self, y: Tensor, noise: Tensor) -> tuple[Tensor, Tensor]:
-        scaled = self.A / noise.sqrt()
-        B = torch.eye(self.A.shape[0], dtype=y.dtype, device=y.device) + scaled @ scaled.T
-        return 0.5 * (B + B.T), self.A @ (y / noise)
+        m, n = self.Kxz.shape[1], self.Kxz.shape[0]
+        eye = torch.eye(m, dtype=y.dtype, device=y.device)
+        if "A" in self.__dict__ or n <= 2 * m:
+            scaled = self.A / noise.sqrt()
+            B = eye + scaled @ scaled.T
+            return 0.5 * (B + B.T), self.A @ (y / noise)
+        # Many more points than inducing points: one (n, m) product, then (m, m) solves only.
+        scaled = self.Kxz / noise.sqrt()[:, None]
+        half = torch.linalg.solve_triangular(self.L, scaled.T @ scaled, upper=False)
+        B = eye + torch.linalg.solve_triangular(self.L, half.T, upper=False)
+        Ay = torch.linalg.solve_triangular(self.L, (self.Kxz.T @ (y / noise))[:, None], upper=False)
+        return 0.5 * (B + B.T), Ay[:, 0]
 
     def negative_bound(self, y: Tensor, noise: Tensor, kxx: Tensor) -> Tensor:
         """The negative collapsed bound ``-F`` per point (module docstring); differentiable."""
         n = y.shape[0]
+        q_diag = self.q_diag()
         B, Ay = self._system(y, noise)
         LB = torch.linalg.cholesky(B)
         c = torch.linalg.solve_triangular(LB, Ay[:, None], upper=False)[:, 0]
         quad = (y * y / noise).sum() - c @ c
         logdet = 2 * LB.diagonal().log().sum() + noise.log().sum()
-        trace = ((kxx - self.q_diag()).clamp_min(0) / noise).sum()
+        trace = ((kxx - q_diag).clamp_min(0) / noise).sum()
         return 0.5 * (quad + logdet + trace + n * math.log(2 * math.pi)) / n
 
 
@@ -326,9 +342,17 @@ class Summary(NamedTuple):
     def of_data(Kzz: Tensor, Kxz: Tensor, y: Tensor, noise: Tensor, variance: float) -> Summary:
         """The summary of ``y : (n,)`` at rows ``Kxz : (n, m)`` with noise ``noise : (n,)``."""
         L, _ = jittered_cholesky(Kzz, variance)
-        B = torch.cholesky_solve(Kxz.T, L)  # K_zz^-1 K_zx, shape (m, n)
-        scaled = B / noise.sqrt()
-        return Summary(scaled @ scaled.T, B @ (y / noise), B @ (1 / noise))
+        m, n = Kxz.shape[1], Kxz.shape[0]
+        targets = torch.cat([Kxz.T @ (y / noise)[:, None], Kxz.T @ (1 / noise)[:, None]], dim=1)
+        if n > 2 * m:
+            # K_zz^-1 (K_zx N^-1 K_xz) K_zz^-1: one (n, m) product, then (m, m) solves only.
+            scaled = Kxz / noise.sqrt()[:, None]
+            precision = torch.cholesky_solve(torch.cholesky_solve(scaled.T @ scaled, L).T, L)
+        else:
+            B = torch.cholesky_solve(Kxz.T, L) / noise.sqrt()  # K_zz^-1 K_zx N^-1/2, (m, n)
+            precision = B @ B.T
+        shifts = torch.cholesky_solve(targets, L)
+        return Summary(0.5 * (precision + precision.T), shifts[:, 0], shifts[:, 1])
 
 
 def block_weights(age: Tensor, forgetting: float) -> Tensor:

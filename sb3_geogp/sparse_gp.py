@@ -898,8 +898,8 @@ class SparseOnlineGP(nn.Module):
         -------
         dict
             The fitted ``lengthscale`` (first dimension), ``variance``, ``noise_var`` and the
-            final negative bound per point ``nlml`` (the negative log marginal likelihood per
-            point when every retained point is a BV).
+            negative bound per point ``nlml`` of the retained data after the fit and rebuild
+            (the negative log marginal likelihood per point when every retained point is a BV).
 
         Raises
         ------
@@ -913,13 +913,17 @@ class SparseOnlineGP(nn.Module):
         w = block_weights(self._ages(batch), forgetting).to(y)
         yn = (y - self.y_mean) / self.y_scale
         with self._transaction(), torch.no_grad():
-            final = self._fit(x, yn, w, n_iter, lr, self.adaptation or Adaptation())
+            self._fit(x, yn, w, n_iter, lr, self.adaptation or Adaptation())
             self._rebuild(x, yn, w)
+            Kzz, Kxz = self._basis_covariances(x)
+            variance = self.kernel.variance
+            projection = Projection(Kzz, Kxz, float(variance))
+            final = projection.negative_bound(yn, self.noise_var / w, variance.expand(len(yn)))
         return {
             "lengthscale": float(self.kernel.lengthscale[0]),
             "variance": float(self.kernel.variance),
             "noise_var": float(self.noise_var),
-            "nlml": final,
+            "nlml": float(final),
         }
 
     # ------------------------------------------------------------------------------------------
@@ -1047,9 +1051,9 @@ class SparseOnlineGP(nn.Module):
 
     def _fit(
         self, x: Tensor, yn: Tensor, w: Tensor, steps: int, lr: float, bounds: Adaptation
-    ) -> float:
-        """Adam on the negative collapsed bound of ``(x, yn)`` with weights ``w``; returns its
-        final value per point. Changes the kernel's hyperparameters and the noise only."""
+    ) -> None:
+        """Adam on the negative collapsed bound of ``(x, yn)`` with weights ``w``. Changes the
+        kernel's hyperparameters and the noise only."""
         kernel, m = self.kernel, self.n_basis
         n_factors, correlations = kernel.correlation_fn(x, self.bv_x[:m])
         nugget = torch.diag(self.nugget[:m])
@@ -1078,14 +1082,12 @@ class SparseOnlineGP(nn.Module):
                 with torch.no_grad():
                     for param, lo, hi in limits:
                         param.copy_(torch.clamp(param, lo, hi))
-        final = float(loss())
         assert self._rollback is not None
         self._rollback.before_basis_change()
         kernel.rescale(log_f.detach().exp())
         kernel.variance.copy_(log_var.detach().exp())
         self.noise_var.copy_(log_noise.detach().exp())
         self._cache = None
-        return final
 
     def _rebuild(self, x: Tensor, yn: Tensor, w: Tensor) -> None:
         """The exact sparse posterior of ``(x, yn)`` with noise ``sigma_n^2 / w`` replaces the

@@ -8,7 +8,7 @@ import torch
 from scipy.optimize import minimize
 
 from sb3_geogp import RBFKernel, SparseOnlineGP
-from sb3_geogp.adaptation import Adaptation, jittered_cholesky, sparse_posterior
+from sb3_geogp.adaptation import Adaptation, Summary, jittered_cholesky, sparse_posterior
 from tests.test_sparse_gp import assert_same_state, nystrom_posterior, rbf, snapshot
 
 
@@ -50,10 +50,11 @@ def test_jittered_cholesky_repairs_a_singular_matrix() -> None:
     assert jitter == 0.0
 
 
-def test_sparse_posterior_is_the_nystrom_gp_with_per_point_noise() -> None:
+@pytest.mark.parametrize("n", [40, 12])  # more than twice the 9 inducing points, and fewer
+def test_sparse_posterior_is_the_nystrom_gp_with_per_point_noise(n: int) -> None:
     rng = np.random.default_rng(0)
-    x, z, probe = rng.uniform(size=(40, 2)), rng.uniform(size=(9, 2)), rng.uniform(size=(7, 2))
-    y, noise = rng.normal(size=40), rng.uniform(0.05, 2.0, size=40)
+    x, z, probe = rng.uniform(size=(n, 2)), rng.uniform(size=(9, 2)), rng.uniform(size=(7, 2))
+    y, noise = rng.normal(size=n), rng.uniform(0.05, 2.0, size=n)
     Kzz, Kxz, Kpz = rbf(z, z, 0.4), rbf(x, z, 0.4), rbf(probe, z, 0.4)
     t = torch.as_tensor
     alpha, P = sparse_posterior(t(Kzz), t(Kxz), t(y), t(noise), 1.0)
@@ -67,6 +68,22 @@ def test_sparse_posterior_is_the_nystrom_gp_with_per_point_noise() -> None:
     np.testing.assert_allclose(var, ref_var, atol=1e-10)
     torch.testing.assert_close(P, P.T, rtol=0, atol=0)
     assert float(torch.linalg.eigvalsh(P).min()) > 0
+
+
+@pytest.mark.parametrize("n", [40, 12])
+def test_summary_of_data_is_its_projected_likelihood(n: int) -> None:
+    """``Summary.of_data`` against the formulas with explicit inverses, on both of its paths."""
+    rng = np.random.default_rng(1)
+    x, z = rng.uniform(size=(n, 2)), rng.uniform(size=(9, 2))
+    y, noise = rng.normal(size=n), rng.uniform(0.05, 2.0, size=n)
+    Kzz, Kxz = rbf(z, z, 0.4) + 1e-6 * np.eye(9), rbf(x, z, 0.4)
+    t = torch.as_tensor
+    summary = Summary.of_data(t(Kzz), t(Kxz), t(y), t(noise), 1.0)
+    B = np.linalg.solve(Kzz, Kxz.T)  # K_zz^-1 K_zx
+    scale = np.abs(B).max() ** 2 / noise.min()
+    np.testing.assert_allclose(summary.precision, B / noise @ B.T, atol=1e-9 * scale)
+    np.testing.assert_allclose(summary.shift, B @ (y / noise), atol=1e-9 * scale * n)
+    np.testing.assert_allclose(summary.unit_shift, B @ (1 / noise), atol=1e-9 * scale * n)
 
 
 # -- the adapting GP ----------------------------------------------------------------------------
@@ -166,9 +183,7 @@ def test_summary_keeps_what_the_dropped_points_said(forgetting: float, drift: fl
     adapt = Adaptation(
         window=150, interval=100, steps=0, forgetting=(forgetting,), targets=drift > 0
     )
-    gp = SparseOnlineGP(
-        1, RBFKernel(lengthscale=0.2), max_basis=30, adapt=adapt, target_scale=0.8
-    )
+    gp = SparseOnlineGP(1, RBFKernel(lengthscale=0.2), max_basis=30, adapt=adapt, target_scale=0.8)
     grid = np.linspace(0.0, 1.0, 11)[:, None]  # half a lengthscale apart: later points project
     xs = [np.concatenate([grid, rng.uniform(size=(39, 1))])]
     xs += [rng.uniform(size=(50, 1)) for _ in range(23)]
