@@ -5,7 +5,9 @@ comparison): PPO on Pendulum-v1 and A2C on CartPole-v1 (GP ``forgetting=0.9``, a
 comparison recommends for A2C). For every seed the runs are interleaved (workload by workload,
 critic by critic), so a change in the machine's load hits all critics alike; the table shows
 the median over seeds of the wall clock, its ratio to the MLP critic's, and for the GP critics
-the seconds spent in GP updates, in GP predictions, and in everything else.
+the seconds spent in GP updates, in GP predictions, and in everything else; with ``--adapt``
+also the GP critics with adaptation, and the seconds their updates spent on it (out-of-sample
+statistics, summary of dropped points, adaptation proper) with its share of the GP's time.
 
 ``--threads default`` leaves torch's thread count as a new user has it (the engine then runs
 its own work single-threaded, see ``SparseOnlineGP(num_threads=...)``); ``--load N`` keeps N
@@ -44,6 +46,8 @@ WORKLOADS = {
 CRITICS = ("mlp", "rbf", "geodesic")
 #: GP critics with adaptation (``gp_kwargs=dict(adapt=True)``), measured with ``--adapt``.
 ADAPTIVE = ("rbf+adapt", "geodesic+adapt")
+#: SparseOnlineGP methods that only run with adaptation (timed as "adaptation s").
+ADAPTATION_STEPS = ("_adapt", "_summarise", "_out_of_sample")
 
 
 def _timed(method: Callable[..., Any], clock: list[float]) -> Callable[..., Any]:
@@ -63,7 +67,7 @@ def run(workload: str, critic: str, seed: int, max_basis: int, scale: float) -> 
     algo_cls, algo, env_id, steps, gp_options = WORKLOADS[workload]
     n_envs, kwargs, policy_kwargs = algo_kwargs(algo, hyperparams(algo, env_id).values)
     env = make_vec_env(env_id, n_envs=n_envs, seed=seed)
-    update, predict = [0.0], [0.0]
+    update, predict, adaptation = [0.0], [0.0], [0.0]
     if critic == "mlp":
         model = algo_cls("MlpPolicy", env, seed=seed, policy_kwargs=policy_kwargs, **kwargs)
         callback = None
@@ -76,12 +80,16 @@ def run(workload: str, critic: str, seed: int, max_basis: int, scale: float) -> 
         # Instance attributes shadow the methods: every call inside learn() is timed.
         gp.update = _timed(SparseOnlineGP.update.__get__(gp), update)  # type: ignore[method-assign]
         gp.predict = _timed(SparseOnlineGP.predict.__get__(gp), predict)  # type: ignore[method-assign]
+        # What only an adaptive GP does, inside its updates: the out-of-sample statistics,
+        # the summary of dropped points, and the adaptation proper.
+        for name in ADAPTATION_STEPS:
+            setattr(gp, name, _timed(getattr(SparseOnlineGP, name).__get__(gp), adaptation))
         callback = GPValueCallback()
     start = time.perf_counter()
     model.learn(int(steps * scale), callback=callback)
     wall = time.perf_counter() - start
     env.close()
-    return {"wall": wall, "update": update[0], "predict": predict[0]}
+    return {"wall": wall, "update": update[0], "predict": predict[0], "adaptation": adaptation[0]}
 
 
 def _spin() -> None:
@@ -105,8 +113,9 @@ def background_load(n: int) -> Iterator[None]:
 
 def table(results: dict[str, dict[str, list[dict[str, Any]]]]) -> str:
     lines = [
-        "| workload | critic | wall s | x MLP | GP update s | GP predict s | rest s |",
-        "|---|---|---|---|---|---|---|",
+        "| workload | critic | wall s | x MLP | GP update s | GP predict s | rest s "
+        "| adaptation s | adaptation / GP |",
+        "|---|---|---|---|---|---|---|---|---|",
     ]
     for workload, by_critic in results.items():
         mlp = statistics.median(r["wall"] for r in by_critic["mlp"])
@@ -114,11 +123,16 @@ def table(results: dict[str, dict[str, list[dict[str, Any]]]]) -> str:
             wall = statistics.median(r["wall"] for r in runs)
             cells = [f"{wall:.1f}", f"{wall / mlp:.2f}"]
             if critic == "mlp":
-                cells += ["–", "–", "–"]
+                cells += ["–"] * 5
             else:
                 upd = statistics.median(r["update"] for r in runs)
                 pred = statistics.median(r["predict"] for r in runs)
+                adapt = statistics.median(r.get("adaptation", 0.0) for r in runs)
+                share = statistics.median(
+                    r.get("adaptation", 0.0) / (r["update"] + r["predict"]) for r in runs
+                )
                 cells += [f"{upd:.2f}", f"{pred:.2f}", f"{wall - upd - pred:.1f}"]
+                cells += [f"{adapt:.2f}", f"{share:.0%}"] if "+adapt" in critic else ["–", "–"]
             lines.append(f"| {workload} | {critic} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
@@ -153,7 +167,8 @@ def main(argv: Sequence[str] | None = None) -> None:
                     results[workload][critic].append(r)
                     print(
                         f"seed {seed} {workload} {critic:9s} {r['wall']:7.1f} s "
-                        f"(update {r['update']:.2f} s, predict {r['predict']:.2f} s)",
+                        f"(update {r['update']:.2f} s, predict {r['predict']:.2f} s, "
+                        f"of which adaptation {r['adaptation']:.2f} s)",
                         flush=True,
                     )
     header = (

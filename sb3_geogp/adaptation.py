@@ -32,7 +32,7 @@ A point leaving the window is projected onto the basis vectors of that moment, a
 posterior projects every point, and added, with its weight, to the summary: a Gaussian
 likelihood of the function values at the basis vectors. It does not depend on the kernel, so
 it survives a change of hyperparameters; it ages with the window's points (times ``lambda``
-per block), follows a change of the target units, and a deletion of a basis vector
+per batch), follows a change of the target units, and a deletion of a basis vector
 substitutes that vector's conditional mean given the others, as the on-line deletion does.
 Without it a rebuild would forget everything older than the window (measured: 2-4x the batch
 sparse GP's error on the fixed-policy pendulum check, against about 1x without adaptation).
