@@ -1220,14 +1220,15 @@ def _upgrade_v02_state(state: dict[str, Any], prefix: str, gp: SparseOnlineGP) -
     """Add, in place, what a state saved before the retained window (sb3_geogp 0.1, 0.2) lacks:
     an empty window, no closed block, and the saved lengthscale as the starting one; and what
     one saved by 0.2 lacks: an empty summary of the points that left the window, and batch
-    indices for the window (0.2's block indices stand in: only the weights of the points
-    retained at saving are approximate, until they leave the window)."""
+    indices for the window (from 0.2's block indices, so that a point's age in batches is its
+    age in blocks: its weight is that of 0.2)."""
     for name in ("summary_prec", "summary_shift", "summary_unit"):
         if prefix + name not in state:
             state[prefix + name] = torch.zeros_like(getattr(gp, name))
     if prefix + "window.block" in state:
-        # 0.2 counted ages in blocks, not batches: the oldest retained points keep their rank.
-        state[prefix + "window.batch"] = state.pop(prefix + "window.block")
+        # 0.2 counted ages in blocks, not batches: a retained point keeps its age, in batches.
+        offset = state[prefix + "n_batches"] - state[prefix + "n_blocks"]
+        state[prefix + "window.batch"] = state.pop(prefix + "window.block") + offset
     if prefix + "block_start" not in state:
         state[prefix + "block_start"] = state.get(
             prefix + "n_batches", torch.zeros((), dtype=torch.long)

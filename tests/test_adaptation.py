@@ -227,6 +227,28 @@ def test_adaptation_state_round_trips_bit_for_bit() -> None:
     assert gp.n_blocks == 3  # a block closes once 150 points have arrived: after 200, 400, 600
 
 
+def test_a_state_saved_by_0_2_loads_with_the_ages_it_had() -> None:
+    """0.2 stored the window's block indices and no summary; ages in blocks become ages in
+    batches (one batch per block there), the summary starts empty, predictions are unchanged."""
+    rng = np.random.default_rng(6)
+    adapt = Adaptation(window=300, interval=200, steps=1)
+    gp = SparseOnlineGP(2, "rbf", max_basis=30, adapt=adapt)
+    for _ in range(5):
+        gp.update(rng.uniform(size=(100, 2)), rng.normal(size=100))
+    state = gp.state_dict()
+    offset = state["n_batches"] - state["n_blocks"]
+    assert int(offset) == 3
+    old = {k: v for k, v in state.items() if not k.startswith("summary_") and k != "block_start"}
+    old["window.block"] = old.pop("window.batch") - offset
+    copy = SparseOnlineGP(2, "rbf", max_basis=30, adapt=adapt)
+    copy.load_state_dict(old)
+    probe = rng.uniform(size=(7, 2))
+    for a, b in zip(gp.predict(probe), copy.predict(probe), strict=True):
+        torch.testing.assert_close(a, b, rtol=0, atol=0)
+    torch.testing.assert_close(copy.window.batch, gp.window.batch, rtol=0, atol=0)
+    assert float(copy.summary_prec.abs().sum()) == 0.0
+
+
 def test_a_failure_inside_the_adaptation_leaves_the_state_unchanged(monkeypatch) -> None:
     """The fit has already rescaled the kernel (and the geodesic graph) when the rebuild fails."""
     rng = np.random.default_rng(5)
