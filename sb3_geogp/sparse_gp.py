@@ -83,7 +83,6 @@ _COUNTERS = (
     "n_batches",
     "n_blocks",
     "block_new",
-    "block_start",
     "n_pruned",
 )
 
@@ -243,7 +242,7 @@ class SparseOnlineGP(nn.Module):
     n_batches: Tensor
     n_blocks: Tensor
     block_new: Tensor
-    block_start: Tensor
+    forgetting_scores: Tensor
     n_pruned: Tensor
     novelty_floor: Tensor
     block_forgetting: Tensor
@@ -326,6 +325,8 @@ class SparseOnlineGP(nn.Module):
             self.register_buffer(name, torch.zeros((), dtype=torch.long, device=device))
         self.register_buffer("novelty_floor", torch.tensor(self.novelty_tol, **kw))
         self.register_buffer("block_forgetting", torch.tensor(self.forgetting, **kw))
+        n_candidates = len(self.adaptation.forgetting) if self.adaptation is not None else 1
+        self.register_buffer("forgetting_scores", torch.zeros(n_candidates, **kw))
         self.register_buffer("ls_start", self.kernel.lengthscale.to(**kw).clone())
         self.window = RetainedWindow(size, self.input_dim).to(**kw)
         self.last_stats: dict[str, float] = {}
@@ -470,6 +471,10 @@ class SparseOnlineGP(nn.Module):
     ) -> None:
         _upgrade_v01_state(state_dict, prefix, self)
         _upgrade_v02_state(state_dict, prefix, self)
+        scores = state_dict.get(prefix + "forgetting_scores")
+        if scores is None or scores.shape != self.forgetting_scores.shape:
+            # Another candidate list (adapt may change on load): the open block starts unscored.
+            state_dict[prefix + "forgetting_scores"] = torch.zeros_like(self.forgetting_scores)
         # Check every stored option before loading anything, so a refused state leaves this
         # GP exactly as it was (the kernel's check would otherwise come after the GP's buffers).
         for key, module in (("_extra_state", self), ("kernel._extra_state", self.kernel)):
@@ -942,22 +947,30 @@ class SparseOnlineGP(nn.Module):
         self.block_new.zero_()
         if a is not None and self.n_basis > 0:
             self._adapt(a)
-        self.block_start.fill_(self.n_batches)
 
     def _summarise(self, x: Tensor, y: Tensor, batch: Tensor) -> None:
-        """Add what the points leaving the window say to the summary, with their weights."""
+        """Add what the points leaving the window say to the summary, with their weights.
+
+        The summary is kept per unit noise variance (noise ``1 / w``) and divided by the noise
+        variance of the moment when used (:meth:`_summary`), so that a summarised point counts
+        exactly as it would in the window, also after the noise has been re-fitted.
+        """
         m = self.n_basis
         Kzz, Kxz = self._basis_covariances(x)
         w = block_weights(self._ages(batch), float(self.block_forgetting)).to(y)
         yn = (y - self.y_mean) / self.y_scale
-        part = Summary.of_data(Kzz, Kxz, yn, self.noise_var / w, float(self.kernel.variance))
+        part = Summary.of_data(Kzz, Kxz, yn, 1 / w, float(self.kernel.variance))
         self.summary_prec[:m, :m] += part.precision
         self.summary_shift[:m] += part.shift
         self.summary_unit[:m] += part.unit_shift
 
     def _summary(self) -> Summary:
-        m = self.n_basis
-        return Summary(self.summary_prec[:m, :m], self.summary_shift[:m], self.summary_unit[:m])
+        m, noise = self.n_basis, self.noise_var
+        return Summary(
+            self.summary_prec[:m, :m] / noise,
+            self.summary_shift[:m] / noise,
+            self.summary_unit[:m] / noise,
+        )
 
     def _ages(self, batch: Tensor) -> Tensor:
         """Age in batches of points that arrived in ``batch : (n,)`` (0: the newest batch)."""
@@ -966,7 +979,11 @@ class SparseOnlineGP(nn.Module):
     def _adapt(self, a: Adaptation) -> None:
         x, y, batch = self.window.data()
         age = self._ages(batch)
-        lam = self._choose_forgetting(x, y, age, batch >= self.block_start, a.forgetting)
+        scores = self.forgetting_scores
+        # All zero: no batch of this block was scored (the basis was still empty).
+        scored = bool((scores != 0).any())
+        lam = a.forgetting[int(scores.argmin())] if scored else float(self.block_forgetting)
+        scores.zero_()
         w = block_weights(age, lam).to(y)
         if a.targets:
             self._restandardise(y, w)
@@ -994,46 +1011,40 @@ class SparseOnlineGP(nn.Module):
         return Kzz, self.kernel.rows(self.kernel.scale(x), basis.z).dense(basis)
 
     def _out_of_sample(self, x: Tensor, y: Tensor) -> dict[str, float]:
-        """NLPD and explained variance of a batch under the posterior before it is absorbed."""
+        """NLPD and explained variance of a batch under the posterior before it is absorbed;
+        scores the forgetting candidates on it (:meth:`_score_forgetting`)."""
         mean, var = self._latent(self._scaled(x), return_var=True)
         assert var is not None
+        self._score_forgetting(mean, var, (y - self.y_mean) / self.y_scale)
         mean = mean * self.y_scale + self.y_mean
         var = (var + self.noise_var) * self.y_scale**2
         spread = float(y.var()) if y.shape[0] > 1 else 0.0
         explained = 1.0 - float((y - mean).var()) / spread if spread > 0 else math.nan
         return {"nlpd": nlpd(mean, var, y), "explained_variance": explained}
 
-    def _choose_forgetting(
-        self, x: Tensor, y: Tensor, age: Tensor, new: Tensor, candidates: tuple[float, ...]
-    ) -> float:
-        """The candidate whose posterior on the earlier batches best predicts the newest block
-        (``new : (n,)`` bool), the most recent earlier batch at weight 1."""
-        if len(candidates) == 1 or bool(new.all()):
-            return candidates[0] if len(candidates) == 1 else float(self.block_forgetting)
-        yn = (y - self.y_mean) / self.y_scale
-        Kzz, Kxz = self._basis_covariances(x)
-        variance = self.kernel.variance
-        earlier = Projection(Kzz, Kxz[~new], float(variance))
-        rows = Kxz[new]
-        gamma = (variance - _quad_solve(earlier.L, rows)).clamp_min(0) + self.noise_var
-        # Noise per age: the ages of the window are its groups.
-        ages = torch.arange(int(age.max()) + 1, device=age.device)
-        shifted = (ages - int(age[~new].min())).clamp_min(0)
-        noises = [self.noise_var / block_weights(shifted, lam).to(y) for lam in candidates]
-        scores = []
-        for alpha, P in earlier.group_posteriors(yn[~new], age[~new], noises):
-            var = gamma + ((rows @ P) * rows).sum(dim=1)
-            scores.append(nlpd(rows @ alpha, var, yn[new]))
-        return candidates[int(np.argmin(scores))]
+    def _score_forgetting(self, mean: Tensor, var: Tensor, yn: Tensor) -> None:
+        """Add to each candidate's score the negative log density of the batch ``yn : (n,)``
+        under the posterior forgotten by that candidate first.
+
+        Forgetting by ``lambda`` (:meth:`_forget`) maps the latent mean ``mu`` and variance
+        ``v`` of a point to ``sqrt(lambda) mu`` and ``(1 - lambda) sigma_f^2 + lambda v``, so
+        the candidates cost nothing beyond the prediction the statistics make anyway.
+        """
+        assert self.adaptation is not None
+        lam = torch.tensor(self.adaptation.forgetting, dtype=mean.dtype, device=mean.device)
+        lam = lam[:, None]
+        means = lam.sqrt() * mean
+        variances = (1 - lam) * self.kernel.variance + lam * var + self.noise_var
+        nll = 0.5 * (torch.log(2 * math.pi * variances) + (yn - means).square() / variances)
+        self.forgetting_scores += nll.sum(dim=1)
 
     def _restandardise(self, y: Tensor, w: Tensor) -> None:
         """Weighted mean and scale of the retained targets, where the user fixed neither.
 
-        The summary follows the new units: with ``y_old = a y_new + b``, ``a`` the ratio of
-        the new scale to the old and ``b`` the mean's shift in old units, its precision
-        becomes ``a^2 Lambda``, its shift ``a (eta - b u)`` and its unit shift ``a^2 u``
-        (:class:`~sb3_geogp.adaptation.Summary`). The noise variance stays in standardised
-        units, so the summarised points keep theirs in the targets' units.
+        The summary follows the new units as its points would in the window: with
+        ``y_old = a y_new + b``, ``a`` the ratio of the new scale to the old and ``b`` the
+        mean's shift in old units, its shift becomes ``(eta - b u) / a``; its precision and
+        unit shift (per unit noise variance, :meth:`_summarise`) do not change.
         """
         old_mean, old_scale = self.y_mean.clone(), self.y_scale.clone()
         mean, scale = weighted_moments(y, w)
@@ -1044,10 +1055,7 @@ class SparseOnlineGP(nn.Module):
             self.y_scale.fill_(scale)
         a, b = self.y_scale / old_scale, (self.y_mean - old_mean) / old_scale
         m = self.n_basis
-        unit = self.summary_unit[:m]
-        self.summary_shift[:m].sub_(b * unit).mul_(a)
-        unit.mul_(a * a)
-        self.summary_prec[:m, :m].mul_(a * a)
+        self.summary_shift[:m].sub_(b * self.summary_unit[:m]).div_(a)
 
     def _fit(
         self, x: Tensor, yn: Tensor, w: Tensor, steps: int, lr: float, bounds: Adaptation
@@ -1229,10 +1237,6 @@ def _upgrade_v02_state(state: dict[str, Any], prefix: str, gp: SparseOnlineGP) -
         # 0.2 counted ages in blocks, not batches: a retained point keeps its age, in batches.
         offset = state[prefix + "n_batches"] - state[prefix + "n_blocks"]
         state[prefix + "window.batch"] = state.pop(prefix + "window.block") + offset
-    if prefix + "block_start" not in state:
-        state[prefix + "block_start"] = state.get(
-            prefix + "n_batches", torch.zeros((), dtype=torch.long)
-        ).clone()
     if prefix + "window.count" in state:
         return
     extra = state.get(prefix + "_extra_state")
@@ -1245,11 +1249,6 @@ def _upgrade_v02_state(state: dict[str, Any], prefix: str, gp: SparseOnlineGP) -
     state[prefix + "block_forgetting"] = torch.tensor(gp.forgetting, dtype=gp.noise_var.dtype)
     saved = state.get(prefix + "kernel.lengthscale")
     state[prefix + "ls_start"] = gp.ls_start.clone() if saved is None else saved.clone()
-
-
-def _quad_solve(L: Tensor, rows: Tensor) -> Tensor:
-    """``k_i^T (L L^T)^{-1} k_i`` for each row of ``rows : (n, m)``, shape (n,)."""
-    return torch.linalg.solve_triangular(L, rows.T, upper=False).square().sum(dim=0)
 
 
 def _upgrade_v01_state(state: dict[str, Any], prefix: str, gp: SparseOnlineGP) -> None:

@@ -172,28 +172,43 @@ def test_rebuilt_posterior_is_the_sparse_posterior_of_the_weighted_window() -> N
     np.testing.assert_allclose(latent.numpy(), ref_var * s**2, atol=1e-8 * s**2)
 
 
-@pytest.mark.parametrize(("forgetting", "drift"), [(1.0, 0.0), (0.7, 0.0), (0.7, 0.5)])
-def test_summary_keeps_what_the_dropped_points_said(forgetting: float, drift: float) -> None:
-    """With hyperparameters and basis fixed, a 150-point window on a 1200-point stream, fed in
+@pytest.mark.parametrize(
+    ("forgetting", "drift", "fit_noise"),
+    [(1.0, 0.0, False), (0.7, 0.0, False), (0.7, 0.5, False), (0.7, 0.5, True)],
+)
+def test_summary_keeps_what_the_dropped_points_said(
+    forgetting: float, drift: float, fit_noise: bool
+) -> None:
+    """With the kernel and the basis fixed, a 150-point window on a 1200-point stream, fed in
     50-point batches and adapting every 100 points, gives the exact sparse posterior of all
     1200 points, weighted ``forgetting ** age`` with ``age`` in batches; also when the target
-    mean, re-estimated each block, follows a drift (the scale is fixed, since the noise
-    variance is in standardised units)."""
+    mean and scale, re-estimated each block, follow a drift, and when the noise is re-fitted
+    each block (the summarised points then count with the final noise, as in the window)."""
     rng = np.random.default_rng(5)
     adapt = Adaptation(
-        window=150, interval=100, steps=0, forgetting=(forgetting,), targets=drift > 0
+        window=150,
+        interval=100,
+        steps=3 if fit_noise else 0,
+        forgetting=(forgetting,),
+        targets=drift > 0,
+        lengthscale_range=(1.0, 1.0),
+        variance_bounds=(1.0, 1.0),
     )
-    gp = SparseOnlineGP(1, RBFKernel(lengthscale=0.2), max_basis=30, adapt=adapt, target_scale=0.8)
+    gp = SparseOnlineGP(1, RBFKernel(lengthscale=0.2), max_basis=30, adapt=adapt)
     grid = np.linspace(0.0, 1.0, 11)[:, None]  # half a lengthscale apart: later points project
     xs = [np.concatenate([grid, rng.uniform(size=(39, 1))])]
     xs += [rng.uniform(size=(50, 1)) for _ in range(23)]
-    ys = [np.sin(5 * x[:, 0]) + drift * i + 0.1 * rng.normal(size=50) for i, x in enumerate(xs)]
+    ys = [
+        (1 + drift * i) * np.sin(5 * x[:, 0]) + drift * i + 0.1 * rng.normal(size=50)
+        for i, x in enumerate(xs)
+    ]
     gp.update(xs[0], ys[0])
     basis = gp.basis_inputs.clone()
     for x, y in zip(xs[1:], ys[1:], strict=True):
         gp.update(x, y)
     torch.testing.assert_close(gp.basis_inputs, basis, rtol=0, atol=0)  # the basis stayed
     assert int(gp.n_blocks) == 12 and gp.summary_prec.abs().sum() > 0
+    assert (float(gp.noise_var) != 0.05) == fit_noise
     x, y = np.concatenate(xs), np.concatenate(ys)
     age = np.repeat(np.arange(len(xs))[::-1], 50)
     yn = (y - float(gp.y_mean)) / float(gp.y_scale)
