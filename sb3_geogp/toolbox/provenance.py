@@ -25,6 +25,7 @@ ENGINE_FILES = (
     "kernels/*.py",
     "graph.py",
     "sparse_gp.py",
+    "adaptation.py",
     "defaults.py",
     "targets.py",
 )
