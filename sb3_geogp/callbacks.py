@@ -130,9 +130,10 @@ class GPValueCallback(BaseCallback):
             # self-bootstrapped returns over all past rollouts and lags far behind the values
             # (Acrobot: -500 in 20 of 20 runs; with forgetting 0.9 the best A2C critic).
             warn_user(
-                "A2C with GP forgetting=1.0: the GP weighs all past bootstrapped returns "
-                "equally and its values lag behind. Pass "
-                "policy_kwargs=dict(gp_kwargs=dict(forgetting=0.9, ...)) "
+                "A2C with GP adapt=False and forgetting=1.0: the GP weighs all past "
+                "bootstrapped returns equally and its values lag behind. Leave adapt on (the "
+                "default; the GP then chooses its forgetting) or pass "
+                "policy_kwargs=dict(gp_kwargs=dict(adapt=False, forgetting=0.9, ...)) "
                 "(see docs/results.md, 'Control: A2C with GP forgetting 0.9')."
             )
         # Unfinished episodes of an earlier learn() call may have been cut by an env reset.

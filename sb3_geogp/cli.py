@@ -84,8 +84,15 @@ def build_parser() -> argparse.ArgumentParser:
         "--forgetting",
         type=float,
         default=None,
-        help="GP forgetting factor in (0, 1] (default: 0.9 with a2c, 1.0 with ppo; "
-        "see docs/results.md)",
+        help="GP forgetting factor in (0, 1]: fixed with --no-adapt, else the starting value "
+        "(default: 0.9 with a2c, 1.0 with ppo; see docs/results.md)",
+    )
+    train.add_argument(
+        "--adapt",
+        action=argparse.BooleanOptionalAction,
+        default=True,
+        help="the GP learns hyperparameters, target scale and forgetting from the data "
+        "(--no-adapt: fixed, as in 0.2)",
     )
     train.add_argument(
         "--target", choices=("returns", "monte_carlo"), default="returns", help="GP targets"
@@ -154,7 +161,12 @@ def train(args: argparse.Namespace) -> Path:
     if args.critic == "mlp":
         model = ALGOS[args.algo]("MlpPolicy", env, seed=args.seed, **algo_kwargs)
     else:
-        gp_kwargs = dict(kernel=args.critic, max_basis=args.max_basis, forgetting=_forgetting(args))
+        gp_kwargs = dict(
+            kernel=args.critic,
+            max_basis=args.max_basis,
+            forgetting=_forgetting(args),
+            adapt=args.adapt,
+        )
         model = ALGOS[args.algo](
             GPActorCriticPolicy,
             env,

@@ -397,6 +397,10 @@ class GPActorCriticPolicy(GPCriticMixin, ActorCriticPolicy):
         ``kernel_kwargs`` (options of the named kernel, e.g.
         ``dict(profile="laplacian", n_neighbors=4)``). ``dtype`` may be a string such as
         ``"float64"``. ``input_dim``, ``device`` and ``input_bounds`` are set by the policy.
+        ``adapt`` is ``True`` unless given (unlike the engine's default): the GP learns its
+        hyperparameters, target mean and scale and forgetting from the stream
+        (:class:`~sb3_geogp.Adaptation`); ``adapt=False`` gives 0.2's critic with fixed
+        hyperparameters (``forgetting`` then stays as given).
     **kwargs
         Every other option of :class:`~stable_baselines3.common.policies.ActorCriticPolicy`.
 
@@ -506,7 +510,7 @@ def build_gp_critic(
         Bounds of the features, where known (they set unset lengthscales of bounded
         dimensions, see :mod:`sb3_geogp.defaults`).
     """
-    options = dict(options)
+    options = {"adapt": True, **options}
     kernel = options.pop("kernel", "geodesic")
     kernel_kwargs = dict(options.pop("kernel_kwargs", None) or {})
     return SparseOnlineGP(

@@ -452,11 +452,12 @@ def test_a2c_without_forgetting_warns() -> None:
         model.learn(8, callback=GPValueCallback())
 
     with pytest.warns(UserWarning, match="forgetting=0.9"):
-        learn(A2C)
+        learn(A2C, adapt=False)
     with warnings.catch_warnings():
         warnings.simplefilter("error", UserWarning)
-        learn(A2C, forgetting=0.9)
-        learn(PPO)  # long rollouts: no warning
+        learn(A2C)  # the adaptive default chooses its forgetting
+        learn(A2C, adapt=False, forgetting=0.9)
+        learn(PPO, adapt=False)  # long rollouts: no warning
 
 
 def test_callback_passed_twice_raises() -> None:
@@ -498,7 +499,8 @@ def test_warnings_have_their_own_category_and_point_at_the_users_line() -> None:
 
     from sb3_geogp import GPCriticWarning
 
-    model = A2C(GPActorCriticPolicy, "Pendulum-v1", n_steps=8, seed=0)
+    fixed = dict(gp_kwargs=dict(adapt=False))
+    model = A2C(GPActorCriticPolicy, "Pendulum-v1", n_steps=8, seed=0, policy_kwargs=fixed)
     with pytest.warns(GPCriticWarning, match="forgetting=1.0") as record:
         model.learn(8, callback=GPValueCallback())
     ours = [w for w in record if issubclass(w.category, GPCriticWarning)]
@@ -506,7 +508,7 @@ def test_warnings_have_their_own_category_and_point_at_the_users_line() -> None:
     with std_warnings.catch_warnings():
         std_warnings.simplefilter("error", UserWarning)
         std_warnings.filterwarnings("ignore", category=GPCriticWarning)
-        A2C(GPActorCriticPolicy, "Pendulum-v1", n_steps=8, seed=0).learn(
+        A2C(GPActorCriticPolicy, "Pendulum-v1", n_steps=8, seed=0, policy_kwargs=fixed).learn(
             8, callback=GPValueCallback()
         )
 

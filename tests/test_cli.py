@@ -11,7 +11,7 @@ import pytest
 import torch as th
 from stable_baselines3 import A2C, PPO
 
-from sb3_geogp import GPActorCriticPolicy
+from sb3_geogp import Adaptation, GPActorCriticPolicy
 from sb3_geogp.cli import (
     CriticLog,
     build_parser,
@@ -29,6 +29,14 @@ def _restore_threads() -> Iterator[None]:
     threads = th.get_num_threads()
     yield
     th.set_num_threads(threads)
+
+
+def test_train_no_adapt_gives_the_fixed_critic(tmp_path: Path) -> None:
+    out = tmp_path / "run"
+    argv = ["train", "--algo", "a2c", "--env", "CartPole-v1", "--critic", "rbf", "--no-adapt"]
+    argv += ["--timesteps", "64", "--out", str(out), "--n-envs", "2", "--no-progress"]
+    assert main(argv) == 0
+    assert A2C.load(out / "model.zip").policy.gp.adaptation is None
 
 
 @pytest.mark.parametrize(
@@ -49,8 +57,9 @@ def test_train_writes_model_logs_and_curve(
     model = {"ppo": PPO, "a2c": A2C}[algo].load(out / "model.zip")
     gp = critic != "mlp"
     assert isinstance(model.policy, GPActorCriticPolicy) == gp
-    if gp:  # default forgetting: 0.9 with A2C (docs/results.md), 1.0 with PPO
+    if gp:  # default forgetting: 0.9 with A2C (docs/results.md), 1.0 with PPO; adaptive
         assert model.policy.gp.forgetting == (0.9 if algo == "a2c" else 1.0)
+        assert model.policy.gp.adaptation == Adaptation()
 
     # Every rollout (256 steps of 2 x 64) is in progress.csv; the terminal keeps SB3's pace.
     header = (out / "progress.csv").read_text().splitlines()[0].split(",")

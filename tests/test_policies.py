@@ -20,7 +20,7 @@ from stable_baselines3.common.env_util import make_vec_env
 from stable_baselines3.common.logger import configure
 from stable_baselines3.common.vec_env import SubprocVecEnv
 
-from sb3_geogp import Adaptation, GPActorCriticPolicy, GPValueCallback, RBFKernel
+from sb3_geogp import Adaptation, GPActorCriticPolicy, GPValueCallback, RBFKernel, SparseOnlineGP
 from sb3_geogp.policies import SUPPORTED_ALGORITHMS
 
 ALGOS = [PPO, A2C]
@@ -456,6 +456,12 @@ def test_save_load_is_exact_and_training_continues(
     loaded.learn(256, callback=GPValueCallback(), reset_num_timesteps=False)
     assert int(loaded.policy.gp.n_seen) == seen + 256
     assert not th.equal(loaded.policy.predict_values(obs), expected)
+
+
+def test_the_policy_gp_adapts_unless_told_not_to() -> None:
+    assert make_model(PPO).policy.gp.adaptation == Adaptation()
+    assert make_model(PPO, adapt=False).policy.gp.adaptation is None
+    assert SparseOnlineGP(2).adaptation is None  # the engine's own default stays off
 
 
 @pytest.mark.parametrize("kernel", KERNELS)

@@ -120,8 +120,10 @@ DEVIATIONS = (
 )
 
 #: Options of the GP critic, identical for ``rbf`` and ``geodesic`` (everything else: the
-#: defaults of :class:`~sb3_geogp.SparseOnlineGP` and the kernels).
-GP_KWARGS: dict[str, Any] = dict(max_basis=256)
+#: defaults of :class:`~sb3_geogp.SparseOnlineGP` and the kernels). ``adapt`` is written out,
+#: so that every result file says which critic made it (the published 0.1 sweep ran without
+#: adaptation: ``--gp-option adapt=False`` reproduces it).
+GP_KWARGS: dict[str, Any] = dict(max_basis=256, adapt=True)
 
 #: Timestep budget per run of the published sweep (before ``--timesteps-scale``). Fixed before
 #: the sweep so that 5 seeds fit in about 2 hours on 2 CPU cores; one seed of every cell took
