@@ -148,6 +148,25 @@ def test_forgetting_is_chosen_from_the_newest_block() -> None:
     assert chosen[3.0] < 1.0
 
 
+def assert_weighted_sparse_posterior(
+    gp: SparseOnlineGP, x: np.ndarray, y: np.ndarray, w: np.ndarray, rng: np.random.Generator
+) -> None:
+    """``gp`` (RBF) predicts, to 1e-8, as the exact sparse posterior of ``(x, y)`` with noise
+    ``sigma_n^2 / w`` and its own basis and hyperparameters (the Nystrom GP, an (n, n) solve)."""
+    yn = (y - float(gp.y_mean)) / float(gp.y_scale)
+    ls, var, z = gp.lengthscale.numpy(), float(gp.kernel.variance), gp.basis_inputs.numpy()
+    white = np.sqrt(w / float(gp.noise_var))
+    Kzz = rbf(z, z, ls, var) + np.diag(gp.nugget[: gp.n_basis].numpy())
+    probe = rng.uniform(size=(9, x.shape[1]))
+    ref_mean, ref_var = nystrom_posterior(
+        Kzz, rbf(x, z, ls, var) * white[:, None], rbf(probe, z, ls, var), var, yn * white, 1.0
+    )
+    mean, latent = gp.predict(probe)
+    s = float(gp.y_scale)
+    np.testing.assert_allclose(mean.numpy(), ref_mean * s + float(gp.y_mean), atol=1e-8 * s)
+    np.testing.assert_allclose(latent.numpy(), ref_var * s**2, atol=1e-8 * s**2)
+
+
 def test_rebuilt_posterior_is_the_sparse_posterior_of_the_weighted_window() -> None:
     rng = np.random.default_rng(3)
     # The window holds every point fed: the summary of dropped points stays empty.
@@ -157,19 +176,7 @@ def test_rebuilt_posterior_is_the_sparse_posterior_of_the_weighted_window() -> N
         x = rng.uniform(size=(100, 2))
         gp.update(x, np.sin(3 * x[:, 0]) + x[:, 1] + 0.1 * rng.normal(size=100))
     x, y, block = (t.numpy() for t in gp.window.data())
-    age = block.max() - block
-    yn = (y - float(gp.y_mean)) / float(gp.y_scale)
-    ls, var, z = gp.lengthscale.numpy(), float(gp.kernel.variance), gp.basis_inputs.numpy()
-    white = np.sqrt(0.5**age / float(gp.noise_var))
-    Kzz = rbf(z, z, ls, var) + np.diag(gp.nugget[: gp.n_basis].numpy())
-    probe = rng.uniform(size=(9, 2))
-    ref_mean, ref_var = nystrom_posterior(
-        Kzz, rbf(x, z, ls, var) * white[:, None], rbf(probe, z, ls, var), var, yn * white, 1.0
-    )
-    mean, latent = gp.predict(probe)
-    s = float(gp.y_scale)
-    np.testing.assert_allclose(mean.numpy(), ref_mean * s + float(gp.y_mean), atol=1e-8 * s)
-    np.testing.assert_allclose(latent.numpy(), ref_var * s**2, atol=1e-8 * s**2)
+    assert_weighted_sparse_posterior(gp, x, y, 0.5 ** (block.max() - block), rng)
 
 
 @pytest.mark.parametrize(
@@ -211,18 +218,7 @@ def test_summary_keeps_what_the_dropped_points_said(
     assert (float(gp.noise_var) != 0.05) == fit_noise
     x, y = np.concatenate(xs), np.concatenate(ys)
     age = np.repeat(np.arange(len(xs))[::-1], 50)
-    yn = (y - float(gp.y_mean)) / float(gp.y_scale)
-    ls, var, z = gp.lengthscale.numpy(), float(gp.kernel.variance), gp.basis_inputs.numpy()
-    white = np.sqrt(forgetting**age / float(gp.noise_var))
-    Kzz = rbf(z, z, ls, var) + np.diag(gp.nugget[: gp.n_basis].numpy())
-    probe = rng.uniform(size=(9, 1))
-    ref_mean, ref_var = nystrom_posterior(
-        Kzz, rbf(x, z, ls, var) * white[:, None], rbf(probe, z, ls, var), var, yn * white, 1.0
-    )
-    mean, latent = gp.predict(probe)
-    s = float(gp.y_scale)
-    np.testing.assert_allclose(mean.numpy(), ref_mean * s + float(gp.y_mean), atol=1e-8 * s)
-    np.testing.assert_allclose(latent.numpy(), ref_var * s**2, atol=1e-8 * s**2)
+    assert_weighted_sparse_posterior(gp, x, y, forgetting**age, rng)
 
 
 def test_adaptation_state_round_trips_bit_for_bit() -> None:
