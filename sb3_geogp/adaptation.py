@@ -336,8 +336,8 @@ class Summary(NamedTuple):
         return Summary(0.5 * (precision + precision.T), shifts[:, 0], shifts[:, 1])
 
 
-def block_weights(age: Tensor, forgetting: float) -> Tensor:
-    """Weights ``forgetting ** age`` of points ``age : (n,)`` blocks old."""
+def age_weights(age: Tensor, forgetting: float) -> Tensor:
+    """Weights ``forgetting ** age`` of points ``age : (n,)`` batches old."""
     return torch.as_tensor(forgetting, dtype=torch.float64).pow(age.double())
 
 

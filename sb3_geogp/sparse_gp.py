@@ -40,8 +40,8 @@ from sb3_geogp.adaptation import (
     Projection,
     RetainedWindow,
     Summary,
+    age_weights,
     as_adaptation,
-    block_weights,
     jittered_cholesky,
     nlpd,
     sparse_posterior,
@@ -197,7 +197,8 @@ class SparseOnlineGP(nn.Module):
     adapt : Adaptation, bool or None
         Adapt hyperparameters, target mean and scale and forgetting to the data stream
         (:mod:`sb3_geogp.adaptation`); ``True`` takes :class:`Adaptation`'s defaults. Off by
-        default. With it, ``forgetting`` is only the starting value, then chosen per block.
+        default here (:class:`~sb3_geogp.GPActorCriticPolicy` turns it on). With it,
+        ``forgetting`` is only the starting value, then chosen at every block.
 
     Attributes
     ----------
@@ -915,7 +916,7 @@ class SparseOnlineGP(nn.Module):
         if x.shape[0] == 0 or self.n_basis == 0:
             raise ValueError("fit_hyperparameters needs retained data; call update first")
         forgetting = float(self.block_forgetting) if self.adaptation else self.forgetting
-        w = block_weights(self._ages(batch), forgetting).to(y)
+        w = age_weights(self._ages(batch), forgetting).to(y)
         yn = (y - self.y_mean) / self.y_scale
         with self._transaction(), torch.no_grad():
             self._fit(x, yn, w, n_iter, lr, self.adaptation or Adaptation())
@@ -957,7 +958,7 @@ class SparseOnlineGP(nn.Module):
         """
         m = self.n_basis
         Kzz, Kxz = self._basis_covariances(x)
-        w = block_weights(self._ages(batch), float(self.block_forgetting)).to(y)
+        w = age_weights(self._ages(batch), float(self.block_forgetting)).to(y)
         yn = (y - self.y_mean) / self.y_scale
         part = Summary.of_data(Kzz, Kxz, yn, 1 / w, float(self.kernel.variance))
         self.summary_prec[:m, :m] += part.precision
@@ -984,7 +985,7 @@ class SparseOnlineGP(nn.Module):
         scored = bool((scores != 0).any())
         lam = a.forgetting[int(scores.argmin())] if scored else float(self.block_forgetting)
         scores.zero_()
-        w = block_weights(age, lam).to(y)
+        w = age_weights(age, lam).to(y)
         if a.targets:
             self._restandardise(y, w)
         yn = (y - self.y_mean) / self.y_scale
