@@ -234,18 +234,34 @@ class Projection:
         return Linv.T @ W[:, -1], 0.5 * (P + P.T)
 
     def _system(self, y: Tensor, noise: Tensor) -> tuple[Tensor, Tensor]:
+        """``B = I + A N^-1 A^T`` and ``A N^-1 y`` (for ``y : (n,)`` or ``(n, k)``)."""
+        S = self._gram(noise)
+        eye = torch.eye(S.shape[0], dtype=S.dtype, device=S.device)
+        return eye + S, self._rhs(y, noise)
+
+    def _gram(self, noise: Tensor) -> Tensor:
+        """``A N^-1 A^T``, shape (m, m), symmetric."""
         m, n = self.Kxz.shape[1], self.Kxz.shape[0]
-        eye = torch.eye(m, dtype=y.dtype, device=y.device)
         if "A" in self.__dict__ or n <= 2 * m:
             scaled = self.A / noise.sqrt()
-            B = eye + scaled @ scaled.T
-            return 0.5 * (B + B.T), self.A @ (y / noise)
-        # Many more points than inducing points: one (n, m) product, then (m, m) solves only.
-        scaled = self.Kxz / noise.sqrt()[:, None]
-        half = torch.linalg.solve_triangular(self.L, scaled.T @ scaled, upper=False)
-        B = eye + torch.linalg.solve_triangular(self.L, half.T, upper=False)
-        Ay = torch.linalg.solve_triangular(self.L, (self.Kxz.T @ (y / noise))[:, None], upper=False)
-        return 0.5 * (B + B.T), Ay[:, 0]
+            S = scaled @ scaled.T
+        else:
+            # Many more points than inducing points: one (n, m) product, then (m, m) solves only.
+            scaled = self.Kxz / noise.sqrt()[:, None]
+            half = torch.linalg.solve_triangular(self.L, scaled.T @ scaled, upper=False)
+            S = torch.linalg.solve_triangular(self.L, half.T, upper=False)
+        return 0.5 * (S + S.T)
+
+    def _rhs(self, y: Tensor, noise: Tensor) -> Tensor:
+        """``A N^-1 y``: ``L^-1 (K_zx N^-1 y)``, one triangular solve instead of ``A``."""
+        if "A" in self.__dict__:
+            return self.A @ (y.T / noise).T
+        weighted = self.Kxz.T @ (y.T / noise).T
+        column = weighted.ndim == 1
+        solved = torch.linalg.solve_triangular(
+            self.L, weighted[:, None] if column else weighted, upper=False
+        )
+        return solved[:, 0] if column else solved
 
     def negative_bound(self, y: Tensor, noise: Tensor, kxx: Tensor) -> Tensor:
         """The negative collapsed bound ``-F`` per point (module docstring); differentiable."""
@@ -321,18 +337,17 @@ class Summary(NamedTuple):
 
     @staticmethod
     def of_data(Kzz: Tensor, Kxz: Tensor, y: Tensor, noise: Tensor, variance: float) -> Summary:
-        """The summary of ``y : (n,)`` at rows ``Kxz : (n, m)`` with noise ``noise : (n,)``."""
-        L, _ = jittered_cholesky(Kzz, variance)
-        m, n = Kxz.shape[1], Kxz.shape[0]
-        targets = torch.cat([Kxz.T @ (y / noise)[:, None], Kxz.T @ (1 / noise)[:, None]], dim=1)
-        if n > 2 * m:
-            # K_zz^-1 (K_zx N^-1 K_xz) K_zz^-1: one (n, m) product, then (m, m) solves only.
-            scaled = Kxz / noise.sqrt()[:, None]
-            precision = torch.cholesky_solve(torch.cholesky_solve(scaled.T @ scaled, L).T, L)
-        else:
-            B = torch.cholesky_solve(Kxz.T, L) / noise.sqrt()  # K_zz^-1 K_zx N^-1/2, (m, n)
-            precision = B @ B.T
-        shifts = torch.cholesky_solve(targets, L)
+        """The summary of ``y : (n,)`` at rows ``Kxz : (n, m)`` with noise ``noise : (n,)``:
+        :class:`Projection`'s whitened sums, taken back from ``v = L^-1 f`` to ``f``."""
+        projection = Projection(Kzz, Kxz, variance)
+        S = projection._gram(noise)
+        shifts = projection._rhs(torch.stack([y, torch.ones_like(y)], dim=1), noise)
+
+        def unwhiten(X: Tensor) -> Tensor:  # L^-T X
+            return torch.linalg.solve_triangular(projection.L.T, X, upper=True)
+
+        precision = unwhiten(unwhiten(S).T)
+        shifts = unwhiten(shifts)
         return Summary(0.5 * (precision + precision.T), shifts[:, 0], shifts[:, 1])
 
 

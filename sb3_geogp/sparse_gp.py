@@ -920,8 +920,7 @@ class SparseOnlineGP(nn.Module):
         yn = (y - self.y_mean) / self.y_scale
         with self._transaction(), torch.no_grad():
             self._fit(x, yn, w, n_iter, lr, self.adaptation or Adaptation())
-            self._rebuild(x, yn, w)
-            Kzz, Kxz = self._basis_covariances(x)
+            Kzz, Kxz = self._rebuild(x, yn, w)
             variance = self.kernel.variance
             projection = Projection(Kzz, Kxz, float(variance))
             final = projection.negative_bound(yn, self.noise_var / w, variance.expand(len(yn)))
@@ -1098,9 +1097,10 @@ class SparseOnlineGP(nn.Module):
         self.noise_var.copy_(log_noise.detach().exp())
         self._cache = None
 
-    def _rebuild(self, x: Tensor, yn: Tensor, w: Tensor) -> None:
-        """The exact sparse posterior of ``(x, yn)`` with noise ``sigma_n^2 / w`` replaces the
-        current one (:func:`~sb3_geogp.adaptation.sparse_posterior`)."""
+    def _rebuild(self, x: Tensor, yn: Tensor, w: Tensor) -> tuple[Tensor, Tensor]:
+        """The exact sparse posterior of ``(x, yn)`` with noise ``sigma_n^2 / w``, times the
+        summary, replaces the current one (:func:`~sb3_geogp.adaptation.sparse_posterior`);
+        returns the covariances it used (:meth:`_basis_covariances` of ``x``, after pruning)."""
         self._refresh_Q()
         self._prune_redundant()
         m = self.n_basis
@@ -1110,6 +1110,7 @@ class SparseOnlineGP(nn.Module):
         self.alpha[:m] = alpha
         self.P[:m, :m] = P
         self._matrices().posterior_changed()
+        return Kzz, Kxz
 
     def _prune_redundant(self) -> None:
         """Delete, least novel first, the BVs that new hyperparameters made near-duplicates.
