@@ -254,9 +254,11 @@ class Projection:
 
     def _rhs(self, y: Tensor, noise: Tensor) -> Tensor:
         """``A N^-1 y``: ``L^-1 (K_zx N^-1 y)``, one triangular solve instead of ``A``."""
+        # y : (n,) or (n, k); the noise divides its rows either way.
+        y_over_noise = (y.mT / noise).mT if y.ndim == 2 else y / noise
         if "A" in self.__dict__:
-            return self.A @ (y.T / noise).T
-        weighted = self.Kxz.T @ (y.T / noise).T
+            return self.A @ y_over_noise
+        weighted = self.Kxz.T @ y_over_noise
         column = weighted.ndim == 1
         solved = torch.linalg.solve_triangular(
             self.L, weighted[:, None] if column else weighted, upper=False

@@ -57,6 +57,8 @@ ArrayLike = Tensor | np.ndarray | Sequence[Any]
 _GAMMA_FLOOR = 1e-6
 #: Bounds on the rows of a batch whose novelty is screened at once (adapted in between).
 _MIN_CHUNK, _MAX_CHUNK = 32, 1024
+#: Most novel rows planned at once at capacity.
+_PLAN_CHUNK = 128
 #: Factor by which the at-capacity novelty floor rises with each newcomer at capacity.
 _FLOOR_STEP = 1.1
 #: Deletions per absorbed point the floor tolerates in the long run (it falls by
@@ -563,6 +565,7 @@ class SparseOnlineGP(nn.Module):
         # Rows [pending, i) wait to be absorbed in one block: non-novel rows and novel ones
         # that are projected rather than inserted. Rows after the last inserted one may start
         # a trajectory (checked from ``linked`` on).
+        ahead = _Ahead()  # plans of coming novel rows; cleared whenever their basis changes
         i = pending = linked = 0
         while i < n:
             p = self._next_novel(x, i, screen)
@@ -570,19 +573,23 @@ class SparseOnlineGP(nn.Module):
             i = p + 1
             if p == n:
                 break
-            if bool(starts[linked : p + 1].any()):
-                self.kernel.start_trajectory()
+            if bool(starts[linked : p + 1].any()) and self.kernel.start_trajectory():
+                ahead.clear()
             linked = p + 1
-            if pending < p and self.n_basis < self.max_basis:
+            if self.n_basis < self.max_basis:
                 # Below capacity every newcomer that passes the row checks is inserted, and
                 # on the posterior that has absorbed the rows before it.
-                self._absorb(x[pending:p], yn[pending:p])
-                pending = p
-            plan = self._plan_insertion(x[p], yn[p])
+                if pending < p:
+                    self._absorb(x[pending:p], yn[pending:p])
+                    pending = p
+                plan = self._plan_insertion(x[p], yn[p])
+            else:
+                plan = self._plan_ahead(x, yn, p, screen, ahead)
             if plan is not None and plan.inserts and pending < p:
                 # At capacity the plan on the posterior before the pending rows decided
                 # between inserting and projecting; an insertion is redone after them.
                 self._absorb(x[pending:p], yn[pending:p])
+                ahead.clear()
                 pending = p
                 plan = self._plan_insertion(x[p], yn[p])
             if plan is None:
@@ -591,6 +598,7 @@ class SparseOnlineGP(nn.Module):
                 self._scale_floor(_FLOOR_STEP)
             if plan.inserts:
                 self._insert(plan, x[p], y[p])
+                ahead.clear()
                 pending = p + 1
         if pending < n:
             self._absorb(x[pending:], yn[pending:])
@@ -645,8 +653,9 @@ class SparseOnlineGP(nn.Module):
         return xs
 
     def _scale_floor(self, factor: float) -> None:
-        floor = (self.novelty_floor * factor).clamp(self.novelty_tol, _FLOOR_MAX)
-        self.novelty_floor.copy_(floor)
+        # Python floats: called twice per novel point, where tensor ops cost more than the math.
+        floor = float(self.novelty_floor) * factor
+        self.novelty_floor.fill_(min(max(floor, self.novelty_tol), _FLOOR_MAX))
 
     def _novelty_threshold(self) -> float:
         """Relative novelty a point needs to become a BV.
@@ -661,12 +670,9 @@ class SparseOnlineGP(nn.Module):
         turns every step into an insert-then-delete (churn), and each deletion is a lossy
         projection.
         """
-        m = self.n_basis
-        if m < self.max_basis:
+        if self.n_basis < self.max_basis:
             return self.novelty_tol
-        prior = self.kernel.variance + self.nugget[:m]
-        least = float((1.0 / (torch.diagonal(self.Q[:m, :m]) * prior)).min())
-        return max(float(self.novelty_floor), least)
+        return max(float(self.novelty_floor), float(self._matrices().least_novelty))
 
     def _next_novel(self, x: Tensor, start: int, screen: _Screen) -> int:
         """Index of the first novel row of ``x`` at or after ``start`` (``len(x)`` if none).
@@ -738,39 +744,84 @@ class SparseOnlineGP(nn.Module):
         self.P[:m, :m] = _sym(sol[:, :m])
 
     def _plan_insertion(self, x: Tensor, yn: Tensor) -> _Insertion | None:
-        """The full update that would make ``x`` a BV, or ``None`` if its row fails
-        :meth:`_reject_row` (then it is projected). Changes nothing.
+        """The full update that would make ``x : (d,)`` a BV, or ``None`` if its row fails
+        :meth:`_reject_row` (then it is projected). Changes nothing (see :meth:`_plans`)."""
+        return self._plan_from(self._plans(x[None], yn[None]), 0)
+
+    def _plan_ahead(
+        self, x: Tensor, yn: Tensor, p: int, screen: _Screen, ahead: _Ahead
+    ) -> _Insertion | None:
+        """:meth:`_plan_insertion` of row ``p``, planned together with the next rows that are
+        novel now while the posterior, the basis and the trajectory stay as they are.
+
+        At capacity most novel points of a region the basis does not cover are projected, not
+        inserted (measured: 930 plans for 2 insertions per 2,048-point batch of a drifting
+        walk); one batched plan for all of them replaces a row-by-row Python loop.
+        """
+        if ahead.index(p) is None:
+            known = screen.novelty((int(self.n_added), int(self.n_deleted)), p)
+            rows = torch.tensor([p], device=x.device)
+            if known is not None:
+                novel = (known > self._novelty_threshold()).nonzero()[:_PLAN_CHUNK, 0]
+                rows = torch.unique(torch.cat([rows, p + novel]))
+            ahead.keep(rows.tolist(), self._plans(x[rows], yn[rows]))
+        i = ahead.index(p)
+        assert i is not None and ahead.plans is not None
+        return self._plan_from(ahead.plans, i)
+
+    def _plan_from(self, plans: _Plans, i: int) -> _Insertion | None:
+        m = self.n_basis
+        if m > 0 and self._reject_row(plans.gamma_raw[i], plans.e_sq[i], plans.variance):
+            return None
+        return plans.at(i, m)
+
+    def _plans(self, x: Tensor, yn: Tensor) -> _Plans:
+        """The full updates that would make each row of ``x : (r, d)`` the next BV, each on the
+        current posterior alone. Changes nothing.
 
         With ``k = k(x, BV)``, ``e = Q k``, ``gamma = k(x, x) - k^T e`` (floored by a nugget),
         ``s2 = gamma + k^T P k``, ``q = (y - k^T alpha) / (sigma_n^2 + s2)``,
         ``r = -1 / (sigma_n^2 + s2)`` and ``e~ = [e; -1]``, ``s = [P k; 0] - e~``:
         ``alpha <- [alpha; 0] + q s``, ``Q <- [Q 0; 0 0] + e~ e~^T / gamma``,
-        ``P <- [P 0; 0 0] + e~ e~^T / gamma + r s s^T``. At capacity the plan also names the BV
+        ``P <- [P 0; 0 0] + e~ e~^T / gamma + r s s^T``. At capacity a plan also names the BV
         that would then be deleted (the least informative, possibly the newcomer).
         """
         m = self.n_basis
         xs = self.kernel.scale(x)
         variance = self.kernel.variance
-        k, attachment = self.kernel.insertion_row(xs, self._matrices().z)
+        k, attachments = self.kernel.insertion_rows(xs, self._matrices().z)
         Q, P, alpha = self.Q[:m, :m], self.P[:m, :m], self.alpha[:m]
-        e = Q @ k
-        gamma = variance - k @ e
-        if m > 0 and self._reject_row(float(gamma), float(e @ e), float(variance)):
-            return None
-        nugget = (_GAMMA_FLOOR * variance - gamma).clamp_min(0)
-        gamma = gamma + nugget
-        Pk = P @ k
-        denom = self.noise_var + gamma + k @ Pk
+        e = k @ Q
+        gamma_raw = variance - (k * e).sum(dim=1)
+        nugget = (_GAMMA_FLOOR * variance - gamma_raw).clamp_min(0)
+        gamma = gamma_raw + nugget
+        Pk = k @ P
+        denom = self.noise_var + gamma + (k * Pk).sum(dim=1)
         q = (yn - k @ alpha) / denom
-        e_ext = torch.cat([e, e.new_full((1,), -1.0)])
-        s = torch.cat([Pk, Pk.new_zeros(1)]) - e_ext
-        alpha_new = torch.cat([alpha, alpha.new_zeros(1)]) + q * s
-        doomed = None
+        minus_one = e.new_full((x.shape[0], 1), -1.0)
+        e_ext = torch.cat([e, minus_one], dim=1)
+        s = torch.cat([Pk, torch.zeros_like(minus_one)], dim=1) - e_ext
+        alpha_new = torch.cat([alpha, alpha.new_zeros(1)]) + q[:, None] * s
+        doomed: list[int | None] = [None] * x.shape[0]
         if m == self.max_basis:
             # Scores after the insertion, from its rank-one terms.
-            p_diag = torch.cat([torch.diagonal(P), P.new_zeros(1)]) + e_ext**2 / gamma
-            doomed = _least_informative(alpha_new, p_diag - s**2 / denom)
-        return _Insertion(m, xs, k, attachment, nugget, gamma, denom, e_ext, s, alpha_new, doomed)
+            p_diag = torch.cat([torch.diagonal(P), P.new_zeros(1)]) + e_ext**2 / gamma[:, None]
+            doomed = _least_informative(alpha_new, p_diag - s**2 / denom[:, None]).tolist()
+        return _Plans(
+            xs,
+            k,
+            attachments,
+            nugget,
+            gamma,
+            denom,
+            e_ext,
+            s,
+            alpha_new,
+            doomed,
+            gamma_raw.tolist(),
+            (e * e).sum(dim=1).tolist(),
+            float(variance),
+        )
 
     def _insert(self, plan: _Insertion, x: Tensor, y: Tensor) -> None:
         """Carry out a planned insertion: ``x`` becomes a BV (and a graph node); delete the
@@ -1192,9 +1243,10 @@ def _to_tensor(value: ArrayLike, name: str) -> Tensor:
 _INT_TYPES = (torch.int8, torch.int16, torch.int32, torch.int64, torch.uint8, torch.bool)
 
 
-def _least_informative(alpha: Tensor, p_diag: Tensor) -> int:
-    """BV with the smallest Csató–Opper score ``alpha_i^2 / (Q_ii + C_ii) = alpha_i^2 / P_ii``."""
-    return int((alpha**2 / p_diag.clamp_min(torch.finfo(p_diag.dtype).tiny)).argmin())
+def _least_informative(alpha: Tensor, p_diag: Tensor) -> Tensor:
+    """BV with the smallest Csató–Opper score ``alpha_i^2 / (Q_ii + C_ii) = alpha_i^2 / P_ii``
+    along the last dimension (``alpha``, ``p_diag`` of shape (..., m); result (...))."""
+    return (alpha**2 / p_diag.clamp_min(torch.finfo(p_diag.dtype).tiny)).argmin(dim=-1)
 
 
 def _substitute(
@@ -1302,6 +1354,40 @@ class _Insertion(NamedTuple):
         return self.doomed != self.m
 
 
+class _Plans(NamedTuple):
+    """Planned insertions of ``r`` rows, each on the same posterior (see
+    :meth:`SparseOnlineGP._plans`); :meth:`at` gives one as an :class:`_Insertion`."""
+
+    xs: Tensor
+    k: Tensor
+    attachments: Sequence[Any]
+    nugget: Tensor
+    gamma: Tensor
+    denom: Tensor
+    e_ext: Tensor
+    s: Tensor
+    alpha_new: Tensor
+    doomed: Sequence[int | None]
+    gamma_raw: Sequence[float]
+    e_sq: Sequence[float]
+    variance: float
+
+    def at(self, i: int, m: int) -> _Insertion:
+        return _Insertion(
+            m,
+            self.xs[i],
+            self.k[i],
+            self.attachments[i],
+            self.nugget[i],
+            self.gamma[i],
+            self.denom[i],
+            self.e_ext[i],
+            self.s[i],
+            self.alpha_new[i],
+            self.doomed[i],
+        )
+
+
 class _Screen:
     """Novelty of the last screened block of a batch, valid while the basis is unchanged."""
 
@@ -1321,6 +1407,24 @@ class _Screen:
         if not 0 <= offset < self._gamma.shape[0]:
             return None
         return self._gamma[offset:]
+
+
+class _Ahead:
+    """Plans of the coming novel rows of a batch (:meth:`SparseOnlineGP._plan_ahead`), valid
+    until the posterior, the basis or the trajectory changes (the update loop clears them)."""
+
+    def __init__(self) -> None:
+        self.plans: _Plans | None = None
+        self._where: dict[int, int] = {}
+
+    def keep(self, rows: list[int], plans: _Plans) -> None:
+        self.plans, self._where = plans, {row: i for i, row in enumerate(rows)}
+
+    def index(self, row: int) -> int | None:
+        return self._where.get(row)
+
+    def clear(self) -> None:
+        self.plans, self._where = None, {}
 
 
 class _Rollback:
@@ -1409,7 +1513,8 @@ class _PosteriorMatrices:
 
     def Q_changed(self) -> None:
         """``Q`` (or the nuggets) changed."""
-        self._values.pop("KQK", None)
+        for name in ("KQK", "least_novelty"):
+            self._values.pop(name, None)
 
     def basis_grew(self, k: Tensor, variance: Tensor) -> None:
         """A BV with Gram row ``k : (m,)`` was appended (call before the count grows)."""
@@ -1462,3 +1567,13 @@ class _PosteriorMatrices:
     @property
     def KPK(self) -> Tensor:
         return self._get("KPK", lambda: self.K @ self.P @ self.K)
+
+    @property
+    def least_novelty(self) -> Tensor:
+        """Smallest relative novelty of a BV given the others, ``min_i 1 / (Q_ii k_ii)``."""
+
+        def least() -> Tensor:
+            prior = self._gp.kernel.variance + self._gp.nugget[: self._m]
+            return (1.0 / (torch.diagonal(self.Q) * prior)).min()
+
+        return self._get("least_novelty", least)

@@ -128,10 +128,22 @@ def test_geodesic_node_row_is_leaf_of_parent(small_tree) -> None:
     expected = np.exp(-(np.linalg.norm(x - pos[parent]) + sp[parent]))
     z = on_tree(kernel, graph, pos)
     kernel.traj_node.fill_(parent)  # the trajectory's last BV is the parent
-    row, attachment = kernel.insertion_row(torch.as_tensor(x), z)
-    assert attachment == parent
-    got = row.numpy()
-    np.testing.assert_allclose(got, expected, rtol=1e-12)
+    rows, attachments = kernel.insertion_rows(torch.as_tensor(x)[None], z)
+    assert list(attachments) == [parent]
+    np.testing.assert_allclose(rows[0].numpy(), expected, rtol=1e-12)
+
+
+def test_geodesic_rows_without_trajectory_hang_on_nearest_bv(small_tree) -> None:
+    """Batched: with no trajectory predecessor each point is a leaf of its own nearest BV."""
+    graph, pos, sp = small_tree
+    kernel = GeodesicKernel(lengthscale=1.0)
+    z = on_tree(kernel, graph, pos)
+    x = np.random.default_rng(3).normal(size=(7, 2))
+    nearest = np.linalg.norm(x[:, None] - pos[None], axis=2).argmin(axis=1)
+    expected = np.exp(-(np.linalg.norm(x - pos[nearest], axis=1)[:, None] + sp[nearest]))
+    rows, attachments = kernel.insertion_rows(torch.as_tensor(x), z)
+    assert list(attachments) == nearest.tolist()
+    np.testing.assert_allclose(rows.numpy(), expected, rtol=1e-12)
 
 
 @pytest.mark.parametrize(
