@@ -1,0 +1,202 @@
+"""Out-of-sample fit of each critic during PPO training (issue 13's critic-fit goal).
+
+For every rollout the critic is scored on that rollout's targets *before* it learns from them:
+SB3's ``explained_variance`` of the values the critic predicted during the rollout against the
+GAE returns computed afterwards, ``1 - Var(R - V) / Var(R)``, the same formula for the MLP and
+the GP critics. The goal is at least 0.9 averaged over the last 20% of training's rollouts.
+The runs are the comparison's (:class:`~sb3_geogp.comparison.specs.SweepConfig`: zoo
+hyperparameters and budgets, the same seeds, the GP critics with the comparison's options),
+without its evaluations.
+
+    python examples/critic_fit.py --seeds 0 1 2 3 4 --workers 2 --out docs/critic_fit
+
+Each run is written to ``OUT/runs/<run>.json`` when it finishes; an interrupted call resumes
+where it stopped. The summary is printed and written to ``OUT/critic_fit.md`` with a figure.
+"""
+
+from __future__ import annotations
+
+import argparse
+import concurrent.futures as cf
+import json
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch as th
+from stable_baselines3.common.callbacks import BaseCallback, CallbackList
+from tqdm.auto import tqdm
+
+from sb3_geogp import GPActorCriticPolicy, GPValueCallback
+from sb3_geogp.comparison.run import build_model, write_json_atomic
+from sb3_geogp.comparison.specs import RunSpec, SweepConfig
+from sb3_geogp.toolbox.provenance import provenance
+
+ENVS = ("Pendulum-v1", "CartPole-v1", "Acrobot-v1")
+GOAL = 0.9
+
+
+class ExplainedVariance(BaseCallback):
+    """The rollout's explained variance once its returns (and a GP critic's values) are final:
+    put it after :class:`~sb3_geogp.GPValueCallback`, which fills the GP's values."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.timesteps: list[int] = []
+        self.explained: list[float] = []
+
+    def _on_step(self) -> bool:
+        return True
+
+    def _on_rollout_end(self) -> None:
+        buffer = self.locals["rollout_buffer"]
+        returns, values = buffer.returns.ravel(), buffer.values.ravel()
+        spread = float(np.var(returns))
+        explained = 1.0 - float(np.var(returns - values)) / spread if spread > 0 else np.nan
+        self.timesteps.append(int(self.num_timesteps))
+        self.explained.append(explained)
+
+
+def run_one(spec: RunSpec, last: float) -> dict[str, Any]:
+    """Train ``spec``'s model and return its per-rollout explained variance."""
+    th.set_num_threads(1)
+    model = build_model(spec)
+    recorder = ExplainedVariance()
+    callbacks: list[BaseCallback] = [recorder]
+    if isinstance(model.policy, GPActorCriticPolicy):
+        callbacks.insert(0, GPValueCallback())
+    model.learn(spec.total_timesteps, callback=CallbackList(callbacks))
+    env = model.get_env()
+    assert env is not None
+    env.close()
+    explained = np.array(recorder.explained)
+    tail = explained[int(np.floor((1 - last) * len(explained))) :]
+    return dict(
+        env_id=spec.env_id,
+        critic=spec.critic,
+        seed=spec.seed,
+        total_timesteps=spec.total_timesteps,
+        gp_kwargs=dict(spec.gp_kwargs),
+        timesteps=recorder.timesteps,
+        explained_variance=recorder.explained,
+        tail_rollouts=len(tail),
+        tail_mean=float(np.nanmean(tail)),
+        provenance=provenance(),
+    )
+
+
+def _run_file(out: Path, spec: RunSpec) -> Path:
+    return out / "runs" / f"{spec.critic}__{spec.env_id.replace('/', '-')}__s{spec.seed}.json"
+
+
+def _run_and_save(spec: RunSpec, last: float, out: Path) -> dict[str, Any]:
+    result = run_one(spec, last)
+    write_json_atomic(_run_file(out, spec), result)
+    return result
+
+
+def run_all(specs: list[RunSpec], last: float, out: Path, workers: int) -> list[dict[str, Any]]:
+    """Every run of ``specs`` not already in ``out`` (resumable), with a progress bar."""
+    (out / "runs").mkdir(parents=True, exist_ok=True)
+    done = [json.loads(_run_file(out, s).read_text()) for s in specs if _run_file(out, s).exists()]
+    todo = [s for s in specs if not _run_file(out, s).exists()]
+    bar = tqdm(total=len(specs), initial=len(done), unit="run", desc="runs")
+    with cf.ProcessPoolExecutor(max_workers=workers) as pool:
+        futures = {pool.submit(_run_and_save, s, last, out): s for s in todo}
+        for future in cf.as_completed(futures):
+            result = future.result()
+            done.append(result)
+            bar.set_postfix_str(f"{result['critic']} {result['env_id']} {result['tail_mean']:.2f}")
+            bar.update()
+    bar.close()
+    return done
+
+
+def summary(results: list[dict[str, Any]], critics: Sequence[str], last: float) -> str:
+    """Markdown table: mean over seeds of the tail explained variance, its range and how many
+    seeds reach the goal."""
+    lines = [
+        f"Out-of-sample explained variance averaged over the last {last:.0%} of each run's "
+        f"rollouts; mean over seeds [min, max], seeds reaching {GOAL}:",
+        "",
+        "| env | " + " | ".join(critics) + " |",
+        "|---|" + "---:|" * len(critics),
+    ]
+    for env_id in dict.fromkeys(r["env_id"] for r in results):
+        cells = []
+        for critic in critics:
+            tails = [
+                r["tail_mean"] for r in results if (r["env_id"], r["critic"]) == (env_id, critic)
+            ]
+            if not tails:
+                cells.append("–")
+                continue
+            reached = sum(t >= GOAL for t in tails)
+            cells.append(
+                f"{np.mean(tails):.3f} [{min(tails):.2f}, {max(tails):.2f}], {reached}/{len(tails)}"
+            )
+        lines.append(f"| `{env_id}` | " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def plot(results: list[dict[str, Any]], critics: Sequence[str], path: Path) -> None:
+    """Explained variance per rollout, one panel per environment, one line per run."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    envs = list(dict.fromkeys(r["env_id"] for r in results))
+    fig, axes = plt.subplots(1, len(envs), figsize=(5 * len(envs), 3.6), squeeze=False)
+    colours = dict(zip(critics, ("tab:gray", "tab:blue", "tab:red"), strict=False))
+    for ax, env_id in zip(axes[0], envs, strict=True):
+        for r in sorted(results, key=lambda r: (r["critic"], r["seed"])):
+            if r["env_id"] != env_id:
+                continue
+            first = r["seed"] == min(q["seed"] for q in results if q["critic"] == r["critic"])
+            ax.plot(
+                r["timesteps"],
+                np.clip(r["explained_variance"], -1, 1),
+                color=colours.get(r["critic"]),
+                alpha=0.6,
+                lw=1,
+                label=r["critic"] if first else None,
+            )
+        ax.axhline(GOAL, color="k", ls=":", lw=1)
+        ax.set(title=env_id, xlabel="timesteps", ylim=(-1.02, 1.02))
+        ax.grid(alpha=0.3)
+    axes[0][0].set_ylabel("explained variance (out of sample, clipped at -1)")
+    axes[0][0].legend(loc="lower right")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--envs", nargs="+", default=list(ENVS))
+    parser.add_argument("--critics", nargs="+", default=["mlp", "rbf", "geodesic"])
+    parser.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2])
+    parser.add_argument("--scale", type=float, default=1.0, help="multiplies the budgets")
+    parser.add_argument("--last", type=float, default=0.2, help="share of rollouts averaged")
+    parser.add_argument("--workers", type=int, default=1)
+    parser.add_argument("--out", type=Path, default=Path("critic_fit"))
+    args = parser.parse_args(argv)
+    config = SweepConfig(
+        algos=("ppo",),
+        critics=tuple(args.critics),
+        envs=tuple(args.envs),
+        seeds=tuple(args.seeds),
+        timesteps_scale=args.scale,
+    )
+    results = run_all(config.specs(), args.last, args.out, args.workers)
+    text = summary(results, args.critics, args.last)
+    (args.out / "critic_fit.md").write_text(text)
+    plot(results, args.critics, args.out / "critic_fit.png")
+    print(text)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
