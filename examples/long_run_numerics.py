@@ -13,7 +13,8 @@ seeds, fed in batches of 2048 as a PPO rollout buffer would) into one
   one with teeth);
 * ``n_basis <= max_basis``.
 
-It tracks the out-of-sample MSE and explained variance on the held-out rollout, prints a
+It tracks the out-of-sample MSE and explained variance on the held-out rollout and the
+explained variance of each batch just absorbed (does the GP follow the stream?), prints a
 summary (worst value of every check per variant, update time, additions and deletions),
 writes JSON and a PNG, and exits with status 1 if any check failed or an update raised.
 
@@ -33,6 +34,7 @@ import argparse
 import json
 import math
 import operator
+import statistics
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -174,10 +176,10 @@ class Soak:
         self.history.setdefault("batch_ms", []).append(1e3 * elapsed)
         self.points += len(batch)
         start = time.perf_counter()
-        self.record(inspect(self.gp, probe), test)
+        self.record(inspect(self.gp, probe), test, batch)
         self.check_s += time.perf_counter() - start
 
-    def record(self, values: dict[str, float], test: Rollout) -> None:
+    def record(self, values: dict[str, float], test: Rollout, batch: Rollout) -> None:
         """Update worst values, failures and history with one batch's measurements."""
         for check in self.checks:
             value = values[check.key]
@@ -185,12 +187,13 @@ class Soak:
                 self.worst[check.key] = value
             if not check.passes(value, check.limit):
                 self.failures.append(f"after {self.points} points: {check.key} = {value:.3g}")
-        pred = self.gp.predict(test.x, return_var=False)[0].to(test.y.dtype)
-        mse = float(((pred - test.y) ** 2).mean())
+        mse = self._mse(test)
         row = {
             "points": float(self.points),
             "mse": mse,
             "explained_variance": 1.0 - mse / float(test.y.var()),
+            # Whether the GP follows the stream: its fit of the batch it has just absorbed.
+            "batch_ev": 1.0 - self._mse(batch) / float(batch.y.var()),
             "n_basis": float(self.gp.n_basis),
             "n_added": float(self.gp.n_added),
             "n_deleted": float(self.gp.n_deleted),
@@ -198,9 +201,14 @@ class Soak:
         for key, value in row.items():
             self.history.setdefault(key, []).append(value)
 
+    def _mse(self, data: Rollout) -> float:
+        pred = self.gp.predict(data.x, return_var=False)[0].to(data.y.dtype)
+        return float(((pred - data.y) ** 2).mean())
+
     def summary(self) -> dict[str, Any]:
         """Worst values, counters, time and pass/fail of this variant."""
         ev = self.history.get("explained_variance", [math.nan])
+        batch_ev = self.history.get("batch_ev", [math.nan])
         batch_ms = self.history.get("batch_ms", [math.nan])
         return {
             "variant": self.variant.label,
@@ -216,6 +224,7 @@ class Soak:
             **{f"worst_{k}": v for k, v in self.worst.items()},
             "final_ev": ev[-1],
             "min_ev_2nd_half": min(ev[len(ev) // 2 :]),
+            "median_batch_ev_2nd_half": statistics.median(batch_ev[len(batch_ev) // 2 :]),
             "passed": not self.failures,
             "n_failures": len(self.failures),
             "first_failures": self.failures[:5],
@@ -264,7 +273,7 @@ SUMMARY_COLUMNS = (
     "variant", "points", "update_s", "median_batch_ms", "max_batch_ms", "n_added", "n_deleted",
     "n_basis",
     "worst_asym_P", "worst_asym_Q", "worst_min_eig_P", "worst_min_eig_Q", "worst_min_var",
-    "final_ev", "min_ev_2nd_half", "passed",
+    "final_ev", "min_ev_2nd_half", "median_batch_ev_2nd_half", "passed",
 )  # fmt: skip
 
 
