@@ -1150,7 +1150,8 @@ def test_newcomers_at_capacity_are_planned_together_with_row_by_row_result(
         for _ in range(30):
             x = z + np.cumsum(rng.normal(scale=0.05, size=(256, 3)), 0)
             z = x[-1]
-            gp.update(x, np.sin(x).sum(1))
+            # Trajectories of 50 points: new BVs hang on their trajectory's last BV.
+            gp.update(x, np.sin(x).sum(1), np.arange(256) % 50 == 0)
         return gp, len(planned)
 
     together, calls_together = run(sparse_gp._PLAN_CHUNK)
