@@ -565,7 +565,7 @@ class SparseOnlineGP(nn.Module):
         # Rows [pending, i) wait to be absorbed in one block: non-novel rows and novel ones
         # that are projected rather than inserted. Rows after the last inserted one may start
         # a trajectory (checked from ``linked`` on).
-        ahead = _Ahead()  # plans of coming novel rows; cleared whenever their basis changes
+        ahead = _Ahead()  # plans of coming novel rows, cleared when what they assumed changes
         i = pending = linked = 0
         while i < n:
             p = self._next_novel(x, i, screen)
