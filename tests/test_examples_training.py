@@ -19,3 +19,45 @@ def test_benchmark_training_runs_every_critic(tmp_path: Path) -> None:
     for critic, runs in results.items():
         assert runs[0]["wall"] > 0
         assert (runs[0]["update"] > 0) == (critic != "mlp")
+
+
+def test_critic_fit_scores_each_rollout_as_sb3_does() -> None:
+    """The recorder's explained variance per rollout equals SB3's own ``train/explained_variance``
+    of the same rollout (computed by SB3 from the same buffer, for the MLP critic)."""
+    import numpy as np
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    critic_fit = load_script("critic_fit")
+    logged: list[float] = []
+
+    class ReadSB3(BaseCallback):
+        # At a rollout start SB3's logger still holds the values ``train`` just recorded.
+        def _on_step(self) -> bool:
+            return True
+
+        def _on_rollout_start(self) -> None:
+            value = self.model.logger.name_to_value.get("train/explained_variance")
+            if value is not None:
+                logged.append(float(value))
+
+    model = PPO("MlpPolicy", "CartPole-v1", n_steps=64, batch_size=64, seed=0, device="cpu")
+    recorder = critic_fit.ExplainedVariance()
+    model.learn(64 * 5, callback=[recorder, ReadSB3()])
+    assert len(logged) == 4 and len(recorder.explained) == 5
+    np.testing.assert_allclose(recorder.explained[:4], logged, rtol=1e-5, atol=1e-6)
+
+
+def test_critic_fit_tiny_run_writes_table_and_figure(tmp_path: Path) -> None:
+    critic_fit = load_script("critic_fit")
+    argv = ["--envs", "CartPole-v1", "--critics", "mlp", "rbf", "--seeds", "0", "--scale", "0.01"]
+    critic_fit.main([*argv, "--out", str(tmp_path)])
+    runs = [json.loads(p.read_text()) for p in sorted((tmp_path / "runs").glob("*.json"))]
+    assert {r["critic"] for r in runs} == {"mlp", "rbf"}
+    for r in runs:
+        n = len(r["explained_variance"])
+        assert n >= 2 and r["tail_rollouts"] == n - int(0.8 * n)
+        tail = r["explained_variance"][n - r["tail_rollouts"] :]
+        assert abs(r["tail_mean"] - sum(tail) / len(tail)) < 1e-12
+    assert "CartPole-v1" in (tmp_path / "critic_fit.md").read_text()
+    assert (tmp_path / "critic_fit.png").stat().st_size > 0
