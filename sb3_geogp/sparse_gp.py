@@ -573,7 +573,8 @@ class SparseOnlineGP(nn.Module):
             i = p + 1
             if p == n:
                 break
-            if bool(starts[linked : p + 1].any()) and self.kernel.start_trajectory():
+            # A kernel that does not say (None) may have changed its coming insertion rows.
+            if bool(starts[linked : p + 1].any()) and self.kernel.start_trajectory() is not False:
                 ahead.clear()
             linked = p + 1
             if self.n_basis < self.max_basis:

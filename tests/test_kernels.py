@@ -238,3 +238,12 @@ def test_geodesic_kernel_rejects_bad_options(kwargs: dict, match: str) -> None:
 def test_bind_rejects_lengthscale_of_wrong_length() -> None:
     with pytest.raises(ValueError, match="lengthscale has 2 entries"):
         RBFKernel(lengthscale=[1.0, 2.0]).bind(3, 8)
+
+
+def test_kernel_with_the_one_row_insertion_method_is_refused() -> None:
+    """0.3's ``insertion_row`` would be bypassed silently by the batched planner."""
+    with pytest.raises(TypeError, match="insertion_rows"):
+
+        class OldKernel(RBFKernel):
+            def insertion_row(self, x: torch.Tensor, z: torch.Tensor) -> object:
+                return self.cross(x[None], z)[0], None

@@ -158,6 +158,16 @@ class Kernel(nn.Module):
     lengthscale: Tensor
     variance: Tensor
 
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        # 0.3's one-row method would be silently bypassed by the GP, which plans in batches.
+        if "insertion_row" in cls.__dict__:
+            raise TypeError(
+                f"{cls.__name__} defines insertion_row(x, z), which the GP no longer calls: "
+                "define insertion_rows(x, z) instead, for x of shape (r, d), returning rows "
+                "(r, m) and one attachment per row"
+            )
+
     def __init__(
         self, lengthscale: float | Sequence[float] | None = None, variance: float = 1.0
     ) -> None:
