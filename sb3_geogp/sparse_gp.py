@@ -1357,11 +1357,12 @@ class _Insertion(NamedTuple):
 
 class _Plans(NamedTuple):
     """Planned insertions of ``r`` rows, each on the same posterior (see
-    :meth:`SparseOnlineGP._plans`); :meth:`at` gives one as an :class:`_Insertion`."""
+    :meth:`SparseOnlineGP._plans`); :meth:`at` gives one as an :class:`_Insertion`. Every
+    field :class:`_Insertion` has (but ``m``) is here too, indexed by row."""
 
     xs: Tensor
     k: Tensor
-    attachments: Sequence[Any]
+    attachment: Sequence[Any]
     nugget: Tensor
     gamma: Tensor
     denom: Tensor
@@ -1374,19 +1375,7 @@ class _Plans(NamedTuple):
     variance: float
 
     def at(self, i: int, m: int) -> _Insertion:
-        return _Insertion(
-            m,
-            self.xs[i],
-            self.k[i],
-            self.attachments[i],
-            self.nugget[i],
-            self.gamma[i],
-            self.denom[i],
-            self.e_ext[i],
-            self.s[i],
-            self.alpha_new[i],
-            self.doomed[i],
-        )
+        return _Insertion(m, **{name: getattr(self, name)[i] for name in _Insertion._fields[1:]})
 
 
 class _Screen:
