@@ -654,7 +654,7 @@ class SparseOnlineGP(nn.Module):
         Below capacity: ``novelty_tol``. Once the basis is full, a newcomer must beat both the
         least novel current BV (``1 / Q_ii`` relative to its prior variance) and the adaptive
         ``novelty_floor``, which rises by ``_FLOOR_STEP`` whenever a newcomer arrives at capacity
-        (it displaces a BV or is itself projected) and falls back towards ``novelty_tol`` by
+        (a BV, possibly the newcomer, is deleted after it) and falls back towards ``novelty_tol`` by
         ``_FLOOR_STEP ** _DELETION_RATE`` per absorbed point, so that in the long run about one
         point in 300 at most causes a deletion.
         Without it, a stream of points denser than ``max_basis`` can cover at ``novelty_tol``
@@ -800,6 +800,7 @@ class SparseOnlineGP(nn.Module):
         return self.condition_guard and (1.0 + e_sq) / gamma > _Q_GROWTH / variance
 
     def _delete_least_informative(self) -> None:
+        """Delete the BV with the smallest Csató–Opper score (:func:`_least_informative`)."""
         m = self.n_basis
         self._delete(_least_informative(self.alpha[:m], torch.diagonal(self.P[:m, :m])))
 
