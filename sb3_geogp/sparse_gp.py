@@ -747,7 +747,8 @@ class SparseOnlineGP(nn.Module):
         m = self.n_basis
         xs = self.kernel.scale(x)
         variance = self.kernel.variance
-        k, attachment = self.kernel.insertion_row(xs, self._matrices().z)
+        rows, attachments = self.kernel.insertion_rows(xs[None], self._matrices().z)
+        k, attachment = rows[0], attachments[0]
         Q, P, alpha = self.Q[:m, :m], self.P[:m, :m], self.alpha[:m]
         e = Q @ k
         gamma = variance - k @ e

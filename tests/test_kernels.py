@@ -128,23 +128,22 @@ def test_geodesic_node_row_is_leaf_of_parent(small_tree) -> None:
     expected = np.exp(-(np.linalg.norm(x - pos[parent]) + sp[parent]))
     z = on_tree(kernel, graph, pos)
     kernel.traj_node.fill_(parent)  # the trajectory's last BV is the parent
-    row, attachment = kernel.insertion_row(torch.as_tensor(x), z)
-    assert attachment == parent
-    got = row.numpy()
-    np.testing.assert_allclose(got, expected, rtol=1e-12)
+    rows, attachments = kernel.insertion_rows(torch.as_tensor(x)[None], z)
+    assert list(attachments) == [parent]
+    np.testing.assert_allclose(rows[0].numpy(), expected, rtol=1e-12)
 
 
-def test_geodesic_row_without_trajectory_hangs_on_nearest_bv(small_tree) -> None:
-    """With no trajectory predecessor a point is a leaf of its own nearest BV."""
+def test_geodesic_rows_without_trajectory_hang_on_nearest_bv(small_tree) -> None:
+    """Batched: with no trajectory predecessor each point is a leaf of its own nearest BV."""
     graph, pos, sp = small_tree
     kernel = GeodesicKernel(lengthscale=1.0)
     z = on_tree(kernel, graph, pos)
-    for x in np.random.default_rng(3).normal(size=(7, 2)):
-        nearest = int(np.linalg.norm(x - pos, axis=1).argmin())
-        expected = np.exp(-(np.linalg.norm(x - pos[nearest]) + sp[nearest]))
-        row, attachment = kernel.insertion_row(torch.as_tensor(x), z)
-        assert attachment == nearest
-        np.testing.assert_allclose(row.numpy(), expected, rtol=1e-12)
+    x = np.random.default_rng(3).normal(size=(7, 2))
+    nearest = np.linalg.norm(x[:, None] - pos[None], axis=2).argmin(axis=1)
+    expected = np.exp(-(np.linalg.norm(x - pos[nearest], axis=1)[:, None] + sp[nearest]))
+    rows, attachments = kernel.insertion_rows(torch.as_tensor(x), z)
+    assert list(attachments) == nearest.tolist()
+    np.testing.assert_allclose(rows.numpy(), expected, rtol=1e-12)
 
 
 @pytest.mark.parametrize(
@@ -239,3 +238,12 @@ def test_geodesic_kernel_rejects_bad_options(kwargs: dict, match: str) -> None:
 def test_bind_rejects_lengthscale_of_wrong_length() -> None:
     with pytest.raises(ValueError, match="lengthscale has 2 entries"):
         RBFKernel(lengthscale=[1.0, 2.0]).bind(3, 8)
+
+
+def test_kernel_with_the_one_row_insertion_method_is_refused() -> None:
+    """0.3's ``insertion_row`` would be bypassed silently: the GP calls ``insertion_rows``."""
+    with pytest.raises(TypeError, match="insertion_rows"):
+
+        class OldKernel(RBFKernel):
+            def insertion_row(self, x: torch.Tensor, z: torch.Tensor) -> object:
+                return self.cross(x[None], z)[0], None

@@ -7,8 +7,8 @@ Every kernel of the package is stationary in a distance ``r`` measured in length
 and the GP talks to it only through :class:`Kernel`'s small interface:
 
 * rows over the basis: :meth:`Kernel.gram` (among basis vectors), :meth:`Kernel.rows`
-  (prediction), :meth:`Kernel.novelty_rows` (screening) and :meth:`Kernel.insertion_row`
-  (a point about to become a basis vector);
+  (prediction), :meth:`Kernel.novelty_rows` (screening) and
+  :meth:`Kernel.insertion_rows` (points about to become basis vectors);
 * the basis life cycle: :meth:`Kernel.on_insert`, :meth:`Kernel.on_delete`,
   :meth:`Kernel.start_trajectory`, which a kernel with state of its own over the basis (the
   geodesic kernel's graph) follows, and :meth:`Kernel.rescale` after a lengthscale fit;
@@ -158,6 +158,16 @@ class Kernel(nn.Module):
     lengthscale: Tensor
     variance: Tensor
 
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        # 0.3's one-row method would be silently bypassed: the GP calls insertion_rows.
+        if "insertion_row" in cls.__dict__:
+            raise TypeError(
+                f"{cls.__name__} defines insertion_row(x, z), which the GP no longer calls: "
+                "define insertion_rows(x, z) instead, for x of shape (r, d), returning rows "
+                "(r, m) and one attachment per row"
+            )
+
     def __init__(
         self, lengthscale: float | Sequence[float] | None = None, variance: float = 1.0
     ) -> None:
@@ -258,13 +268,22 @@ class Kernel(nn.Module):
         """Rows on which a point's novelty is judged (by default its prediction rows)."""
         return self.rows(x, z)
 
-    def insertion_row(self, x: Tensor, z: Tensor) -> tuple[Tensor, Any]:
-        """Row ``k(x, BV)`` a point gets once it is itself a basis vector, shape (m,).
+    def insertion_rows(self, x: Tensor, z: Tensor) -> tuple[Tensor, Sequence[Any]]:
+        """Rows ``k(x_i, BV)`` that points would get if each became the next basis vector.
 
-        ``x : Tensor, shape (d,)`` scaled. The second output is handed back to
-        :meth:`on_insert` if the point is inserted (for the geodesic kernel, its graph parent).
+        Parameters
+        ----------
+        x : Tensor, shape (r, d)
+            Scaled inputs, each judged alone against the current basis ``z : (m, d)``.
+
+        Returns
+        -------
+        rows : Tensor, shape (r, m)
+        attachments : sequence of length r
+            Handed back to :meth:`on_insert` with the point that is inserted (for the geodesic
+            kernel, its graph parent).
         """
-        return self.cross(x[None], z)[0], None
+        return self.cross(x, z), [None] * x.shape[0]
 
     # -- the basis life cycle (no-ops for a kernel without state over the basis) -----------------
     def on_insert(self, x: Tensor, attachment: Any) -> None:

@@ -57,7 +57,7 @@ class GeodesicKernel(Kernel):
     Novelty is always judged on the row the point would have as a leaf of its nearest basis
     vector (an interpolated row lies in the span of the BV rows and is never novel).
 
-    A new basis vector joins the tree as a leaf of its parent (:meth:`insertion_row`): the
+    A new basis vector joins the tree as a leaf of its parent (:meth:`insertion_rows`): the
     previous basis vector of its own trajectory with ``edges="trajectory"`` when there is one
     (paper footnote 3), else its nearest basis vector (paper eq. 5).
 
@@ -176,22 +176,26 @@ class GeodesicKernel(Kernel):
     def cross(self, x: Tensor, z: Tensor) -> Tensor:
         return self.rows(x, z).dense(Gram(self.gram(z)))
 
-    def insertion_row(self, x: Tensor, z: Tensor) -> tuple[Tensor, Any]:
-        """The row of ``x`` as a leaf of its parent; the parent node is the attachment."""
-        parent = self._parent(x, z)
-        if parent is None:
-            return x.new_zeros(0), None  # the first BV starts a component of its own
-        w = torch.linalg.vector_norm(x - self.tree.pos[parent])
+    def insertion_rows(self, x: Tensor, z: Tensor) -> tuple[Tensor, Sequence[Any]]:
+        """The rows of ``x : (r, d)`` as leaves of their parents; the parent nodes are the
+        attachments."""
+        parents = self._parents(x, z)
+        if parents is None:
+            # The first BV starts a component of its own.
+            return x.new_zeros(x.shape[0], 0), [None] * x.shape[0]
+        w = torch.linalg.vector_norm(x - self.tree.pos[parents], dim=1)
         nodes = self.tree.basis_nodes[: z.shape[0]]
-        return self(w + self.tree.shortest_paths[parent, nodes]), parent
+        rows = self(w[:, None] + self.tree.shortest_paths[parents][:, nodes])
+        return rows, parents.tolist()
 
-    def _parent(self, x: Tensor, z: Tensor) -> int | None:
-        """Graph node a new BV at scaled input ``x : (d,)`` is joined to (None: no basis yet)."""
+    def _parents(self, x: Tensor, z: Tensor) -> Tensor | None:
+        """Graph nodes new BVs at scaled inputs ``x : (r, d)`` would be joined to, shape (r,)
+        (None: no basis yet)."""
         if z.shape[0] == 0:
             return None
         if self.edges == "trajectory" and int(self.traj_node) >= 0:
-            return int(self.traj_node)
-        return int(self.tree.basis_nodes[distances(x[None], z)[0].argmin()])
+            return self.traj_node.expand(x.shape[0])
+        return self.tree.basis_nodes[distances(x, z).argmin(dim=1)]
 
     # -- the basis life cycle ------------------------------------------------------------------
     def on_insert(self, x: Tensor, attachment: Any) -> None:
