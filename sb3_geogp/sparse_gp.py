@@ -57,8 +57,6 @@ ArrayLike = Tensor | np.ndarray | Sequence[Any]
 _GAMMA_FLOOR = 1e-6
 #: Bounds on the rows of a batch whose novelty is screened at once (adapted in between).
 _MIN_CHUNK, _MAX_CHUNK = 32, 1024
-#: Most novel rows planned at once at capacity.
-_PLAN_CHUNK = 128
 #: Factor by which the at-capacity novelty floor rises with each newcomer at capacity.
 _FLOOR_STEP = 1.1
 #: Deletions per absorbed point the floor tolerates in the long run (it falls by
@@ -563,9 +561,10 @@ class SparseOnlineGP(nn.Module):
         added_before = int(self.n_added)
         screen = _Screen()
         # Rows [pending, i) wait to be absorbed in one block: non-novel rows and novel ones
-        # that are projected rather than inserted. Rows after the last inserted one may start
-        # a trajectory (checked from ``linked`` on).
-        ahead = _Ahead()  # plans of coming novel rows, cleared when what they assumed changes
+        # whose BV row is rejected. Rows after the last inserted one may start a trajectory
+        # (checked from ``linked`` on). At capacity a newcomer takes the spare slot and the
+        # least informative BV is deleted only when the next newcomer arrives or the batch
+        # ends: the newcomer is judged with the support of the points absorbed after it.
         i = pending = linked = 0
         while i < n:
             p = self._next_novel(x, i, screen)
@@ -573,36 +572,27 @@ class SparseOnlineGP(nn.Module):
             i = p + 1
             if p == n:
                 break
-            # A kernel that does not say (None) may have changed its coming insertion rows.
-            if bool(starts[linked : p + 1].any()) and self.kernel.start_trajectory() is not False:
-                ahead.clear()
+            if bool(starts[linked : p + 1].any()):
+                self.kernel.start_trajectory()
             linked = p + 1
-            if self.n_basis < self.max_basis:
-                # Below capacity every newcomer that passes the row checks is inserted, and
-                # on the posterior that has absorbed the rows before it.
-                if pending < p:
-                    self._absorb(x[pending:p], yn[pending:p])
-                    pending = p
-                plan = self._plan_insertion(x[p], yn[p])
-            else:
-                plan = self._plan_ahead(x, yn, p, screen, ahead)
-            if plan is not None and plan.inserts and pending < p:
-                # At capacity the plan on the posterior before the pending rows decided
-                # between inserting and projecting; an insertion is redone after them.
+            if pending < p:
                 self._absorb(x[pending:p], yn[pending:p])
-                ahead.clear()
                 pending = p
-                plan = self._plan_insertion(x[p], yn[p])
+            if self.n_basis > self.max_basis:
+                self._delete_least_informative()
+                i = p  # judged again against the basis without the deleted BV
+                continue
+            plan = self._plan_insertion(x[p], yn[p])
             if plan is None:
                 continue
-            if plan.at_capacity:
+            if self.n_basis == self.max_basis:
                 self._scale_floor(_FLOOR_STEP)
-            if plan.inserts:
-                self._insert(plan, x[p], y[p])
-                ahead.clear()
-                pending = p + 1
+            self._insert(plan, x[p], y[p])
+            pending = p + 1
         if pending < n:
             self._absorb(x[pending:], yn[pending:])
+        if self.n_basis > self.max_basis:
+            self._delete_least_informative()
         if bool(starts[linked:].any()):
             self.kernel.start_trajectory()
         if int(self.n_added) > added_before:
@@ -664,7 +654,7 @@ class SparseOnlineGP(nn.Module):
         Below capacity: ``novelty_tol``. Once the basis is full, a newcomer must beat both the
         least novel current BV (``1 / Q_ii`` relative to its prior variance) and the adaptive
         ``novelty_floor``, which rises by ``_FLOOR_STEP`` whenever a newcomer arrives at capacity
-        (it displaces a BV or is itself projected) and falls back towards ``novelty_tol`` by
+        (a BV, possibly the newcomer, is deleted after it) and falls back towards ``novelty_tol`` by
         ``_FLOOR_STEP ** _DELETION_RATE`` per absorbed point, so that in the long run about one
         point in 300 at most causes a deletion.
         Without it, a stream of points denser than ``max_basis`` can cover at ``novelty_tol``
@@ -745,88 +735,37 @@ class SparseOnlineGP(nn.Module):
         self.P[:m, :m] = _sym(sol[:, :m])
 
     def _plan_insertion(self, x: Tensor, yn: Tensor) -> _Insertion | None:
-        """The full update that would make ``x : (d,)`` a BV, or ``None`` if its row fails
-        :meth:`_reject_row` (then it is projected). Changes nothing (see :meth:`_plans`)."""
-        return self._plan_from(self._plans(x[None], yn[None]), 0)
-
-    def _plan_ahead(
-        self, x: Tensor, yn: Tensor, p: int, screen: _Screen, ahead: _Ahead
-    ) -> _Insertion | None:
-        """:meth:`_plan_insertion` of row ``p``, planned together with the next rows that are
-        novel now while the posterior, the basis and the trajectory stay as they are.
-
-        At capacity most novel points of a region the basis does not cover are projected, not
-        inserted (measured: 930 plans for 2 insertions per 2,048-point batch of a drifting
-        walk); one batched plan for all of them replaces a row-by-row Python loop.
-        """
-        if ahead.index(p) is None:
-            known = screen.novelty((int(self.n_added), int(self.n_deleted)), p)
-            rows = torch.tensor([p], device=x.device)
-            if known is not None:
-                novel = (known > self._novelty_threshold()).nonzero()[:_PLAN_CHUNK, 0]
-                rows = torch.unique(torch.cat([rows, p + novel]))
-            ahead.keep(rows.tolist(), self._plans(x[rows], yn[rows]))
-        i = ahead.index(p)
-        assert i is not None and ahead.plans is not None
-        return self._plan_from(ahead.plans, i)
-
-    def _plan_from(self, plans: _Plans, i: int) -> _Insertion | None:
-        m = self.n_basis
-        if m > 0 and self._reject_row(plans.gamma_raw[i], plans.e_sq[i], plans.variance):
-            return None
-        return plans.at(i, m)
-
-    def _plans(self, x: Tensor, yn: Tensor) -> _Plans:
-        """The full updates that would make each row of ``x : (r, d)`` the next BV, each on the
-        current posterior alone. Changes nothing.
+        """The full update that would make ``x : (d,)`` the next BV, or ``None`` if its row
+        fails :meth:`_reject_row` (then it is projected). Changes nothing.
 
         With ``k = k(x, BV)``, ``e = Q k``, ``gamma = k(x, x) - k^T e`` (floored by a nugget),
         ``s2 = gamma + k^T P k``, ``q = (y - k^T alpha) / (sigma_n^2 + s2)``,
         ``r = -1 / (sigma_n^2 + s2)`` and ``e~ = [e; -1]``, ``s = [P k; 0] - e~``:
         ``alpha <- [alpha; 0] + q s``, ``Q <- [Q 0; 0 0] + e~ e~^T / gamma``,
-        ``P <- [P 0; 0 0] + e~ e~^T / gamma + r s s^T``. At capacity a plan also names the BV
-        that would then be deleted (the least informative, possibly the newcomer).
+        ``P <- [P 0; 0 0] + e~ e~^T / gamma + r s s^T``.
         """
         m = self.n_basis
         xs = self.kernel.scale(x)
         variance = self.kernel.variance
-        k, attachments = self.kernel.insertion_rows(xs, self._matrices().z)
+        rows, attachments = self.kernel.insertion_rows(xs[None], self._matrices().z)
+        k, attachment = rows[0], attachments[0]
         Q, P, alpha = self.Q[:m, :m], self.P[:m, :m], self.alpha[:m]
-        e = k @ Q
-        gamma_raw = variance - (k * e).sum(dim=1)
-        nugget = (_GAMMA_FLOOR * variance - gamma_raw).clamp_min(0)
-        gamma = gamma_raw + nugget
-        Pk = k @ P
-        denom = self.noise_var + gamma + (k * Pk).sum(dim=1)
+        e = Q @ k
+        gamma = variance - k @ e
+        if m > 0 and self._reject_row(float(gamma), float(e @ e), float(variance)):
+            return None
+        nugget = (_GAMMA_FLOOR * variance - gamma).clamp_min(0)
+        gamma = gamma + nugget
+        Pk = P @ k
+        denom = self.noise_var + gamma + k @ Pk
         q = (yn - k @ alpha) / denom
-        minus_one = e.new_full((x.shape[0], 1), -1.0)
-        e_ext = torch.cat([e, minus_one], dim=1)
-        s = torch.cat([Pk, torch.zeros_like(minus_one)], dim=1) - e_ext
-        alpha_new = torch.cat([alpha, alpha.new_zeros(1)]) + q[:, None] * s
-        doomed: list[int | None] = [None] * x.shape[0]
-        if m == self.max_basis:
-            # Scores after the insertion, from its rank-one terms.
-            p_diag = torch.cat([torch.diagonal(P), P.new_zeros(1)]) + e_ext**2 / gamma[:, None]
-            doomed = _least_informative(alpha_new, p_diag - s**2 / denom[:, None]).tolist()
-        return _Plans(
-            xs,
-            k,
-            attachments,
-            nugget,
-            gamma,
-            denom,
-            e_ext,
-            s,
-            alpha_new,
-            doomed,
-            gamma_raw.tolist(),
-            (e * e).sum(dim=1).tolist(),
-            float(variance),
-        )
+        e_ext = torch.cat([e, e.new_full((1,), -1.0)])
+        s = torch.cat([Pk, Pk.new_zeros(1)]) - e_ext
+        alpha_new = torch.cat([alpha, alpha.new_zeros(1)]) + q * s
+        return _Insertion(m, xs, k, attachment, nugget, gamma, denom, e_ext, s, alpha_new)
 
     def _insert(self, plan: _Insertion, x: Tensor, y: Tensor) -> None:
-        """Carry out a planned insertion: ``x`` becomes a BV (and a graph node); delete the
-        doomed BV if over capacity."""
+        """Carry out a planned insertion: ``x`` becomes a BV (and a graph node)."""
         m = plan.m
         self.alpha[: m + 1] = plan.alpha_new
         # In-place rank-one updates (BLAS ger): no (m, m) temporaries.
@@ -843,8 +782,6 @@ class SparseOnlineGP(nn.Module):
         self._matrices().basis_grew(plan.k, self.kernel.variance)
         self.count += 1
         self.n_added += 1
-        if plan.doomed is not None:
-            self._delete(plan.doomed)
 
     def _reject_row(self, gamma: float, e_sq: float, variance: float) -> bool:
         """Whether a novel point's actual BV row would harm ``Q``; it is projected instead.
@@ -862,6 +799,11 @@ class SparseOnlineGP(nn.Module):
         if gamma <= self._novelty_threshold() * variance:
             return True
         return self.condition_guard and (1.0 + e_sq) / gamma > _Q_GROWTH / variance
+
+    def _delete_least_informative(self) -> None:
+        """Delete the BV with the smallest Csató–Opper score (:func:`_least_informative`)."""
+        m = self.n_basis
+        self._delete(_least_informative(self.alpha[:m], torch.diagonal(self.P[:m, :m])))
 
     def _delete(self, j: int) -> None:
         """Remove BV ``j`` by the Csató–Opper KL projection.
@@ -1244,10 +1186,10 @@ def _to_tensor(value: ArrayLike, name: str) -> Tensor:
 _INT_TYPES = (torch.int8, torch.int16, torch.int32, torch.int64, torch.uint8, torch.bool)
 
 
-def _least_informative(alpha: Tensor, p_diag: Tensor) -> Tensor:
-    """BV with the smallest Csató–Opper score ``alpha_i^2 / (Q_ii + C_ii) = alpha_i^2 / P_ii``
-    along the last dimension (``alpha``, ``p_diag`` of shape (..., m); result (...))."""
-    return (alpha**2 / p_diag.clamp_min(torch.finfo(p_diag.dtype).tiny)).argmin(dim=-1)
+def _least_informative(alpha: Tensor, p_diag: Tensor) -> int:
+    """Index of the BV with the smallest Csató–Opper score
+    ``alpha_i^2 / (Q_ii + C_ii) = alpha_i^2 / P_ii`` (``alpha``, ``p_diag`` of shape (m,))."""
+    return int((alpha**2 / p_diag.clamp_min(torch.finfo(p_diag.dtype).tiny)).argmin())
 
 
 def _substitute(
@@ -1343,39 +1285,6 @@ class _Insertion(NamedTuple):
     e_ext: Tensor
     s: Tensor
     alpha_new: Tensor
-    doomed: int | None
-
-    @property
-    def at_capacity(self) -> bool:
-        return self.doomed is not None
-
-    @property
-    def inserts(self) -> bool:
-        """False when the newcomer itself is the least informative: it is projected instead."""
-        return self.doomed != self.m
-
-
-class _Plans(NamedTuple):
-    """Planned insertions of ``r`` rows, each on the same posterior (see
-    :meth:`SparseOnlineGP._plans`); :meth:`at` gives one as an :class:`_Insertion`. Every
-    field :class:`_Insertion` has (but ``m``) is here too, indexed by row."""
-
-    xs: Tensor
-    k: Tensor
-    attachment: Sequence[Any]
-    nugget: Tensor
-    gamma: Tensor
-    denom: Tensor
-    e_ext: Tensor
-    s: Tensor
-    alpha_new: Tensor
-    doomed: Sequence[int | None]
-    gamma_raw: Sequence[float]
-    e_sq: Sequence[float]
-    variance: float
-
-    def at(self, i: int, m: int) -> _Insertion:
-        return _Insertion(m, **{name: getattr(self, name)[i] for name in _Insertion._fields[1:]})
 
 
 class _Screen:
@@ -1397,24 +1306,6 @@ class _Screen:
         if not 0 <= offset < self._gamma.shape[0]:
             return None
         return self._gamma[offset:]
-
-
-class _Ahead:
-    """Plans of the coming novel rows of a batch (:meth:`SparseOnlineGP._plan_ahead`), valid
-    until the posterior, the basis or the trajectory changes (the update loop clears them)."""
-
-    def __init__(self) -> None:
-        self.plans: _Plans | None = None
-        self._where: dict[int, int] = {}
-
-    def keep(self, rows: list[int], plans: _Plans) -> None:
-        self.plans, self._where = plans, {row: i for i, row in enumerate(rows)}
-
-    def index(self, row: int) -> int | None:
-        return self._where.get(row)
-
-    def clear(self) -> None:
-        self.plans, self._where = None, {}
 
 
 class _Rollback:

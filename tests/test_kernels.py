@@ -241,7 +241,7 @@ def test_bind_rejects_lengthscale_of_wrong_length() -> None:
 
 
 def test_kernel_with_the_one_row_insertion_method_is_refused() -> None:
-    """0.3's ``insertion_row`` would be bypassed silently by the batched planner."""
+    """0.3's ``insertion_row`` would be bypassed silently: the GP calls ``insertion_rows``."""
     with pytest.raises(TypeError, match="insertion_rows"):
 
         class OldKernel(RBFKernel):

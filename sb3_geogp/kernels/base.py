@@ -160,7 +160,7 @@ class Kernel(nn.Module):
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
-        # 0.3's one-row method would be silently bypassed by the GP, which plans in batches.
+        # 0.3's one-row method would be silently bypassed: the GP calls insertion_rows.
         if "insertion_row" in cls.__dict__:
             raise TypeError(
                 f"{cls.__name__} defines insertion_row(x, z), which the GP no longer calls: "
@@ -292,10 +292,8 @@ class Kernel(nn.Module):
     def on_delete(self, j: int) -> None:
         """Basis vector ``j`` was removed (the later ones move up one place)."""
 
-    def start_trajectory(self) -> bool:
-        """The next points start a new trajectory; returns whether that changes the rows of
-        coming insertions (:meth:`insertion_rows`)."""
-        return False
+    def start_trajectory(self) -> None:
+        """The next points start a new trajectory."""
 
     @property
     def graph(self) -> BVGraph | None:

@@ -206,10 +206,8 @@ class GeodesicKernel(Kernel):
         if int(self.traj_node) in freed:
             self.traj_node.fill_(-1)
 
-    def start_trajectory(self) -> bool:
-        was_open = int(self.traj_node) >= 0
+    def start_trajectory(self) -> None:
         self.traj_node.fill_(-1)
-        return was_open
 
     def basis_checkpoint(self) -> Any:
         return self.tree.checkpoint()
