@@ -13,6 +13,7 @@ Usage::
 
     python examples/fixed_policy_check.py --out docs/fixed_policy_check  # full run
     python examples/fixed_policy_check.py --quick --out runs/fixed_quick   # smoke run (seconds)
+    python examples/fixed_policy_check.py --prior-sd 0.1 --out runs/fixed_prior  # with a hyperprior
 """
 
 from __future__ import annotations
@@ -60,6 +61,9 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--seeds", type=int, default=None, help="seeds (default 5; quick 1)")
     parser.add_argument(
         "--max-basis", type=int, nargs="+", default=None, help="max BVs (default 20 50 100 200)"
+    )
+    parser.add_argument(
+        "--prior-sd", type=float, default=None, help="Adaptation.prior_sd (default: no prior)"
     )
     return parser.parse_args(argv)
 
@@ -128,6 +132,8 @@ def main(argv: list[str] | None = None) -> None:
         config = replace(config, seeds=tuple(range(args.seeds)))
     if args.max_basis is not None:
         config = replace(config, max_basis=tuple(args.max_basis))
+    if args.prior_sd is not None:
+        config = replace(config, adaptation=replace(config.adaptation, prior_sd=args.prior_sd))
     out: Path = args.out
     out.mkdir(parents=True, exist_ok=True)
     torch.set_num_threads(1)

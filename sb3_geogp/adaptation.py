@@ -88,12 +88,18 @@ class Adaptation:
         Bounds on the signal and the noise variance (standardised target units).
     targets : bool
         Re-estimate the target mean and scale (ignored where the user fixed them).
+    prior_sd : float or None
+        Standard deviation of a Gaussian hyperprior on the log lengthscale factors (relative
+        to the lengthscales the GP started with) and on the log signal variance (whose
+        natural scale is 1 in standardised target units): the steps then maximise the
+        posterior, ``F - sum(u^2) / (2 prior_sd^2)`` over the fitted points, ``u`` those logs.
+        ``None``: no prior, the bounds alone (docs/benchmarks.md measures 0.1).
 
     Raises
     ------
     ValueError
-        For a non-positive count, a bad step size, an empty or out-of-range candidate list, or
-        bounds that are not ``0 < low <= high < inf``.
+        For a non-positive count, a bad step size or ``prior_sd``, an empty or out-of-range
+        candidate list, or bounds that are not ``0 < low <= high < inf``.
     """
 
     window: int = 2048
@@ -106,6 +112,7 @@ class Adaptation:
     variance_bounds: tuple[float, float] = (1e-2, 1e2)
     noise_bounds: tuple[float, float] = (1e-4, 1.0)
     targets: bool = True
+    prior_sd: float | None = None
 
     def __post_init__(self) -> None:
         for name in ("window", "interval", "fit_points"):
@@ -118,6 +125,11 @@ class Adaptation:
             raise ValueError(f"Adaptation.steps must be an integer >= 0, got {self.steps!r}")
         if not (self.lr > 0 and math.isfinite(self.lr)):
             raise ValueError(f"Adaptation.lr must be positive and finite, got {self.lr}")
+        if self.prior_sd is not None and not (self.prior_sd > 0 and math.isfinite(self.prior_sd)):
+            raise ValueError(
+                f"Adaptation.prior_sd must be positive and finite (or None: no prior), got "
+                f"{self.prior_sd}"
+            )
         candidates = tuple(float(c) for c in self.forgetting)
         if not candidates or not all(0 < c <= 1 for c in candidates):
             raise ValueError(

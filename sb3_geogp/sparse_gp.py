@@ -1054,8 +1054,9 @@ class SparseOnlineGP(nn.Module):
     def _fit(
         self, x: Tensor, yn: Tensor, w: Tensor, steps: int, lr: float, bounds: Adaptation
     ) -> None:
-        """Adam on the negative collapsed bound of ``(x, yn)`` with weights ``w``. Changes the
-        kernel's hyperparameters and the noise only."""
+        """Adam on the negative collapsed bound of ``(x, yn)`` with weights ``w``, plus the
+        hyperprior of ``bounds.prior_sd`` if any. Changes the kernel's hyperparameters and the
+        noise only."""
         kernel, m = self.kernel, self.n_basis
         n_factors, correlations = kernel.correlation_fn(x, self.bv_x[:m])
         nugget = torch.diag(self.nugget[:m])
@@ -1073,7 +1074,12 @@ class SparseOnlineGP(nn.Module):
             R_xz, R_zz = correlations(log_f)
             var = log_var.exp()
             projection = Projection(var * R_zz + nugget, var * R_xz, float(var.detach()))
-            return projection.negative_bound(yn, log_noise.exp() / w, var.expand(yn.shape[0]))
+            value = projection.negative_bound(yn, log_noise.exp() / w, var.expand(yn.shape[0]))
+            if bounds.prior_sd is None:
+                return value
+            # log(lengthscale / start) = log_f - ratio; per point, as the bound is.
+            logs = torch.cat([log_f - ratio, log_var[None]])
+            return value + logs.square().sum() / (2 * bounds.prior_sd**2 * yn.shape[0])
 
         opt = torch.optim.Adam([log_f, log_var, log_noise], lr=lr)
         with torch.enable_grad():

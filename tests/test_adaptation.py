@@ -26,6 +26,8 @@ from tests.test_sparse_gp import assert_same_state, nystrom_posterior, rbf, snap
         dict(interval=2.5),
         dict(steps=-1),
         dict(lr=float("nan")),
+        dict(prior_sd=0.0),
+        dict(prior_sd=float("inf")),
     ],
 )
 def test_bad_settings_raise_naming_the_setting(bad: dict) -> None:
@@ -131,6 +133,33 @@ def test_adaptation_recovers_the_marginal_likelihood_optimum() -> None:
     np.testing.assert_allclose(float(gp.noise_var) * scale2, ref[3], rtol=0.5)
     assert gp.last_stats["noise_var"] == float(gp.noise_var)
     assert np.isfinite(gp.last_stats["nlpd"])
+
+
+def test_hyperprior_vanishes_when_wide_and_holds_the_start_when_narrow() -> None:
+    """The hyperprior's two limits, on draws of a known GP: a prior of sd 1e8 gives the fit
+    without one (1e-10); one of sd 1e-4 keeps the lengthscales and the signal variance
+    within 5% of where they started, which the same data without it move by more than 40%."""
+    rng = np.random.default_rng(1)
+    x = rng.uniform(size=(1200, 2))
+    _, y = gp_draw(rng, x, np.array([0.15, 0.6]), 0.04)
+
+    def fit(prior_sd: float | None) -> SparseOnlineGP:
+        adapt = Adaptation(
+            window=400, interval=200, steps=10, lr=0.1, forgetting=(1.0,), prior_sd=prior_sd
+        )
+        gp = SparseOnlineGP(2, "rbf", max_basis=150, novelty_tol=1e-3, adapt=adapt)
+        for i in range(0, len(x), 200):
+            gp.update(x[i : i + 200], y[i : i + 200])
+        return gp
+
+    free, wide, narrow = fit(None), fit(1e8), fit(1e-4)
+    for get in (lambda g: g.lengthscale, lambda g: g.kernel.variance, lambda g: g.noise_var):
+        np.testing.assert_allclose(get(wide).numpy(), get(free).numpy(), rtol=1e-10)
+    moved = np.abs(np.log((free.lengthscale / free.ls_start).numpy()))
+    assert moved.max() > np.log(1.4)
+    held = (narrow.lengthscale / narrow.ls_start).numpy()
+    np.testing.assert_allclose(held, 1.0, rtol=0.05)
+    assert abs(float(narrow.kernel.variance) - 1.0) < 0.05
 
 
 def test_forgetting_is_chosen_from_the_newest_block() -> None:
