@@ -880,7 +880,8 @@ class SparseOnlineGP(nn.Module):
         Minimises the negative collapsed bound (Titsias 2009) of the points in :attr:`window`,
         with the BVs as inducing points and each point weighted by the forgetting per batch
         (:mod:`sb3_geogp.adaptation`), by Adam on log-parameters within
-        :class:`~sb3_geogp.adaptation.Adaptation`'s bounds (this GP's, else the defaults). The
+        :class:`~sb3_geogp.adaptation.Adaptation`'s bounds, plus its hyperprior if it has one
+        (this GP's settings, else the defaults). The
         kernel says which lengthscale factors are free
         (:meth:`~sb3_geogp.kernels.Kernel.correlation_fn`): one per input dimension for the
         Euclidean kernels, one on all lengthscales for the geodesic kernel (every graph
