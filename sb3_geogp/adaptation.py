@@ -48,7 +48,8 @@ from __future__ import annotations
 
 import functools
 import math
-from dataclasses import asdict, dataclass
+from collections.abc import Mapping
+from dataclasses import asdict, dataclass, fields
 from typing import Any, NamedTuple
 
 import torch
@@ -156,14 +157,27 @@ class Adaptation:
         return {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(self).items()}
 
 
-def as_adaptation(adapt: Adaptation | bool | None) -> Adaptation | None:
-    """``adapt`` as settings: ``True`` gives the defaults, ``False``/``None`` none."""
+def as_adaptation(adapt: Adaptation | Mapping[str, Any] | bool | None) -> Adaptation | None:
+    """``adapt`` as settings: ``True`` gives the defaults, ``False``/``None`` none, a mapping
+    the :class:`Adaptation` of those settings (what a command line or a YAML file can say,
+    e.g. ``{"prior_sd": 0.1}``)."""
     if adapt is None or adapt is False:
         return None
     if adapt is True:
         return Adaptation()
+    if isinstance(adapt, Mapping):
+        unknown = sorted(set(adapt) - {f.name for f in fields(Adaptation)})
+        if unknown:
+            raise ValueError(
+                f"adapt has unknown settings {unknown}; Adaptation takes "
+                f"{[f.name for f in fields(Adaptation)]}"
+            )
+        return Adaptation(**adapt)
     if not isinstance(adapt, Adaptation):
-        raise ValueError(f"adapt must be True, False, None or an Adaptation, got {adapt!r}")
+        raise ValueError(
+            f"adapt must be True, False, None, an Adaptation or a dict of its settings, got "
+            f"{adapt!r}"
+        )
     return adapt
 
 

@@ -27,7 +27,7 @@ from __future__ import annotations
 import contextlib
 import functools
 import math
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from typing import Any, Literal, NamedTuple, TypeVar, cast
 
 import numpy as np
@@ -194,9 +194,10 @@ class SparseOnlineGP(nn.Module):
         Floating type of the state (float64 by default). float32 is accepted only with kernels
         that are safe in it (:meth:`~sb3_geogp.kernels.Kernel.supports_float32`: the Laplacian
         profiles, checked against float64 in the tests); half precisions are refused.
-    adapt : Adaptation, bool or None
+    adapt : Adaptation, dict, bool or None
         Adapt hyperparameters, target mean and scale and forgetting to the data stream
-        (:mod:`sb3_geogp.adaptation`); ``True`` takes :class:`Adaptation`'s defaults. Off by
+        (:mod:`sb3_geogp.adaptation`); ``True`` takes :class:`Adaptation`'s defaults, a dict
+        the settings it names (``{"prior_sd": 0.1}``). Off by
         default here (:class:`~sb3_geogp.GPActorCriticPolicy` turns it on). With it,
         ``forgetting`` is only the starting value, then chosen at every block.
 
@@ -265,7 +266,7 @@ class SparseOnlineGP(nn.Module):
         condition_guard: bool = True,
         device: torch.device | str | None = None,
         dtype: torch.dtype | str = torch.float64,
-        adapt: Adaptation | bool | None = None,
+        adapt: Adaptation | Mapping[str, Any] | bool | None = None,
     ) -> None:
         super().__init__()
         input_dim, max_basis = _count("input_dim", input_dim), _count("max_basis", max_basis)

@@ -41,6 +41,16 @@ def test_bad_adapt_argument_leaves_nothing_built() -> None:
         SparseOnlineGP(2, "rbf", adapt="yes")  # type: ignore[arg-type]
 
 
+def test_adapt_as_a_dict_is_the_adaptation_of_those_settings() -> None:
+    """The form a command line or a YAML file can give (``--gp-option 'adapt={...}'``)."""
+    gp = SparseOnlineGP(2, "rbf", adapt={"prior_sd": 0.1, "steps": 3})
+    assert gp.adaptation == Adaptation(prior_sd=0.1, steps=3)
+    with pytest.raises(ValueError, match=r"unknown settings \['prior'\]"):
+        SparseOnlineGP(2, "rbf", adapt={"prior": 0.1})
+    with pytest.raises(ValueError, match=r"Adaptation\.prior_sd"):
+        SparseOnlineGP(2, "rbf", adapt={"prior_sd": -1.0})
+
+
 # -- numerics -----------------------------------------------------------------------------------
 def test_jittered_cholesky_repairs_a_singular_matrix() -> None:
     v = torch.randn(6, 2, dtype=torch.float64, generator=torch.Generator().manual_seed(0))
