@@ -328,8 +328,8 @@ def basis_gram(gp: SparseOnlineGP) -> np.ndarray:
     """Prior covariance of the current BVs (RBF: closed form; geodesic: of the graph paths)."""
     variance = float(gp.kernel.variance)
     if gp.graph is None:
-        z = gp.basis_inputs.numpy() / gp.lengthscale.numpy()
-        return variance * np.exp(-0.5 * cdist(z, z, "sqeuclidean"))
+        z = gp.basis_inputs.numpy()
+        return rbf(z, z, gp.lengthscale.numpy(), variance)
     return variance * np.exp(-gp.shortest_paths.numpy())
 
 
@@ -342,7 +342,7 @@ def extended_gram(gp: SparseOnlineGP, x_new: np.ndarray) -> np.ndarray:
     ls, variance = gp.lengthscale.numpy(), float(gp.kernel.variance)
     z = np.vstack([gp.basis_inputs.numpy(), x_new]) / ls
     if gp.graph is None:
-        return variance * np.exp(-0.5 * cdist(z, z, "sqeuclidean"))
+        return rbf(z, z, 1.0, variance)
     sp_old = gp.shortest_paths.numpy()
     dist = np.linalg.norm(z[:-1] - z[-1], axis=1)
     row = dist.min() + sp_old[dist.argmin()]
