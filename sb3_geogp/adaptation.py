@@ -166,12 +166,10 @@ def as_adaptation(adapt: Adaptation | Mapping[str, Any] | bool | None) -> Adapta
     if adapt is True:
         return Adaptation()
     if isinstance(adapt, Mapping):
-        unknown = sorted(set(adapt) - {f.name for f in fields(Adaptation)})
+        names = [f.name for f in fields(Adaptation)]
+        unknown = sorted(set(adapt) - set(names))
         if unknown:
-            raise ValueError(
-                f"adapt has unknown settings {unknown}; Adaptation takes "
-                f"{[f.name for f in fields(Adaptation)]}"
-            )
+            raise ValueError(f"adapt has unknown settings {unknown}; Adaptation takes {names}")
         return Adaptation(**adapt)
     if not isinstance(adapt, Adaptation):
         raise ValueError(
