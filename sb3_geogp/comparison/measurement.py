@@ -162,5 +162,6 @@ class MeasureCallback(BaseCallback):
         c["rmse"].append(float(np.sqrt(np.mean(err**2))))
         c["mae"].append(float(np.mean(np.abs(err))))
         c["bias"].append(float(np.mean(err)))
-        c["mc_stderr"].append(float(np.nanmean(stderr)))
+        # One rollout per state has no standard error: null in the JSON, not NaN.
+        c["mc_stderr"].append(float(stderr.mean()) if self.spec.n_mc_rollouts > 1 else None)
         c["mc_std"].append(float(np.std(mc)))
