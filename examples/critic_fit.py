@@ -10,6 +10,9 @@ without its evaluations.
 
     python examples/critic_fit.py --seeds 0 1 2 3 4 --workers 2 --out docs/critic_fit
 
+``--gp-option KEY=VALUE`` (repeatable) sets an option of both GP critics, as in
+``sb3-geogp compare``; runs with other options belong in another ``--out``.
+
 Each run is written to ``OUT/runs/<run>.json`` when it finishes; an interrupted call resumes
 where it stopped. The summary is printed and written to ``OUT/critic_fit.md`` with a figure.
 """
@@ -29,6 +32,7 @@ from stable_baselines3.common.callbacks import BaseCallback, CallbackList
 from tqdm.auto import tqdm
 
 from sb3_geogp import GPActorCriticPolicy, GPValueCallback
+from sb3_geogp.comparison.command import parse_gp_option
 from sb3_geogp.comparison.run import build_model, write_json_atomic
 from sb3_geogp.comparison.specs import RunSpec, SweepConfig
 from sb3_geogp.toolbox.provenance import provenance
@@ -100,6 +104,12 @@ def run_all(specs: list[RunSpec], last: float, out: Path, workers: int) -> list[
     """Every run of ``specs`` not already in ``out`` (resumable), with a progress bar."""
     (out / "runs").mkdir(parents=True, exist_ok=True)
     done = [json.loads(_run_file(out, s).read_text()) for s in specs if _run_file(out, s).exists()]
+    for result, spec in zip(done, (s for s in specs if _run_file(out, s).exists()), strict=True):
+        if spec.critic != "mlp" and result["gp_kwargs"] != dict(spec.gp_kwargs):
+            raise ValueError(
+                f"{_run_file(out, spec)} ran with GP options {result['gp_kwargs']}, not "
+                f"{dict(spec.gp_kwargs)}: pass another --out"
+            )
     todo = [s for s in specs if not _run_file(out, s).exists()]
     bar = tqdm(total=len(specs), initial=len(done), unit="run", desc="runs")
     with cf.ProcessPoolExecutor(max_workers=workers) as pool:
@@ -182,6 +192,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--last", type=float, default=0.2, help="share of rollouts averaged")
     parser.add_argument("--workers", type=int, default=1)
     parser.add_argument("--out", type=Path, default=Path("critic_fit"))
+    parser.add_argument(
+        "--gp-option",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        type=parse_gp_option,
+        help="option of both GP critics, as in sb3-geogp compare (repeatable)",
+    )
     args = parser.parse_args(argv)
     config = SweepConfig(
         algos=("ppo",),
@@ -189,6 +207,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         envs=tuple(args.envs),
         seeds=tuple(args.seeds),
         timesteps_scale=args.scale,
+        gp_options=tuple(args.gp_option),
     )
     results = run_all(config.specs(), args.last, args.out, args.workers)
     text = summary(results, args.critics, args.last)

@@ -5,6 +5,8 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import pytest
+
 from tests.test_examples_engine import load_script
 
 
@@ -61,3 +63,6 @@ def test_critic_fit_tiny_run_writes_table_and_figure(tmp_path: Path) -> None:
         assert abs(r["tail_mean"] - sum(tail) / len(tail)) < 1e-12
     assert "CartPole-v1" in (tmp_path / "critic_fit.md").read_text()
     assert (tmp_path / "critic_fit.png").stat().st_size > 0
+    # Resuming with other GP options would mix two critics in one table: refused.
+    with pytest.raises(ValueError, match="another --out"):
+        critic_fit.main([*argv, "--out", str(tmp_path), "--gp-option", "forgetting=0.9"])

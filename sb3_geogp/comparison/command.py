@@ -115,7 +115,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
         action="append",
         default=None,
         metavar="KEY=VALUE",
-        type=_gp_option,
+        type=parse_gp_option,
         help="option of both GP critics, e.g. forgetting=0.9 (repeatable)",
     )
     parser.add_argument(
@@ -137,7 +137,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
     return parser
 
 
-def _gp_option(text: str) -> tuple[str, Any]:
+def parse_gp_option(text: str) -> tuple[str, Any]:
+    """``"KEY=VALUE"`` as ``(key, value)``, the value a Python literal where it is one
+    (``forgetting=0.9``, ``adapt={"prior_sd": 0.1}``), else the bare word (``dtype=float32``).
+
+    Raises
+    ------
+    argparse.ArgumentTypeError
+        If ``text`` has no ``=`` or its key is not an identifier.
+    """
     key, sep, value = text.partition("=")
     if not sep or not key.isidentifier():
         raise argparse.ArgumentTypeError(f"expected KEY=VALUE (e.g. forgetting=0.9), got {text!r}")
