@@ -9,11 +9,13 @@ from gymnasium.utils.env_checker import check_env
 
 from sb3_geogp.envs.wall_maze import (
     MAX_EPISODE_STEPS,
+    WALL_MAZE_CORNER_ID,
     WALL_MAZE_DISCRETE_ID,
     WALL_MAZE_ID,
     MazeLayout,
     WallMaze,
     WallMazeDiscrete,
+    distance_to_walls,
     register_wall_maze,
 )
 
@@ -63,7 +65,7 @@ def test_render() -> None:
     assert (img[..., 0] == 220).sum() > 0  # agent drawn
 
 
-@pytest.mark.parametrize("env_id", [WALL_MAZE_ID, WALL_MAZE_DISCRETE_ID])
+@pytest.mark.parametrize("env_id", [WALL_MAZE_ID, WALL_MAZE_DISCRETE_ID, WALL_MAZE_CORNER_ID])
 def test_registered(env_id: str) -> None:
     env = gym.make(env_id)
     check_env(env.unwrapped)
@@ -72,9 +74,10 @@ def test_registered(env_id: str) -> None:
     assert env.observation_space.contains(obs)
 
 
+@pytest.mark.parametrize("slide", [False, True])
 @pytest.mark.parametrize("cls", [WallMaze, WallMazeDiscrete])
-def test_random_actions_never_cross_a_wall(cls: type[WallMaze]) -> None:
-    env = cls()
+def test_random_actions_never_cross_a_wall(cls: type[WallMaze], slide: bool) -> None:
+    env = cls(MazeLayout(slide=slide))
     walls = env.layout.segments()
     rng = np.random.default_rng(0)
     env.action_space.seed(0)
@@ -123,6 +126,58 @@ def test_move_stops_at_the_wall() -> None:
     # Just inside the wall's free end (x = 0.7) the move is stopped, just outside it is not.
     assert lay.move(np.array([0.699, 0.48]), np.array([0.0, 0.05]))[1] < 0.5
     assert lay.move(np.array([0.701, 0.48]), np.array([0.0, 0.05]))[1] > 0.5
+
+
+def test_a_sliding_move_goes_on_along_the_wall() -> None:
+    lay = MazeLayout(slide=True)
+    # Up and right into the upper wall (y = 0.5): the whole x displacement is kept, since the
+    # wall is horizontal, and the move stays just below the wall.
+    end = lay.move(np.array([0.3, 0.48]), np.array([0.03, 0.04]))
+    assert end[0] == pytest.approx(0.33, abs=1e-12)
+    assert 0.5 - 2 * lay.margin <= end[1] < 0.5
+    # Without sliding the same move stops at the contact point, 3/4 of the way in x.
+    stopped = MazeLayout().move(np.array([0.3, 0.48]), np.array([0.03, 0.04]))
+    assert stopped[0] == pytest.approx(0.315, abs=2e-6)
+    # Into the top-left corner: slides left along the top side, then the left side stops it.
+    end = lay.move(np.array([0.03, 0.98]), np.array([-0.08, 0.06]))
+    assert lay.margin <= end[0] < 3 * lay.margin and 1 - 3 * lay.margin < end[1] < 1
+    # Straight into a wall (no component along it): no slide.
+    np.testing.assert_allclose(
+        lay.move(np.array([0.3, 0.48]), np.array([0.0, 0.05])),
+        MazeLayout().move(np.array([0.3, 0.48]), np.array([0.0, 0.05])),
+    )
+
+
+@pytest.mark.parametrize("start", [(0.6, 0.9), (0.05, 0.6)])
+def test_pushing_into_a_side_reaches_the_corner_goal_only_when_moves_slide(
+    start: tuple[float, float],
+) -> None:
+    """A constant push up and left, from the top or the left side of the top corridor, ends in
+    WallMazeCorner's goal; in the published layout it stays stuck on the side."""
+    corner = gym.make(WALL_MAZE_CORNER_ID).unwrapped
+    assert isinstance(corner, WallMaze) and corner.layout.slide
+    published = WallMaze()
+    for env, reaches in ((corner, True), (published, False)):
+        env.reset(options={"start": start})
+        terminated = False
+        for _ in range(MAX_EPISODE_STEPS):
+            _, _, terminated, _, _ = env.step(np.array([-1.0, 1.0], dtype=np.float32))
+            if terminated:
+                break
+        assert terminated == reaches
+
+
+def test_starts_keep_the_start_clearance() -> None:
+    for clearance in (None, 0.03):
+        env = WallMaze(MazeLayout(max_step=0.1, start_clearance=clearance))
+        expected = 0.2 if clearance is None else clearance
+        assert env.layout.clearance == expected
+        env.reset(seed=0)
+        starts = np.array([env.reset()[1]["position"] for _ in range(300)])
+        gaps = [distance_to_walls(p, env.layout.segments()) for p in starts]
+        assert min(gaps) >= expected
+        # The bound is attained, not merely respected: some start lies near it.
+        assert min(gaps) < expected + 0.02
 
 
 def test_grazing_and_collinear_moves_keep_clear_of_the_wall() -> None:

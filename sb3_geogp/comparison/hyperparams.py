@@ -27,7 +27,7 @@ from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
 from sb3_geogp.comparison.evaluation import env_spec
 from sb3_geogp.envs import PAPER_PENDULUM_ID
 from sb3_geogp.envs.wall_maze import REWARD_THRESHOLD as WALL_MAZE_THRESHOLD
-from sb3_geogp.envs.wall_maze import WALL_MAZE_DISCRETE_ID, WALL_MAZE_ID
+from sb3_geogp.envs.wall_maze import WALL_MAZE_CORNER_ID, WALL_MAZE_DISCRETE_ID, WALL_MAZE_ID
 
 #: The algorithms a critic is compared in (also ``sb3-geogp train --algo``).
 ALGOS: dict[str, type[OnPolicyAlgorithm]] = {"ppo": PPO, "a2c": A2C}
@@ -99,11 +99,13 @@ OWN_HYPERPARAMS: dict[str, dict[str, dict[str, Any]]] = {
         PAPER_PENDULUM_ID: ZOO_HYPERPARAMS["ppo"]["Pendulum-v1"],
         WALL_MAZE_ID: dict(n_envs=4, n_steps=256),
         WALL_MAZE_DISCRETE_ID: dict(n_envs=4, n_steps=256),
+        WALL_MAZE_CORNER_ID: dict(n_envs=4, n_steps=256),
     },
     "a2c": {
         PAPER_PENDULUM_ID: ZOO_HYPERPARAMS["a2c"]["Pendulum-v1"],
         WALL_MAZE_ID: dict(n_envs=4),
         WALL_MAZE_DISCRETE_ID: dict(n_envs=4),
+        WALL_MAZE_CORNER_ID: dict(n_envs=4),
     },
 }
 
@@ -137,6 +139,7 @@ TIMESTEPS: dict[str, int] = {
     PAPER_PENDULUM_ID: 30_000,
     WALL_MAZE_ID: 30_000,
     WALL_MAZE_DISCRETE_ID: 30_000,
+    WALL_MAZE_CORNER_ID: 30_000,
 }
 
 #: Steps-to-threshold levels (mean evaluation return).
@@ -152,6 +155,7 @@ THRESHOLDS: dict[str, float] = {
     PAPER_PENDULUM_ID: 50.0,
     WALL_MAZE_ID: WALL_MAZE_THRESHOLD,  # see sb3_geogp.envs.wall_maze.REWARD_THRESHOLD
     WALL_MAZE_DISCRETE_ID: WALL_MAZE_THRESHOLD,
+    WALL_MAZE_CORNER_ID: WALL_MAZE_THRESHOLD,
 }
 
 

@@ -93,7 +93,7 @@ class MeasureCallback(BaseCallback):
         )
         self.eval_timesteps: list[int] = []
         self.eval_returns: list[list[float]] = []
-        self.critic: dict[str, list[float]] = {
+        self.critic: dict[str, list[float | None]] = {
             k: [] for k in ("timesteps", "rmse", "mae", "bias", "mc_stderr", "mc_std")
         }
 

@@ -3,7 +3,8 @@
 * ``sb3_geogp/PaperPendulum-v0``: :class:`PaperPendulum`, the paper's pendulum task
   (150-step episodes).
 * ``sb3_geogp/WallMaze-v0`` / ``sb3_geogp/WallMazeDiscrete-v0``: :class:`WallMaze`, 2-D
-  navigation through walls, continuous or 8-direction actions.
+  navigation through walls, continuous or 8-direction actions;
+  ``sb3_geogp/WallMazeCorner-v0``: continuous, moves slide along walls, goal in the corner.
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ from sb3_geogp.envs.pendulum import (
     wrap_angle,
 )
 from sb3_geogp.envs.wall_maze import (
+    WALL_MAZE_CORNER_ID,
     WALL_MAZE_DISCRETE_ID,
     WALL_MAZE_ID,
     MazeLayout,
@@ -40,6 +42,7 @@ register_wall_maze()
 
 __all__ = [
     "PAPER_PENDULUM_ID",
+    "WALL_MAZE_CORNER_ID",
     "WALL_MAZE_DISCRETE_ID",
     "WALL_MAZE_ID",
     "MazeLayout",

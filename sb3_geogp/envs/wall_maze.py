@@ -19,13 +19,17 @@ value is therefore minus the number of steps along the shortest wall-avoiding pa
 (discounting aside), and it jumps across each wall: the two sides of a wall are close in the
 plane but a whole corridor apart along the path. This is the case geodesic kernels are for.
 
-Two variants, registered by :func:`register_wall_maze`:
+Three variants, registered by :func:`register_wall_maze`:
 
 * ``sb3_geogp/WallMaze-v0``: :class:`WallMaze`, continuous actions, a velocity in
   ``[-1, 1]^2`` scaled by ``max_step`` (its norm is clipped to 1, so the speed is bounded by
   ``max_step`` per step in every direction);
 * ``sb3_geogp/WallMazeDiscrete-v0``: :class:`WallMazeDiscrete`, 8 actions, unit moves of
-  length ``max_step`` in the compass directions ``k * 45`` degrees (0 = +x, counter-clockwise).
+  length ``max_step`` in the compass directions ``k * 45`` degrees (0 = +x, counter-clockwise);
+* ``sb3_geogp/WallMazeCorner-v0``: :class:`WallMaze` on :data:`CORNER_LAYOUT`, where moves
+  slide along walls and the goal fills the top-left corner, so that a policy pushing into
+  the arena's sides is not stuck; what remains hard is the dead end under the upper wall's
+  left end (docs/results.md, "WallMaze").
 
 Both truncate episodes after :data:`MAX_EPISODE_STEPS` steps.
 """
@@ -46,6 +50,8 @@ from gymnasium.envs.registration import register, registry
 WALL_MAZE_ID = "sb3_geogp/WallMaze-v0"
 #: Registered id of the discrete-action (8 directions) variant.
 WALL_MAZE_DISCRETE_ID = "sb3_geogp/WallMazeDiscrete-v0"
+#: Registered id of the continuous-action variant on :data:`CORNER_LAYOUT`.
+WALL_MAZE_CORNER_ID = "sb3_geogp/WallMazeCorner-v0"
 #: Episode length of the registered variants (time-limit truncation), steps. The longest
 #: shortest path (bottom-right corner to the goal) takes 35 steps at full speed.
 MAX_EPISODE_STEPS = 200
@@ -89,6 +95,13 @@ class MazeLayout:
         never sits on a wall (see :meth:`move`).
     step_reward : float
         Reward of every step, including the one that reaches the goal.
+    start_clearance : float or None
+        Reset draws starts at least this far from every wall and the boundary. ``None``:
+        ``2 * max_step`` (0.1 in the default layout).
+    slide : bool
+        ``False`` (the published variant): a move that meets a wall stops there, so a policy
+        pushing diagonally into a wall stays put. ``True``: the rest of the move slides along
+        the wall (:meth:`move`).
     """
 
     size: float = 1.0
@@ -98,6 +111,13 @@ class MazeLayout:
     max_step: float = 0.05
     margin: float = 1e-6
     step_reward: float = -1.0
+    start_clearance: float | None = None
+    slide: bool = False
+
+    @property
+    def clearance(self) -> float:
+        """Distance of every start from the walls and the boundary (``start_clearance``)."""
+        return 2 * self.max_step if self.start_clearance is None else self.start_clearance
 
     def segments(self) -> np.ndarray:
         """All blocking segments (interior walls, then the 4 arena sides), shape (W, 4)."""
@@ -111,7 +131,7 @@ class MazeLayout:
         return np.asarray(np.hypot(d[..., 0], d[..., 1]) <= self.goal_radius)
 
     def move(self, pos: np.ndarray, delta: np.ndarray) -> np.ndarray:
-        """End point of the straight move ``pos -> pos + delta``, stopped before any wall.
+        """End point of the move ``pos -> pos + delta``, stopped before any wall.
 
         Parameters
         ----------
@@ -129,24 +149,20 @@ class MazeLayout:
             wall and the segment ``pos -> end`` must meet none (:func:`segment_hits_walls`);
             otherwise ``s`` is halved until both hold (a grazing approach, where stopping
             ``2 * margin`` back along the move is closer than ``margin`` to the wall), or the
-            agent stays at ``pos`` after 64 halvings.
+            agent stays at ``pos`` after 64 halvings. With :attr:`slide`, a stopped move goes
+            on from there by the rest of ``delta`` projected onto the wall it met, stopped in
+            the same way (once: no second slide).
         """
         pos = np.asarray(pos, dtype=np.float64)
         delta = np.asarray(delta, dtype=np.float64)
-        length = float(np.hypot(delta[0], delta[1]))
-        if length == 0.0:
-            return pos.copy()
         walls = self.segments()
-        t_hit = first_contact(pos, delta, walls)
-        scale = 1.0 if t_hit is None else max(0.0, t_hit - 2 * self.margin / length)
-        for _ in range(64):
-            end = pos + scale * delta
-            if distance_to_walls(end, walls) >= self.margin and not segment_hits_walls(
-                pos, end, walls
-            ):
-                return end
-            scale *= 0.5
-        return pos.copy()
+        end, hit = _straight_move(pos, delta, walls, self.margin)
+        if not self.slide or hit is None:
+            return end
+        along = walls[hit, 2:4] - walls[hit, 0:2]
+        rest = pos + delta - end
+        slide = along * float(rest @ along) / float(along @ along)
+        return _straight_move(end, slide, walls, self.margin)[0]
 
     def optimal_steps(self, pos: np.ndarray) -> np.ndarray:
         """Steps along the shortest wall-avoiding path at full speed, ``ceil(L / max_step)``.
@@ -201,12 +217,38 @@ class MazeLayout:
         return math.inf
 
 
+def _straight_move(
+    pos: np.ndarray, delta: np.ndarray, walls: np.ndarray, margin: float
+) -> tuple[np.ndarray, int | None]:
+    """:meth:`MazeLayout.move` without sliding: the end point, and the index of the wall that
+    stopped the move (``None`` if none did)."""
+    length = float(np.hypot(delta[0], delta[1]))
+    if length == 0.0:
+        return pos.copy(), None
+    hit = first_hit(pos, delta, walls)
+    scale = 1.0 if hit is None else max(0.0, hit[0] - 2 * margin / length)
+    for _ in range(64):
+        end = pos + scale * delta
+        if distance_to_walls(end, walls) >= margin and not segment_hits_walls(pos, end, walls):
+            return end, None if hit is None else hit[1]
+        scale *= 0.5
+    return pos.copy(), None if hit is None else hit[1]
+
+
 def _cross(ax: Any, ay: Any, bx: Any, by: Any) -> Any:
     return ax * by - ay * bx
 
 
 def first_contact(pos: np.ndarray, delta: np.ndarray, walls: np.ndarray) -> float | None:
-    """Smallest ``t`` in ``[0, 1]`` where ``pos + t * delta`` meets a wall (closed segments).
+    """Smallest ``t`` in ``[0, 1]`` where ``pos + t * delta`` meets a wall (closed segments),
+    ``None`` if it meets none (:func:`first_hit` without the wall)."""
+    hit = first_hit(pos, delta, walls)
+    return None if hit is None else hit[0]
+
+
+def first_hit(pos: np.ndarray, delta: np.ndarray, walls: np.ndarray) -> tuple[float, int] | None:
+    """Smallest ``t`` in ``[0, 1]`` where ``pos + t * delta`` meets a wall (closed segments),
+    and the index of that wall.
 
     Parameters
     ----------
@@ -216,10 +258,11 @@ def first_contact(pos: np.ndarray, delta: np.ndarray, walls: np.ndarray) -> floa
 
     Returns
     -------
-    float or None
+    (float, int) or None
         ``None`` if the move meets no wall. A move parallel to a wall (angle below
         ``1e-12`` rad) meets it only if it runs along the wall's own line and overlaps it;
-        then ``t`` is the start of the overlap.
+        then ``t`` is the start of the overlap. Of walls met at the same ``t`` (a corner),
+        the first in ``walls``.
     """
     p = walls[:, 0:2]
     r = walls[:, 2:4] - p
@@ -232,7 +275,7 @@ def first_contact(pos: np.ndarray, delta: np.ndarray, walls: np.ndarray) -> floa
         t = _cross(qp[:, 0], qp[:, 1], r[:, 0], r[:, 1]) / denom
         u = _cross(qp[:, 0], qp[:, 1], delta[0], delta[1]) / denom
     hits = ~parallel & (t >= 0.0) & (t <= 1.0) & (u >= 0.0) & (u <= 1.0)
-    candidates = list(t[hits])
+    candidates = [(float(t[w]), int(w)) for w in np.flatnonzero(hits)]
     # Collinear: the wall's start lies on the move's line; overlap of the projections.
     offline = np.abs(_cross(qp[:, 0], qp[:, 1], delta[0], delta[1])) / len_d
     for w in np.flatnonzero(parallel & (offline <= _COLLINEAR_TOL)):
@@ -240,8 +283,8 @@ def first_contact(pos: np.ndarray, delta: np.ndarray, walls: np.ndarray) -> floa
         t1 = float((qp[w] + r[w]) @ delta) / len_d**2
         lo, hi = max(0.0, min(t0, t1)), min(1.0, max(t0, t1))
         if lo <= hi:
-            candidates.append(lo)
-    return float(min(candidates)) if candidates else None
+            candidates.append((lo, int(w)))
+    return min(candidates) if candidates else None
 
 
 def segment_hits_walls(a: np.ndarray, b: np.ndarray, walls: np.ndarray) -> bool:
@@ -295,7 +338,7 @@ class WallMaze(gym.Env[np.ndarray, np.ndarray]):
     Notes
     -----
     Reset draws the start uniformly over the free arena: outside the goal disk and at least
-    ``2 * max_step`` from every wall and the boundary (rejection sampling).
+    :attr:`MazeLayout.clearance` from every wall and the boundary (rejection sampling).
     ``reset(options={"start": (x, y)})`` starts from a given position instead. The
     position is kept in float64; ``info["position"]`` holds it after every step.
     """
@@ -373,7 +416,7 @@ class WallMaze(gym.Env[np.ndarray, np.ndarray]):
 
     def _sample_start(self) -> np.ndarray:
         lay = self.layout
-        clearance = 2 * lay.max_step
+        clearance = lay.clearance
         for _ in range(10_000):
             p = self.np_random.uniform(clearance, lay.size - clearance, size=2)
             if lay.in_goal(p) or distance_to_walls(p, self._walls) < clearance:
@@ -412,11 +455,21 @@ def distance_to_walls(p: np.ndarray, walls: np.ndarray) -> float:
     return float(np.min(np.hypot(*(p - nearest).T)))
 
 
+#: The layout of ``sb3_geogp/WallMazeCorner-v0``: the default walls, speed and starts, moves
+#: that slide along walls, and a goal disk of radius 0.12 at ``(0.1, 0.9)``, which reaches
+#: over both sides of the top-left corner (a move sliding into the corner ends in it). The mean
+#: optimal return over the starts is about -12.6, as for the default layout, so the threshold
+#: stays :data:`REWARD_THRESHOLD`.
+CORNER_LAYOUT = MazeLayout(slide=True, goal=(0.1, 0.9), goal_radius=0.12)
+
+
 def register_wall_maze() -> None:
-    """Register ``sb3_geogp/WallMaze-v0`` and ``sb3_geogp/WallMazeDiscrete-v0`` (idempotent)."""
-    for env_id, entry in (
-        (WALL_MAZE_ID, "sb3_geogp.envs.wall_maze:WallMaze"),
-        (WALL_MAZE_DISCRETE_ID, "sb3_geogp.envs.wall_maze:WallMazeDiscrete"),
+    """Register ``sb3_geogp/WallMaze-v0``, ``sb3_geogp/WallMazeDiscrete-v0`` and
+    ``sb3_geogp/WallMazeCorner-v0`` (idempotent)."""
+    for env_id, entry, kwargs in (
+        (WALL_MAZE_ID, "sb3_geogp.envs.wall_maze:WallMaze", {}),
+        (WALL_MAZE_DISCRETE_ID, "sb3_geogp.envs.wall_maze:WallMazeDiscrete", {}),
+        (WALL_MAZE_CORNER_ID, "sb3_geogp.envs.wall_maze:WallMaze", {"layout": CORNER_LAYOUT}),
     ):
         if env_id not in registry:
             register(
@@ -424,4 +477,5 @@ def register_wall_maze() -> None:
                 entry_point=entry,
                 max_episode_steps=MAX_EPISODE_STEPS,
                 reward_threshold=REWARD_THRESHOLD,
+                kwargs=kwargs,
             )
