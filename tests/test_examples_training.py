@@ -5,8 +5,10 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 
+from sb3_geogp.envs.wall_maze import CORNER_LAYOUT, WallMaze
 from tests.test_examples_engine import load_script
 
 
@@ -66,3 +68,28 @@ def test_critic_fit_tiny_run_writes_table_and_figure(tmp_path: Path) -> None:
     # Resuming with other GP options would mix two critics in one table: refused.
     with pytest.raises(ValueError, match="another --out"):
         critic_fit.main([*argv, "--out", str(tmp_path), "--gp-option", "forgetting=0.9"])
+
+
+class _PushUpLeft:
+    """A stand-in policy: always the action (-1, 1)."""
+
+    def predict(self, obs: object, deterministic: bool = True) -> tuple[object, None]:
+        return np.array([-1.0, 1.0], dtype=np.float32), None
+
+
+def test_wall_maze_pilot_tiny_run_and_its_goal_test(tmp_path: Path) -> None:
+    pilot = load_script("wall_maze_pilot")
+    argv = ["--slide", "--goal", "0.1", "0.9", "--goal-radius", "0.12", "--algos", "ppo"]
+    argv += ["--seeds", "100", "--timesteps", "1000", "--map", "--grid", "5", "--workers", "1"]
+    pilot.main([*argv, "--out", str(tmp_path)])
+    text = (tmp_path / "pilot.md").read_text()
+    assert "'slide': True" in text and "ppo seed 100" in text
+    runs = list((tmp_path / "runs").glob("*.json"))
+    assert len(runs) == 1 and json.loads(runs[0].read_text())["spec"]["critic"] == "mlp"
+    rows = text.split("```\n")[1].splitlines()[:5]
+    assert len(rows) == 5 and all(len(row) == 5 for row in rows)
+    assert (tmp_path / "failure_map.png").stat().st_size > 0
+    # The map's goal test: a constant push up-left from the top side reaches the corner goal
+    # when moves slide, and not in the published layout.
+    for layout, reaches in ((WallMaze(CORNER_LAYOUT), True), (WallMaze(), False)):
+        assert pilot._reaches_goal(_PushUpLeft(), layout, np.array([0.6, 0.9])) == reaches
