@@ -31,7 +31,7 @@ Three variants, registered by :func:`register_wall_maze`:
   the arena's sides is not stuck; what remains hard is the dead end under the upper wall's
   left end (docs/results.md, "WallMaze").
 
-Both truncate episodes after :data:`MAX_EPISODE_STEPS` steps.
+All three truncate episodes after :data:`MAX_EPISODE_STEPS` steps.
 """
 
 from __future__ import annotations
@@ -226,13 +226,13 @@ def _straight_move(
     if length == 0.0:
         return pos.copy(), None
     hit = first_hit(pos, delta, walls)
-    scale = 1.0 if hit is None else max(0.0, hit[0] - 2 * margin / length)
+    scale, wall = (1.0, None) if hit is None else (max(0.0, hit[0] - 2 * margin / length), hit[1])
     for _ in range(64):
         end = pos + scale * delta
         if distance_to_walls(end, walls) >= margin and not segment_hits_walls(pos, end, walls):
-            return end, None if hit is None else hit[1]
+            return end, wall
         scale *= 0.5
-    return pos.copy(), None if hit is None else hit[1]
+    return pos.copy(), wall
 
 
 def _cross(ax: Any, ay: Any, bx: Any, by: Any) -> Any:
