@@ -13,7 +13,8 @@ of starts: which starts reach the goal within the time limit (printed, and drawn
         --out runs/pilot_corner        # the layout of sb3_geogp/WallMazeCorner-v0
     python examples/wall_maze_pilot.py --max-step 0.1 --start-clearance 0.1 --threshold -10
 
-Finished runs in ``OUT/runs`` are kept and skipped when the same command runs again.
+Finished runs in ``OUT/runs`` are kept and skipped when the same command runs again; a folder
+holding another layout's runs (``OUT/setting.json``) is refused.
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ from __future__ import annotations
 import argparse
 import concurrent.futures as cf
 import dataclasses
+import json
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -193,6 +195,17 @@ def _draw_map(
     plt.close(fig)
 
 
+def _claim_folder(out: Path, setting: dict[str, Any]) -> None:
+    """Record the pilot's setting in ``out/setting.json``; refuse a folder that holds another
+    setting's runs (their file names do not say the layout)."""
+    out.mkdir(parents=True, exist_ok=True)
+    path = out / "setting.json"
+    text = json.dumps(setting, indent=1)
+    if path.exists() and json.loads(path.read_text()) != json.loads(text):
+        raise SystemExit(f"{out} holds the runs of another setting ({path}): pass another --out")
+    path.write_text(text)
+
+
 def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--max-step", type=float, default=MazeLayout.max_step)
@@ -224,7 +237,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         slide=args.slide,
     )
     register_pilot(layout, args.discrete)
-    args.out.mkdir(parents=True, exist_ok=True)
+    _claim_folder(args.out, {"layout": dataclasses.asdict(layout), "discrete": args.discrete})
     env = WallMaze(layout)
     env.reset(seed=0)
     starts = np.array([env.reset()[1]["position"] for _ in range(2000)])

@@ -89,6 +89,8 @@ def test_wall_maze_pilot_tiny_run_and_its_goal_test(tmp_path: Path) -> None:
     rows = text.split("```\n")[1].splitlines()[:5]
     assert len(rows) == 5 and all(len(row) == 5 for row in rows)
     assert (tmp_path / "failure_map.png").stat().st_size > 0
+    with pytest.raises(SystemExit, match="another --out"):
+        pilot.main(["--max-step", "0.1", "--out", str(tmp_path)])
     # The map's goal test: a constant push up-left from the top side reaches the corner goal
     # when moves slide, and not in the published layout.
     for layout, reaches in ((WallMaze(CORNER_LAYOUT), True), (WallMaze(), False)):
