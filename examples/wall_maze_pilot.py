@@ -38,6 +38,7 @@ import torch as th
 from gymnasium.envs.registration import register, registry
 from tqdm.auto import tqdm
 
+from sb3_geogp.comparison.command import parse_gp_option
 from sb3_geogp.comparison.hyperparams import HyperparamsFile
 from sb3_geogp.comparison.run import build_model, load_result, result_path, run_one
 from sb3_geogp.comparison.specs import RunSpec, SweepConfig
@@ -73,7 +74,8 @@ def register_pilot(layout: MazeLayout, discrete: bool) -> None:
 
 def pilot_specs(args: argparse.Namespace) -> list[RunSpec]:
     """The MLP runs of the pilot (the sweep's measurement settings, 10 checkpoints)."""
-    files = tuple((a, HyperparamsFile("pilot", {ENV_ID: HYPERPARAMS[a]})) for a in args.algos)
+    entries = {a: {**HYPERPARAMS[a], **dict(args.hyperparam)} for a in args.algos}
+    files = tuple((a, HyperparamsFile("pilot", {ENV_ID: entries[a]})) for a in args.algos)
     config = SweepConfig(
         algos=tuple(args.algos),
         critics=("mlp",),
@@ -218,6 +220,14 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     p.add_argument("--algos", nargs="+", choices=sorted(HYPERPARAMS), default=["ppo", "a2c"])
     p.add_argument("--seeds", type=int, nargs="+", default=[100, 101, 102])
     p.add_argument("--timesteps", type=int, default=30_000)
+    p.add_argument(
+        "--hyperparam",
+        action="append",
+        default=[],
+        type=parse_gp_option,
+        metavar="KEY=VALUE",
+        help="on top of the sweep's WallMaze hyperparameters, e.g. ent_coef=0.01 (repeatable)",
+    )
     p.add_argument("--threshold", type=float, default=-20.0)
     p.add_argument("--map", action="store_true", help="also the failure map of one model")
     p.add_argument("--grid", type=int, default=19, help="grid starts per side of the map")
@@ -237,7 +247,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         slide=args.slide,
     )
     register_pilot(layout, args.discrete)
-    _claim_folder(args.out, {"layout": dataclasses.asdict(layout), "discrete": args.discrete})
+    setting = {"layout": dataclasses.asdict(layout), "discrete": args.discrete}
+    _claim_folder(args.out, {**setting, "hyperparams": dict(args.hyperparam)})
     env = WallMaze(layout)
     env.reset(seed=0)
     starts = np.array([env.reset()[1]["position"] for _ in range(2000)])
@@ -245,8 +256,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     specs = pilot_specs(args)
     results = run_pilot(specs, layout, args.discrete, args.out, args.workers)
     text = (
-        f"Layout: {dataclasses.asdict(layout)}, discrete actions: {args.discrete}; mean optimal "
-        f"return over 2000 starts {optimal:.2f}, threshold {args.threshold}\n\n"
+        f"Layout: {dataclasses.asdict(layout)}, discrete actions: {args.discrete}; "
+        f"hyperparameters: the sweep's + {dict(args.hyperparam)}; mean optimal return over 2000 "
+        f"starts {optimal:.2f}, threshold {args.threshold}\n\n"
         + curves_table(results, args.threshold)
     )
     if args.map:
