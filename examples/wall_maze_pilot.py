@@ -23,6 +23,7 @@ import argparse
 import concurrent.futures as cf
 import dataclasses
 import json
+import multiprocessing as mp
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -98,12 +99,24 @@ def run_pilot(
     """Every run of ``specs`` not yet in ``out``; the results of all of them."""
     todo = [s for s in specs if load_result(result_path(out, s)) is None]
     bar = tqdm(total=len(specs), initial=len(specs) - len(todo), unit="run", desc="pilot runs")
-    with cf.ProcessPoolExecutor(
-        max_workers=workers, initializer=register_pilot, initargs=(layout, discrete)
-    ) as pool:
-        for future in cf.as_completed([pool.submit(run_one, s, str(out)) for s in todo]):
-            bar.set_postfix_str(f"final {future.result()['final_return']:.1f}")
-            bar.update()
+
+    def finished(result: dict[str, Any]) -> None:
+        bar.set_postfix_str(f"final {result['final_return']:.1f}")
+        bar.update()
+
+    if workers <= 1:
+        for spec in todo:
+            finished(run_one(spec, out))
+    else:
+        # Spawned workers, as the sweep's; each registers the layout before its first run.
+        with cf.ProcessPoolExecutor(
+            max_workers=workers,
+            mp_context=mp.get_context("spawn"),
+            initializer=register_pilot,
+            initargs=(layout, discrete),
+        ) as pool:
+            for future in cf.as_completed([pool.submit(run_one, s, str(out)) for s in todo]):
+                finished(future.result())
     bar.close()
     return [r for s in specs if (r := load_result(result_path(out, s))) is not None]
 
