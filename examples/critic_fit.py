@@ -103,14 +103,15 @@ def _run_and_save(spec: RunSpec, last: float, out: Path) -> dict[str, Any]:
 def run_all(specs: list[RunSpec], last: float, out: Path, workers: int) -> list[dict[str, Any]]:
     """Every run of ``specs`` not already in ``out`` (resumable), with a progress bar."""
     (out / "runs").mkdir(parents=True, exist_ok=True)
-    done = [json.loads(_run_file(out, s).read_text()) for s in specs if _run_file(out, s).exists()]
-    for result, spec in zip(done, (s for s in specs if _run_file(out, s).exists()), strict=True):
+    existing = [s for s in specs if _run_file(out, s).exists()]
+    done = [json.loads(_run_file(out, s).read_text()) for s in existing]
+    for result, spec in zip(done, existing, strict=True):
         if spec.critic != "mlp" and result["gp_kwargs"] != dict(spec.gp_kwargs):
             raise ValueError(
                 f"{_run_file(out, spec)} ran with GP options {result['gp_kwargs']}, not "
                 f"{dict(spec.gp_kwargs)}: pass another --out"
             )
-    todo = [s for s in specs if not _run_file(out, s).exists()]
+    todo = [s for s in specs if s not in existing]
     bar = tqdm(total=len(specs), initial=len(done), unit="run", desc="runs")
     with cf.ProcessPoolExecutor(max_workers=workers) as pool:
         futures = {pool.submit(_run_and_save, s, last, out): s for s in todo}
