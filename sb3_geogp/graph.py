@@ -16,6 +16,11 @@ Deleting a basis vector keeps every remaining distance exact without re-running 
 Routing nodes therefore always have degree >= 3, so a tree with ``m`` basis vectors has fewer
 than ``m`` routing nodes: ``2 m`` node slots always suffice.
 
+A lengthscale change rescales the tree (:meth:`BVGraph.rescale`). In a tree the path between two
+nodes is unique whatever the edge lengths, so per-dimension lengthscales change the lengths of
+the paths, never which paths they are: each edge is stretched (:func:`edge_stretch`) and every
+distance is summed again along the same paths (:func:`tree_distances`).
+
 The graph knows nothing of kernels or GPs. It keeps its basis vectors in insertion order
 (:attr:`BVGraph.basis_nodes`), the order in which a sparse GP stores them, so that the
 :class:`~sb3_geogp.GeodesicKernel` that owns it reads the kernel's distance table from it
@@ -24,8 +29,9 @@ directly.
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, NamedTuple
 
+import numpy as np
 import torch
 from torch import Tensor, nn
 
@@ -186,11 +192,65 @@ class BVGraph(nn.Module):
             b.fill_(_FREE[name])
             _slots(name, b, hi).copy_(saved[name])
 
-    def rescale(self, factor: float) -> None:
-        """Divide every position, edge and distance by ``factor`` (lengthscale times factor)."""
-        self.pos /= factor
-        self.edge_length /= factor
-        self.shortest_paths /= factor
+    def rescale(self, factor: Tensor) -> None:
+        """Follow the lengthscales multiplied by ``factor : Tensor, shape (1,) or (dim,)``.
+
+        Positions are divided by it. One factor divides every edge and distance exactly.
+        Per-dimension factors stretch each edge by :func:`edge_stretch` and sum the distances
+        again along the tree's paths (:func:`tree_distances`): exact for an edge that is a
+        straight segment, the chord's stretch for one contracted from a chain.
+        """
+        factor = factor.to(self.pos)
+        if factor.numel() == 1 or bool((factor == factor[0]).all()):
+            f = float(factor[0])
+            self.pos /= f
+            self.edge_length /= f
+            self.shortest_paths /= f
+            return
+        paths = self.paths()
+        length = paths.length * edge_stretch(paths.delta, factor.log())
+        a, b = paths.edges.unbind(1)
+        self.edge_length[a, b] = self.edge_length[b, a] = length
+        self.pos[paths.nodes] /= factor
+        table = tree_distances(paths.root_edges, paths.root_edges, length)
+        same = paths.component[:, None] == paths.component[None, :]
+        table = torch.where(same, table, torch.full_like(table, float("inf")))
+        self.shortest_paths[paths.nodes[:, None], paths.nodes[None, :]] = table
+
+    def paths(self) -> TreePaths:
+        """The tree's paths as root-path incidences (see :class:`TreePaths`)."""
+        nodes = self.alive.nonzero().squeeze(1)
+        adjacency = self.adjacency[nodes][:, nodes].cpu().numpy()
+        a, b = np.nonzero(np.triu(adjacency))
+        edge_id = np.full(adjacency.shape, -1)
+        edge_id[a, b] = edge_id[b, a] = np.arange(len(a))
+        n = len(nodes)
+        root_edges = np.zeros((n, len(a)))
+        component = np.full(n, -1)
+        for root in range(n):
+            if component[root] >= 0:
+                continue
+            component[root] = root
+            frontier = [root]
+            # A node's row is its parent's plus their edge; the parent's is final once reached.
+            while frontier:
+                u = frontier.pop()
+                for v in np.nonzero(adjacency[u] & (component < 0))[0].tolist():
+                    component[v] = root
+                    root_edges[v] = root_edges[u]
+                    root_edges[v, edge_id[u, v]] = 1.0
+                    frontier.append(v)
+        kw: dict[str, Any] = {"device": self.pos.device}
+        ends = torch.as_tensor(np.stack([a, b], axis=1), dtype=torch.long, **kw)
+        slots = nodes[ends]
+        return TreePaths(
+            nodes=nodes,
+            edges=slots,
+            length=self.edge_length[slots[:, 0], slots[:, 1]],
+            delta=self.pos[slots[:, 0]] - self.pos[slots[:, 1]],
+            root_edges=torch.as_tensor(root_edges, dtype=self.pos.dtype, **kw),
+            component=torch.as_tensor(component, dtype=torch.long, **kw),
+        )
 
     # -- internals ---------------------------------------------------------------------------
     def _link(self, a: int, b: int, length: Tensor) -> None:
@@ -220,6 +280,74 @@ class BVGraph(nn.Module):
         self.shortest_paths[node] = float("inf")
         self.shortest_paths[:, node] = float("inf")
         self.pos[node] = 0.0
+
+
+class TreePaths(NamedTuple):
+    """The paths of a forest, for distances as functions of its edge lengths.
+
+    Attributes
+    ----------
+    nodes : Tensor, shape (N,), long
+        The alive node slots; rows below follow this order.
+    edges : Tensor, shape (E, 2), long
+        Node slots at the ends of each edge.
+    length : Tensor, shape (E,)
+        Edge lengths.
+    delta : Tensor, shape (E, dim)
+        Position differences along each edge (the chord of a contracted edge).
+    root_edges : Tensor, shape (N, E)
+        1 where the edge lies on the path from the node to the root of its component.
+    component : Tensor, shape (N,), long
+        The root's row, one per component.
+    """
+
+    nodes: Tensor
+    edges: Tensor
+    length: Tensor
+    delta: Tensor
+    root_edges: Tensor
+    component: Tensor
+
+
+def tree_distances(rows: Tensor, cols: Tensor, length: Tensor) -> Tensor:
+    """Path lengths in a tree between nodes given by root-path incidences.
+
+    The path from ``i`` to ``j`` is the edges on exactly one of their root paths, so
+
+    .. math::  d_{ij} = \\sum_e L_e \\big(R_{ie} (1 - R_{je}) + (1 - R_{ie}) R_{je}\\big):
+
+    a sum of positive terms (no cancellation of root depths), linear and differentiable in
+    the lengths.
+
+    Parameters
+    ----------
+    rows : Tensor, shape (a, E)
+    cols : Tensor, shape (b, E)
+        Root-path incidences (:attr:`TreePaths.root_edges`) of nodes in one component.
+    length : Tensor, shape (E,)
+
+    Returns
+    -------
+    Tensor, shape (a, b)
+    """
+    return (rows * length) @ (1 - cols).T + ((1 - rows) * length) @ cols.T
+
+
+def edge_stretch(delta: Tensor, log_factor: Tensor) -> Tensor:
+    """How much each edge lengthens when the lengthscales are multiplied by ``exp(log_factor)``.
+
+    ``||delta / f|| / ||delta||`` for ``delta : (E, dim)`` and ``log_factor : (1,) or (dim,)``;
+    an edge whose chord is zero (a contracted chain that came back) takes the geometric mean,
+    ``exp(-mean(log_factor))``.
+
+    Returns
+    -------
+    Tensor, shape (E,)
+    """
+    chord = torch.linalg.vector_norm(delta, dim=1)
+    stretched = torch.linalg.vector_norm(delta * torch.exp(-log_factor), dim=1)
+    mean = torch.exp(-log_factor.mean()).expand_as(chord)
+    return torch.where(chord > 0, stretched / chord.clamp_min(torch.finfo(chord.dtype).tiny), mean)
 
 
 #: Contents of a free slot, per buffer.

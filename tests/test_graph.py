@@ -135,3 +135,56 @@ def test_restore_undoes_any_changes_since_the_checkpoint(seed: int) -> None:
     for key, value in graph.state_dict().items():
         assert torch.equal(value, before[key]), key
     assert_valid_forest(graph)
+
+
+# -- per-dimension rescaling ---------------------------------------------------------------------
+def straight_edges(graph: BVGraph) -> np.ndarray:
+    """Edges (slot pairs, upper triangle) as long as the distance between their ends."""
+    adj, length, pos = graph.adjacency.numpy(), graph.edge_length.numpy(), graph.pos.numpy()
+    a, b = np.nonzero(np.triu(adj))
+    chord = np.linalg.norm(pos[a] - pos[b], axis=1)
+    straight = np.isclose(length[a, b], chord, rtol=1e-12, atol=1e-12)
+    return np.stack([a[straight], b[straight]], axis=1)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_per_dimension_rescale_keeps_the_forest_exact(seed: int) -> None:
+    """After random insertions and deletions (contracted chains among them), per-dimension
+    factors leave an exact forest (vs scipy), straight edges as long as their new chords, and
+    every contracted edge stretched as its chord."""
+    rng = np.random.default_rng(seed)
+    graph = BVGraph(42, 2)
+    for _ in range(300):
+        random_operation(graph, rng, 20)
+    straight = straight_edges(graph)
+    adj = graph.adjacency.numpy()
+    a, b = np.nonzero(np.triu(adj))
+    pos, length = graph.pos.numpy().copy(), graph.edge_length.numpy().copy()
+    factor = torch.tensor([0.5, 3.0], dtype=torch.float64)
+    graph.rescale(factor)
+    assert_valid_forest(graph)
+    new_pos = graph.pos.numpy()
+    np.testing.assert_allclose(new_pos[graph.alive.numpy()], pos[graph.alive.numpy()] / [0.5, 3.0])
+    new_length = graph.edge_length.numpy()
+    i, j = straight.T
+    np.testing.assert_allclose(
+        new_length[i, j], np.linalg.norm(new_pos[i] - new_pos[j], axis=1), rtol=1e-12, atol=1e-12
+    )
+    chord, new_chord = (np.linalg.norm(p[a] - p[b], axis=1) for p in (pos, new_pos))
+    moved = chord > 0
+    np.testing.assert_allclose(
+        new_length[a, b][moved], length[a, b][moved] * new_chord[moved] / chord[moved], rtol=1e-12
+    )
+    np.testing.assert_allclose(new_length[a, b][~moved], length[a, b][~moved] / np.sqrt(1.5))
+
+
+def test_equal_factors_rescale_as_one_factor() -> None:
+    graphs = [BVGraph(42, 2) for _ in range(2)]
+    for graph in graphs:
+        rng = np.random.default_rng(7)
+        for _ in range(200):
+            random_operation(graph, rng, 20)
+    graphs[0].rescale(torch.tensor([2.0, 2.0], dtype=torch.float64))
+    graphs[1].rescale(torch.tensor([2.0], dtype=torch.float64))
+    for name, buffer in graphs[0].named_buffers():
+        assert torch.equal(buffer, dict(graphs[1].named_buffers())[name]), name

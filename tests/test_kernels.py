@@ -78,6 +78,48 @@ def small_tree() -> tuple[BVGraph, np.ndarray, np.ndarray]:
     return random_tree(np.random.default_rng(1), 12, dim=2)
 
 
+def tree_metric(pos: np.ndarray, parents: list[int]) -> np.ndarray:
+    """Tree metric of straight edges between ``pos``, node ``u`` a leaf of ``parents[u]``."""
+    n = len(pos)
+    sp = np.zeros((n, n))
+    for u in range(1, n):
+        p = parents[u]
+        sp[u, :u] = sp[p, :u] + np.linalg.norm(pos[u] - pos[p])
+        sp[:u, u] = sp[u, :u]
+    return sp
+
+
+@pytest.mark.parametrize("attach", ["interpolate", "nearest"])
+@pytest.mark.parametrize("ard", [True, False])
+def test_geodesic_fit_correlations_are_the_rescaled_kernel(attach: str, ard: bool) -> None:
+    """What the hyperparameter fit differentiates is the kernel after :meth:`rescale`: a tree
+    metric of the edges in the new lengthscale units, attachments recomputed there."""
+    rng = np.random.default_rng(3)
+    parents = [0] + [int(rng.integers(u)) for u in range(1, 15)]
+    pos = np.zeros((15, 3))
+    for u in range(1, 15):
+        pos[u] = pos[parents[u]] + rng.normal(size=3)
+    graph = BVGraph(30, 3)
+    for u in range(15):
+        graph.add_node(torch.as_tensor(pos[u]), None if u == 0 else parents[u])
+    kernel = GeodesicKernel(lengthscale=1.0, attach=attach, ard=ard)
+    z = on_tree(kernel, graph, pos)
+    x = torch.as_tensor(pos[rng.integers(15, size=40)] + 0.3 * rng.normal(size=(40, 3)))
+    n_factors, correlations = kernel.correlation_fn(x, z)
+    assert n_factors == (3 if ard else 1)
+    log_f = torch.log(torch.tensor([0.6, 2.0, 1.3] if ard else [1.7], dtype=torch.float64))
+    log_f.requires_grad_(True)
+    R_xz, R_zz = correlations(log_f)
+    R_zz.sum().backward()
+    assert log_f.grad is not None and torch.isfinite(log_f.grad).all()
+    kernel.rescale(log_f.detach().exp())
+    scaled = pos / np.exp(log_f.detach().numpy())
+    np.testing.assert_allclose(R_zz.detach(), np.exp(-tree_metric(scaled, parents)), rtol=1e-12)
+    np.testing.assert_allclose(R_zz.detach(), kernel.gram(z), rtol=1e-12, atol=1e-15)
+    rows = kernel.cross(kernel.scale(x), kernel.scale(z))  # the kernel's rows take scaled inputs
+    np.testing.assert_allclose(R_xz.detach(), rows, rtol=1e-12, atol=1e-15)
+
+
 @pytest.mark.parametrize("profile", ["laplacian", "gaussian"])
 def test_geodesic_gram_is_profile_of_tree_metric(small_tree, profile: str) -> None:
     graph, pos, sp = small_tree

@@ -22,6 +22,7 @@ from torch import Tensor
 from sb3_geogp import GeodesicKernel, Kernel, LaplacianKernel, RBFKernel, SparseOnlineGP
 from sb3_geogp.defaults import default_lengthscale
 from sb3_geogp.kernels import make_kernel
+from tests.test_graph import assert_valid_forest, straight_edges
 
 FULL = bool(os.environ.get("SB3_GEOGP_FULL"))
 
@@ -754,10 +755,11 @@ def test_fit_hyperparameters_needs_data_and_leaves_the_state() -> None:
     assert_same_state(before, snapshot(gp))
 
 
-def test_fit_hyperparameters_geodesic(pendulum) -> None:
+@pytest.mark.parametrize("ard", [False, True])
+def test_fit_hyperparameters_geodesic(pendulum, ard: bool) -> None:
     obs, returns, starts = pendulum(1500, 12)
     gp = SparseOnlineGP(
-        3, GeodesicKernel(lengthscale=2.0, attach="nearest"), max_basis=60, noise_var=0.3
+        3, GeodesicKernel(lengthscale=2.0, attach="nearest", ard=ard), max_basis=60, noise_var=0.3
     )
     feed(gp, obs, returns, starts, 500)
     sp_before, ls_before = gp.shortest_paths.numpy().copy(), gp.lengthscale.clone()
@@ -772,8 +774,21 @@ def test_fit_hyperparameters_geodesic(pendulum) -> None:
 
     check_fit(gp, cross)
     factor = (gp.lengthscale / ls_before).numpy()
-    np.testing.assert_allclose(factor, factor[0], rtol=1e-12)  # one factor on all dimensions
-    np.testing.assert_allclose(gp.shortest_paths.numpy(), sp_before / factor[0], rtol=1e-12)
+    if not ard:
+        np.testing.assert_allclose(factor, factor[0], rtol=1e-12)  # one factor on all dimensions
+        np.testing.assert_allclose(gp.shortest_paths.numpy(), sp_before / factor[0], rtol=1e-12)
+        return
+    assert np.ptp(np.log(factor)) > 0.05  # the dimensions were fitted apart
+    # Still the tree's exact metric (scipy), each straight edge its ends' distance.
+    graph = gp.kernel.graph
+    assert graph is not None
+    assert_valid_forest(graph)
+    i, j = straight_edges(graph).T
+    np.testing.assert_allclose(
+        graph.edge_length.numpy()[i, j],
+        np.linalg.norm(graph.pos.numpy()[i] - graph.pos.numpy()[j], axis=1),
+        rtol=1e-12,
+    )
 
 
 # -- lengthscale heuristic ----------------------------------------------------------------------

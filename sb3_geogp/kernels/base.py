@@ -192,9 +192,12 @@ class Kernel(nn.Module):
         """Options that define the covariance beyond its hyperparameter buffers.
 
         They are stored in the kernel's state (``state_dict()["_extra_state"]``), and a state
-        saved with other options is refused on load.
+        saved with other options is refused on load (except in :attr:`update_rules`).
         """
         return {}
+
+    #: Options that only say how the kernel learns (stored, but free to differ on load).
+    update_rules: tuple[str, ...] = ()
 
     def supports_float32(self) -> bool:
         """Whether a GP with this kernel is numerically safe in float32 (else float64 only)."""
@@ -208,7 +211,7 @@ class Kernel(nn.Module):
         return {"kernel": type(self).__name__, **self.options()}
 
     def set_extra_state(self, state: Any) -> None:
-        check_same_options("kernel", state, self.get_extra_state())
+        check_same_options("kernel", state, self.get_extra_state(), self.update_rules)
 
     # -- set-up -----------------------------------------------------------------------------
     def bind(self, input_dim: int, capacity: int) -> None:

@@ -14,7 +14,7 @@ from typing import Any, Literal
 import torch
 from torch import Tensor
 
-from sb3_geogp.graph import BVGraph
+from sb3_geogp.graph import BVGraph, edge_stretch, tree_distances
 from sb3_geogp.kernels.base import (
     CorrelationFn,
     DenseRows,
@@ -77,6 +77,11 @@ class GeodesicKernel(Kernel):
         How a new basis vector joins the tree: to the previous basis vector of its own
         trajectory when there is one, else to its nearest (``"trajectory"``, paper footnote 3),
         or always to its nearest (``"nearest"``, paper eq. 5 literally).
+    ard : bool
+        What a hyperparameter fit (:meth:`correlation_fn`) may change: one lengthscale factor
+        per input dimension (automatic relevance determination; the default since 0.4) or
+        one on all of them (``False``, 0.3's rule). An update rule, not part of the
+        covariance: a state saved with either loads into a kernel with either.
 
     Attributes
     ----------
@@ -88,6 +93,7 @@ class GeodesicKernel(Kernel):
     """
 
     traj_node: Tensor
+    update_rules = ("ard",)
 
     def __init__(
         self,
@@ -97,6 +103,7 @@ class GeodesicKernel(Kernel):
         attach: Attach = "interpolate",
         n_neighbors: int = 4,
         edges: Edges = "trajectory",
+        ard: bool = True,
     ) -> None:
         super().__init__(lengthscale, variance)
         for name, value, allowed in (
@@ -112,6 +119,7 @@ class GeodesicKernel(Kernel):
         self.attach: Attach = attach
         self.n_neighbors = int(n_neighbors)
         self.edges: Edges = edges
+        self.ard = bool(ard)
         self.tree = BVGraph(0, 1)
         self.register_buffer("traj_node", torch.full((), -1, dtype=torch.long))
 
@@ -124,6 +132,7 @@ class GeodesicKernel(Kernel):
             "attach": self.attach,
             "n_neighbors": self.n_neighbors,
             "edges": self.edges,
+            "ard": self.ard,
         }
 
     # -- set-up and the graph ------------------------------------------------------------------
@@ -217,32 +226,41 @@ class GeodesicKernel(Kernel):
 
     # -- hyperparameters -----------------------------------------------------------------------
     def correlation_fn(self, x: Tensor, z: Tensor) -> tuple[int, CorrelationFn]:
-        """One factor on all lengthscales: every graph distance scales by its inverse, so the
-        tree and its shortest paths stay exact (per-dimension factors would change which
-        paths are shortest). The interpolation weights are invariant to it; a leaf's distance
-        scales with the paths."""
-        base = self.tree.basis_distances().clone()
-        near = distances(self.scale(x), self.scale(z))
-        if self.attach == "interpolate":
-            idx, w = shepard_weights(near, self.n_neighbors)
+        """One factor per dimension with ``ard=True``, else one on all lengthscales.
 
-            def interpolated(log_factor: Tensor) -> tuple[Tensor, Tensor]:
-                R = self.profile(base / log_factor.exp())
-                return torch.einsum("nk,nkm->nm", w, R[idx]), R
+        The tree's paths do not depend on the edge lengths, so the basis distances are sums
+        of stretched edges along fixed paths (:func:`~sb3_geogp.graph.tree_distances`,
+        :func:`~sb3_geogp.graph.edge_stretch`), exactly what :meth:`rescale` then stores.
+        Attachments are recomputed in the stretched coordinates (the nearest basis vectors
+        may change with per-dimension factors).
+        """
+        paths = self.tree.paths()
+        slot = torch.full((self.tree.capacity,), -1, dtype=torch.long, device=x.device)
+        slot[paths.nodes] = torch.arange(len(paths.nodes), device=x.device)
+        basis = slot[self.tree.basis_nodes[: z.shape[0]]]
+        R = paths.root_edges[basis]
+        same = paths.component[basis][:, None] == paths.component[basis][None, :]
+        xs, zs = self.scale(x), self.scale(z)
+        n_factors = x.shape[1] if self.ard else 1
 
-            return 1, interpolated
-        dist, i = near.min(dim=1)
-        leaf = dist[:, None] + base[i]
+        def correlations(log_factor: Tensor) -> tuple[Tensor, Tensor]:
+            stretch = torch.exp(-log_factor)
+            length = paths.length * edge_stretch(paths.delta, log_factor)
+            base = tree_distances(R, R, length)
+            near = distances(xs * stretch, zs * stretch)
+            R_zz = torch.where(same, self.profile(base), torch.zeros_like(base))
+            if self.attach == "interpolate":
+                idx, w = shepard_weights(near, self.n_neighbors)
+                return torch.einsum("nk,nkm->nm", w, R_zz[idx]), R_zz
+            dist, i = near.min(dim=1)
+            leaf = self.profile(dist[:, None] + base[i])
+            return torch.where(same[i], leaf, torch.zeros_like(leaf)), R_zz
 
-        def as_leaves(log_factor: Tensor) -> tuple[Tensor, Tensor]:
-            f = log_factor.exp()
-            return self.profile(leaf / f), self.profile(base / f)
-
-        return 1, as_leaves
+        return n_factors, correlations
 
     def rescale(self, factor: Tensor) -> None:
         super().rescale(factor)
-        self.tree.rescale(float(factor))
+        self.tree.rescale(factor)
 
 
 def shepard_weights(dist: Tensor, k: int) -> tuple[Tensor, Tensor]:
