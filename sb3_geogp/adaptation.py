@@ -15,8 +15,9 @@ A2C rollouts), the GP closes a *block* and adapts, in this order:
 2. **Targets.** Mean and scale of the targets become the ``w``-weighted mean and standard
    deviation of the window's targets (unless the user fixed them).
 3. **Hyperparameters.** ``steps`` Adam steps on the log lengthscale factors (as the kernel
-   allows: one per dimension for the Euclidean kernels, one for the geodesic kernel, whose
-   shortest paths then stay exact), the log signal and log noise variance, minimising the
+   allows: one per dimension, or one for all with ``GeodesicKernel(ard=False)``; the geodesic
+   kernel's tree keeps its paths and sums its stretched edges along them), the log signal and
+   log noise variance, minimising the
    negative collapsed variational bound (Titsias 2009) of the window per point, with the basis
    vectors as inducing points and noise ``sigma_n^2 / w_i`` on point ``i``:
 

@@ -643,6 +643,26 @@ def test_state_dict_round_trip_is_bit_identical(pendulum, kernel: str) -> None:
         assert torch.equal(a, b)
 
 
+@pytest.mark.parametrize("saved_ard", [False, True, None])
+def test_geodesic_state_loads_whatever_its_ard_rule(pendulum, saved_ard: bool | None) -> None:
+    """``ard`` says how the kernel learns, not what it is: a state saved with the other rule,
+    or by 0.3 without the option (``None``), loads and predicts the same; other kernel options
+    are still refused."""
+    obs, returns, starts = pendulum(800, 8)
+    original = SparseOnlineGP(3, GeodesicKernel(ard=bool(saved_ard)), max_basis=24)
+    feed(original, obs, returns, starts, 200)
+    state = original.state_dict()
+    if saved_ard is None:
+        state["kernel._extra_state"].pop("ard")
+    restored = SparseOnlineGP(3, GeodesicKernel(ard=not saved_ard), max_basis=24)
+    restored.load_state_dict(state)
+    for a, b in zip(original.predict(obs[::9]), restored.predict(obs[::9]), strict=True):
+        assert torch.equal(a, b)
+    other = SparseOnlineGP(3, GeodesicKernel(n_neighbors=3), max_basis=24)
+    with pytest.raises(ValueError, match="n_neighbors"):
+        other.load_state_dict(state)
+
+
 # -- forgetting ---------------------------------------------------------------------------------
 @pytest.mark.parametrize("kernel", ["rbf", "geodesic"])
 def test_forgetting_is_applied_once_before_the_batch(pendulum, kernel: str) -> None:

@@ -12,6 +12,7 @@ from __future__ import annotations
 import argparse
 import ast
 import dataclasses
+import json
 import warnings
 from pathlib import Path
 from typing import Any
@@ -139,7 +140,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
 
 def parse_gp_option(text: str) -> tuple[str, Any]:
     """``"KEY=VALUE"`` as ``(key, value)``, the value a Python literal where it is one
-    (``forgetting=0.9``, ``adapt={"prior_sd": 0.1}``), else the bare word (``dtype=float32``).
+    (``forgetting=0.9``, ``adapt={"prior_sd": 0.1}``), else JSON where it is that
+    (``kernel_kwargs={"ard": false}``), else the bare word (``dtype=float32``).
 
     Raises
     ------
@@ -152,6 +154,10 @@ def parse_gp_option(text: str) -> tuple[str, Any]:
     try:
         return key, ast.literal_eval(value)
     except (ValueError, SyntaxError):
+        pass
+    try:
+        return key, json.loads(value)
+    except ValueError:
         return key, value  # a bare word, e.g. dtype=float32
 
 

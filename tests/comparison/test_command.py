@@ -11,7 +11,12 @@ from pathlib import Path
 import pytest
 
 from sb3_geogp.cli import main
-from sb3_geogp.comparison.command import UsageError, add_arguments, config_from_args
+from sb3_geogp.comparison.command import (
+    UsageError,
+    add_arguments,
+    config_from_args,
+    parse_gp_option,
+)
 from sb3_geogp.comparison.hyperparams import GP_KWARGS
 from sb3_geogp.comparison.report import write_report
 from sb3_geogp.comparison.specs import SweepConfig
@@ -66,6 +71,9 @@ def test_gp_options_reach_every_gp_run_and_bad_ones_fail_early() -> None:
     assert all(dict(s.gp_kwargs) == GP_KWARGS for s in default)
     args = _parse("--gp-option", "dtype=float64", "--gp-option", "forgetting=0.99")
     assert config_from_args(args).gp_options == (("dtype", "float64"), ("forgetting", 0.99))
+    # JSON as well as Python literals: a dict in either spelling is a dict, not a string.
+    for spelling in ('{"ard": false}', '{"ard": False}'):
+        assert parse_gp_option(f"kernel_kwargs={spelling}") == ("kernel_kwargs", {"ard": False})
     for bad, message in (
         ("forgetting=1.5", "forgetting"),  # rejected by SparseOnlineGP
         ("no_such_option=1", "no_such_option"),

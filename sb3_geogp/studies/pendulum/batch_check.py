@@ -65,8 +65,8 @@ class Hyper:
     Attributes
     ----------
     factor : tuple of float
-        Lengthscale factors relative to the kernel's lengthscales (one per dimension for the
-        Euclidean kernels, one for the geodesic kernel: ``correlation_fn``'s ``n_factors``).
+        Lengthscale factors relative to the kernel's lengthscales (one per dimension, or one
+        for all with ``GeodesicKernel(ard=False)``: ``correlation_fn``'s ``n_factors``).
     variance : float
         Signal variance, standardised targets.
     noise_var : float
