@@ -65,6 +65,13 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument(
         "--prior-sd", type=float, default=None, help="Adaptation.prior_sd (default: no prior)"
     )
+    parser.add_argument(
+        "--kernels",
+        nargs="+",
+        choices=("rbf", "geodesic"),
+        default=None,
+        help="kernels checked (default: both)",
+    )
     return parser.parse_args(argv)
 
 
@@ -132,6 +139,8 @@ def main(argv: list[str] | None = None) -> None:
         config = replace(config, seeds=tuple(range(args.seeds)))
     if args.max_basis is not None:
         config = replace(config, max_basis=tuple(args.max_basis))
+    if args.kernels is not None:
+        config = replace(config, kernels=tuple(args.kernels))
     if args.prior_sd is not None:
         config = replace(config, adaptation=replace(config.adaptation, prior_sd=args.prior_sd))
     out: Path = args.out

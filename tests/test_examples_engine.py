@@ -60,3 +60,12 @@ def test_long_run_numerics_quick_passes_all_checks(tmp_path: Path, stream: str) 
         assert row["n_basis"] <= 24
         assert {"worst_asym_P", "worst_min_eig_P", "worst_min_var", "final_ev"} <= row.keys()
     assert (tmp_path / "long_run_numerics.png").stat().st_size > 0
+
+
+def test_fixed_policy_check_quick_checks_only_the_kernels_asked(tmp_path: Path) -> None:
+    script = load_script("fixed_policy_check")
+    script.main(["--quick", "--kernels", "geodesic", "--out", str(tmp_path)])
+    result = json.loads((tmp_path / "results.json").read_text())
+    assert result["config"]["kernels"] == ["geodesic"]
+    assert {row["kernel"] for row in result["rows"]} == {"geodesic"}
+    assert (tmp_path / "mse_ratio.png").stat().st_size > 0
