@@ -2,6 +2,7 @@
 
 The re-run's critics replace their published runs in the re-run cells; the critics not re-run
 (e.g. the MLP) keep their published runs; the family-wise level stays the published sweep's.
+Several re-run folders are read as one sweep, a cell found in several taken from the last.
 
     python examples/rerun_verdicts.py --published results/compare \\
         --rerun results/compare_adaptive_losing/ppo results/compare_adaptive_losing/a2c \\
@@ -16,7 +17,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from sb3_geogp.comparison.report import rerun_markdown
-from sb3_geogp.comparison.results import load_results, rerun_comparisons
+from sb3_geogp.comparison.results import load_results, load_sweeps, rerun_comparisons
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -25,7 +26,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--rerun", type=Path, nargs="+", required=True, help="re-run sweeps")
     parser.add_argument("--out", type=Path, required=True, help="markdown file to write")
     args = parser.parse_args(argv)
-    rerun = [r for d in args.rerun for r in load_results(d)]
+    rerun = load_sweeps(args.rerun)
     if not rerun:
         raise SystemExit(f"no results in {[str(d) for d in args.rerun]}")
     before, after = rerun_comparisons(load_results(args.published), rerun)

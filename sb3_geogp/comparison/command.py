@@ -122,9 +122,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
     parser.add_argument(
         "--baseline",
         type=Path,
+        nargs="+",
         default=None,
         metavar="DIR",
-        help="also compare each critic with the same critic of the sweep in DIR",
+        help="also compare each critic with the same critic of the sweep in DIR (several: "
+        "read as one sweep, a cell found in several taken from the last)",
     )
     parser.add_argument("--no-plots", action="store_true", help="skip figures and the table")
     parser.add_argument(

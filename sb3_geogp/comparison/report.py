@@ -22,7 +22,7 @@ import importlib.util
 import json
 import math
 import textwrap
-from collections.abc import Collection
+from collections.abc import Collection, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -36,6 +36,7 @@ from sb3_geogp.comparison.results import (
     critic_pairs,
     group_runs,
     load_results,
+    load_sweeps,
     stack_curves,
     summary_rows,
 )
@@ -333,14 +334,17 @@ def plot_critic_accuracy(results: list[dict[str, Any]], path: str | Path, seed: 
 
 
 def write_report(
-    out_dir: str | Path, seed: int = 0, baseline_dir: str | Path | None = None
+    out_dir: str | Path,
+    seed: int = 0,
+    baseline_dir: str | Path | Sequence[str | Path] | None = None,
 ) -> list[Path]:
     """Figures and summary of the sweep in ``out_dir`` into ``out_dir/report``.
 
     Without matplotlib only the tables (markdown and JSON) are written.
 
-    With ``baseline_dir`` (another sweep's folder) also ``vs_baseline.md`` / ``.json``: each
-    critic against the same critic there (:func:`comparisons` with ``baseline``).
+    With ``baseline_dir`` (another sweep's folder, or several read as one by
+    :func:`load_sweeps`) also ``vs_baseline.md`` / ``.json``: each critic against the same
+    critic there (:func:`comparisons` with ``baseline``).
 
     Returns
     -------
@@ -364,9 +368,12 @@ def write_report(
     cjs.write_text(json.dumps(diffs, indent=1))
     paths = [md, js, cmd, cjs]
     if baseline_dir is not None:
-        vs = comparisons(results, seed=seed, baseline=load_results(baseline_dir))
+        dirs = [baseline_dir] if isinstance(baseline_dir, str | Path) else list(baseline_dir)
+        vs = comparisons(results, seed=seed, baseline=load_sweeps(dirs))
         paths += [report / "vs_baseline.md", report / "vs_baseline.json"]
-        paths[-2].write_text(f"Baseline: `{baseline_dir}`\n\n" + comparisons_markdown(vs))
+        named = ", ".join(f"`{d}`" for d in dirs)
+        merged = " (a cell in several: the last)" if len(dirs) > 1 else ""
+        paths[-2].write_text(f"Baseline: {named}{merged}\n\n" + comparisons_markdown(vs))
         paths[-1].write_text(json.dumps(vs, indent=1))
     if not matplotlib_available():
         return paths  # the tables; figures need matplotlib

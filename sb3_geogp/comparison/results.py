@@ -2,6 +2,8 @@
 
 Reads the result files written by :mod:`sb3_geogp.comparison.run` (``out/runs/*.json``):
 
+* :func:`load_sweeps`: several sweeps' result files as one, a re-run replacing the cells it
+  re-ran;
 * :func:`summary_rows`: per environment, algorithm and critic the number of seeds, final
   return (mean [95 % CI], IQM), steps to threshold, final critic RMSE, wall clock and the GP's
   share of it;
@@ -19,7 +21,7 @@ from __future__ import annotations
 import json
 import math
 from collections import defaultdict
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any, NamedTuple
 
@@ -69,6 +71,19 @@ def load_results(out_dir: str | Path) -> list[dict[str, Any]]:
         except (OSError, ValueError):
             continue
     return results
+
+
+def load_sweeps(out_dirs: Sequence[str | Path]) -> list[dict[str, Any]]:
+    """The result files of several sweeps as one sweep.
+
+    A cell (environment, algorithm, critic) found in more than one folder is taken whole from
+    the last of them: a re-run of some cells, listed after the sweep it re-ran, replaces them
+    rather than adding seeds to them.
+    """
+    cells: dict[Key, list[dict[str, Any]]] = {}
+    for out_dir in out_dirs:
+        cells.update(group_runs(load_results(out_dir)))
+    return [r for runs in cells.values() for r in runs]
 
 
 def group_runs(results: list[dict[str, Any]]) -> dict[Key, list[dict[str, Any]]]:

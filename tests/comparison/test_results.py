@@ -3,6 +3,7 @@ answers."""
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 from typing import Any
 
@@ -22,6 +23,9 @@ from sb3_geogp.comparison.results import (
     MIN_SEEDS_FOR_VERDICT,
     PAIRS,
     comparisons,
+    group_runs,
+    load_results,
+    load_sweeps,
     rerun_comparisons,
     summary_rows,
     verdict,
@@ -230,3 +234,21 @@ def test_a_rerun_is_compared_under_the_published_rule() -> None:
     assert all(r["family_size"] == 3 for r in before + after)  # the published sweep's 3 pairs
     text = rerun_markdown(before, after)
     assert text.count("| `E-v0` | ppo | rbf − mlp |") == len(METRICS)
+
+
+def test_load_sweeps_takes_a_cell_whole_from_the_last_folder(tmp_path: Path) -> None:
+    def write(folder: Path, results: list[dict[str, Any]]) -> Path:
+        (folder / "runs").mkdir(parents=True)
+        for r in results:
+            s = r["spec"]
+            (folder / "runs" / f"{s['critic']}_{s['seed']}.json").write_text(json.dumps(r))
+        return folder
+
+    sweep = write(tmp_path / "sweep", _results())
+    # A re-run of the geodesic cell with fewer seeds and other returns.
+    rerun = write(tmp_path / "rerun", [_result("geodesic", s, final=-s, rmse=1.0) for s in (7, 8)])
+    merged = group_runs(load_sweeps([sweep, rerun]))
+    assert [r["spec"]["seed"] for r in merged[("E-v0", "ppo", "geodesic")]] == [7, 8]
+    assert merged[("E-v0", "ppo", "mlp")] == group_runs(load_results(sweep))[("E-v0", "ppo", "mlp")]
+    reverse = group_runs(load_sweeps([rerun, sweep]))
+    assert [r["spec"]["seed"] for r in reverse[("E-v0", "ppo", "geodesic")]] == list(range(6))
