@@ -8,6 +8,9 @@ the median over seeds of the wall clock, its ratio to the MLP critic's, and for 
 the seconds spent in GP updates, in GP predictions, and in everything else; with ``--adapt``
 also the GP critics with adaptation, and the seconds their updates spent on it (out-of-sample
 statistics, summary of dropped points, adaptation proper) with its share of the GP's time.
+``--critics`` picks the critics instead: a kernel, optionally followed by ``+adapt`` and, for
+the geodesic kernel, ``+shared`` (0.3's one lengthscale factor, ``kernel_kwargs=dict(ard=False)``),
+so that the cost of an option is measured interleaved with the default's.
 
 ``--threads default`` leaves torch's thread count as a new user has it (the engine then runs
 its own work single-threaded, see ``SparseOnlineGP(num_threads=...)``); ``--load N`` keeps N
@@ -15,6 +18,8 @@ busy processes running during the benchmark, to measure a loaded machine. Exampl
 
     python examples/benchmark_training.py --seeds 0 1 --out runs/benchmark_training.json
     python examples/benchmark_training.py --seeds 0 1 --threads default --load 2
+    python examples/benchmark_training.py --workloads "PPO Pendulum-v1" \\
+        --critics geodesic+adapt geodesic+adapt+shared
 """
 
 from __future__ import annotations
@@ -46,8 +51,26 @@ WORKLOADS = {
 CRITICS = ("mlp", "rbf", "geodesic")
 #: GP critics with adaptation (``gp_kwargs=dict(adapt=True)``), measured with ``--adapt``.
 ADAPTIVE = ("rbf+adapt", "geodesic+adapt")
+#: What a suffix of a critic's name adds to its ``gp_kwargs``.
+SUFFIXES: dict[str, dict[str, Any]] = {
+    "adapt": {"adapt": True},
+    "shared": {"kernel_kwargs": {"ard": False}},
+}
 #: SparseOnlineGP methods that only run with adaptation (timed as "adaptation s").
 ADAPTATION_STEPS = ("_adapt", "_summarise", "_out_of_sample")
+
+
+def critic_name(text: str) -> str:
+    """``text`` if it names a critic (``mlp``, or a kernel with known suffixes), else an
+    argparse error listing them."""
+    kernel, *suffixes = text.split("+")
+    known = kernel in CRITICS and (kernel != "mlp" or not suffixes)
+    if not known or not set(suffixes) <= set(SUFFIXES):
+        raise argparse.ArgumentTypeError(
+            f"unknown critic {text!r}: use one of {CRITICS}, a GP kernel optionally followed "
+            f"by +{' +'.join(SUFFIXES)} (e.g. geodesic+adapt+shared)"
+        )
+    return text
 
 
 def _timed(method: Callable[..., Any], clock: list[float]) -> Callable[..., Any]:
@@ -72,8 +95,10 @@ def run(workload: str, critic: str, seed: int, max_basis: int, scale: float) -> 
         model = algo_cls("MlpPolicy", env, seed=seed, policy_kwargs=policy_kwargs, **kwargs)
         callback = None
     else:
-        kernel, _, adapt = critic.partition("+")
-        gp_kwargs = dict(kernel=kernel, max_basis=max_basis, adapt=bool(adapt), **gp_options)
+        kernel, *suffixes = critic.split("+")
+        gp_kwargs = dict(kernel=kernel, max_basis=max_basis, adapt=False, **gp_options)
+        for suffix in suffixes:
+            gp_kwargs.update(SUFFIXES[suffix])
         policy_kwargs = {**policy_kwargs, "gp_kwargs": gp_kwargs}
         model = algo_cls(GPActorCriticPolicy, env, seed=seed, policy_kwargs=policy_kwargs, **kwargs)
         gp = model.policy.gp
@@ -112,16 +137,20 @@ def background_load(n: int) -> Iterator[None]:
 
 
 def table(results: dict[str, dict[str, list[dict[str, Any]]]]) -> str:
+    """Medians per workload and critic; wall clocks relative to the MLP critic's, or to the
+    first critic's where the MLP was not run."""
+    critics = list(next(iter(results.values())))
+    reference = "mlp" if "mlp" in critics else critics[0]
     lines = [
-        "| workload | critic | wall s | x MLP | GP update s | GP predict s | rest s "
+        f"| workload | critic | wall s | x {reference} | GP update s | GP predict s | rest s "
         "| adaptation s | adaptation / GP |",
         "|---|---|---|---|---|---|---|---|---|",
     ]
     for workload, by_critic in results.items():
-        mlp = statistics.median(r["wall"] for r in by_critic["mlp"])
+        ref = statistics.median(r["wall"] for r in by_critic[reference])
         for critic, runs in by_critic.items():
             wall = statistics.median(r["wall"] for r in runs)
-            cells = [f"{wall:.1f}", f"{wall / mlp:.2f}"]
+            cells = [f"{wall:.1f}", f"{wall / ref:.2f}"]
             if critic == "mlp":
                 cells += ["–"] * 5
             else:
@@ -150,9 +179,16 @@ def main(argv: Sequence[str] | None = None) -> None:
     parser.add_argument(
         "--adapt", action="store_true", help="also the GP critics with adapt=True, interleaved"
     )
+    parser.add_argument(
+        "--critics",
+        nargs="+",
+        type=critic_name,
+        default=None,
+        help="critics to run instead, e.g. geodesic+adapt geodesic+adapt+shared",
+    )
     parser.add_argument("--out", type=Path, default=None, help="write the figures as JSON")
     args = parser.parse_args(argv)
-    critics = CRITICS + (ADAPTIVE if args.adapt else ())
+    critics = tuple(args.critics or CRITICS + (ADAPTIVE if args.adapt else ()))
     if args.threads != "default":
         th.set_num_threads(int(args.threads))
     record = provenance()  # at the start: the code the runs import

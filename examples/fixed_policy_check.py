@@ -75,6 +75,10 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     return parser.parse_args(argv)
 
 
+#: Labelled ticks of the ratio axis.
+RATIO_TICKS = (0.5, 0.6, 0.7, 0.8, 0.9, 1.0, 1.1, 1.2, 1.5, 2.0, 3.0, 5.0)
+
+
 def plot(result: CheckResult, path: Path) -> None:
     """MSE (top) and on-line / batch MSE ratio (bottom) against max BV, one column per kernel.
 
@@ -119,12 +123,16 @@ def plot(result: CheckResult, path: Path) -> None:
             ax.yaxis.set_major_formatter(FormatStrFormatter("%g"))
             ax.grid(alpha=0.3)
             ax.legend(fontsize=8)
+        # The ratios often span less than a factor of 2, where 1-2-5 ticks would leave one label.
+        low, high = bottom.get_ylim()
+        bottom.set_yticks([t for t in RATIO_TICKS if low <= t <= high])
     what = (
         f"error bars: 95% Student-t interval over {n_seeds} seeds"
         if bars
         else f"{n_seeds} seed(s): no error bars (fewer than {MIN_SAMPLES_FOR_INTERVAL})"
     )
-    fig.suptitle(f"Fixed-policy check, pendulum: on-line GP vs batch sparse GP ({what})")
+    # Two lines: a one-kernel figure is too narrow for the title and its caption in one.
+    fig.suptitle(f"Fixed-policy check, pendulum: on-line GP vs batch sparse GP\n({what})")
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)

@@ -25,6 +25,30 @@ def test_benchmark_training_runs_every_critic(tmp_path: Path) -> None:
         assert (runs[0]["update"] > 0) == (critic != "mlp")
 
 
+def test_benchmark_training_critics_option(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """``--critics`` runs exactly the named critics; ``+shared`` builds the one-factor kernel."""
+    from sb3_geogp.kernels.geodesic import GeodesicKernel
+
+    bench = load_script("benchmark_training")
+    built: list[bool] = []
+    init = GeodesicKernel.__init__
+
+    def recording_init(self: GeodesicKernel, *args: object, **kwargs: object) -> None:
+        init(self, *args, **kwargs)  # type: ignore[arg-type]
+        built.append(self.ard)
+
+    monkeypatch.setattr(GeodesicKernel, "__init__", recording_init)
+    out = tmp_path / "bench.json"
+    argv = ["--workloads", "A2C CartPole-v1", "--seeds", "0", "--scale", "0.005"]
+    critics = ["geodesic+adapt", "geodesic+adapt+shared"]
+    bench.main([*argv, "--max-basis", "16", "--critics", *critics, "--out", str(out)])
+    assert list(json.loads(out.read_text())["results"]["A2C CartPole-v1"]) == critics
+    assert built == [True, False]
+    for bad in ("geodesic+fast", "mlp+adapt", "gpr"):
+        with pytest.raises(SystemExit):
+            bench.main([*argv, "--critics", bad])
+
+
 def test_critic_fit_scores_each_rollout_as_sb3_does() -> None:
     """The recorder's explained variance per rollout equals SB3's own ``train/explained_variance``
     of the same rollout (computed by SB3 from the same buffer, for the MLP critic)."""
