@@ -500,7 +500,11 @@ def test_model_saved_by_v0_1_loads_and_predicts_the_same() -> None:
     saved = th.load(data / "gp_ppo_v0_1_expected.pt")
     with th.no_grad():
         assert th.equal(model.policy.predict_values(saved["probe"]), saved["values"])
-        assert th.equal(model.policy.get_distribution(saved["probe"]).mode(), saved["actions"])
+        # The actor is a float32 MLP: its last bit depends on the CPU's matmul kernels (measured:
+        # 4.7e-10 apart on another Xeon), so it is compared to float32 rounding, far below what a
+        # wrongly loaded actor would change (its outputs are ~1e-3).
+        actions = model.policy.get_distribution(saved["probe"]).mode()
+        th.testing.assert_close(actions, saved["actions"], rtol=1e-5, atol=1e-8)
     seen = int(model.policy.gp.n_seen)
     model.learn(64, callback=GPValueCallback(), reset_num_timesteps=False)  # and it trains on
     assert int(model.policy.gp.n_seen) == seen + 64
