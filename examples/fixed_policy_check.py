@@ -14,6 +14,7 @@ Usage::
     python examples/fixed_policy_check.py --out docs/fixed_policy_check  # full run
     python examples/fixed_policy_check.py --quick --out runs/fixed_quick   # smoke run (seconds)
     python examples/fixed_policy_check.py --prior-sd 0.1 --out runs/fixed_prior  # with a hyperprior
+    python examples/fixed_policy_check.py --adapt '{"max_gap": 8}' --out runs/fixed_gap8
 """
 
 from __future__ import annotations
@@ -36,6 +37,7 @@ from matplotlib.ticker import FormatStrFormatter, LogLocator
 from rich.console import Console
 from tqdm import tqdm
 
+from sb3_geogp.adaptation import as_adaptation
 from sb3_geogp.studies.pendulum.batch_check import ONLINE, CheckConfig, CheckResult, run_check
 from sb3_geogp.studies.pendulum.ground_truth import mc_value
 from sb3_geogp.studies.pendulum.task import Task
@@ -64,6 +66,12 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     )
     parser.add_argument(
         "--prior-sd", type=float, default=None, help="Adaptation.prior_sd (default: no prior)"
+    )
+    parser.add_argument(
+        "--adapt",
+        type=json.loads,
+        default=None,
+        help='other Adaptation settings as JSON, e.g. \'{"max_gap": 8, "fold_points": 512}\'',
     )
     parser.add_argument(
         "--kernels",
@@ -149,8 +157,13 @@ def main(argv: list[str] | None = None) -> None:
         config = replace(config, max_basis=tuple(args.max_basis))
     if args.kernels is not None:
         config = replace(config, kernels=tuple(args.kernels))
+    settings = dict(args.adapt or {})
     if args.prior_sd is not None:
-        config = replace(config, adaptation=replace(config.adaptation, prior_sd=args.prior_sd))
+        settings["prior_sd"] = args.prior_sd
+    if settings:
+        adaptation = as_adaptation({**config.adaptation.as_dict(), **settings})
+        assert adaptation is not None
+        config = replace(config, adaptation=adaptation)
     out: Path = args.out
     out.mkdir(parents=True, exist_ok=True)
     torch.set_num_threads(1)

@@ -96,6 +96,19 @@ class Adaptation:
         natural scale is 1 in standardised target units): the steps then maximise the
         posterior, ``F - sum(u^2) / (2 prior_sd^2)`` over the fitted points, ``u`` those logs.
         ``None``: no prior, the bounds alone (docs/benchmarks.md measures 0.1).
+    max_gap : int
+        Most blocks between refits: targets, hyperparameters and the rebuild (steps 2-4 of
+        the module docstring) run on the blocks numbered by a power of two below ``max_gap``
+        (1, 2, 4, ...: often while they settle) and on every multiple of ``max_gap``; the other
+        blocks only choose the forgetting (step 1). 1: every block refits.
+    score_points : int or None
+        The out-of-sample statistics and forgetting scores of a batch use at most this many of
+        its points: an evenly spaced subsample (:func:`thinned`), each point counted for the
+        run of points it stands for. ``None``: every point.
+    fold_points : int or None
+        Points leaving the window at once are added to the summary through an evenly spaced
+        subsample of at most this many, each with its weight times the length of its run.
+        ``None``: every point (the summary is then exact).
 
     Raises
     ------
@@ -115,10 +128,16 @@ class Adaptation:
     noise_bounds: tuple[float, float] = (1e-4, 1.0)
     targets: bool = True
     prior_sd: float | None = None
+    max_gap: int = 1
+    score_points: int | None = None
+    fold_points: int | None = None
 
     def __post_init__(self) -> None:
-        for name in ("window", "interval", "fit_points"):
+        optional = ("interval", "score_points", "fold_points")
+        for name in ("window", "fit_points", "max_gap", *optional):
             value = getattr(self, name)
+            if value is None and name not in optional:
+                raise ValueError(f"Adaptation.{name} must be an integer, got None")
             if value is not None and (isinstance(value, bool) or not isinstance(value, int)):
                 raise ValueError(f"Adaptation.{name} must be an integer, got {value!r}")
             if value is not None and value < 1:
@@ -153,6 +172,13 @@ class Adaptation:
         """New points per block."""
         return self.interval if self.interval is not None else max(1, self.window // 2)
 
+    def refits(self, block: int) -> bool:
+        """Whether the ``block``-th block (from 1) refits: a power of two below ``max_gap``,
+        or a multiple of it."""
+        if block % self.max_gap == 0:
+            return True
+        return block < self.max_gap and block & (block - 1) == 0
+
     def as_dict(self) -> dict[str, Any]:
         """JSON-compatible settings (stored in the GP's state)."""
         return {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(self).items()}
@@ -178,6 +204,27 @@ def as_adaptation(adapt: Adaptation | Mapping[str, Any] | bool | None) -> Adapta
             f"{adapt!r}"
         )
     return adapt
+
+
+def thinned(n: int, cap: int | None, device: torch.device | None = None) -> tuple[Tensor, Tensor]:
+    """An evenly spaced subsample of ``n`` points, at most ``cap`` of them.
+
+    The points are cut into runs of ``ceil(n / cap)`` consecutive ones (the last may be
+    shorter); each run is represented by its middle point. Consecutive points of a trajectory
+    are close, so a sum over the points is approximated by the representatives' terms times
+    their runs' lengths (exact for ``cap >= n`` or ``cap=None``: every point, runs of 1).
+
+    Returns
+    -------
+    index : Tensor, shape (k,)
+        The representatives, in order.
+    count : Tensor, shape (k,)
+        Length of each one's run (they sum to ``n``).
+    """
+    stride = 1 if cap is None or n <= cap else -(-n // cap)
+    starts = torch.arange(0, n, stride, device=device)
+    count = (n - starts).clamp_max(stride)
+    return starts + (count - 1) // 2, count
 
 
 def jittered_cholesky(A: Tensor, scale: float) -> tuple[Tensor, float]:

@@ -45,6 +45,7 @@ from sb3_geogp.adaptation import (
     jittered_cholesky,
     nlpd,
     sparse_posterior,
+    thinned,
     weighted_moments,
 )
 from sb3_geogp.graph import BVGraph
@@ -951,9 +952,12 @@ class SparseOnlineGP(nn.Module):
         variance of the moment when used (:meth:`_summary`), so that a summarised point counts
         exactly as it would in the window, also after the noise has been re-fitted.
         """
+        assert self.adaptation is not None
         m = self.n_basis
+        index, count = thinned(x.shape[0], self.adaptation.fold_points, x.device)
+        x, y, batch = x[index], y[index], batch[index]
         Kzz, Kxz = self._basis_covariances(x)
-        w = age_weights(self._ages(batch), float(self.block_forgetting)).to(y)
+        w = age_weights(self._ages(batch), float(self.block_forgetting)).to(y) * count.to(y)
         yn = (y - self.y_mean) / self.y_scale
         part = Summary.of_data(Kzz, Kxz, yn, 1 / w, float(self.kernel.variance))
         self.summary_prec[:m, :m] += part.precision
@@ -980,7 +984,13 @@ class SparseOnlineGP(nn.Module):
         scored = bool((scores != 0).any())
         lam = a.forgetting[int(scores.argmin())] if scored else float(self.block_forgetting)
         scores.zero_()
-        w = age_weights(age, lam).to(y)
+        self.block_forgetting.fill_(lam)
+        self.last_stats.update(forgetting=lam)
+        if a.refits(int(self.n_blocks)):
+            self._refit(a, x, y, age_weights(age, lam).to(y))
+
+    def _refit(self, a: Adaptation, x: Tensor, y: Tensor, w: Tensor) -> None:
+        """Steps 2-4 of the adaptation on the window ``x, y`` with weights ``w``."""
         if a.targets:
             self._restandardise(y, w)
         yn = (y - self.y_mean) / self.y_scale
@@ -988,10 +998,8 @@ class SparseOnlineGP(nn.Module):
             k = a.fit_points
             self._fit(x[-k:], yn[-k:], w[-k:], a.steps, a.lr, a)
         self._rebuild(x, yn, w)
-        self.block_forgetting.fill_(lam)
         ls = self.kernel.lengthscale
         self.last_stats.update(
-            forgetting=lam,
             lengthscale=float(ls.log().mean().exp()),
             **{f"lengthscale_{i}": float(v) for i, v in enumerate(ls)},
             signal_var=float(self.kernel.variance),
@@ -1008,19 +1016,24 @@ class SparseOnlineGP(nn.Module):
 
     def _out_of_sample(self, x: Tensor, y: Tensor) -> dict[str, float]:
         """NLPD and explained variance of a batch under the posterior before it is absorbed;
-        scores the forgetting candidates on it (:meth:`_score_forgetting`)."""
+        scores the forgetting candidates on it (:meth:`_score_forgetting`). Both use at most
+        ``Adaptation.score_points`` points of the batch (:func:`~sb3_geogp.adaptation.thinned`)."""
+        assert self.adaptation is not None
+        index, count = thinned(x.shape[0], self.adaptation.score_points, x.device)
+        x, y = x[index], y[index]
         mean, var = self._latent(self._scaled(x), return_var=True)
         assert var is not None
-        self._score_forgetting(mean, var, (y - self.y_mean) / self.y_scale)
+        self._score_forgetting(mean, var, (y - self.y_mean) / self.y_scale, count.to(y))
         mean = mean * self.y_scale + self.y_mean
         var = (var + self.noise_var) * self.y_scale**2
         spread = float(y.var()) if y.shape[0] > 1 else 0.0
         explained = 1.0 - float((y - mean).var()) / spread if spread > 0 else math.nan
         return {"nlpd": nlpd(mean, var, y), "explained_variance": explained}
 
-    def _score_forgetting(self, mean: Tensor, var: Tensor, yn: Tensor) -> None:
+    def _score_forgetting(self, mean: Tensor, var: Tensor, yn: Tensor, count: Tensor) -> None:
         """Add to each candidate's score the negative log density of the batch ``yn : (n,)``
-        under the posterior forgotten by that candidate first.
+        under the posterior forgotten by that candidate first, point ``i`` counted
+        ``count[i]`` times.
 
         Forgetting by ``lambda`` (:meth:`_forget`) maps the latent mean ``mu`` and variance
         ``v`` of a point to ``sqrt(lambda) mu`` and ``(1 - lambda) sigma_f^2 + lambda v``, so
@@ -1032,7 +1045,7 @@ class SparseOnlineGP(nn.Module):
         means = lam.sqrt() * mean
         variances = (1 - lam) * self.kernel.variance + lam * var + self.noise_var
         nll = 0.5 * (torch.log(2 * math.pi * variances) + (yn - means).square() / variances)
-        self.forgetting_scores += nll.sum(dim=1)
+        self.forgetting_scores += nll @ count
 
     def _restandardise(self, y: Tensor, w: Tensor) -> None:
         """Weighted mean and scale of the retained targets, where the user fixed neither.

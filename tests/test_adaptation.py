@@ -8,7 +8,13 @@ import torch
 from scipy.optimize import minimize
 
 from sb3_geogp import RBFKernel, SparseOnlineGP
-from sb3_geogp.adaptation import Adaptation, Summary, jittered_cholesky, sparse_posterior
+from sb3_geogp.adaptation import (
+    Adaptation,
+    Summary,
+    jittered_cholesky,
+    sparse_posterior,
+    thinned,
+)
 from tests.test_sparse_gp import assert_same_state, nystrom_posterior, rbf, snapshot
 
 
@@ -28,6 +34,10 @@ from tests.test_sparse_gp import assert_same_state, nystrom_posterior, rbf, snap
         dict(lr=float("nan")),
         dict(prior_sd=0.0),
         dict(prior_sd=float("inf")),
+        dict(max_gap=0),
+        dict(max_gap=None),
+        dict(score_points=0),
+        dict(fold_points=1.5),
     ],
 )
 def test_bad_settings_raise_naming_the_setting(bad: dict) -> None:
@@ -49,6 +59,32 @@ def test_adapt_as_a_dict_is_the_adaptation_of_those_settings() -> None:
         SparseOnlineGP(2, "rbf", adapt={"prior": 0.1})
     with pytest.raises(ValueError, match=r"Adaptation\.prior_sd"):
         SparseOnlineGP(2, "rbf", adapt={"prior_sd": -1.0})
+
+
+@pytest.mark.parametrize("max_gap", [1, 2, 6, 8])
+def test_refits_on_powers_of_two_then_every_max_gap_blocks(max_gap: int) -> None:
+    powers = {2**k for k in range(8) if 2**k < max_gap}
+    multiples = set(range(max_gap, 101, max_gap))
+    refits = {b for b in range(1, 101) if Adaptation(max_gap=max_gap).refits(b)}
+    assert refits == powers | multiples
+    # The longest wait between refits is max_gap blocks.
+    assert max(np.diff(sorted(refits | {0}))) <= max_gap
+
+
+@pytest.mark.parametrize(
+    ("n", "cap"), [(10, None), (10, 10), (10, 20), (10, 3), (4096, 512), (7, 2)]
+)
+def test_thinned_runs_cover_every_point_once(n: int, cap: int | None) -> None:
+    index, count = thinned(n, cap)
+    assert int(count.sum()) == n and len(index) <= (cap or n)
+    # Each representative lies inside its own run, and the runs tile 0..n-1 in order.
+    ends = count.cumsum(0)
+    starts = ends - count
+    assert bool(((starts <= index) & (index < ends)).all())
+    stride = 1 if cap is None or cap >= n else -(-n // cap)
+    assert set(count[:-1].tolist()) <= {stride} and 1 <= int(count[-1]) <= stride
+    if cap is None or cap >= n:
+        assert index.tolist() == list(range(n)) and count.tolist() == [1] * n
 
 
 # -- numerics -----------------------------------------------------------------------------------
@@ -187,6 +223,54 @@ def test_forgetting_is_chosen_from_the_newest_block() -> None:
     assert chosen[3.0] < 1.0
 
 
+def test_forgetting_scores_count_each_sampled_point_for_its_run() -> None:
+    """With ``score_points=8``, a 40-point batch is scored on its points 2, 7, ..., 37, each
+    counted 5 times: the candidates' scores are the negative log densities of those points
+    under the posterior forgotten by each candidate (brute force from the GP's predictions)."""
+    rng = np.random.default_rng(6)
+    candidates = (1.0, 0.5, 0.1)
+    adapt = Adaptation(window=500, interval=400, steps=0, forgetting=candidates, score_points=8)
+    gp = SparseOnlineGP(1, RBFKernel(lengthscale=0.3), max_basis=20, adapt=adapt)
+    gp.update(rng.uniform(size=(60, 1)), rng.normal(size=60))
+    x = rng.uniform(size=(40, 1))
+    y = np.sin(3 * x[:, 0]) + 1.0
+    mean, latent = (t.numpy() for t in gp.predict(x[2::5]))
+    s, mu0, var, noise = (
+        float(gp.y_scale),
+        float(gp.y_mean),
+        float(gp.kernel.variance),
+        float(gp.noise_var),
+    )
+    mu, v, yn = (mean - mu0) / s, latent / s**2, (y[2::5] - mu0) / s
+    expected = []
+    for lam in candidates:
+        total = (1 - lam) * var + lam * v + noise
+        nll = 0.5 * (np.log(2 * np.pi * total) + (yn - np.sqrt(lam) * mu) ** 2 / total)
+        expected.append(5 * nll.sum())
+    before = gp.forgetting_scores.clone()
+    gp.update(x, y)
+    np.testing.assert_allclose((gp.forgetting_scores - before).numpy(), expected, rtol=1e-10)
+
+
+def test_between_refits_only_the_forgetting_is_chosen() -> None:
+    """``max_gap=4`` with a block per batch: targets, lengthscale, noise and posterior are
+    refitted after batches 1, 2, 4 and 8 only; the forgetting is chosen after every batch
+    (its scores start afresh)."""
+    rng = np.random.default_rng(7)
+    adapt = Adaptation(window=100, interval=50, steps=3, max_gap=4, forgetting=(1.0, 0.3))
+    gp = SparseOnlineGP(1, RBFKernel(lengthscale=0.3), max_basis=20, adapt=adapt)
+    changed = []
+    for i in range(10):
+        before = (gp.lengthscale.clone(), gp.y_mean.clone(), gp.noise_var.clone())
+        x = rng.uniform(size=(50, 1))
+        gp.update(x, (1 + i) * np.sin(4 * x[:, 0]) + 2.0 * i + 0.1 * rng.normal(size=50))
+        after = (gp.lengthscale, gp.y_mean, gp.noise_var)
+        changed.append(not all(torch.equal(a, b) for a, b in zip(before, after, strict=True)))
+        assert int(gp.n_blocks) == i + 1 and not bool(gp.forgetting_scores.any())
+    assert [i + 1 for i, c in enumerate(changed) if c] == [1, 2, 4, 8]
+    assert gp.block_forgetting == 0.3  # the drift is seen by the choice made after every batch
+
+
 def assert_weighted_sparse_posterior(
     gp: SparseOnlineGP, x: np.ndarray, y: np.ndarray, w: np.ndarray, rng: np.random.Generator
 ) -> None:
@@ -219,19 +303,29 @@ def test_rebuilt_posterior_is_the_sparse_posterior_of_the_weighted_window() -> N
 
 
 @pytest.mark.parametrize(
-    ("forgetting", "drift", "fit_noise"),
-    [(1.0, 0.0, False), (0.7, 0.0, False), (0.7, 0.5, False), (0.7, 0.5, True)],
+    ("forgetting", "drift", "fit_noise", "fold"),
+    [
+        (1.0, 0.0, False, None),
+        (0.7, 0.0, False, None),
+        (0.7, 0.5, False, None),
+        (0.7, 0.5, True, None),
+        (1.0, 0.0, False, 10),
+        (0.7, 0.5, True, 10),
+    ],
 )
 def test_summary_keeps_what_the_dropped_points_said(
-    forgetting: float, drift: float, fit_noise: bool
+    forgetting: float, drift: float, fit_noise: bool, fold: int | None
 ) -> None:
     """With the kernel and the basis fixed, a 150-point window on a 1200-point stream, fed in
     50-point batches and adapting every 100 points, gives the exact sparse posterior of all
     1200 points, weighted ``forgetting ** age`` with ``age`` in batches; also when the target
     mean and scale, re-estimated each block, follow a drift, and when the noise is re-fitted
-    each block (the summarised points then count with the final noise, as in the window)."""
+    each block (the summarised points then count with the final noise, as in the window).
+    With ``fold_points=10`` each dropped batch of 50 counts as its points 2, 7, ..., 47 (the
+    middles of runs of 5), each weighted 5 times."""
     rng = np.random.default_rng(5)
     adapt = Adaptation(
+        fold_points=fold,
         window=150,
         interval=100,
         steps=3 if fit_noise else 0,
@@ -257,7 +351,13 @@ def test_summary_keeps_what_the_dropped_points_said(
     assert (float(gp.noise_var) != 0.05) == fit_noise
     x, y = np.concatenate(xs), np.concatenate(ys)
     age = np.repeat(np.arange(len(xs))[::-1], 50)
-    assert_weighted_sparse_posterior(gp, x, y, forgetting**age, rng)
+    w = forgetting**age
+    if fold is not None:
+        dropped = np.arange(len(x)) < len(x) - 150
+        kept = ~dropped | (np.arange(len(x)) % 5 == 2)
+        w = np.where(dropped, 5 * w, w)
+        x, y, w = x[kept], y[kept], w[kept]
+    assert_weighted_sparse_posterior(gp, x, y, w, rng)
 
 
 def test_adaptation_state_round_trips_bit_for_bit() -> None:

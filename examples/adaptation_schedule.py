@@ -1,0 +1,265 @@
+"""What the adaptation costs and what its schedule buys: settings replayed on the same data.
+
+Issue 13 asks for adaptation at most 10% of the GP critic's time. Cheaper settings
+(:class:`~sb3_geogp.adaptation.Adaptation`'s ``max_gap``, ``score_points``, ``fold_points``,
+``steps``, ``fit_points``) trade fit for time; this script measures both on identical data, so
+that a setting is the only thing that changes:
+
+1. **Record.** One PPO run per environment and seed, the comparison's run
+   (:func:`~sb3_geogp.comparison.run.build_model`: zoo hyperparameters, the GP critic with the
+   comparison's options, here adaptive with its defaults), for ``--timesteps`` steps; every
+   batch the GP critic is fed (states, returns, episode starts) is kept in
+   ``OUT/streams/`` (an interrupted call resumes from the streams already there).
+2. **Replay.** For each setting, a fresh GP critic built as the policy builds it (same
+   observation bounds) is fed the recorded batches in order. Before each batch it predicts the
+   batch: its out-of-sample explained variance ``1 - Var(y - mu) / Var(y)``, outside the
+   clock. The clock times its ``update`` calls (one torch thread) and, inside them, what only
+   an adaptive GP does (out-of-sample statistics and forgetting scores, the summary of points
+   leaving the window, the adaptation proper), as ``examples/benchmark_training.py`` does.
+
+Writes ``OUT/results.json`` (per environment, seed and setting: update and adaptation
+seconds, explained variance per batch), ``OUT/table.md`` (adaptation share of the update
+time; explained variance over the last 20% of batches, mean over seeds, and its paired
+difference from the first setting with a 95% t interval) and ``OUT/frontier.png``.
+
+    python examples/adaptation_schedule.py --seeds 0 1 2 --out docs/adaptation_schedule
+    python examples/adaptation_schedule.py --settings '{"default": {}, "gap4": {"max_gap": 4}}'
+
+Time it on an otherwise idle machine: the replays run one after another.
+"""
+
+from __future__ import annotations
+
+import argparse
+import functools
+import json
+import time
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch as th
+from stable_baselines3.common.callbacks import BaseCallback, CallbackList
+from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
+from tqdm.auto import tqdm
+
+from sb3_geogp import GPActorCriticPolicy, GPValueCallback, SparseOnlineGP
+from sb3_geogp.comparison.run import build_model, write_json_atomic
+from sb3_geogp.comparison.specs import RunSpec, SweepConfig
+from sb3_geogp.toolbox.provenance import provenance
+from sb3_geogp.toolbox.stats import mean_ci
+
+ENVS = ("CartPole-v1", "Acrobot-v1", "Pendulum-v1", "sb3_geogp/PaperPendulum-v0")
+#: The settings replayed by default (merged into the comparison's ``adapt``).
+SETTINGS: dict[str, dict[str, Any]] = {
+    "default": {},
+    "thin 512": {"score_points": 512, "fold_points": 512},
+    "thin 512, gap 2": {"score_points": 512, "fold_points": 512, "max_gap": 2},
+    "thin 512, gap 4": {"score_points": 512, "fold_points": 512, "max_gap": 4},
+    "thin 512, gap 16": {"score_points": 512, "fold_points": 512, "max_gap": 16},
+    "thin 512, 2 steps": {"score_points": 512, "fold_points": 512, "steps": 2},
+}
+#: SparseOnlineGP methods that only run with adaptation (as in benchmark_training.py).
+ADAPTATION_STEPS = ("_adapt", "_summarise", "_out_of_sample")
+#: Share of the last batches whose explained variance is averaged (as in critic_fit.py).
+LAST = 0.2
+
+
+class StreamRecorder(BaseCallback):
+    """Keeps every batch the GP critic is fed: wraps its ``update`` for the run."""
+
+    def __init__(self, gp: SparseOnlineGP) -> None:
+        super().__init__()
+        self.batches: list[tuple[th.Tensor, th.Tensor, th.Tensor | None]] = []
+        original = gp.update
+
+        def update(x: Any, y: Any, episode_starts: Any = None) -> None:
+            starts = None if episode_starts is None else th.as_tensor(episode_starts).clone()
+            self.batches.append((th.as_tensor(x).clone(), th.as_tensor(y).clone(), starts))
+            original(x, y, episode_starts)
+
+        gp.update = update  # type: ignore[method-assign]
+
+    def _on_step(self) -> bool:
+        return True
+
+
+def spec_for(env_id: str, seed: int, timesteps: int, adapt: dict[str, Any]) -> RunSpec:
+    """The comparison's PPO run of the geodesic critic on ``env_id``, with ``adapt``."""
+    config = SweepConfig(
+        algos=("ppo",),
+        critics=("geodesic",),
+        envs=(env_id,),
+        seeds=(seed,),
+        timesteps=timesteps,
+        gp_options=(("adapt", adapt),) if adapt else (),
+    )
+    (spec,) = config.specs()
+    return spec
+
+
+def record(env_id: str, seed: int, timesteps: int, path: Path) -> list[Any]:
+    """The batches of one PPO run's GP critic (from ``path`` if recorded before)."""
+    if path.exists():
+        return th.load(path, weights_only=False)
+    th.set_num_threads(1)
+    model = build_model(spec_for(env_id, seed, timesteps, {}))
+    recorder = StreamRecorder(_critic(model))
+    model.learn(timesteps, callback=CallbackList([GPValueCallback(), recorder]))
+    env = model.get_env()
+    assert env is not None
+    env.close()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    th.save(recorder.batches, path)
+    return recorder.batches
+
+
+def _critic(model: OnPolicyAlgorithm) -> SparseOnlineGP:
+    assert isinstance(model.policy, GPActorCriticPolicy)
+    return model.policy.gp
+
+
+def _timed(method: Callable[..., Any], clock: list[float]) -> Callable[..., Any]:
+    @functools.wraps(method)
+    def wrapper(*args: Any, **kwargs: Any) -> Any:
+        start = time.perf_counter()
+        try:
+            return method(*args, **kwargs)
+        finally:
+            clock[0] += time.perf_counter() - start
+
+    return wrapper
+
+
+def replay(env_id: str, seed: int, batches: list[Any], adapt: dict[str, Any]) -> dict[str, Any]:
+    """Feed ``batches`` to a fresh GP critic with ``adapt``; time it and score each batch."""
+    th.set_num_threads(1)
+    model = build_model(spec_for(env_id, seed, 1, adapt))
+    gp = _critic(model)
+    env = model.get_env()
+    assert env is not None
+    env.close()
+    update, adaptation = [0.0], [0.0]
+    gp.update = _timed(SparseOnlineGP.update.__get__(gp), update)  # type: ignore[method-assign]
+    for name in ADAPTATION_STEPS:
+        setattr(gp, name, _timed(getattr(SparseOnlineGP, name).__get__(gp), adaptation))
+    explained = []
+    for i, (x, y, starts) in enumerate(batches):
+        if i > 0 and x.shape[0] > 1:
+            y64 = y.double()
+            mean = gp.predict(x, return_var=False)[0].double()
+            explained.append(1.0 - float((y64 - mean).var() / y64.var()))
+        gp.update(x, y, starts)
+    tail = explained[int(np.floor((1 - LAST) * len(explained))) :]
+    return dict(
+        update=update[0],
+        adaptation=adaptation[0],
+        share=adaptation[0] / update[0],
+        explained_variance=explained,
+        tail=float(np.mean(tail)),
+        n_batches=len(batches),
+        n_basis=gp.n_basis,
+    )
+
+
+def table(results: dict[str, Any], settings: Sequence[str]) -> str:
+    """Markdown: per environment and setting, the adaptation's share of the update time and
+    the tail explained variance (means over seeds; difference from the first setting, paired
+    by seed, with a 95% t interval)."""
+    base = settings[0]
+    lines = [
+        "| env | setting | adaptation / update | update s | explained variance (last "
+        f"{LAST:.0%}) | − {base} [95% CI] |",
+        "|---|---|---:|---:|---:|---|",
+    ]
+    for env_id, by_seed in results.items():
+        seeds = sorted(by_seed)
+        for name in settings:
+            runs = [by_seed[s][name] for s in seeds]
+            share = np.mean([r["share"] for r in runs])
+            seconds = np.mean([r["update"] for r in runs])
+            tail = np.mean([r["tail"] for r in runs])
+            diff = [by_seed[s][name]["tail"] - by_seed[s][base]["tail"] for s in seeds]
+            mean, half = (float(v) for v in mean_ci(np.asarray(diff), nan_policy="propagate"))
+            ci = "–" if name == base else f"{mean:+.3f} [{mean - half:+.3f}, {mean + half:+.3f}]"
+            lines.append(
+                f"| `{env_id}` | {name} | {share:.0%} | {seconds:.2f} | {tail:.3f} | {ci} |"
+            )
+    return "\n".join(lines) + "\n"
+
+
+def plot(results: dict[str, Any], settings: Sequence[str], path: Path) -> None:
+    """Tail explained variance against the adaptation's share, one panel per environment."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    envs = list(results)
+    fig, axes = plt.subplots(1, len(envs), figsize=(4.2 * len(envs), 3.8), squeeze=False)
+    for ax, env_id in zip(axes[0], envs, strict=True):
+        by_seed = results[env_id]
+        for k, name in enumerate(settings):
+            runs = [by_seed[s][name] for s in sorted(by_seed)]
+            shares = [100 * r["share"] for r in runs]
+            tails = [r["tail"] for r in runs]
+            colour = f"C{k}"
+            ax.scatter(shares, tails, color=colour, alpha=0.35, s=14)
+            ax.scatter(np.mean(shares), np.mean(tails), color=colour, s=60, label=name)
+        ax.axvline(10, color="k", ls=":", lw=1)
+        ax.set(title=env_id.split("/")[-1], xlabel="adaptation / GP update time (%)")
+        ax.set_xlim(0, 100)
+        ax.grid(alpha=0.3)
+    axes[0][0].set_ylabel(f"explained variance, last {LAST:.0%} of batches")
+    axes[0][-1].legend(fontsize=7, loc="lower left")
+    fig.suptitle("Adaptation settings replayed on the same PPO streams (dots: seeds; large: mean)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--envs", nargs="+", default=list(ENVS))
+    parser.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2])
+    parser.add_argument("--timesteps", type=int, default=60_000, help="steps of each recording")
+    parser.add_argument(
+        "--settings",
+        type=json.loads,
+        default=SETTINGS,
+        help="JSON {name: Adaptation settings}; the first is the reference",
+    )
+    parser.add_argument("--out", type=Path, default=Path("runs/adaptation_schedule"))
+    args = parser.parse_args(argv)
+    settings: dict[str, dict[str, Any]] = args.settings
+    record_ = provenance()
+    jobs = [(e, s) for e in args.envs for s in args.seeds]
+    results: dict[str, dict[int, dict[str, Any]]] = {e: {} for e in args.envs}
+    bar = tqdm(total=len(jobs) * (1 + len(settings)), unit="run", desc="record + replay")
+    for env_id, seed in jobs:
+        stream = args.out / "streams" / f"{env_id.replace('/', '-')}__s{seed}.pt"
+        batches = record(env_id, seed, args.timesteps, stream)
+        bar.update()
+        results[env_id][seed] = {}
+        for name, adapt in settings.items():
+            r = replay(env_id, seed, batches, adapt)
+            results[env_id][seed][name] = r
+            bar.set_postfix_str(f"{env_id} s{seed} {name}: {r['share']:.0%}, {r['tail']:.3f}")
+            bar.update()
+    bar.close()
+    names = list(settings)
+    text = table(results, names)
+    print(text)
+    args.out.mkdir(parents=True, exist_ok=True)
+    (args.out / "table.md").write_text(text)
+    write_json_atomic(
+        args.out / "results.json",
+        {"args": {**vars(args), "out": str(args.out)}, "results": results, "provenance": record_},
+    )
+    plot(results, names, args.out / "frontier.png")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
