@@ -10,7 +10,9 @@ also the GP critics with adaptation, and the seconds their updates spent on it (
 statistics, summary of dropped points, adaptation proper) with its share of the GP's time.
 ``--critics`` picks the critics instead: a kernel, optionally followed by ``+adapt`` and, for
 the geodesic kernel, ``+shared`` (0.3's one lengthscale factor, ``kernel_kwargs=dict(ard=False)``),
-so that the cost of an option is measured interleaved with the default's.
+and after ``+adapt`` by cheaper adaptation settings (``+gapN``: ``max_gap=N``; ``+thinN``:
+``score_points`` and ``fold_points`` N; ``+stepsN``), so that the cost of an option is measured
+interleaved with the default's.
 
 ``--threads default`` leaves torch's thread count as a new user has it (the engine then runs
 its own work single-threaded, see ``SparseOnlineGP(num_threads=...)``); ``--load N`` keeps N
@@ -19,7 +21,7 @@ busy processes running during the benchmark, to measure a loaded machine. Exampl
     python examples/benchmark_training.py --seeds 0 1 --out runs/benchmark_training.json
     python examples/benchmark_training.py --seeds 0 1 --threads default --load 2
     python examples/benchmark_training.py --workloads "PPO Pendulum-v1" \\
-        --critics geodesic+adapt geodesic+adapt+shared
+        --critics geodesic+adapt geodesic+adapt+shared geodesic+adapt+thin512+gap4
 """
 
 from __future__ import annotations
@@ -56,8 +58,35 @@ SUFFIXES: dict[str, dict[str, Any]] = {
     "adapt": {"adapt": True},
     "shared": {"kernel_kwargs": {"ard": False}},
 }
+#: Suffixes with a count (after ``+adapt``): the :class:`~sb3_geogp.adaptation.Adaptation`
+#: settings they give it, e.g. ``+gap4`` (``max_gap=4``), ``+thin512`` (``score_points`` and
+#: ``fold_points`` 512), ``+steps2``.
+SETTING_SUFFIXES: dict[str, tuple[str, ...]] = {
+    "gap": ("max_gap",),
+    "thin": ("score_points", "fold_points"),
+    "steps": ("steps",),
+}
 #: SparseOnlineGP methods that only run with adaptation (timed as "adaptation s").
 ADAPTATION_STEPS = ("_adapt", "_summarise", "_out_of_sample")
+
+
+def gp_kwargs_of(suffixes: Sequence[str]) -> dict[str, Any] | None:
+    """What the suffixes of a GP critic's name add to its ``gp_kwargs`` (``None``: a suffix
+    is unknown, or a setting suffix comes without ``+adapt``)."""
+    options: dict[str, Any] = {}
+    settings: dict[str, int] = {}
+    for suffix in suffixes:
+        name = suffix.rstrip("0123456789")
+        count = suffix[len(name) :]
+        if suffix in SUFFIXES:
+            options.update(SUFFIXES[suffix])
+        elif name in SETTING_SUFFIXES and count:
+            settings.update(dict.fromkeys(SETTING_SUFFIXES[name], int(count)))
+        else:
+            return None
+    if settings and "adapt" not in options:
+        return None
+    return {**options, "adapt": settings} if settings else options
 
 
 def critic_name(text: str) -> str:
@@ -65,10 +94,12 @@ def critic_name(text: str) -> str:
     argparse error listing them."""
     kernel, *suffixes = text.split("+")
     known = kernel in CRITICS and (kernel != "mlp" or not suffixes)
-    if not known or not set(suffixes) <= set(SUFFIXES):
+    if not known or gp_kwargs_of(suffixes) is None:
+        counted = " +".join(f"{k}N" for k in SETTING_SUFFIXES)
         raise argparse.ArgumentTypeError(
             f"unknown critic {text!r}: use one of {CRITICS}, a GP kernel optionally followed "
-            f"by +{' +'.join(SUFFIXES)} (e.g. geodesic+adapt+shared)"
+            f"by +{' +'.join(SUFFIXES)}, and after +adapt by +{counted} (e.g. "
+            "geodesic+adapt+shared, geodesic+adapt+thin512+gap4)"
         )
     return text
 
@@ -97,8 +128,7 @@ def run(workload: str, critic: str, seed: int, max_basis: int, scale: float) -> 
     else:
         kernel, *suffixes = critic.split("+")
         gp_kwargs = dict(kernel=kernel, max_basis=max_basis, adapt=False, **gp_options)
-        for suffix in suffixes:
-            gp_kwargs.update(SUFFIXES[suffix])
+        gp_kwargs.update(gp_kwargs_of(suffixes) or {})
         policy_kwargs = {**policy_kwargs, "gp_kwargs": gp_kwargs}
         model = algo_cls(GPActorCriticPolicy, env, seed=seed, policy_kwargs=policy_kwargs, **kwargs)
         gp = model.policy.gp

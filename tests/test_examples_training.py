@@ -44,9 +44,20 @@ def test_benchmark_training_critics_option(tmp_path: Path, monkeypatch: pytest.M
     bench.main([*argv, "--max-basis", "16", "--critics", *critics, "--out", str(out)])
     assert list(json.loads(out.read_text())["results"]["A2C CartPole-v1"]) == critics
     assert built == [True, False]
-    for bad in ("geodesic+fast", "mlp+adapt", "gpr"):
+    for bad in ("geodesic+fast", "mlp+adapt", "gpr", "geodesic+gap4", "geodesic+adapt+gap"):
         with pytest.raises(SystemExit):
             bench.main([*argv, "--critics", bad])
+
+
+def test_benchmark_training_setting_suffixes_build_those_settings() -> None:
+    from sb3_geogp.adaptation import Adaptation, as_adaptation
+
+    bench = load_script("benchmark_training")
+    options = bench.gp_kwargs_of(["adapt", "thin512", "gap4", "shared"])
+    assert options["kernel_kwargs"] == {"ard": False}
+    expected = Adaptation(max_gap=4, score_points=512, fold_points=512)
+    assert as_adaptation(options["adapt"]) == expected
+    assert bench.gp_kwargs_of(["adapt"]) == {"adapt": True}
 
 
 def test_critic_fit_scores_each_rollout_as_sb3_does() -> None:
