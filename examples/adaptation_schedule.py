@@ -9,7 +9,8 @@ that a setting is the only thing that changes:
    (:func:`~sb3_geogp.comparison.run.build_model`: zoo hyperparameters, the GP critic with the
    comparison's options, here adaptive with its defaults), for ``--timesteps`` steps; every
    batch the GP critic is fed (states, returns, episode starts) is kept in
-   ``OUT/streams/`` (an interrupted call resumes from the streams already there).
+   ``OUT/streams/`` or ``--streams`` (an interrupted call resumes from the streams already
+   there; another call can replay other settings on them).
 2. **Replay.** For each setting, a fresh GP critic built as the policy builds it (same
    observation bounds) is fed the recorded batches in order. Before each batch it predicts the
    batch: its out-of-sample explained variance ``1 - Var(y - mu) / Var(y)``, outside the
@@ -203,15 +204,16 @@ def plot(results: dict[str, Any], settings: Sequence[str], path: Path) -> None:
         for k, name in enumerate(settings):
             runs = [by_seed[s][name] for s in sorted(by_seed)]
             shares = [100 * r["share"] for r in runs]
-            tails = [r["tail"] for r in runs]
+            tails = [max(r["tail"], -1.0) for r in runs]
             colour = f"C{k}"
             ax.scatter(shares, tails, color=colour, alpha=0.35, s=14)
-            ax.scatter(np.mean(shares), np.mean(tails), color=colour, s=60, label=name)
+            mean_tail = max(float(np.mean([r["tail"] for r in runs])), -1.0)
+            ax.scatter(np.mean(shares), mean_tail, color=colour, s=60, label=name)
         ax.axvline(10, color="k", ls=":", lw=1)
         ax.set(title=env_id.split("/")[-1], xlabel="adaptation / GP update time (%)")
         ax.set_xlim(0, 100)
         ax.grid(alpha=0.3)
-    axes[0][0].set_ylabel(f"explained variance, last {LAST:.0%} of batches")
+    axes[0][0].set_ylabel(f"expl. variance, last {LAST:.0%} (clipped at -1)")
     axes[0][-1].legend(fontsize=7, loc="lower left")
     fig.suptitle("Adaptation settings replayed on the same PPO streams (dots: seeds; large: mean)")
     fig.tight_layout()
@@ -231,14 +233,18 @@ def main(argv: Sequence[str] | None = None) -> int:
         help="JSON {name: Adaptation settings}; the first is the reference",
     )
     parser.add_argument("--out", type=Path, default=Path("runs/adaptation_schedule"))
+    parser.add_argument(
+        "--streams", type=Path, default=None, help="recorded streams (default: OUT/streams)"
+    )
     args = parser.parse_args(argv)
+    streams: Path = args.streams or args.out / "streams"
     settings: dict[str, dict[str, Any]] = args.settings
     record_ = provenance()
     jobs = [(e, s) for e in args.envs for s in args.seeds]
     results: dict[str, dict[int, dict[str, Any]]] = {e: {} for e in args.envs}
     bar = tqdm(total=len(jobs) * (1 + len(settings)), unit="run", desc="record + replay")
     for env_id, seed in jobs:
-        stream = args.out / "streams" / f"{env_id.replace('/', '-')}__s{seed}.pt"
+        stream = streams / f"{env_id.replace('/', '-')}__s{seed}.pt"
         batches = record(env_id, seed, args.timesteps, stream)
         bar.update()
         results[env_id][seed] = {}
@@ -255,7 +261,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     (args.out / "table.md").write_text(text)
     write_json_atomic(
         args.out / "results.json",
-        {"args": {**vars(args), "out": str(args.out)}, "results": results, "provenance": record_},
+        {
+            "args": {**vars(args), "out": str(args.out), "streams": str(streams)},
+            "results": results,
+            "provenance": record_,
+        },
     )
     plot(results, names, args.out / "frontier.png")
     return 0

@@ -130,3 +130,27 @@ def test_wall_maze_pilot_tiny_run_and_its_goal_test(tmp_path: Path) -> None:
     # when moves slide, and not in the published layout.
     for layout, reaches in ((WallMaze(CORNER_LAYOUT), True), (WallMaze(), False)):
         assert pilot._reaches_goal(_PushUpLeft(), layout, np.array([0.6, 0.9])) == reaches
+
+
+def test_adaptation_schedule_replays_the_recorded_stream(tmp_path: Path) -> None:
+    """A tiny record-and-replay: caps above every batch's size change nothing (the thinned
+    runs are single points), and a second call replays the saved stream, unchanged, to the
+    same figures."""
+    schedule = load_script("adaptation_schedule")
+    settings = {"default": {}, "uncapped": {"score_points": 10**6, "fold_points": 10**6}}
+    argv = ["--envs", "CartPole-v1", "--seeds", "0", "--timesteps", "1200"]
+    argv += ["--settings", json.dumps(settings), "--out", str(tmp_path)]
+    schedule.main(argv)
+    first = json.loads((tmp_path / "results.json").read_text())["results"]["CartPole-v1"]["0"]
+    stream = tmp_path / "streams" / "CartPole-v1__s0.pt"
+    recorded = stream.stat().st_mtime_ns
+    assert first["default"]["n_batches"] >= 4
+    ev = first["default"]["explained_variance"]
+    assert len(ev) == first["default"]["n_batches"] - 1
+    assert ev == first["uncapped"]["explained_variance"]
+    schedule.main(argv)
+    again = json.loads((tmp_path / "results.json").read_text())["results"]["CartPole-v1"]["0"]
+    assert stream.stat().st_mtime_ns == recorded
+    assert again["default"]["explained_variance"] == ev
+    assert "| `CartPole-v1` | uncapped |" in (tmp_path / "table.md").read_text()
+    assert (tmp_path / "frontier.png").stat().st_size > 0
