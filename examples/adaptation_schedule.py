@@ -32,10 +32,8 @@ Time it on an otherwise idle machine: the replays run one after another.
 from __future__ import annotations
 
 import argparse
-import functools
 import json
-import time
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -48,6 +46,7 @@ from tqdm.auto import tqdm
 from sb3_geogp import GPActorCriticPolicy, GPValueCallback, SparseOnlineGP
 from sb3_geogp.comparison.run import build_model, write_json_atomic
 from sb3_geogp.comparison.specs import RunSpec, SweepConfig
+from sb3_geogp.toolbox.benchmarks import GPClock
 from sb3_geogp.toolbox.provenance import provenance
 from sb3_geogp.toolbox.stats import mean_ci
 
@@ -61,8 +60,6 @@ SETTINGS: dict[str, dict[str, Any]] = {
     "thin 512, gap 16": {"score_points": 512, "fold_points": 512, "max_gap": 16},
     "thin 512, 2 steps": {"score_points": 512, "fold_points": 512, "steps": 2},
 }
-#: SparseOnlineGP methods that only run with adaptation (as in benchmark_training.py).
-ADAPTATION_STEPS = ("_adapt", "_summarise", "_out_of_sample")
 #: Share of the last batches whose explained variance is averaged (as in critic_fit.py).
 LAST = 0.2
 
@@ -121,18 +118,6 @@ def _critic(model: OnPolicyAlgorithm) -> SparseOnlineGP:
     return model.policy.gp
 
 
-def _timed(method: Callable[..., Any], clock: list[float]) -> Callable[..., Any]:
-    @functools.wraps(method)
-    def wrapper(*args: Any, **kwargs: Any) -> Any:
-        start = time.perf_counter()
-        try:
-            return method(*args, **kwargs)
-        finally:
-            clock[0] += time.perf_counter() - start
-
-    return wrapper
-
-
 def replay(env_id: str, seed: int, batches: list[Any], adapt: dict[str, Any]) -> dict[str, Any]:
     """Feed ``batches`` to a fresh GP critic with ``adapt``; time it and score each batch."""
     th.set_num_threads(1)
@@ -141,22 +126,19 @@ def replay(env_id: str, seed: int, batches: list[Any], adapt: dict[str, Any]) ->
     env = model.get_env()
     assert env is not None
     env.close()
-    update, adaptation = [0.0], [0.0]
-    gp.update = _timed(SparseOnlineGP.update.__get__(gp), update)  # type: ignore[method-assign]
-    for name in ADAPTATION_STEPS:
-        setattr(gp, name, _timed(getattr(SparseOnlineGP, name).__get__(gp), adaptation))
+    seconds = GPClock(gp).seconds
     explained = []
     for i, (x, y, starts) in enumerate(batches):
         if i > 0 and x.shape[0] > 1:
             y64 = y.double()
-            mean = gp.predict(x, return_var=False)[0].double()
+            mean = SparseOnlineGP.predict(gp, x, return_var=False)[0].double()  # not timed
             explained.append(1.0 - float((y64 - mean).var() / y64.var()))
         gp.update(x, y, starts)
     tail = explained[int(np.floor((1 - LAST) * len(explained))) :]
     return dict(
-        update=update[0],
-        adaptation=adaptation[0],
-        share=adaptation[0] / update[0],
+        update=seconds["update"],
+        adaptation=seconds["adaptation"],
+        share=seconds["adaptation"] / seconds["update"],
         explained_variance=explained,
         tail=float(np.mean(tail)),
         n_batches=len(batches),

@@ -27,13 +27,12 @@ busy processes running during the benchmark, to measure a loaded machine. Exampl
 from __future__ import annotations
 
 import argparse
-import functools
 import json
 import multiprocessing as mp
 import os
 import statistics
 import time
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
@@ -42,8 +41,9 @@ import torch as th
 from stable_baselines3 import A2C, PPO
 from stable_baselines3.common.env_util import make_vec_env
 
-from sb3_geogp import GPActorCriticPolicy, GPValueCallback, SparseOnlineGP
+from sb3_geogp import GPActorCriticPolicy, GPValueCallback
 from sb3_geogp.comparison.hyperparams import algo_kwargs, hyperparams
+from sb3_geogp.toolbox.benchmarks import GPClock
 from sb3_geogp.toolbox.provenance import provenance
 
 WORKLOADS = {
@@ -66,8 +66,6 @@ SETTING_SUFFIXES: dict[str, tuple[str, ...]] = {
     "thin": ("score_points", "fold_points"),
     "steps": ("steps",),
 }
-#: SparseOnlineGP methods that only run with adaptation (timed as "adaptation s").
-ADAPTATION_STEPS = ("_adapt", "_summarise", "_out_of_sample")
 
 
 def gp_kwargs_of(suffixes: Sequence[str]) -> dict[str, Any] | None:
@@ -104,24 +102,12 @@ def critic_name(text: str) -> str:
     return text
 
 
-def _timed(method: Callable[..., Any], clock: list[float]) -> Callable[..., Any]:
-    @functools.wraps(method)
-    def wrapper(*args: Any, **kwargs: Any) -> Any:
-        start = time.perf_counter()
-        try:
-            return method(*args, **kwargs)
-        finally:
-            clock[0] += time.perf_counter() - start
-
-    return wrapper
-
-
 def run(workload: str, critic: str, seed: int, max_basis: int, scale: float) -> dict[str, Any]:
     """Train once; wall clock, and for a GP critic the seconds in its updates and predictions."""
     algo_cls, algo, env_id, steps, gp_options = WORKLOADS[workload]
     n_envs, kwargs, policy_kwargs = algo_kwargs(algo, hyperparams(algo, env_id).values)
     env = make_vec_env(env_id, n_envs=n_envs, seed=seed)
-    update, predict, adaptation = [0.0], [0.0], [0.0]
+    seconds = {"update": 0.0, "predict": 0.0, "adaptation": 0.0}
     if critic == "mlp":
         model = algo_cls("MlpPolicy", env, seed=seed, policy_kwargs=policy_kwargs, **kwargs)
         callback = None
@@ -131,20 +117,13 @@ def run(workload: str, critic: str, seed: int, max_basis: int, scale: float) -> 
         gp_kwargs.update(gp_kwargs_of(suffixes) or {})
         policy_kwargs = {**policy_kwargs, "gp_kwargs": gp_kwargs}
         model = algo_cls(GPActorCriticPolicy, env, seed=seed, policy_kwargs=policy_kwargs, **kwargs)
-        gp = model.policy.gp
-        # Instance attributes shadow the methods: every call inside learn() is timed.
-        gp.update = _timed(SparseOnlineGP.update.__get__(gp), update)  # type: ignore[method-assign]
-        gp.predict = _timed(SparseOnlineGP.predict.__get__(gp), predict)  # type: ignore[method-assign]
-        # What only an adaptive GP does, inside its updates: the out-of-sample statistics,
-        # the summary of dropped points, and the adaptation proper.
-        for name in ADAPTATION_STEPS:
-            setattr(gp, name, _timed(getattr(SparseOnlineGP, name).__get__(gp), adaptation))
+        seconds = GPClock(model.policy.gp).seconds
         callback = GPValueCallback()
     start = time.perf_counter()
     model.learn(int(steps * scale), callback=callback)
     wall = time.perf_counter() - start
     env.close()
-    return {"wall": wall, "update": update[0], "predict": predict[0], "adaptation": adaptation[0]}
+    return {"wall": wall, **seconds}
 
 
 def _spin() -> None:

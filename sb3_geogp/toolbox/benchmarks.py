@@ -1,10 +1,13 @@
-"""Helpers of the engine benchmarks (``examples/benchmark_speed.py``,
-``examples/long_run_numerics.py``): named GP configurations and thread limits."""
+"""Helpers of the benchmarks (``examples/benchmark_speed.py``, ``long_run_numerics.py``,
+``benchmark_training.py``, ``adaptation_schedule.py``): named GP configurations, thread
+limits, and a clock on a GP's methods."""
 
 from __future__ import annotations
 
 import contextlib
-from collections.abc import Iterator
+import functools
+import time
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -66,3 +69,37 @@ def _blas_threads(threads: int | None) -> contextlib.AbstractContextManager[Any]
     except ImportError:
         return contextlib.nullcontext()
     return threadpool_limits(limits=threads)
+
+
+#: :class:`SparseOnlineGP` methods that only run with adaptation (inside its updates): the
+#: out-of-sample statistics and forgetting scores, the summary of points leaving the window,
+#: and the adaptation proper.
+ADAPTATION_STEPS = ("_adapt", "_summarise", "_out_of_sample")
+
+
+class GPClock:
+    """Seconds one GP spends in ``update``, in ``predict`` and, inside its updates, in
+    :data:`ADAPTATION_STEPS`.
+
+    The methods are wrapped on the instance (instance attributes shadow the class's), so every
+    call is timed, also those SB3 makes inside ``learn()``.
+    """
+
+    def __init__(self, gp: SparseOnlineGP) -> None:
+        self.seconds = {"update": 0.0, "predict": 0.0, "adaptation": 0.0}
+        for name, clock in (("update", "update"), ("predict", "predict")):
+            setattr(gp, name, self._timed(getattr(SparseOnlineGP, name).__get__(gp), clock))
+        for name in ADAPTATION_STEPS:
+            method = getattr(SparseOnlineGP, name).__get__(gp)
+            setattr(gp, name, self._timed(method, "adaptation"))
+
+    def _timed(self, method: Callable[..., Any], clock: str) -> Callable[..., Any]:
+        @functools.wraps(method)
+        def wrapper(*args: Any, **kwargs: Any) -> Any:
+            start = time.perf_counter()
+            try:
+                return method(*args, **kwargs)
+            finally:
+                self.seconds[clock] += time.perf_counter() - start
+
+        return wrapper
