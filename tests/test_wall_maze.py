@@ -11,6 +11,7 @@ from sb3_geogp.envs.wall_maze import (
     MAX_EPISODE_STEPS,
     WALL_MAZE_CORNER_ID,
     WALL_MAZE_DISCRETE_ID,
+    WALL_MAZE_DOOR_ID,
     WALL_MAZE_ID,
     MazeLayout,
     WallMaze,
@@ -65,7 +66,9 @@ def test_render() -> None:
     assert (img[..., 0] == 220).sum() > 0  # agent drawn
 
 
-@pytest.mark.parametrize("env_id", [WALL_MAZE_ID, WALL_MAZE_DISCRETE_ID, WALL_MAZE_CORNER_ID])
+@pytest.mark.parametrize(
+    "env_id", [WALL_MAZE_ID, WALL_MAZE_DISCRETE_ID, WALL_MAZE_CORNER_ID, WALL_MAZE_DOOR_ID]
+)
 def test_registered(env_id: str) -> None:
     env = gym.make(env_id)
     check_env(env.unwrapped)
@@ -231,3 +234,35 @@ def test_optimal_value_jumps_across_walls() -> None:
     # Continuous within a room: nearby points differ by at most one step or so.
     a, b = lay.optimal_steps(np.array([[0.3, 0.40], [0.3, 0.42]]))
     assert abs(a - b) <= 1
+
+
+@pytest.mark.parametrize("start", [(0.1, 0.3), (0.9, 0.1), (0.45, 0.2)])
+def test_door_layout_pushing_towards_the_goal_slides_through_the_door(
+    start: tuple[float, float],
+) -> None:
+    """In WallMazeDoor a constant push straight at the goal from below the wall slides along
+    the wall into the door and ends in the goal (no dead end), within a few steps of the
+    shortest path's length."""
+    env = gym.make(WALL_MAZE_DOOR_ID).unwrapped
+    assert isinstance(env, WallMaze) and env.layout.slide
+    env.reset(options={"start": start})
+    goal = np.asarray(env.layout.goal)
+    steps, terminated = 0, False
+    while not terminated and steps < MAX_EPISODE_STEPS:
+        direction = goal - env.position
+        action = (direction / np.linalg.norm(direction)).astype(np.float32)
+        _, _, terminated, _, _ = env.step(action)
+        steps += 1
+    assert terminated
+    assert steps <= int(env.layout.optimal_steps(np.asarray(start))) + 10
+
+
+def test_door_layout_value_jumps_across_the_wall() -> None:
+    """Just below the wall, away from the door, the goal is a detour through the door away;
+    just above it, a straight line: the optimal return jumps by the detour."""
+    layout = gym.make(WALL_MAZE_DOOR_ID).unwrapped.layout
+    below, above = layout.optimal_steps(np.array([[0.05, 0.48], [0.05, 0.52]]))
+    # Below: to the door's left post (0.4, 0.5), then to the goal's centre; above: straight.
+    detour = np.hypot(0.35, 0.02) + np.hypot(0.1, 0.35) - np.hypot(0.45, 0.33)
+    assert abs((below - above) - detour / layout.max_step) <= 1
+    assert below - above >= 3

@@ -4,7 +4,8 @@
   (150-step episodes).
 * ``sb3_geogp/WallMaze-v0`` / ``sb3_geogp/WallMazeDiscrete-v0``: :class:`WallMaze`, 2-D
   navigation through walls, continuous or 8-direction actions;
-  ``sb3_geogp/WallMazeCorner-v0``: continuous, moves slide along walls, goal in the corner.
+  ``sb3_geogp/WallMazeCorner-v0``: continuous, moves slide along walls, goal in the corner;
+  ``sb3_geogp/WallMazeDoor-v0``: continuous, sliding, one wall with a door.
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ from sb3_geogp.envs.pendulum import (
 from sb3_geogp.envs.wall_maze import (
     WALL_MAZE_CORNER_ID,
     WALL_MAZE_DISCRETE_ID,
+    WALL_MAZE_DOOR_ID,
     WALL_MAZE_ID,
     MazeLayout,
     WallMaze,
@@ -44,6 +46,7 @@ __all__ = [
     "PAPER_PENDULUM_ID",
     "WALL_MAZE_CORNER_ID",
     "WALL_MAZE_DISCRETE_ID",
+    "WALL_MAZE_DOOR_ID",
     "WALL_MAZE_ID",
     "MazeLayout",
     "PaperPendulum",
