@@ -40,6 +40,12 @@ substitutes that vector's conditional mean given the others, as the on-line dele
 Without it a rebuild would forget everything older than the window (measured: 2-4x the batch
 sparse GP's error on the fixed-policy pendulum check, against about 1x without adaptation).
 
+With ``Adaptation(max_gap=g)``, steps 2-4 (the *refit*) run only on the blocks numbered by a
+power of two below ``g`` and on the multiples of ``g``; every block still chooses its
+forgetting. ``score_points`` and ``fold_points`` make step 1 and the summary below use an
+evenly spaced subsample of a batch (:func:`thinned`). All three are cheaper and off by default:
+docs/benchmarks.md measures what they save and what fit they cost.
+
 Between adaptations the GP learns on-line as without adaptation, forgetting with the chosen
 ``lambda`` before each batch (``alpha <- sqrt(lambda) alpha``, ``C <- lambda C``), which the
 next rebuild's weights then make exact.
