@@ -32,6 +32,7 @@ Time it on an otherwise idle machine: the replays run one after another.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 from collections.abc import Sequence
 from pathlib import Path
@@ -39,6 +40,7 @@ from typing import Any
 
 import numpy as np
 import torch as th
+from stable_baselines3 import PPO
 from stable_baselines3.common.callbacks import BaseCallback, CallbackList
 from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
 from tqdm.auto import tqdm
@@ -60,6 +62,8 @@ SETTINGS: dict[str, dict[str, Any]] = {
     "thin 512, gap 16": {"score_points": 512, "fold_points": 512, "max_gap": 16},
     "thin 512, 2 steps": {"score_points": 512, "fold_points": 512, "steps": 2},
 }
+#: Name of the reference row of ``--mlp``: SB3's MLP critic replayed on the same batches.
+MLP = "SB3 MLP critic"
 #: Share of the last batches whose explained variance is averaged (as in critic_fit.py).
 LAST = 0.2
 
@@ -146,6 +150,55 @@ def replay(env_id: str, seed: int, batches: list[Any], adapt: dict[str, Any]) ->
     )
 
 
+def replay_mlp(env_id: str, seed: int, batches: list[Any]) -> dict[str, Any]:
+    """Feed ``batches`` to SB3's own MLP critic as PPO trains it, for reference.
+
+    The comparison's ``mlp`` model for ``env_id`` and ``seed``; for each batch, after scoring
+    it as :func:`replay` does, ``n_epochs`` passes over shuffled minibatches of
+    ``batch_size`` of PPO's value loss alone (``vf_coef`` times the mean squared error), with
+    the policy's optimizer, initial learning rate and gradient clipping. The actor gets no
+    gradient, so only the critic learns, from the targets the GP critic was fed.
+    """
+    th.set_num_threads(1)
+    spec = dataclasses.replace(spec_for(env_id, seed, 1, {}), critic="mlp")
+    model = build_model(spec)
+    env = model.get_env()
+    assert env is not None
+    env.close()
+    assert isinstance(model, PPO)
+    policy, optimizer = model.policy, model.policy.optimizer
+    for group in optimizer.param_groups:
+        group["lr"] = model.lr_schedule(1.0)
+    generator = th.Generator().manual_seed(seed)
+    explained = []
+    for i, (x, y, _) in enumerate(batches):
+        obs, target = x.float(), y.float()
+        with th.no_grad():
+            value = policy.predict_values(obs)[:, 0]
+        if i > 0 and x.shape[0] > 1:
+            explained.append(1.0 - float((target - value).var() / target.var()))
+        for _ in range(model.n_epochs):
+            order = th.randperm(x.shape[0], generator=generator)
+            for start in range(0, x.shape[0], model.batch_size):
+                rows = order[start : start + model.batch_size]
+                error = policy.predict_values(obs[rows])[:, 0] - target[rows]
+                loss = model.vf_coef * error.square().mean()
+                optimizer.zero_grad()
+                loss.backward()
+                th.nn.utils.clip_grad_norm_(policy.parameters(), model.max_grad_norm)
+                optimizer.step()
+    tail = explained[int(np.floor((1 - LAST) * len(explained))) :]
+    return dict(
+        update=None,
+        adaptation=None,
+        share=None,
+        explained_variance=explained,
+        tail=float(np.mean(tail)),
+        n_batches=len(batches),
+        n_basis=0,
+    )
+
+
 def table(results: dict[str, Any], settings: Sequence[str]) -> str:
     """Markdown: per environment and setting, the adaptation's share of the update time and
     the tail explained variance (means over seeds; difference from the first setting, paired
@@ -160,15 +213,15 @@ def table(results: dict[str, Any], settings: Sequence[str]) -> str:
         seeds = sorted(by_seed)
         for name in settings:
             runs = [by_seed[s][name] for s in seeds]
-            share = np.mean([r["share"] for r in runs])
-            seconds = np.mean([r["update"] for r in runs])
+            timed = runs[0]["share"] is not None
+            share = np.mean([r["share"] for r in runs]) if timed else None
+            seconds = np.mean([r["update"] for r in runs]) if timed else None
             tail = np.mean([r["tail"] for r in runs])
             diff = [by_seed[s][name]["tail"] - by_seed[s][base]["tail"] for s in seeds]
             mean, half = (float(v) for v in mean_ci(np.asarray(diff), nan_policy="propagate"))
             ci = "–" if name == base else f"{mean:+.3f} [{mean - half:+.3f}, {mean + half:+.3f}]"
-            lines.append(
-                f"| `{env_id}` | {name} | {share:.0%} | {seconds:.2f} | {tail:.3f} | {ci} |"
-            )
+            cost = f"{share:.0%} | {seconds:.2f}" if timed else "– | –"
+            lines.append(f"| `{env_id}` | {name} | {cost} | {tail:.3f} | {ci} |")
     return "\n".join(lines) + "\n"
 
 
@@ -185,6 +238,10 @@ def plot(results: dict[str, Any], settings: Sequence[str], path: Path) -> None:
         by_seed = results[env_id]
         for k, name in enumerate(settings):
             runs = [by_seed[s][name] for s in sorted(by_seed)]
+            if runs[0]["share"] is None:  # the untimed MLP reference: a level, not a point
+                mean_tail = max(float(np.mean([r["tail"] for r in runs])), -1.0)
+                ax.axhline(mean_tail, color=f"C{k}", ls="--", lw=1.2, label=name)
+                continue
             shares = [100 * r["share"] for r in runs]
             tails = [max(r["tail"], -1.0) for r in runs]
             colour = f"C{k}"
@@ -214,6 +271,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         default=SETTINGS,
         help="JSON {name: Adaptation settings}; the first is the reference",
     )
+    parser.add_argument(
+        "--mlp", action="store_true", help=f"also replay SB3's MLP critic ({MLP!r}) for reference"
+    )
     parser.add_argument("--out", type=Path, default=Path("runs/adaptation_schedule"))
     parser.add_argument(
         "--streams", type=Path, default=None, help="recorded streams (default: OUT/streams)"
@@ -224,7 +284,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     record_ = provenance()
     jobs = [(e, s) for e in args.envs for s in args.seeds]
     results: dict[str, dict[int, dict[str, Any]]] = {e: {} for e in args.envs}
-    bar = tqdm(total=len(jobs) * (1 + len(settings)), unit="run", desc="record + replay")
+    per_job = 1 + len(settings) + int(args.mlp)
+    bar = tqdm(total=len(jobs) * per_job, unit="run", desc="record + replay")
     for env_id, seed in jobs:
         stream = streams / f"{env_id.replace('/', '-')}__s{seed}.pt"
         batches = record(env_id, seed, args.timesteps, stream)
@@ -235,8 +296,11 @@ def main(argv: Sequence[str] | None = None) -> int:
             results[env_id][seed][name] = r
             bar.set_postfix_str(f"{env_id} s{seed} {name}: {r['share']:.0%}, {r['tail']:.3f}")
             bar.update()
+        if args.mlp:
+            results[env_id][seed][MLP] = replay_mlp(env_id, seed, batches)
+            bar.update()
     bar.close()
-    names = list(settings)
+    names = list(settings) + ([MLP] if args.mlp else [])
     text = table(results, names)
     print(text)
     args.out.mkdir(parents=True, exist_ok=True)

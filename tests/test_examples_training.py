@@ -134,11 +134,11 @@ def test_wall_maze_pilot_tiny_run_and_its_goal_test(tmp_path: Path) -> None:
 
 def test_adaptation_schedule_replays_the_recorded_stream(tmp_path: Path) -> None:
     """A tiny record-and-replay: caps above every batch's size change nothing (the thinned
-    runs are single points), and a second call replays the saved stream, unchanged, to the
-    same figures."""
+    runs are single points), a second call replays the saved stream, unchanged, to the same
+    figures, and the MLP reference is scored on the same batches."""
     schedule = load_script("adaptation_schedule")
     settings = {"default": {}, "uncapped": {"score_points": 10**6, "fold_points": 10**6}}
-    argv = ["--envs", "CartPole-v1", "--seeds", "0", "--timesteps", "1200"]
+    argv = ["--envs", "CartPole-v1", "--seeds", "0", "--timesteps", "1200", "--mlp"]
     argv += ["--settings", json.dumps(settings), "--out", str(tmp_path)]
     schedule.main(argv)
     first = json.loads((tmp_path / "results.json").read_text())["results"]["CartPole-v1"]["0"]
@@ -152,5 +152,10 @@ def test_adaptation_schedule_replays_the_recorded_stream(tmp_path: Path) -> None
     again = json.loads((tmp_path / "results.json").read_text())["results"]["CartPole-v1"]["0"]
     assert stream.stat().st_mtime_ns == recorded
     assert again["default"]["explained_variance"] == ev
-    assert "| `CartPole-v1` | uncapped |" in (tmp_path / "table.md").read_text()
+    table = (tmp_path / "table.md").read_text()
+    assert "| `CartPole-v1` | uncapped |" in table
+    # The MLP reference is scored on the same batches, untimed.
+    mlp = again[schedule.MLP]
+    assert len(mlp["explained_variance"]) == len(ev) and mlp["share"] is None
+    assert f"| `CartPole-v1` | {schedule.MLP} | – | – |" in table
     assert (tmp_path / "frontier.png").stat().st_size > 0
