@@ -87,15 +87,19 @@ class StreamRecorder(BaseCallback):
         return True
 
 
-def spec_for(env_id: str, seed: int, timesteps: int, adapt: dict[str, Any]) -> RunSpec:
-    """The comparison's PPO run of the geodesic critic on ``env_id``, with ``adapt``."""
+def spec_for(env_id: str, seed: int, timesteps: int, setting: dict[str, Any]) -> RunSpec:
+    """The comparison's PPO run of the geodesic critic on ``env_id`` with ``setting``: its
+    :class:`~sb3_geogp.adaptation.Adaptation` settings, and under ``"gp_options"`` other
+    options of the GP critic (e.g. ``{"gp_options": {"max_basis": 1024}}``)."""
+    adapt = {k: v for k, v in setting.items() if k != "gp_options"}
+    options = {**setting.get("gp_options", {}), **({"adapt": adapt} if adapt else {})}
     config = SweepConfig(
         algos=("ppo",),
         critics=("geodesic",),
         envs=(env_id,),
         seeds=(seed,),
         timesteps=timesteps,
-        gp_options=(("adapt", adapt),) if adapt else (),
+        gp_options=tuple(sorted(options.items())),
     )
     (spec,) = config.specs()
     return spec
@@ -122,10 +126,11 @@ def _critic(model: OnPolicyAlgorithm) -> SparseOnlineGP:
     return model.policy.gp
 
 
-def replay(env_id: str, seed: int, batches: list[Any], adapt: dict[str, Any]) -> dict[str, Any]:
-    """Feed ``batches`` to a fresh GP critic with ``adapt``; time it and score each batch."""
+def replay(env_id: str, seed: int, batches: list[Any], setting: dict[str, Any]) -> dict[str, Any]:
+    """Feed ``batches`` to a fresh GP critic with ``setting`` (:func:`spec_for`); time it and
+    score each batch."""
     th.set_num_threads(1)
-    model = build_model(spec_for(env_id, seed, 1, adapt))
+    model = build_model(spec_for(env_id, seed, 1, setting))
     gp = _critic(model)
     env = model.get_env()
     assert env is not None
@@ -269,7 +274,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         "--settings",
         type=json.loads,
         default=SETTINGS,
-        help="JSON {name: Adaptation settings}; the first is the reference",
+        help='JSON {name: Adaptation settings [, "gp_options": {...}]}; the first is the reference',
     )
     parser.add_argument(
         "--mlp", action="store_true", help=f"also replay SB3's MLP critic ({MLP!r}) for reference"
@@ -291,8 +296,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         batches = record(env_id, seed, args.timesteps, stream)
         bar.update()
         results[env_id][seed] = {}
-        for name, adapt in settings.items():
-            r = replay(env_id, seed, batches, adapt)
+        for name, setting in settings.items():
+            r = replay(env_id, seed, batches, setting)
             results[env_id][seed][name] = r
             bar.set_postfix_str(f"{env_id} s{seed} {name}: {r['share']:.0%}, {r['tail']:.3f}")
             bar.update()
