@@ -137,7 +137,11 @@ def test_adaptation_schedule_replays_the_recorded_stream(tmp_path: Path) -> None
     runs are single points), a second call replays the saved stream, unchanged, to the same
     figures, and the MLP reference is scored on the same batches."""
     schedule = load_script("adaptation_schedule")
-    settings = {"default": {}, "uncapped": {"score_points": 10**6, "fold_points": 10**6}}
+    settings = {
+        "default": {},
+        "uncapped": {"score_points": 10**6, "fold_points": 10**6},
+        "small basis": {"gp_options": {"max_basis": 4}},
+    }
     argv = ["--envs", "CartPole-v1", "--seeds", "0", "--timesteps", "1200", "--mlp"]
     argv += ["--settings", json.dumps(settings), "--out", str(tmp_path)]
     schedule.main(argv)
@@ -148,6 +152,7 @@ def test_adaptation_schedule_replays_the_recorded_stream(tmp_path: Path) -> None
     ev = first["default"]["explained_variance"]
     assert len(ev) == first["default"]["n_batches"] - 1
     assert ev == first["uncapped"]["explained_variance"]
+    assert first["small basis"]["n_basis"] <= 4 < first["default"]["n_basis"]
     schedule.main(argv)
     again = json.loads((tmp_path / "results.json").read_text())["results"]["CartPole-v1"]["0"]
     assert stream.stat().st_mtime_ns == recorded
