@@ -88,14 +88,15 @@ class StreamRecorder(BaseCallback):
 
 
 def spec_for(env_id: str, seed: int, timesteps: int, setting: dict[str, Any]) -> RunSpec:
-    """The comparison's PPO run of the geodesic critic on ``env_id`` with ``setting``: its
-    :class:`~sb3_geogp.adaptation.Adaptation` settings, and under ``"gp_options"`` other
-    options of the GP critic (e.g. ``{"gp_options": {"max_basis": 1024}}``)."""
-    adapt = {k: v for k, v in setting.items() if k != "gp_options"}
+    """The comparison's PPO run of a GP critic on ``env_id`` with ``setting``: its
+    :class:`~sb3_geogp.adaptation.Adaptation` settings, under ``"gp_options"`` other options
+    of the GP critic (e.g. ``{"gp_options": {"max_basis": 1024}}``), under ``"kernel"`` the
+    critic's kernel (``"geodesic"``, the default, or ``"rbf"``)."""
+    adapt = {k: v for k, v in setting.items() if k not in ("gp_options", "kernel")}
     options = {**setting.get("gp_options", {}), **({"adapt": adapt} if adapt else {})}
     config = SweepConfig(
         algos=("ppo",),
-        critics=("geodesic",),
+        critics=(setting.get("kernel", "geodesic"),),
         envs=(env_id,),
         seeds=(seed,),
         timesteps=timesteps,
@@ -274,7 +275,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         "--settings",
         type=json.loads,
         default=SETTINGS,
-        help='JSON {name: Adaptation settings [, "gp_options": {...}]}; the first is the reference',
+        help='JSON {name: Adaptation settings [, "gp_options": {...}] [, "kernel": "rbf"]}; '
+        "the first is the reference",
     )
     parser.add_argument(
         "--mlp", action="store_true", help=f"also replay SB3's MLP critic ({MLP!r}) for reference"

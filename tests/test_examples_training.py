@@ -164,3 +164,14 @@ def test_adaptation_schedule_replays_the_recorded_stream(tmp_path: Path) -> None
     assert len(mlp["explained_variance"]) == len(ev) and mlp["share"] is None
     assert f"| `CartPole-v1` | {schedule.MLP} | – | – |" in table
     assert (tmp_path / "frontier.png").stat().st_size > 0
+
+
+def test_adaptation_schedule_setting_names_the_critic_and_its_options() -> None:
+    schedule = load_script("adaptation_schedule")
+    spec = schedule.spec_for(
+        "CartPole-v1", 3, 1000, {"kernel": "rbf", "max_gap": 4, "gp_options": {"max_basis": 8}}
+    )
+    options = dict(spec.gp_kwargs)
+    assert (spec.critic, spec.seed, spec.algo) == ("rbf", 3, "ppo")
+    assert options["max_basis"] == 8 and options["adapt"] == {"max_gap": 4}
+    assert schedule.spec_for("CartPole-v1", 0, 1000, {}).critic == "geodesic"
