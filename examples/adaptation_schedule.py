@@ -34,7 +34,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -127,32 +127,49 @@ def _critic(model: OnPolicyAlgorithm) -> SparseOnlineGP:
     return model.policy.gp
 
 
-def replay(env_id: str, seed: int, batches: list[Any], setting: dict[str, Any]) -> dict[str, Any]:
-    """Feed ``batches`` to a fresh GP critic with ``setting`` (:func:`spec_for`); time it and
-    score each batch."""
+def _built(spec: RunSpec) -> OnPolicyAlgorithm:
+    """``spec``'s model, its training environments closed: a replay only needs the critic."""
     th.set_num_threads(1)
-    model = build_model(spec_for(env_id, seed, 1, setting))
-    gp = _critic(model)
+    model = build_model(spec)
     env = model.get_env()
     assert env is not None
     env.close()
-    seconds = GPClock(gp).seconds
+    return model
+
+
+def _scored(
+    batches: list[Any],
+    predict: Callable[[th.Tensor], th.Tensor],
+    learn: Callable[[th.Tensor, th.Tensor, th.Tensor | None], None],
+) -> dict[str, Any]:
+    """Feed ``batches`` to ``learn`` in order, each first scored by the explained variance of
+    ``predict``'s values for it; the scores and their mean over the last :data:`LAST` of them."""
     explained = []
     for i, (x, y, starts) in enumerate(batches):
         if i > 0 and x.shape[0] > 1:
-            y64 = y.double()
-            mean = SparseOnlineGP.predict(gp, x, return_var=False)[0].double()  # not timed
-            explained.append(1.0 - float((y64 - mean).var() / y64.var()))
-        gp.update(x, y, starts)
+            target, value = y.double(), predict(x).double()
+            explained.append(1.0 - float((target - value).var() / target.var()))
+        learn(x, y, starts)
     tail = explained[int(np.floor((1 - LAST) * len(explained))) :]
+    return dict(explained_variance=explained, tail=float(np.mean(tail)), n_batches=len(batches))
+
+
+def replay(env_id: str, seed: int, batches: list[Any], setting: dict[str, Any]) -> dict[str, Any]:
+    """Feed ``batches`` to a fresh GP critic with ``setting`` (:func:`spec_for`); time it and
+    score each batch."""
+    gp = _critic(_built(spec_for(env_id, seed, 1, setting)))
+    seconds = GPClock(gp).seconds
+
+    def predict(x: th.Tensor) -> th.Tensor:  # the class's method: not timed
+        return SparseOnlineGP.predict(gp, x, return_var=False)[0]
+
+    scores = _scored(batches, predict, gp.update)
     return dict(
         update=seconds["update"],
         adaptation=seconds["adaptation"],
         share=seconds["adaptation"] / seconds["update"],
-        explained_variance=explained,
-        tail=float(np.mean(tail)),
-        n_batches=len(batches),
         n_basis=gp.n_basis,
+        **scores,
     )
 
 
@@ -165,24 +182,19 @@ def replay_mlp(env_id: str, seed: int, batches: list[Any]) -> dict[str, Any]:
     the policy's optimizer, initial learning rate and gradient clipping. The actor gets no
     gradient, so only the critic learns, from the targets the GP critic was fed.
     """
-    th.set_num_threads(1)
-    spec = dataclasses.replace(spec_for(env_id, seed, 1, {}), critic="mlp")
-    model = build_model(spec)
-    env = model.get_env()
-    assert env is not None
-    env.close()
+    model = _built(dataclasses.replace(spec_for(env_id, seed, 1, {}), critic="mlp"))
     assert isinstance(model, PPO)
     policy, optimizer = model.policy, model.policy.optimizer
     for group in optimizer.param_groups:
         group["lr"] = model.lr_schedule(1.0)
     generator = th.Generator().manual_seed(seed)
-    explained = []
-    for i, (x, y, _) in enumerate(batches):
-        obs, target = x.float(), y.float()
+
+    def predict(x: th.Tensor) -> th.Tensor:
         with th.no_grad():
-            value = policy.predict_values(obs)[:, 0]
-        if i > 0 and x.shape[0] > 1:
-            explained.append(1.0 - float((target - value).var() / target.var()))
+            return policy.predict_values(x.float())[:, 0]
+
+    def learn(x: th.Tensor, y: th.Tensor, _starts: th.Tensor | None) -> None:
+        obs, target = x.float(), y.float()
         for _ in range(model.n_epochs):
             order = th.randperm(x.shape[0], generator=generator)
             for start in range(0, x.shape[0], model.batch_size):
@@ -193,15 +205,9 @@ def replay_mlp(env_id: str, seed: int, batches: list[Any]) -> dict[str, Any]:
                 loss.backward()
                 th.nn.utils.clip_grad_norm_(policy.parameters(), model.max_grad_norm)
                 optimizer.step()
-    tail = explained[int(np.floor((1 - LAST) * len(explained))) :]
+
     return dict(
-        update=None,
-        adaptation=None,
-        share=None,
-        explained_variance=explained,
-        tail=float(np.mean(tail)),
-        n_batches=len(batches),
-        n_basis=0,
+        update=None, adaptation=None, share=None, n_basis=0, **_scored(batches, predict, learn)
     )
 
 

@@ -87,8 +87,8 @@ class GPClock:
 
     def __init__(self, gp: SparseOnlineGP) -> None:
         self.seconds = {"update": 0.0, "predict": 0.0, "adaptation": 0.0}
-        for name, clock in (("update", "update"), ("predict", "predict")):
-            setattr(gp, name, self._timed(getattr(SparseOnlineGP, name).__get__(gp), clock))
+        for name in ("update", "predict"):
+            setattr(gp, name, self._timed(getattr(SparseOnlineGP, name).__get__(gp), name))
         for name in ADAPTATION_STEPS:
             method = getattr(SparseOnlineGP, name).__get__(gp)
             setattr(gp, name, self._timed(method, "adaptation"))
