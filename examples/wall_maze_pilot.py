@@ -44,6 +44,7 @@ from sb3_geogp.comparison.hyperparams import HyperparamsFile
 from sb3_geogp.comparison.run import build_model, load_result, result_path, run_one
 from sb3_geogp.comparison.specs import RunSpec, SweepConfig
 from sb3_geogp.envs.wall_maze import (
+    DOOR_LAYOUT,
     MAX_EPISODE_STEPS,
     MazeLayout,
     WallMaze,
@@ -51,12 +52,12 @@ from sb3_geogp.envs.wall_maze import (
 )
 
 ENV_ID = "sb3_geogp_pilot/WallMaze-v0"
-#: The walls a pilot can use: the published zig-zag, its upper wall alone, or a wall across
-#: the middle with a door (a 0.2 gap in its centre).
+#: The walls a pilot can use: the published zig-zag, its upper wall alone, or
+#: ``WallMazeDoor-v0``'s wall across the middle with a door (a 0.2 gap in its centre).
 WALLS = {
     "zigzag": MazeLayout().walls,
     "upper": MazeLayout().walls[:1],
-    "door": ((0.0, 0.5, 0.4, 0.5), (0.6, 0.5, 1.0, 0.5)),
+    "door": DOOR_LAYOUT.walls,
 }
 #: The sweep's WallMaze hyperparameters (sb3_geogp.comparison.hyperparams.OWN_HYPERPARAMS).
 HYPERPARAMS = {"ppo": dict(n_envs=4, n_steps=256), "a2c": dict(n_envs=4)}
