@@ -18,6 +18,12 @@ that a setting is the only thing that changes:
    an adaptive GP does (out-of-sample statistics and forgetting scores, the summary of points
    leaving the window, the adaptation proper), as ``examples/benchmark_training.py`` does.
 
+References, scored on the same batches and untimed: ``--mlp``, SB3's MLP critic trained on
+them as PPO trains it (:func:`replay_mlp`); ``--batch``, the default GP critic's basis refitted
+in batch on each newest batch alone, with its kernel and with the Euclidean Laplacian kernel
+(:func:`replay_batch`), which separates what the basis and the kernel allow from what the
+on-line GP makes of them.
+
 Writes ``OUT/results.json`` (per environment, seed and setting: update and adaptation
 seconds, explained variance per batch), ``OUT/table.md`` (adaptation share of the update
 time; explained variance over the last 20% of batches, mean over seeds, and its paired
@@ -25,6 +31,7 @@ difference from the first setting with a 95% t interval) and ``OUT/frontier.png`
 
     python examples/adaptation_schedule.py --seeds 0 1 2 --out docs/adaptation_schedule
     python examples/adaptation_schedule.py --settings '{"default": {}, "gap4": {"max_gap": 4}}'
+    python examples/adaptation_schedule.py --envs sb3_geogp/PaperPendulum-v0 --mlp --batch
 
 Time it on an otherwise idle machine: the replays run one after another.
 """
@@ -33,6 +40,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import functools
 import json
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -48,6 +56,8 @@ from tqdm.auto import tqdm
 from sb3_geogp import GPActorCriticPolicy, GPValueCallback, SparseOnlineGP
 from sb3_geogp.comparison.run import build_model, write_json_atomic
 from sb3_geogp.comparison.specs import RunSpec, SweepConfig
+from sb3_geogp.kernels import LaplacianKernel
+from sb3_geogp.studies.pendulum.batch_check import batch_sparse_gp, online_hyper
 from sb3_geogp.toolbox.benchmarks import GPClock
 from sb3_geogp.toolbox.provenance import provenance
 from sb3_geogp.toolbox.stats import mean_ci
@@ -64,6 +74,12 @@ SETTINGS: dict[str, dict[str, Any]] = {
 }
 #: Name of the reference row of ``--mlp``: SB3's MLP critic replayed on the same batches.
 MLP = "SB3 MLP critic"
+#: Reference rows of ``--batch``: the default GP's basis fitted in batch, with its kernel and
+#: with the Euclidean Laplacian kernel (the geodesic kernel's profile without the graph).
+BATCH = "batch sparse GP, newest batch"
+BATCH_EUCLIDEAN = "batch sparse GP, newest batch, Euclidean Laplacian kernel"
+#: L-BFGS iterations of each ``--batch`` fit (from the on-line GP's hyperparameters).
+BATCH_ITERS = 30
 #: Share of the last batches whose explained variance is averaged (as in critic_fit.py).
 LAST = 0.2
 
@@ -211,6 +227,50 @@ def replay_mlp(env_id: str, seed: int, batches: list[Any]) -> dict[str, Any]:
     )
 
 
+def replay_batch(
+    env_id: str, seed: int, batches: list[Any], euclidean: bool = False
+) -> dict[str, Any]:
+    """The default GP critic's basis and kernel, refitted in batch on the newest batch alone.
+
+    A fresh default GP critic is fed the batches as in :func:`replay`. Each batch is predicted
+    by :func:`~sb3_geogp.studies.pendulum.batch_check.batch_sparse_gp` fitted on every point
+    of the batch before it: the on-line GP's basis vectors as inducing points and its kernel
+    (for the geodesic kernel, its tree), the hyperparameters at the optimum of the collapsed
+    bound of that batch (:data:`BATCH_ITERS` L-BFGS iterations from the on-line GP's own).
+    What this reference scores above the on-line GP, the basis and the kernel allow; the
+    on-line GP loses it to what it keeps of older batches and to its few Adam steps. With
+    ``euclidean``, the kernel is instead a :class:`~sb3_geogp.kernels.LaplacianKernel` with the
+    on-line GP's lengthscales: the same basis without the graph.
+    """
+    gp = _critic(_built(spec_for(env_id, seed, 1, {})))
+    newest: dict[str, np.ndarray] = {}
+
+    def predict(x: th.Tensor) -> th.Tensor:
+        z = gp.basis_inputs.clone()
+        n_factors, _ = gp.kernel.correlation_fn(z[:1], z)
+        start = online_hyper(gp, n_factors, float(np.std(newest["y"], ddof=1)))
+        kernel = gp.kernel
+        if euclidean:
+            kernel = LaplacianKernel(gp.kernel.lengthscale.tolist())
+            kernel.bind(z.shape[1], z.shape[0])
+        fit = batch_sparse_gp(
+            kernel, newest["x"], newest["y"], z, x.double().numpy(), (start,), BATCH_ITERS
+        )
+        return th.as_tensor(fit.mean)
+
+    def learn(x: th.Tensor, y: th.Tensor, starts: th.Tensor | None) -> None:
+        gp.update(x, y, starts)
+        newest.update(x=x.double().numpy(), y=y.double().numpy())
+
+    return dict(
+        update=None,
+        adaptation=None,
+        share=None,
+        n_basis=gp.n_basis,
+        **_scored(batches, predict, learn),
+    )
+
+
 def table(results: dict[str, Any], settings: Sequence[str]) -> str:
     """Markdown: per environment and setting, the adaptation's share of the update time and
     the tail explained variance (means over seeds; difference from the first setting, paired
@@ -245,12 +305,12 @@ def plot(results: dict[str, Any], settings: Sequence[str], path: Path) -> None:
     import matplotlib.pyplot as plt
 
     envs = list(results)
-    fig, axes = plt.subplots(1, len(envs), figsize=(4.2 * len(envs), 3.8), squeeze=False)
+    fig, axes = plt.subplots(1, len(envs), figsize=(4.2 * len(envs) + 3.5, 3.8), squeeze=False)
     for ax, env_id in zip(axes[0], envs, strict=True):
         by_seed = results[env_id]
         for k, name in enumerate(settings):
             runs = [by_seed[s][name] for s in sorted(by_seed)]
-            if runs[0]["share"] is None:  # the untimed MLP reference: a level, not a point
+            if runs[0]["share"] is None:  # an untimed reference: a level, not a point
                 mean_tail = max(float(np.mean([r["tail"] for r in runs])), -1.0)
                 ax.axhline(mean_tail, color=f"C{k}", ls="--", lw=1.2, label=name)
                 continue
@@ -265,7 +325,7 @@ def plot(results: dict[str, Any], settings: Sequence[str], path: Path) -> None:
         ax.set_xlim(0, 100)
         ax.grid(alpha=0.3)
     axes[0][0].set_ylabel(f"expl. variance, last {LAST:.0%} (clipped at -1)")
-    axes[0][-1].legend(fontsize=7, loc="lower left")
+    axes[0][-1].legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0))
     fig.suptitle("Adaptation settings replayed on the same PPO streams (dots: seeds; large: mean)")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
@@ -287,6 +347,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument(
         "--mlp", action="store_true", help=f"also replay SB3's MLP critic ({MLP!r}) for reference"
     )
+    parser.add_argument(
+        "--batch",
+        action="store_true",
+        help=f"also score the default GP's basis fitted in batch ({BATCH!r}, {BATCH_EUCLIDEAN!r})",
+    )
     parser.add_argument("--out", type=Path, default=Path("runs/adaptation_schedule"))
     parser.add_argument(
         "--streams", type=Path, default=None, help="recorded streams (default: OUT/streams)"
@@ -297,7 +362,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     record_ = provenance()
     jobs = [(e, s) for e in args.envs for s in args.seeds]
     results: dict[str, dict[int, dict[str, Any]]] = {e: {} for e in args.envs}
-    per_job = 1 + len(settings) + int(args.mlp)
+    references = {MLP: replay_mlp} if args.mlp else {}
+    if args.batch:
+        references[BATCH] = replay_batch
+        references[BATCH_EUCLIDEAN] = functools.partial(replay_batch, euclidean=True)
+    per_job = 1 + len(settings) + len(references)
     bar = tqdm(total=len(jobs) * per_job, unit="run", desc="record + replay")
     for env_id, seed in jobs:
         stream = streams / f"{env_id.replace('/', '-')}__s{seed}.pt"
@@ -309,11 +378,11 @@ def main(argv: Sequence[str] | None = None) -> int:
             results[env_id][seed][name] = r
             bar.set_postfix_str(f"{env_id} s{seed} {name}: {r['share']:.0%}, {r['tail']:.3f}")
             bar.update()
-        if args.mlp:
-            results[env_id][seed][MLP] = replay_mlp(env_id, seed, batches)
+        for name, reference in references.items():
+            results[env_id][seed][name] = reference(env_id, seed, batches)
             bar.update()
     bar.close()
-    names = list(settings) + ([MLP] if args.mlp else [])
+    names = list(settings) + list(references)
     text = table(results, names)
     print(text)
     args.out.mkdir(parents=True, exist_ok=True)

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import torch as th
 
 from sb3_geogp.envs.wall_maze import CORNER_LAYOUT, WallMaze
 from tests.test_examples_engine import load_script
@@ -164,6 +165,24 @@ def test_adaptation_schedule_replays_the_recorded_stream(tmp_path: Path) -> None
     assert len(mlp["explained_variance"]) == len(ev) and mlp["share"] is None
     assert f"| `CartPole-v1` | {schedule.MLP} | – | – |" in table
     assert (tmp_path / "frontier.png").stat().st_size > 0
+
+
+def test_adaptation_schedule_batch_reference_learns_a_fixed_function() -> None:
+    """Refitted in batch on each newest batch, the default GP's basis predicts the next batch
+    of a fixed smooth function of the state almost exactly, with either kernel."""
+    schedule = load_script("adaptation_schedule")
+    generator = th.Generator().manual_seed(0)
+    high = th.tensor([3.0, 8.0])
+
+    def batch() -> tuple[th.Tensor, th.Tensor, None]:
+        x = (2 * th.rand(300, 2, generator=generator) - 1) * high
+        return x, th.cos(x[:, 0]) + 0.1 * x[:, 1], None
+
+    batches = [batch() for _ in range(4)]
+    for euclidean in (False, True):
+        r = schedule.replay_batch("sb3_geogp/PaperPendulum-v0", 0, batches, euclidean=euclidean)
+        assert len(r["explained_variance"]) == 3 and r["share"] is None
+        assert min(r["explained_variance"]) > 0.9, (euclidean, r["explained_variance"])
 
 
 def test_adaptation_schedule_setting_names_the_critic_and_its_options() -> None:
