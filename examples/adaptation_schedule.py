@@ -107,7 +107,7 @@ def spec_for(env_id: str, seed: int, timesteps: int, setting: dict[str, Any]) ->
     """The comparison's PPO run of a GP critic on ``env_id`` with ``setting``: its
     :class:`~sb3_geogp.adaptation.Adaptation` settings, under ``"gp_options"`` other options
     of the GP critic (e.g. ``{"gp_options": {"max_basis": 1024}}``), under ``"kernel"`` the
-    critic's kernel (``"geodesic"``, the default, or ``"rbf"``)."""
+    critic's kernel (``"geodesic"``, the default, ``"rbf"`` or ``"laplacian"``)."""
     adapt = {k: v for k, v in setting.items() if k not in ("gp_options", "kernel")}
     options = {**setting.get("gp_options", {}), **({"adapt": adapt} if adapt else {})}
     config = SweepConfig(

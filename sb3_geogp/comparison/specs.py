@@ -26,7 +26,10 @@ class RunSpec:
     Attributes
     ----------
     algo : {"ppo", "a2c"}
-    critic : {"mlp", "rbf", "geodesic"}
+    critic : str
+        ``"mlp"``, or the GP critic's kernel: ``"rbf"`` and ``"geodesic"`` are compared; any
+        other name of :data:`sb3_geogp.kernels.KERNELS` (``"laplacian"``) builds and runs, for
+        diagnoses outside the published sweep.
     env_id : str
     seed : int
         Seed of the model and the training environments.

@@ -27,6 +27,7 @@ from sb3_geogp.comparison.results import (
 from sb3_geogp.comparison.run import build_model, result_path, run_one
 from sb3_geogp.comparison.specs import SweepConfig
 from sb3_geogp.comparison.sweep import pending_runs, run_sweep
+from sb3_geogp.kernels import KERNELS
 
 TINY = SweepConfig(
     algos=("a2c",),
@@ -200,19 +201,26 @@ def test_measurements_do_not_change_training(tmp_path: Path) -> None:
 
 def test_every_critic_starts_from_the_same_actor() -> None:
     """A file's net_arch with vf layers reaches every critic unchanged: the GP critics build the
-    MLP critic's layers (then drop them) so that their actor starts identically."""
+    MLP critic's layers (then drop them) so that their actor starts identically. A kernel
+    outside the compared ones (``laplacian``) builds too, with that kernel; an unknown name
+    is refused."""
     entry = dict(n_steps=8, policy_kwargs="dict(net_arch=dict(pi=[16], vf=[24]))")
-    specs = dataclasses.replace(TINY, critics=("mlp", "rbf", "geodesic"), seeds=(3,)).specs()
+    critics = ("mlp", "rbf", "geodesic", "laplacian")
+    specs = dataclasses.replace(TINY, critics=critics, seeds=(3,)).specs()
     actors = []
     for spec in specs:
         model = build_model(dataclasses.replace(spec, hyperparams=entry))
+        if spec.critic != "mlp":
+            assert type(model.policy.gp.kernel) is KERNELS[spec.critic]
         assert model.policy.mlp_extractor.latent_dim_pi == 16
         state = model.policy.state_dict()
         actors.append({k: v for k, v in state.items() if "value_net" not in k and "gp" not in k})
         model.get_env().close()
-    assert actors[0].keys() == actors[1].keys() == actors[2].keys()
+    assert all(actor.keys() == actors[0].keys() for actor in actors[1:])
     for key, value in actors[0].items():
         assert all(torch.equal(value, other[key]) for other in actors[1:]), key
+    with pytest.raises(ValueError, match="critic must be 'mlp' or a GP kernel"):
+        build_model(dataclasses.replace(specs[0], critic="matern"))
 
 
 def test_a_warning_of_every_run_is_shown_once(
