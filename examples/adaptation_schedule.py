@@ -39,7 +39,6 @@ Time it on an otherwise idle machine: the replays run one after another.
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import functools
 import json
 from collections.abc import Callable, Sequence
@@ -48,14 +47,12 @@ from typing import Any
 
 import numpy as np
 import torch as th
-from stable_baselines3 import PPO
 from stable_baselines3.common.callbacks import BaseCallback, CallbackList
-from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
 from tqdm.auto import tqdm
 
-from sb3_geogp import GPActorCriticPolicy, GPValueCallback, SparseOnlineGP
+from sb3_geogp import GPValueCallback, SparseOnlineGP
 from sb3_geogp.comparison.run import build_model, write_json_atomic
-from sb3_geogp.comparison.specs import RunSpec, SweepConfig
+from sb3_geogp.comparison.shadow import MLPShadow, gp_critic, gp_shadow, ppo_spec
 from sb3_geogp.kernels import LaplacianKernel
 from sb3_geogp.studies.pendulum.batch_check import batch_sparse_gp, online_hyper
 from sb3_geogp.toolbox.benchmarks import GPClock
@@ -103,32 +100,13 @@ class StreamRecorder(BaseCallback):
         return True
 
 
-def spec_for(env_id: str, seed: int, timesteps: int, setting: dict[str, Any]) -> RunSpec:
-    """The comparison's PPO run of a GP critic on ``env_id`` with ``setting``: its
-    :class:`~sb3_geogp.adaptation.Adaptation` settings, under ``"gp_options"`` other options
-    of the GP critic (e.g. ``{"gp_options": {"max_basis": 1024}}``), under ``"kernel"`` the
-    critic's kernel (``"geodesic"``, the default, ``"rbf"`` or ``"laplacian"``)."""
-    adapt = {k: v for k, v in setting.items() if k not in ("gp_options", "kernel")}
-    options = {**setting.get("gp_options", {}), **({"adapt": adapt} if adapt else {})}
-    config = SweepConfig(
-        algos=("ppo",),
-        critics=(setting.get("kernel", "geodesic"),),
-        envs=(env_id,),
-        seeds=(seed,),
-        timesteps=timesteps,
-        gp_options=tuple(sorted(options.items())),
-    )
-    (spec,) = config.specs()
-    return spec
-
-
 def record(env_id: str, seed: int, timesteps: int, path: Path) -> list[Any]:
     """The batches of one PPO run's GP critic (from ``path`` if recorded before)."""
     if path.exists():
         return th.load(path, weights_only=False)
     th.set_num_threads(1)
-    model = build_model(spec_for(env_id, seed, timesteps, {}))
-    recorder = StreamRecorder(_critic(model))
+    model = build_model(ppo_spec(env_id, seed, timesteps, {}))
+    recorder = StreamRecorder(gp_critic(model))
     model.learn(timesteps, callback=CallbackList([GPValueCallback(), recorder]))
     env = model.get_env()
     assert env is not None
@@ -136,21 +114,6 @@ def record(env_id: str, seed: int, timesteps: int, path: Path) -> list[Any]:
     path.parent.mkdir(parents=True, exist_ok=True)
     th.save(recorder.batches, path)
     return recorder.batches
-
-
-def _critic(model: OnPolicyAlgorithm) -> SparseOnlineGP:
-    assert isinstance(model.policy, GPActorCriticPolicy)
-    return model.policy.gp
-
-
-def _built(spec: RunSpec) -> OnPolicyAlgorithm:
-    """``spec``'s model, its training environments closed: a replay only needs the critic."""
-    th.set_num_threads(1)
-    model = build_model(spec)
-    env = model.get_env()
-    assert env is not None
-    env.close()
-    return model
 
 
 def _scored(
@@ -171,9 +134,9 @@ def _scored(
 
 
 def replay(env_id: str, seed: int, batches: list[Any], setting: dict[str, Any]) -> dict[str, Any]:
-    """Feed ``batches`` to a fresh GP critic with ``setting`` (:func:`spec_for`); time it and
-    score each batch."""
-    gp = _critic(_built(spec_for(env_id, seed, 1, setting)))
+    """Feed ``batches`` to a fresh GP critic with ``setting``
+    (:func:`~sb3_geogp.comparison.shadow.ppo_spec`); time it and score each batch."""
+    gp = gp_shadow(ppo_spec(env_id, seed, 1, setting))
     seconds = GPClock(gp).seconds
 
     def predict(x: th.Tensor) -> th.Tensor:  # the class's method: not timed
@@ -190,40 +153,16 @@ def replay(env_id: str, seed: int, batches: list[Any], setting: dict[str, Any]) 
 
 
 def replay_mlp(env_id: str, seed: int, batches: list[Any]) -> dict[str, Any]:
-    """Feed ``batches`` to SB3's own MLP critic as PPO trains it, for reference.
-
-    The comparison's ``mlp`` model for ``env_id`` and ``seed``; for each batch, after scoring
-    it as :func:`replay` does, ``n_epochs`` passes over shuffled minibatches of
-    ``batch_size`` of PPO's value loss alone (``vf_coef`` times the mean squared error), with
-    the policy's optimizer, initial learning rate and gradient clipping. The actor gets no
-    gradient, so only the critic learns, from the targets the GP critic was fed.
-    """
-    model = _built(dataclasses.replace(spec_for(env_id, seed, 1, {}), critic="mlp"))
-    assert isinstance(model, PPO)
-    policy, optimizer = model.policy, model.policy.optimizer
-    for group in optimizer.param_groups:
-        group["lr"] = model.lr_schedule(1.0)
-    generator = th.Generator().manual_seed(seed)
-
-    def predict(x: th.Tensor) -> th.Tensor:
-        with th.no_grad():
-            return policy.predict_values(x.float())[:, 0]
-
-    def learn(x: th.Tensor, y: th.Tensor, _starts: th.Tensor | None) -> None:
-        obs, target = x.float(), y.float()
-        for _ in range(model.n_epochs):
-            order = th.randperm(x.shape[0], generator=generator)
-            for start in range(0, x.shape[0], model.batch_size):
-                rows = order[start : start + model.batch_size]
-                error = policy.predict_values(obs[rows])[:, 0] - target[rows]
-                loss = model.vf_coef * error.square().mean()
-                optimizer.zero_grad()
-                loss.backward()
-                th.nn.utils.clip_grad_norm_(policy.parameters(), model.max_grad_norm)
-                optimizer.step()
-
+    """Feed ``batches`` to SB3's own MLP critic as PPO trains it, for reference
+    (:class:`~sb3_geogp.comparison.shadow.MLPShadow`, at the initial learning rate); each batch
+    is scored first, as :func:`replay` does."""
+    mlp = MLPShadow(env_id, seed)
     return dict(
-        update=None, adaptation=None, share=None, n_basis=0, **_scored(batches, predict, learn)
+        update=None,
+        adaptation=None,
+        share=None,
+        n_basis=0,
+        **_scored(batches, mlp.predict, lambda x, y, _starts: mlp.learn(x, y)),
     )
 
 
@@ -242,7 +181,7 @@ def replay_batch(
     ``euclidean``, the kernel is instead a :class:`~sb3_geogp.kernels.LaplacianKernel` with the
     on-line GP's lengthscales: the same basis without the graph.
     """
-    gp = _critic(_built(spec_for(env_id, seed, 1, {})))
+    gp = gp_shadow(ppo_spec(env_id, seed, 1, {}))
     newest: dict[str, np.ndarray] = {}
 
     def predict(x: th.Tensor) -> th.Tensor:

@@ -22,7 +22,7 @@ from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
 
 from sb3_geogp.policies import GPCriticMixin, _contrib_algorithms, check_algorithm
-from sb3_geogp.targets import discounted_returns, split_completed
+from sb3_geogp.targets import discounted_returns, env_major, per_env, split_completed
 from sb3_geogp.user_warnings import warn_user
 
 Target = Literal["returns", "monte_carlo"]
@@ -174,10 +174,10 @@ class GPValueCallback(BaseCallback):
             self._fill_values(policy, buffer, self.locals["values"], dones)
         values: np.ndarray | None = None
         if self.target == "returns":
-            obs, targets, starts = _per_env(
+            obs, targets, starts = per_env(
                 buffer.observations, buffer.returns, buffer.episode_starts
             )
-            values = _env_major(buffer.values)
+            values = env_major(buffer.values)
         else:
             obs, targets, starts = self._completed_episodes(buffer, dones)
         if self.recompute_advantages:
@@ -298,21 +298,3 @@ def _empty_segment(obs_shape: tuple[int, ...] | None) -> tuple[np.ndarray, np.nd
         np.empty(0, dtype=np.float64),
         np.empty(0, dtype=bool),
     )
-
-
-def _env_major(a: np.ndarray) -> np.ndarray:
-    """Time-major ``(n_steps, n_envs, ...)`` reordered env by env, ``(n_envs * n_steps, ...)``."""
-    return np.swapaxes(a, 0, 1).reshape(-1, *a.shape[2:])
-
-
-def _per_env(
-    observations: np.ndarray, targets: np.ndarray, episode_starts: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Reorder a rollout's arrays env by env, each env in time order.
-
-    Returns observations (n_envs * n_steps, *obs_shape), targets (n_envs * n_steps,) and
-    episode starts (n_envs * n_steps,) with ``True`` on each env's first step.
-    """
-    starts = np.swapaxes(episode_starts, 0, 1).astype(bool)
-    starts[:, 0] = True
-    return _env_major(observations), _env_major(targets), starts.reshape(-1)

@@ -1,4 +1,4 @@
-"""Value targets for the GP critic built from trajectories (numpy only, no SB3).
+"""Value targets for the GP critic, and rollouts cut into trajectories (numpy only, no SB3).
 
 The SB3 adapter (:mod:`sb3_geogp.callbacks`) keeps no maths of its own: it cuts rollouts into
 per-environment trajectories and asks this module for their targets.
@@ -68,3 +68,33 @@ def split_completed(episode_starts: np.ndarray, last_done: bool) -> tuple[np.nda
         ends[-1] = bool(last_done)
     idx = np.flatnonzero(ends)
     return ends, int(idx[-1]) + 1 if idx.size else 0
+
+
+def env_major(a: np.ndarray) -> np.ndarray:
+    """Time-major ``(n_steps, n_envs, ...)`` reordered env by env, ``(n_envs * n_steps, ...)``."""
+    return np.swapaxes(a, 0, 1).reshape(-1, *a.shape[2:])
+
+
+def per_env(
+    observations: np.ndarray, targets: np.ndarray, episode_starts: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A rollout's time-major arrays reordered env by env, each env in time order.
+
+    Parameters
+    ----------
+    observations : ndarray, shape (n_steps, n_envs, *obs_shape)
+    targets : ndarray, shape (n_steps, n_envs)
+    episode_starts : ndarray, shape (n_steps, n_envs)
+        SB3's ``episode_starts`` column.
+
+    Returns
+    -------
+    observations : ndarray, shape (n_envs * n_steps, *obs_shape)
+    targets : ndarray, shape (n_envs * n_steps,)
+    episode_starts : ndarray of bool, shape (n_envs * n_steps,)
+        ``True`` on each env's first step (a trajectory starts there for the GP), and where
+        an episode starts.
+    """
+    starts = np.swapaxes(episode_starts, 0, 1).astype(bool)
+    starts[:, 0] = True
+    return env_major(observations), env_major(targets), starts.reshape(-1)

@@ -185,12 +185,25 @@ def test_adaptation_schedule_batch_reference_learns_a_fixed_function() -> None:
         assert min(r["explained_variance"]) > 0.9, (euclidean, r["explained_variance"])
 
 
-def test_adaptation_schedule_setting_names_the_critic_and_its_options() -> None:
-    schedule = load_script("adaptation_schedule")
-    spec = schedule.spec_for(
-        "CartPole-v1", 3, 1000, {"kernel": "rbf", "max_gap": 4, "gp_options": {"max_basis": 8}}
-    )
-    options = dict(spec.gp_kwargs)
-    assert (spec.critic, spec.seed, spec.algo) == ("rbf", 3, "ppo")
-    assert options["max_basis"] == 8 and options["adapt"] == {"max_gap": 4}
-    assert schedule.spec_for("CartPole-v1", 0, 1000, {}).critic == "geodesic"
+def test_action_gap_scores_every_critic_on_the_same_states(tmp_path: Path) -> None:
+    """A tiny run per actor: the default GP shadow scores exactly as the geodesic run's own
+    critic (it is fed the same rollouts), a finished run is not run again, and the table and
+    the figure are written."""
+    gaps = load_script("action_gap")
+    argv = ["--seeds", "0", "--timesteps", "1536", "--every", "2", "--states", "24"]
+    argv += ["--rollouts", "4", "--horizon", "30", "--out", str(tmp_path)]
+    assert gaps.main(argv) == 0
+    results = json.loads((tmp_path / "results.json").read_text())["results"]
+    rows = results["geodesic"]["0"]["rows"]
+    assert [r["step"] for r in rows] == [512, 1024, 1536]
+    for row in rows:
+        assert row[gaps.OWN] == row["geodesic GP (default)"]
+        for name in (gaps.MLP, *gaps.CRITICS):
+            assert 0 <= row[name]["n_decisive"] <= 24
+    assert set(results["mlp"]["0"]["rows"][0]) == set(rows[0])
+    done = tmp_path / "runs" / "geodesic__s0.json"
+    written = done.stat().st_mtime_ns
+    assert gaps.main(argv) == 0
+    assert done.stat().st_mtime_ns == written
+    assert f"| geodesic | {gaps.MLP} |" in (tmp_path / "table.md").read_text()
+    assert (tmp_path / "action_gap.png").stat().st_size > 0

@@ -11,6 +11,7 @@ One concept per module:
 * :mod:`~sb3_geogp.comparison.evaluation`: evaluation episodes and Monte Carlo critic accuracy;
 * :mod:`~sb3_geogp.comparison.measurement`: the callbacks that measure inside ``learn``;
 * :mod:`~sb3_geogp.comparison.run`: one run and its result file;
+* :mod:`~sb3_geogp.comparison.shadow`: critics that learn beside a run from the same batches;
 * :mod:`~sb3_geogp.comparison.sweep`: all runs of a sweep, resumable, in processes or on Ray;
 * :mod:`~sb3_geogp.comparison.command`: the command line;
 * :mod:`~sb3_geogp.comparison.results`: aggregation over seeds and verdicts;

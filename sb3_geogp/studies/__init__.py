@@ -1,7 +1,9 @@
 """Research studies built on the engine, one subpackage per study (not part of the product API).
 
 * :mod:`~sb3_geogp.studies.pendulum`: the reproduction of the paper's pendulum experiment;
-* :mod:`~sb3_geogp.studies.wall`: geodesic vs Euclidean kernels on a two-room value function.
+* :mod:`~sb3_geogp.studies.wall`: geodesic vs Euclidean kernels on a two-room value function;
+* :mod:`~sb3_geogp.studies.action_gap`: whether a critic orders CartPole's two actions as the
+  true action values do (Monte Carlo gaps).
 
 They share :mod:`sb3_geogp.toolbox` with the critic comparison (:mod:`sb3_geogp.comparison`).
 """

@@ -1,0 +1,248 @@
+"""Does the critic rank CartPole's actions? GP and MLP critics on the same PPO data.
+
+The GP critics lose to SB3's MLP critic on CartPole-v1 under PPO (docs/results.md) although they
+predict the returns of the next rollout at least as well (explained variance, replayed on the
+same streams). The actor does not learn from that fit but from advantages, to which a critic
+contributes the one-step gap ``gamma (V(s'_1) - V(s'_0))`` between the two successors of a
+state (:mod:`sb3_geogp.studies.action_gap`). This script measures how often each critic gets
+its sign right:
+
+1. One PPO run per actor and seed, the comparison's run (zoo hyperparameters,
+   ``--timesteps`` steps): ``--actors geodesic`` trains with the default GP critic, ``mlp`` with
+   SB3's MLP critic.
+2. Beside it, shadow critics learn from every rollout the run's critic learns from (SB3's
+   returns, env by env): SB3's MLP critic trained as PPO trains it, at the run's current
+   learning rate (:class:`~sb3_geogp.comparison.shadow.MLPShadow`), and GP critics built as the
+   policy builds them with the settings of ``--critics``
+   (:func:`~sb3_geogp.comparison.shadow.gp_shadow`; a shadow with the run's own settings
+   reproduces the run's critic exactly).
+3. At every ``--every``-th rollout end, before any critic learns from that rollout:
+   ``--states`` states of the rollout, their true action gaps under the current stochastic
+   policy by Monte Carlo (``--rollouts`` per successor, ``--horizon`` steps, common random
+   numbers), and every critic's one-step gap (out of sample).
+
+Writes ``OUT/results.json`` (every checkpoint's scores), ``OUT/table.md`` (sign accuracy on
+decisive states over the second half of training, mean over seeds, and each critic's paired
+difference from the MLP shadow with a 95% t interval) and ``OUT/action_gap.png``.
+
+    python examples/action_gap.py --seeds 0 1 2 3 4 5 --out docs/action_gap
+    python examples/action_gap.py --actors geodesic --critics '{"RBF GP": {"kernel": "rbf"}}'
+
+A finished actor and seed is kept in ``OUT/runs/`` and not run again.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch as th
+from stable_baselines3.common.callbacks import BaseCallback, CallbackList
+from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
+from tqdm.auto import tqdm
+
+from sb3_geogp import GPActorCriticPolicy, GPValueCallback
+from sb3_geogp.comparison.hyperparams import TIMESTEPS
+from sb3_geogp.comparison.run import build_model, write_json_atomic
+from sb3_geogp.comparison.shadow import Learner, MLPShadow, ShadowFeed, gp_shadow, ppo_spec
+from sb3_geogp.studies.action_gap import action_gaps, gap_scores
+from sb3_geogp.toolbox.provenance import provenance
+from sb3_geogp.toolbox.stats import mean_ci
+
+ENV = "CartPole-v1"
+#: The run's own critic, and the MLP shadow every critic is compared with.
+OWN, MLP = "run's own critic", "SB3 MLP critic (shadow)"
+#: GP shadow critics by default (settings as :func:`~sb3_geogp.comparison.shadow.ppo_spec`).
+CRITICS: dict[str, dict[str, Any]] = {
+    "geodesic GP (default)": {},
+    "RBF GP": {"kernel": "rbf"},
+    "Laplacian GP, novelty_tol 0.1": {"kernel": "laplacian", "gp_options": {"novelty_tol": 0.1}},
+    "RBF GP, lengthscales fixed": {"kernel": "rbf", "lengthscale_range": [1.0, 1.0]},
+}
+#: Scores averaged over checkpoints after this share of training.
+LATE = 0.5
+
+Value = Callable[[np.ndarray], np.ndarray]
+
+
+class GapCheckpoints(BaseCallback):
+    """At every ``every``-th rollout end, scores every critic's one-step gaps against Monte
+    Carlo gaps on ``n_states`` states of the rollout. Pass it before the callbacks that let a
+    critic learn from the rollout."""
+
+    def __init__(self, critics: dict[str, Value], args: argparse.Namespace, seed: int) -> None:
+        super().__init__()
+        self.critics, self.args = critics, args
+        self.rng = np.random.default_rng(seed)
+        self.rollouts = 0
+        self.rows: list[dict[str, Any]] = []
+
+    def _on_step(self) -> bool:
+        return True
+
+    def _p_right(self, states: np.ndarray) -> np.ndarray:
+        obs = th.as_tensor(states, dtype=th.float32, device=self.model.device)
+        with th.no_grad():
+            probs = self.model.policy.get_distribution(obs).distribution.probs  # type: ignore[attr-defined]
+        return probs[:, 1].double().cpu().numpy()
+
+    def _on_rollout_end(self) -> None:
+        self.rollouts += 1
+        if self.rollouts % self.args.every:
+            return
+        obs = self.model.rollout_buffer.observations.reshape(-1, 4).astype(np.float64)
+        states = obs[self.rng.choice(len(obs), min(self.args.states, len(obs)), replace=False)]
+        gamma = float(self.model.gamma)
+        truth = action_gaps(
+            self._p_right, states, gamma, self.args.rollouts, self.args.horizon, self.rollouts
+        )
+        row: dict[str, Any] = dict(step=int(self.num_timesteps))
+        for name, value in self.critics.items():
+            row[name] = gap_scores(truth.gap, truth.stderr, truth.critic_gap(value, gamma))
+        self.rows.append(row)
+
+
+def _torch_value(fn: Callable[[th.Tensor], th.Tensor]) -> Value:
+    return lambda s: fn(th.as_tensor(s, dtype=th.float64)).double().cpu().numpy()
+
+
+def run(actor: str, seed: int, args: argparse.Namespace) -> dict[str, Any]:
+    """One PPO run with ``actor``'s critic and the shadow critics; its checkpoints' scores."""
+    th.set_num_threads(1)
+    spec = ppo_spec(ENV, seed, args.timesteps, {"kernel": actor})
+    model = build_model(spec)
+    mlp = MLPShadow(ENV, seed)
+    gps = {name: gp_shadow(ppo_spec(ENV, seed, 1, s)) for name, s in args.critics.items()}
+    critics: dict[str, Value] = {OWN: _own_value(model), MLP: _torch_value(mlp.predict)}
+    critics.update(
+        {
+            name: _torch_value(lambda x, gp=gp: gp.predict(x, return_var=False)[0])
+            for name, gp in gps.items()
+        }
+    )
+
+    def learn_mlp(x: th.Tensor, y: th.Tensor, _starts: th.Tensor) -> None:
+        mlp.learn(x, y, model.lr_schedule(model._current_progress_remaining))
+
+    learners: list[Learner] = [learn_mlp, *(gp.update for gp in gps.values())]
+    checkpoints = GapCheckpoints(critics, args, seed)
+    own_feed = [GPValueCallback()] if isinstance(model.policy, GPActorCriticPolicy) else []
+    model.learn(
+        args.timesteps, callback=CallbackList([checkpoints, *own_feed, ShadowFeed(learners)])
+    )
+    env = model.get_env()
+    assert env is not None
+    env.close()
+    return dict(actor=actor, seed=seed, rows=checkpoints.rows)
+
+
+def _own_value(model: OnPolicyAlgorithm) -> Value:
+    policy = model.policy
+    if isinstance(policy, GPActorCriticPolicy):
+        return _torch_value(lambda x: policy.gp.predict(x, return_var=False)[0])
+    return _torch_value(lambda x: policy.predict_values(x.float())[:, 0].detach())
+
+
+def late_scores(result: dict[str, Any], timesteps: int, metric: str) -> dict[str, float]:
+    """Per critic, the mean of ``metric`` over the checkpoints after :data:`LATE` of training
+    (NaN scores, checkpoints without a decisive state, left out)."""
+    rows = [r for r in result["rows"] if r["step"] > LATE * timesteps]
+    names = [k for k in rows[0] if k != "step"] if rows else []
+    return {n: float(np.nanmean([r[n][metric] for r in rows])) for n in names}
+
+
+def table(results: dict[str, dict[int, Any]], timesteps: int) -> str:
+    """Markdown: per actor and critic, late sign accuracy (mean over seeds [lowest, highest])
+    and the paired difference from the MLP shadow [95% t interval]."""
+    lines = [
+        f"| actor's critic | critic | sign accuracy, decisive states (last {1 - LATE:.0%}) "
+        f"| weighted by the gap | − {MLP} [95% CI] | seeds |",
+        "|---|---|---:|---:|---|---:|",
+    ]
+    for actor, by_seed in results.items():
+        scores = [late_scores(r, timesteps, "sign_accuracy") for r in by_seed.values()]
+        weighted = [late_scores(r, timesteps, "weighted_sign_accuracy") for r in by_seed.values()]
+        for name in scores[0]:
+            values = np.array([s[name] for s in scores])
+            diff = values - np.array([s[MLP] for s in scores])
+            mean, half = (float(v) for v in mean_ci(diff, nan_policy="omit"))
+            ci = "–" if name == MLP else f"{mean:+.3f} [{mean - half:+.3f}, {mean + half:+.3f}]"
+            w = np.nanmean([s[name] for s in weighted])
+            spread = f"{np.nanmean(values):.3f} [{np.nanmin(values):.2f}, {np.nanmax(values):.2f}]"
+            lines.append(f"| {actor} | {name} | {spread} | {w:.3f} | {ci} | {len(values)} |")
+    return "\n".join(lines) + "\n"
+
+
+def plot(results: dict[str, dict[int, Any]], path: Path) -> None:
+    """Sign accuracy on decisive states over training, mean over seeds, a panel per actor."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(
+        1, len(results), figsize=(5.2 * len(results) + 3.2, 3.8), squeeze=False
+    )
+    for ax, (actor, by_seed) in zip(axes[0], results.items(), strict=True):
+        runs = list(by_seed.values())
+        steps = [r["step"] for r in runs[0]["rows"]]
+        for k, name in enumerate(n for n in runs[0]["rows"][0] if n != "step"):
+            acc = np.array([[row[name]["sign_accuracy"] for row in r["rows"]] for r in runs])
+            ax.plot(steps, np.nanmean(acc, axis=0), "o-", color=f"C{k}", ms=3, label=name)
+        ax.axhline(0.5, color="k", ls=":", lw=1)
+        ax.set(title=f"PPO with the {actor} critic", xlabel="environment steps", ylim=(0, 1))
+        ax.grid(alpha=0.3)
+    axes[0][0].set_ylabel("sign accuracy, decisive states")
+    axes[0][-1].legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0))
+    fig.suptitle(f"{ENV}: does the critic order the two actions as the true Q does? (0.5 = chance)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--actors", nargs="+", default=["geodesic", "mlp"])
+    parser.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2])
+    parser.add_argument("--timesteps", type=int, default=TIMESTEPS[ENV])
+    parser.add_argument("--every", type=int, default=12, help="rollouts between checkpoints")
+    parser.add_argument("--states", type=int, default=256, help="states per checkpoint")
+    parser.add_argument("--rollouts", type=int, default=16, help="Monte Carlo rollouts per action")
+    parser.add_argument("--horizon", type=int, default=250, help="steps per rollout")
+    parser.add_argument(
+        "--critics",
+        type=json.loads,
+        default=CRITICS,
+        help='JSON {name: setting} of GP shadow critics (e.g. {"RBF GP": {"kernel": "rbf"}})',
+    )
+    parser.add_argument("--out", type=Path, default=Path("runs/action_gap"))
+    args = parser.parse_args(argv)
+    (args.out / "runs").mkdir(parents=True, exist_ok=True)
+    results: dict[str, dict[int, Any]] = {a: {} for a in args.actors}
+    jobs = [(a, s) for a in args.actors for s in args.seeds]
+    for actor, seed in tqdm(jobs, unit="run", desc="PPO runs"):
+        path = args.out / "runs" / f"{actor}__s{seed}.json"
+        if not path.exists():
+            write_json_atomic(path, run(actor, seed, args))
+        results[actor][seed] = json.loads(path.read_text())
+    text = table(results, args.timesteps)
+    print(text)
+    (args.out / "table.md").write_text(text)
+    write_json_atomic(
+        args.out / "results.json",
+        {
+            "args": {**vars(args), "out": str(args.out)},
+            "results": results,
+            "provenance": provenance(),
+        },
+    )
+    plot(results, args.out / "action_gap.png")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

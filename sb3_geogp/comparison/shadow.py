@@ -1,0 +1,162 @@
+"""Shadow critics: critics that learn beside a comparison run, from the batches it feeds its own.
+
+A diagnosis that compares critics on *the same data* (so that the critic is the only thing
+that differs) feeds every batch the run's critic learns from to other critics too:
+
+* :func:`ppo_spec`: the comparison's PPO run of a critic with a setting (kernel, adaptation,
+  other GP options);
+* :func:`gp_shadow`: a fresh GP critic built exactly as that run's policy builds it;
+* :class:`MLPShadow`: SB3's MLP critic of the comparison's ``mlp`` run, trained on the
+  batches as PPO trains its critic;
+* :class:`ShadowFeed`: the callback that gives them every rollout of a run.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable, Sequence
+from typing import Any, cast
+
+import torch as th
+from stable_baselines3 import PPO
+from stable_baselines3.common.callbacks import BaseCallback
+from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
+from torch import Tensor
+
+from sb3_geogp.comparison.run import build_model
+from sb3_geogp.comparison.specs import RunSpec, SweepConfig
+from sb3_geogp.policies import GPActorCriticPolicy
+from sb3_geogp.sparse_gp import SparseOnlineGP
+from sb3_geogp.targets import per_env
+
+#: A shadow critic's learning step: ``learn(x, y, episode_starts)``, shapes (n, d), (n,), (n,).
+Learner = Callable[[Tensor, Tensor, Tensor], None]
+
+
+def ppo_spec(env_id: str, seed: int, timesteps: int, setting: dict[str, Any]) -> RunSpec:
+    """The comparison's PPO run of a critic on ``env_id`` with ``setting``.
+
+    Parameters
+    ----------
+    env_id : str
+    seed : int
+    timesteps : int
+    setting : dict
+        :class:`~sb3_geogp.adaptation.Adaptation` settings, plus optionally ``"gp_options"``
+        (other options of the GP critic, e.g. ``{"max_basis": 1024}``) and ``"kernel"`` (the
+        critic: ``"geodesic"``, the default, ``"rbf"``, ``"laplacian"``, or ``"mlp"``).
+    """
+    adapt = {k: v for k, v in setting.items() if k not in ("gp_options", "kernel")}
+    options = {**setting.get("gp_options", {}), **({"adapt": adapt} if adapt else {})}
+    config = SweepConfig(
+        algos=("ppo",),
+        critics=(setting.get("kernel", "geodesic"),),
+        envs=(env_id,),
+        seeds=(seed,),
+        timesteps=timesteps,
+        gp_options=tuple(sorted(options.items())),
+    )
+    (spec,) = config.specs()
+    return spec
+
+
+def built_model(spec: RunSpec) -> OnPolicyAlgorithm:
+    """``spec``'s model with its training environments closed: a shadow needs its critic only.
+
+    Uses one torch thread, as the comparison's runs do.
+    """
+    th.set_num_threads(1)
+    model = build_model(spec)
+    env = model.get_env()
+    assert env is not None
+    env.close()
+    return model
+
+
+def gp_critic(model: OnPolicyAlgorithm) -> SparseOnlineGP:
+    """The GP of a model with a GP critic."""
+    if not isinstance(model.policy, GPActorCriticPolicy):
+        raise TypeError(f"the model's policy has no GP critic: {type(model.policy).__name__}")
+    return model.policy.gp
+
+
+def gp_shadow(spec: RunSpec) -> SparseOnlineGP:
+    """A fresh GP critic of ``spec`` (``spec.critic`` a kernel name), built as its policy builds
+    it: same observation bounds and options. Feed it with ``update(x, y, episode_starts)``."""
+    return gp_critic(built_model(spec))
+
+
+class MLPShadow:
+    """SB3's MLP critic of the comparison's ``mlp`` PPO run, trained as PPO trains it.
+
+    For each batch given to :meth:`learn`: ``n_epochs`` passes over shuffled minibatches of
+    ``batch_size`` of PPO's value loss alone (``vf_coef`` times the mean squared error), with
+    the policy's optimizer and gradient clipping. The actor gets no gradient, so only the
+    critic learns, from the targets it is given.
+
+    Parameters
+    ----------
+    env_id : str
+    seed : int
+        Seed of the network's initialisation and of the minibatch order.
+    """
+
+    def __init__(self, env_id: str, seed: int) -> None:
+        model = built_model(dataclasses.replace(ppo_spec(env_id, seed, 1, {}), critic="mlp"))
+        assert isinstance(model, PPO)
+        self.model = model
+        self.generator = th.Generator().manual_seed(seed)
+
+    def predict(self, x: Tensor) -> Tensor:
+        """Values of states ``x : (n, d)``; shape (n,)."""
+        with th.no_grad():
+            return self.model.policy.predict_values(x.float())[:, 0]
+
+    def learn(self, x: Tensor, y: Tensor, learning_rate: float | None = None) -> None:
+        """PPO's critic epochs on the batch ``x : (n, d)``, ``y : (n,)``.
+
+        ``learning_rate``: the step size (``None``: the schedule's initial value, what a
+        replay that knows no training progress uses).
+        """
+        model, policy = self.model, self.model.policy
+        rate = model.lr_schedule(1.0) if learning_rate is None else learning_rate
+        for group in policy.optimizer.param_groups:
+            group["lr"] = rate
+        obs, target = x.float(), y.float()
+        for _ in range(model.n_epochs):
+            order = th.randperm(x.shape[0], generator=self.generator)
+            for start in range(0, x.shape[0], model.batch_size):
+                rows = order[start : start + model.batch_size]
+                error = policy.predict_values(obs[rows])[:, 0] - target[rows]
+                loss = model.vf_coef * error.square().mean()
+                policy.optimizer.zero_grad()
+                loss.backward()
+                th.nn.utils.clip_grad_norm_(policy.parameters(), model.max_grad_norm)
+                policy.optimizer.step()
+
+
+class ShadowFeed(BaseCallback):
+    """Feeds every rollout's states and SB3 returns, env by env, as
+    :class:`~sb3_geogp.GPValueCallback` feeds them, to shadow critics.
+
+    Pass it after the run's :class:`~sb3_geogp.GPValueCallback`, whose deferred values complete
+    the returns.
+
+    Parameters
+    ----------
+    learners : sequence of callables
+        Each called with ``(x, y, episode_starts)`` per rollout (:data:`Learner`).
+    """
+
+    def __init__(self, learners: Sequence[Learner]) -> None:
+        super().__init__()
+        self.learners = list(learners)
+
+    def _on_step(self) -> bool:
+        return True
+
+    def _on_rollout_end(self) -> None:
+        buffer = cast(OnPolicyAlgorithm, self.model).rollout_buffer
+        x, y, starts = per_env(buffer.observations, buffer.returns, buffer.episode_starts)
+        for learn in self.learners:
+            learn(th.as_tensor(x), th.as_tensor(y), th.as_tensor(starts))
