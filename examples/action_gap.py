@@ -102,7 +102,9 @@ class GapCheckpoints(BaseCallback):
         )
         row: dict[str, Any] = dict(step=int(self.num_timesteps))
         for name, value in self.critics.items():
-            row[name] = gap_scores(truth.gap, truth.stderr, truth.critic_gap(value, gamma))
+            scores = gap_scores(truth.gap, truth.stderr, truth.critic_gap(value, gamma))
+            # JSON has no NaN (no decisive state, a constant critic): stored as null
+            row[name] = {k: None if v != v else v for k, v in scores.items()}
         self.rows.append(row)
 
 
@@ -149,10 +151,10 @@ def _own_value(model: OnPolicyAlgorithm) -> Value:
 
 def late_scores(result: dict[str, Any], timesteps: int, metric: str) -> dict[str, float]:
     """Per critic, the mean of ``metric`` over the checkpoints after :data:`LATE` of training
-    (NaN scores, checkpoints without a decisive state, left out)."""
+    (null scores, of checkpoints without a decisive state, left out)."""
     rows = [r for r in result["rows"] if r["step"] > LATE * timesteps]
     names = [k for k in rows[0] if k != "step"] if rows else []
-    return {n: float(np.nanmean([r[n][metric] for r in rows])) for n in names}
+    return {n: float(np.nanmean(np.array([r[n][metric] for r in rows], float))) for n in names}
 
 
 def table(results: dict[str, dict[int, Any]], timesteps: int) -> str:
@@ -191,8 +193,10 @@ def plot(results: dict[str, dict[int, Any]], path: Path) -> None:
         runs = list(by_seed.values())
         steps = [r["step"] for r in runs[0]["rows"]]
         for k, name in enumerate(n for n in runs[0]["rows"][0] if n != "step"):
-            acc = np.array([[row[name]["sign_accuracy"] for row in r["rows"]] for r in runs])
-            ax.plot(steps, np.nanmean(acc, axis=0), "o-", color=f"C{k}", ms=3, label=name)
+            acc = np.array([[row[name]["sign_accuracy"] for row in r["rows"]] for r in runs], float)
+            # the run's own critic under its shadow twin (they coincide for a GP run): wide
+            style = dict(lw=4, alpha=0.35) if name == OWN else dict(lw=1.5, ms=3, marker="o")
+            ax.plot(steps, np.nanmean(acc, axis=0), color=f"C{k}", label=name, **style)
         ax.axhline(0.5, color="k", ls=":", lw=1)
         ax.set(title=f"PPO with the {actor} critic", xlabel="environment steps", ylim=(0, 1))
         ax.grid(alpha=0.3)
