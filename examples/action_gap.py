@@ -7,9 +7,11 @@ contributes the one-step gap ``gamma (V(s'_1) - V(s'_0))`` between the two succe
 state (:mod:`sb3_geogp.studies.action_gap`). This script measures how often each critic gets
 its sign right:
 
-1. One PPO run per actor and seed, the comparison's run (zoo hyperparameters,
-   ``--timesteps`` steps): ``--actors geodesic`` trains with the default GP critic, ``mlp`` with
-   SB3's MLP critic.
+1. One PPO run per actor and seed, built as the comparison builds its runs (zoo
+   hyperparameters, ``--timesteps`` steps): ``--actors geodesic`` trains with the default GP
+   critic, ``mlp`` with SB3's MLP critic. Building the shadows re-seeds the global random
+   streams after the model is built, so a run is not the comparison's run of that seed (it is
+   as reproducible).
 2. Beside it, shadow critics learn from every rollout the run's critic learns from (SB3's
    returns, env by env): SB3's MLP critic trained as PPO trains it, at the run's current
    learning rate (:class:`~sb3_geogp.comparison.shadow.MLPShadow`), and GP critics built as the
