@@ -20,7 +20,7 @@ from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
 
 from sb3_geogp import GPActorCriticPolicy, GPValueCallback
 from sb3_geogp.policies import SUPPORTED_ALGORITHMS
-from sb3_geogp.targets import discounted_returns, split_completed
+from sb3_geogp.targets import discounted_returns, per_env, split_completed
 
 GAMMA = 0.9
 PRIOR = 10.0  # target_mean: what the (unfed) GP predicts everywhere
@@ -144,6 +144,21 @@ def test_split_completed() -> None:
     assert n == 2
     assert split_completed(starts, last_done=True)[1] == 5
     assert split_completed(np.array([False, False]), last_done=False)[1] == 0
+
+
+def test_per_env_orders_a_rollout_env_by_env() -> None:
+    """Against a loop over (env, step): every env's steps in time order, a trajectory start on
+    each env's first step and wherever an episode starts."""
+    n_steps, n_envs = 3, 2
+    obs = np.arange(n_steps * n_envs * 2, dtype=np.float32).reshape(n_steps, n_envs, 2)
+    targets = 10.0 * np.arange(n_steps * n_envs).reshape(n_steps, n_envs)
+    starts = np.array([[0, 0], [0, 1], [1, 0]], dtype=np.float32)
+    x, y, s = per_env(obs, targets, starts)
+    order = [(e, t) for e in range(n_envs) for t in range(n_steps)]
+    np.testing.assert_array_equal(x, [obs[t, e] for e, t in order])
+    np.testing.assert_array_equal(y, [targets[t, e] for e, t in order])
+    np.testing.assert_array_equal(s, [t == 0 or starts[t, e] == 1 for e, t in order])
+    assert starts[0, 0] == 0  # the input is left as it was
 
 
 # ------------------------------------------------------------------------------------------------
