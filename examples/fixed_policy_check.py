@@ -22,6 +22,7 @@ from __future__ import annotations
 import argparse
 import json
 import time
+import typing
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -38,7 +39,13 @@ from rich.console import Console
 from tqdm import tqdm
 
 from sb3_geogp.adaptation import as_adaptation
-from sb3_geogp.studies.pendulum.batch_check import ONLINE, CheckConfig, CheckResult, run_check
+from sb3_geogp.studies.pendulum.batch_check import (
+    ONLINE,
+    CheckConfig,
+    CheckResult,
+    KernelName,
+    run_check,
+)
 from sb3_geogp.studies.pendulum.ground_truth import mc_value
 from sb3_geogp.studies.pendulum.task import Task
 from sb3_geogp.toolbox.provenance import provenance
@@ -76,9 +83,9 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument(
         "--kernels",
         nargs="+",
-        choices=("rbf", "geodesic"),
+        choices=typing.get_args(KernelName),
         default=None,
-        help="kernels checked (default: both)",
+        help="kernels checked (default: rbf geodesic)",
     )
     return parser.parse_args(argv)
 

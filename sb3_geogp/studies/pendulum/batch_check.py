@@ -48,7 +48,7 @@ from sb3_geogp.toolbox.streams import episode_batches
 from sb3_geogp.toolbox.tables import estimate_cell, markdown_table
 
 #: Kernels of the check, by :class:`~sb3_geogp.SparseOnlineGP`'s names (library defaults).
-KernelName = Literal["rbf", "geodesic"]
+KernelName = Literal["rbf", "geodesic", "laplacian"]
 #: The on-line GPs of a row: with adaptation (the subject) and without (context).
 ONLINE = ("adaptive", "default")
 #: Bounds of the batch fit's log-parameters: lengthscale factors (relative to the on-line
@@ -230,8 +230,9 @@ class CheckConfig:
     seeds : tuple of int
         One data stream per seed (episodes seeded ``10000 + seed``, as the reproduction's
         training episodes).
-    kernels : tuple of {"rbf", "geodesic"}
-        Kernels by name, library defaults otherwise.
+    kernels : tuple of {"rbf", "geodesic", "laplacian"}
+        Kernels by name, library defaults otherwise (the Euclidean Laplacian kernel is the
+        comparison's option ``critic="laplacian"``).
     n_episodes : int
         Episodes of the fixed policy per stream (150 steps each, uniform starts).
     stride : int

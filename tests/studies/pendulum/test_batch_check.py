@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -109,3 +110,12 @@ def test_run_check_quick() -> None:
     }
     assert "no interval" in result.table()
     assert set(result.to_json()) >= {"config", "rows", "summary", "n_points", "truth"}
+
+
+def test_quick_check_runs_the_euclidean_laplacian_kernel() -> None:
+    """The comparison's ``laplacian`` critic has the same check (its batch GP included)."""
+    result = run_check(dataclasses.replace(CheckConfig.quick(), kernels=("laplacian",)))
+    assert {row["kernel"] for row in result.rows} == {"laplacian"}
+    for row in result.rows:
+        assert row["n_basis"] <= row["max_basis"]
+        assert math.isfinite(row["ratio_adaptive"]) and row["mse_batch"] > 0
