@@ -39,11 +39,11 @@ from rich.console import Console
 from tqdm import tqdm
 
 from sb3_geogp.adaptation import as_adaptation
+from sb3_geogp.kernels import KernelName
 from sb3_geogp.studies.pendulum.batch_check import (
     ONLINE,
     CheckConfig,
     CheckResult,
-    KernelName,
     run_check,
 )
 from sb3_geogp.studies.pendulum.ground_truth import mc_value

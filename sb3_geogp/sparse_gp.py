@@ -28,7 +28,7 @@ import contextlib
 import functools
 import math
 from collections.abc import Callable, Iterator, Mapping, Sequence
-from typing import Any, Literal, NamedTuple, TypeVar, cast
+from typing import Any, NamedTuple, TypeVar, cast
 
 import numpy as np
 import torch
@@ -49,7 +49,7 @@ from sb3_geogp.adaptation import (
     weighted_moments,
 )
 from sb3_geogp.graph import BVGraph
-from sb3_geogp.kernels import Kernel, make_kernel
+from sb3_geogp.kernels import Kernel, KernelName, make_kernel
 from sb3_geogp.kernels.base import check_same_options
 
 ArrayLike = Tensor | np.ndarray | Sequence[Any]
@@ -157,9 +157,9 @@ class SparseOnlineGP(nn.Module):
     ----------
     input_dim : int
         Dimension ``d`` of the inputs (flattened observations).
-    kernel : Kernel or {"rbf", "geodesic"}
-        Covariance function; a name builds :class:`RBFKernel` or :class:`GeodesicKernel`
-        with default options.
+    kernel : Kernel or {"rbf", "laplacian", "geodesic"}
+        Covariance function; a name builds :class:`RBFKernel`, :class:`LaplacianKernel` or
+        :class:`GeodesicKernel` with default options.
     max_basis : int
         Capacity ``m_max`` of the basis set.
     noise_var : float
@@ -255,7 +255,7 @@ class SparseOnlineGP(nn.Module):
     def __init__(
         self,
         input_dim: int,
-        kernel: Kernel | Literal["rbf", "geodesic"] = "geodesic",
+        kernel: Kernel | KernelName = "geodesic",
         max_basis: int = 256,
         noise_var: float = 0.05,
         novelty_tol: float | None = None,

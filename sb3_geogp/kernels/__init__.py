@@ -27,6 +27,8 @@ from sb3_geogp.kernels.base import (
 from sb3_geogp.kernels.euclidean import EuclideanKernel, LaplacianKernel, RBFKernel
 from sb3_geogp.kernels.geodesic import GeodesicKernel, shepard_weights
 
+#: Names of the kernels of :data:`KERNELS`.
+KernelName = Literal["rbf", "laplacian", "geodesic"]
 #: Kernels that :func:`make_kernel` (and so ``gp_kwargs=dict(kernel=...)``) builds by name.
 KERNELS: dict[str, type[Kernel]] = {
     "rbf": RBFKernel,
@@ -35,7 +37,7 @@ KERNELS: dict[str, type[Kernel]] = {
 }
 
 
-def make_kernel(kernel: Kernel | Literal["rbf", "geodesic"], **kwargs: Any) -> Kernel:
+def make_kernel(kernel: Kernel | KernelName, **kwargs: Any) -> Kernel:
     """A copy of ``kernel``, or a new one built by name (a key of :data:`KERNELS`).
 
     A kernel holds state (its lengthscale once chosen, the geodesic kernel's graph), so a GP
@@ -58,6 +60,7 @@ __all__ = [
     "GeodesicKernel",
     "Gram",
     "Kernel",
+    "KernelName",
     "LaplacianKernel",
     "MixedRows",
     "RBFKernel",

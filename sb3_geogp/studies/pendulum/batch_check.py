@@ -31,7 +31,7 @@ import math
 import time
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import asdict, dataclass, field
-from typing import Any, Literal
+from typing import Any
 
 import numpy as np
 import torch
@@ -39,7 +39,7 @@ from scipy import optimize
 from torch import Tensor
 
 from sb3_geogp.adaptation import Adaptation, Projection
-from sb3_geogp.kernels import Kernel
+from sb3_geogp.kernels import Kernel, KernelName
 from sb3_geogp.sparse_gp import SparseOnlineGP
 from sb3_geogp.studies.pendulum.ground_truth import GridValue, mc_value
 from sb3_geogp.studies.pendulum.task import EpisodeData, Task, policy_episodes
@@ -48,7 +48,6 @@ from sb3_geogp.toolbox.streams import episode_batches
 from sb3_geogp.toolbox.tables import estimate_cell, markdown_table
 
 #: Kernels of the check, by :class:`~sb3_geogp.SparseOnlineGP`'s names (library defaults).
-KernelName = Literal["rbf", "geodesic", "laplacian"]
 #: The on-line GPs of a row: with adaptation (the subject) and without (context).
 ONLINE = ("adaptive", "default")
 #: Bounds of the batch fit's log-parameters: lengthscale factors (relative to the on-line
