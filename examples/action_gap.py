@@ -72,8 +72,8 @@ Value = Callable[[np.ndarray], np.ndarray]
 
 
 class GapCheckpoints(BaseCallback):
-    """At every ``every``-th rollout end, scores every critic's one-step gaps against Monte
-    Carlo gaps on ``n_states`` states of the rollout. Pass it before the callbacks that let a
+    """At every ``--every``-th rollout end, scores every critic's one-step gaps against Monte
+    Carlo gaps on ``--states`` states of the rollout. Pass it before the callbacks that let a
     critic learn from the rollout."""
 
     def __init__(self, critics: dict[str, Value], args: argparse.Namespace, seed: int) -> None:

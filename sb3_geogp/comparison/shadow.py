@@ -63,7 +63,7 @@ def ppo_spec(env_id: str, seed: int, timesteps: int, setting: dict[str, Any]) ->
 def built_model(spec: RunSpec) -> OnPolicyAlgorithm:
     """``spec``'s model with its training environments closed: a shadow needs its critic only.
 
-    Uses one torch thread, as the comparison's runs do.
+    Sets torch's thread count to 1 for the process, as the comparison's runs do.
     """
     th.set_num_threads(1)
     model = build_model(spec)
