@@ -40,12 +40,7 @@ from tqdm import tqdm
 
 from sb3_geogp.adaptation import as_adaptation
 from sb3_geogp.kernels import KernelName
-from sb3_geogp.studies.pendulum.batch_check import (
-    ONLINE,
-    CheckConfig,
-    CheckResult,
-    run_check,
-)
+from sb3_geogp.studies.pendulum.batch_check import ONLINE, CheckConfig, CheckResult, run_check
 from sb3_geogp.studies.pendulum.ground_truth import mc_value
 from sb3_geogp.studies.pendulum.task import Task
 from sb3_geogp.toolbox.provenance import provenance

@@ -2,13 +2,23 @@
 
 from __future__ import annotations
 
+import typing
+
 import numpy as np
 import pytest
 import torch
 from scipy.spatial.distance import cdist
 
 from sb3_geogp.graph import BVGraph
-from sb3_geogp.kernels import GeodesicKernel, Gram, RBFKernel, shepard_weights
+from sb3_geogp.kernels import (
+    KERNELS,
+    GeodesicKernel,
+    Gram,
+    KernelName,
+    RBFKernel,
+    make_kernel,
+    shepard_weights,
+)
 
 
 # -- independent references ---------------------------------------------------------------------
@@ -289,3 +299,10 @@ def test_kernel_with_the_one_row_insertion_method_is_refused() -> None:
         class OldKernel(RBFKernel):
             def insertion_row(self, x: torch.Tensor, z: torch.Tensor) -> object:
                 return self.cross(x[None], z)[0], None
+
+
+def test_kernel_names_are_the_kernels_make_kernel_builds() -> None:
+    """The typed names and the registry are two lists: they must not drift apart."""
+    assert set(typing.get_args(KernelName)) == set(KERNELS)
+    for name in typing.get_args(KernelName):
+        assert type(make_kernel(name)) is KERNELS[name]

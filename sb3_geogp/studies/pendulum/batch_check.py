@@ -47,7 +47,6 @@ from sb3_geogp.toolbox.stats import mean_ci
 from sb3_geogp.toolbox.streams import episode_batches
 from sb3_geogp.toolbox.tables import estimate_cell, markdown_table
 
-#: Kernels of the check, by :class:`~sb3_geogp.SparseOnlineGP`'s names (library defaults).
 #: The on-line GPs of a row: with adaptation (the subject) and without (context).
 ONLINE = ("adaptive", "default")
 #: Bounds of the batch fit's log-parameters: lengthscale factors (relative to the on-line
