@@ -2,11 +2,20 @@
 
 The re-run's critics replace their published runs in the re-run cells; the critics not re-run
 (e.g. the MLP) keep their published runs; the family-wise level stays the published sweep's.
-Several re-run folders are read as one sweep, a cell found in several taken from the last.
+Several folders on either side are read as one sweep, a cell found in several taken from the
+last.
 
     python examples/rerun_verdicts.py --published results/compare \\
         --rerun results/compare_adaptive_losing/ppo results/compare_adaptive_losing/a2c \\
         --out results/compare_adaptive_losing/before_after.md
+
+A new default critic under another name is compared with the critic it replaces by
+``--replaces NEW=OLD`` (0.6: the Laplacian kernel replaced the geodesic one):
+
+    python examples/rerun_verdicts.py \\
+        --published results/compare results/compare_adaptive results/compare_ard \\
+        --rerun results/pilot_laplacian/A results/pilot_laplacian/A_rest \\
+        --replaces laplacian=geodesic --out results/pilot_laplacian/before_after.md
 """
 
 from __future__ import annotations
@@ -16,24 +25,47 @@ import json
 from collections.abc import Sequence
 from pathlib import Path
 
+from sb3_geogp.comparison.hyperparams import ALL_CRITICS
 from sb3_geogp.comparison.report import rerun_markdown
-from sb3_geogp.comparison.results import load_results, load_sweeps, rerun_comparisons
+from sb3_geogp.comparison.results import load_sweeps, rerun_comparisons
+
+
+def critic_pair(text: str) -> tuple[str, str]:
+    """``NEW=OLD`` as ``(new, old)``, both names of :data:`ALL_CRITICS`."""
+    new, sep, old = text.partition("=")
+    if not sep or new not in ALL_CRITICS or old not in ALL_CRITICS:
+        raise argparse.ArgumentTypeError(
+            f"expected NEW=OLD with critics of {ALL_CRITICS}, got {text!r}"
+        )
+    return new, old
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--published", type=Path, required=True, help="the published sweep")
+    parser.add_argument(
+        "--published", type=Path, nargs="+", required=True, help="the published sweep(s)"
+    )
     parser.add_argument("--rerun", type=Path, nargs="+", required=True, help="re-run sweeps")
+    parser.add_argument(
+        "--replaces",
+        type=critic_pair,
+        action="append",
+        default=[],
+        metavar="NEW=OLD",
+        help="a re-run critic and the published critic it takes the place of (repeatable)",
+    )
     parser.add_argument("--out", type=Path, required=True, help="markdown file to write")
     args = parser.parse_args(argv)
     rerun = load_sweeps(args.rerun)
     if not rerun:
         raise SystemExit(f"no results in {[str(d) for d in args.rerun]}")
-    before, after = rerun_comparisons(load_results(args.published), rerun)
-    text = rerun_markdown(before, after)
+    replaces = dict(args.replaces)
+    before, after = rerun_comparisons(load_sweeps(args.published), rerun, replaces=replaces)
+    text = rerun_markdown(before, after, replaces)
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(text)
-    args.out.with_suffix(".json").write_text(json.dumps(dict(before=before, after=after), indent=1))
+    payload = dict(before=before, after=after, replaces=replaces)
+    args.out.with_suffix(".json").write_text(json.dumps(payload, indent=1))
     print(text)
     return 0
 

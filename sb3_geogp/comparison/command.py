@@ -23,6 +23,7 @@ from gymnasium.envs.registration import EnvSpec
 from sb3_geogp.comparison.evaluation import env_spec, max_episode_steps
 from sb3_geogp.comparison.hyperparams import (
     ALGOS,
+    ALL_CRITICS,
     CRITICS,
     ENVS,
     GP_KWARGS,
@@ -84,7 +85,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
         default=None,
         help="default: both, or those of --hyperparams",
     )
-    parser.add_argument("--critics", nargs="+", choices=CRITICS, default=None)
+    parser.add_argument(
+        "--critics",
+        nargs="+",
+        choices=ALL_CRITICS,
+        default=None,
+        help=f"default: {' '.join(CRITICS)} (the published sweep's); laplacian is the GP "
+        "policy's default critic since 0.6",
+    )
     parser.add_argument(
         "--envs",
         nargs="+",

@@ -36,8 +36,13 @@ from sb3_geogp.envs.wall_maze import (
 
 #: The algorithms a critic is compared in (also ``sb3-geogp train --algo``).
 ALGOS: dict[str, type[OnPolicyAlgorithm]] = {"ppo": PPO, "a2c": A2C}
-#: The critics compared (also ``sb3-geogp train --critic``): SB3's MLP and the two GP kernels.
+#: The critics of the published sweep (``sb3-geogp compare --critics``' default): SB3's MLP
+#: and the GP critic with the RBF and the geodesic kernel.
 CRITICS = ("mlp", "rbf", "geodesic")
+#: Every critic a sweep can run (also ``sb3-geogp train --critic``), in the order reports list
+#: them: the published ones, then the GP critic with the Euclidean Laplacian kernel, the
+#: default critic since 0.6 (:data:`sb3_geogp.policies.KERNEL_DEFAULTS`).
+ALL_CRITICS = (*CRITICS, "laplacian")
 #: Environments of the published comparison.
 ENVS = (
     "Pendulum-v1",

@@ -22,13 +22,13 @@ import importlib.util
 import json
 import math
 import textwrap
-from collections.abc import Collection, Sequence
+from collections.abc import Collection, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from sb3_geogp.comparison.hyperparams import CRITICS
+from sb3_geogp.comparison.hyperparams import ALL_CRITICS
 from sb3_geogp.comparison.results import (
     METRICS,
     Key,
@@ -48,7 +48,7 @@ from sb3_geogp.toolbox.tables import (
     markdown_table,
 )
 
-COLORS = {"mlp": "tab:gray", "rbf": "tab:blue", "geodesic": "tab:red"}
+COLORS = {"mlp": "tab:gray", "rbf": "tab:blue", "geodesic": "tab:red", "laplacian": "tab:green"}
 #: Confidence level of the figures' bands.
 LEVEL = 0.95
 
@@ -113,10 +113,18 @@ def comparisons_markdown(rows: list[dict[str, Any]]) -> str:
     return "\n".join(lines)
 
 
-def rerun_markdown(before: list[dict[str, Any]], after: list[dict[str, Any]]) -> str:
+def rerun_markdown(
+    before: list[dict[str, Any]],
+    after: list[dict[str, Any]],
+    replaces: Mapping[str, str] | None = None,
+) -> str:
     """Before and after side by side (see :func:`~sb3_geogp.comparison.results.rerun_comparisons`):
     one table per metric, a row per cell and critic pair, cells as in :func:`comparisons_markdown`.
+
+    ``replaces`` (re-run critic to the published critic it replaces) pairs a re-run critic's
+    rows with the published rows of the critic it replaces, named in the row.
     """
+    renamed = dict(replaces or {})
     lines: list[str] = []
     for name, metric in METRICS.items():
         old = {(r["env"], r["algo"], r["a"], r["b"]): r for r in before if r["metric"] == name}
@@ -125,10 +133,11 @@ def rerun_markdown(before: list[dict[str, Any]], after: list[dict[str, Any]]) ->
             continue
         fw = next(iter(new.values()))["fw_level"]
         body = [
-            [f"`{env}`", algo, f"{a} − {b}", _comparison_cell(old.get(k)), _comparison_cell(new[k])]
+            [f"`{env}`", algo, _pair_label(a, b, renamed.get(a, a)),
+             _comparison_cell(old.get((env, algo, renamed.get(a, a), b))), _comparison_cell(new[k])]
             for k in sorted(new)
             for env, algo, a, b in [k]
-        ]
+        ]  # fmt: skip
         lines += [
             f"### {metric.label}",
             "",
@@ -139,6 +148,11 @@ def rerun_markdown(before: list[dict[str, Any]], after: list[dict[str, Any]]) ->
             "",
         ]
     return "\n".join(lines)
+
+
+def _pair_label(a: str, b: str, published: str) -> str:
+    label = f"{a} − {b}"
+    return label if published == a else f"{label} (published: {published} − {b})"
 
 
 def _comparison_cell(r: dict[str, Any] | None) -> str:
@@ -236,7 +250,7 @@ def _finish(
     from matplotlib.patches import Patch
 
     handles: list[Any] = []
-    for critic in sorted(n_seeds, key=CRITICS.index):
+    for critic in sorted(n_seeds, key=ALL_CRITICS.index):
         lo, hi = min(n_seeds[critic]), max(n_seeds[critic])
         n = f"{lo}" if lo == hi else f"{lo}-{hi}"
         handles.append(Line2D([], [], color=COLORS.get(critic), label=f"{critic} (n = {n})"))
@@ -274,7 +288,7 @@ def plot_learning_curves(
         n_seeds: dict[str, list[int]] = {}
         threshold = runs_threshold(groups, env_id)
         for ax, algo in zip(axes[0], algos, strict=True):
-            for critic in CRITICS:
+            for critic in ALL_CRITICS:
                 runs = groups.get((env_id, algo, critic))
                 if runs:
                     t, values = stack_curves(runs)
@@ -318,7 +332,7 @@ def plot_critic_accuracy(results: list[dict[str, Any]], path: str | Path, seed: 
     for i, env_id in enumerate(envs):
         for j, algo in enumerate(algos):
             ax = axes[i, j]
-            for critic in CRITICS:
+            for critic in ALL_CRITICS:
                 runs = groups.get((env_id, algo, critic))
                 if runs:
                     t, values = stack_curves(runs, "critic_accuracy", "rmse")

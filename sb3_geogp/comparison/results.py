@@ -7,8 +7,9 @@ Reads the result files written by :mod:`sb3_geogp.comparison.run` (``out/runs/*.
 * :func:`summary_rows`: per environment, algorithm and critic the number of seeds, final
   return (mean [95 % CI], IQM), steps to threshold, final critic RMSE, wall clock and the GP's
   share of it;
-* :func:`comparisons`: for each environment and algorithm the differences RBF - MLP,
-  geodesic - MLP and geodesic - RBF of the means of three metrics (:data:`METRICS`), each with
+* :func:`comparisons`: for each environment and algorithm the differences of the critic pairs
+  of :data:`PAIRS` (RBF - MLP, geodesic - MLP and geodesic - RBF in the published sweep) of the
+  means of three metrics (:data:`METRICS`), each with
   its 95 % bootstrap interval and a verdict ("better" / "worse" when the interval excludes 0,
   else "no difference"), and the same verdict at the family-wise level: a Bonferroni-widened
   interval over all comparisons of that metric, because among dozens of 95 % intervals a few
@@ -21,17 +22,27 @@ from __future__ import annotations
 import json
 import math
 from collections import defaultdict
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any, NamedTuple
 
 import numpy as np
 
-from sb3_geogp.comparison.hyperparams import CRITICS
+from sb3_geogp.comparison.hyperparams import ALL_CRITICS
 from sb3_geogp.toolbox.stats import bootstrap_ci, difference_ci, iqm
 
 Key = tuple[str, str, str]  # (env_id, algo, critic)
-PAIRS = (("rbf", "mlp"), ("geodesic", "mlp"), ("geodesic", "rbf"))
+#: The critic pairs ``(a, b)`` compared where a sweep ran both: each GP critic against the MLP,
+#: the geodesic against the RBF kernel (the published sweep's three), and the Laplacian kernel
+#: (the default critic since 0.6) against the MLP and both other kernels.
+PAIRS = (
+    ("rbf", "mlp"),
+    ("geodesic", "mlp"),
+    ("geodesic", "rbf"),
+    ("laplacian", "mlp"),
+    ("laplacian", "rbf"),
+    ("laplacian", "geodesic"),
+)
 # Below this many seeds per critic a bootstrap interval is too coarse to support a verdict
 # (with one seed it is a single point); the issue asks for at least 5 in published results.
 MIN_SEEDS_FOR_VERDICT = 5
@@ -149,7 +160,7 @@ def summary_rows(results: list[dict[str, Any]], seed: int = 0) -> list[dict[str,
     """
     groups = group_runs(results)
     rows = []
-    for key in sorted(groups, key=lambda k: (k[0], k[1], CRITICS.index(k[2]))):
+    for key in sorted(groups, key=lambda k: (k[0], k[1], ALL_CRITICS.index(k[2]))):
         env_id, algo, critic = key
         runs = groups[key]
         final = np.array([r["final_return"] for r in runs])
@@ -249,7 +260,10 @@ def comparisons(
 
 
 def rerun_comparisons(
-    published: list[dict[str, Any]], rerun: list[dict[str, Any]], seed: int = 0
+    published: list[dict[str, Any]],
+    rerun: list[dict[str, Any]],
+    seed: int = 0,
+    replaces: Mapping[str, str] | None = None,
 ) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
     """The published comparisons of the critics re-run in some cells, and the re-run's.
 
@@ -257,32 +271,47 @@ def rerun_comparisons(
     other critics of those cells (e.g. the MLP) keep their published runs, and the family-wise
     level stays the published sweep's (``family_size``), so both sides follow the same rule.
 
+    Parameters
+    ----------
+    published, rerun : list of dict
+        Result files' contents.
+    seed : int
+        Seed of every bootstrap.
+    replaces : mapping of str to str, optional
+        Re-run critic to the published critic it takes the place of, when a new default
+        critic is compared with the old one under another name (``{"laplacian": "geodesic"}``):
+        the published critic is then the "before" of the re-run one and is left out of the
+        re-run's comparisons.
+
     Returns
     -------
     before, after : list of dict
-        :func:`comparisons` rows of the re-run critics against the critics not re-run, in the
-        re-run cells: from the published sweep, and with the re-run.
+        :func:`comparisons` rows of the re-run critics (before: the critics they replace)
+        against the critics not re-run, in the re-run cells: from the published sweep, and
+        with the re-run.
     """
+    renamed = dict(replaces or {})
     cells = {(r["spec"]["env_id"], r["spec"]["algo"]) for r in rerun}
     critics = {r["spec"]["critic"] for r in rerun}
+    previous = {renamed.get(c, c) for c in critics}
+    involved = critics | previous
 
-    def wanted(row: dict[str, Any]) -> bool:
-        return (
-            (row["env"], row["algo"]) in cells and row["a"] in critics and row["b"] not in critics
-        )
+    def wanted(row: dict[str, Any], side: set[str]) -> bool:
+        in_cell = (row["env"], row["algo"]) in cells
+        return in_cell and row["a"] in side and row["b"] not in involved
 
     before = comparisons(published, seed=seed)
     family = before[0]["family_size"] if before else None
     kept = [
         r for r in published
-        if (r["spec"]["env_id"], r["spec"]["algo"]) in cells and r["spec"]["critic"] not in critics
+        if (r["spec"]["env_id"], r["spec"]["algo"]) in cells and r["spec"]["critic"] not in involved
     ]  # fmt: skip
     after = comparisons(kept + rerun, seed=seed, family_size=family)
-    return [r for r in before if wanted(r)], [r for r in after if wanted(r)]
+    return [r for r in before if wanted(r, previous)], [r for r in after if wanted(r, critics)]
 
 
 def critic_pairs(against_baseline: bool) -> tuple[tuple[str, str], ...]:
-    return tuple((c, c) for c in CRITICS) if against_baseline else PAIRS
+    return tuple((c, c) for c in ALL_CRITICS) if against_baseline else PAIRS
 
 
 def _json_safe(x: Any) -> Any:

@@ -49,10 +49,9 @@ from sb3_geogp.comparison.evaluation import (
     ProbeStates,
     mc_horizon,
 )
-from sb3_geogp.comparison.hyperparams import ALGOS, CRITICS, DEVIATIONS, algo_kwargs
+from sb3_geogp.comparison.hyperparams import ALGOS, ALL_CRITICS, DEVIATIONS, algo_kwargs
 from sb3_geogp.comparison.measurement import ForwardTimer, MeasureCallback, TimedGPValueCallback
 from sb3_geogp.comparison.specs import RunSpec
-from sb3_geogp.kernels import KERNELS
 from sb3_geogp.policies import GPActorCriticPolicy
 from sb3_geogp.toolbox.provenance import provenance
 from sb3_geogp.toolbox.stats import steps_to_threshold
@@ -121,11 +120,8 @@ def build_model(spec: RunSpec) -> OnPolicyAlgorithm:
     with the spec's GP options and the same ``policy_kwargs``: its actor starts from the MLP
     policy's parameters for the same seed. Close ``model.get_env()`` when done.
     """
-    if spec.critic != "mlp" and spec.critic not in KERNELS:
-        raise ValueError(
-            f"critic must be 'mlp' or a GP kernel of {sorted(KERNELS)} (the compared ones: "
-            f"{CRITICS}), got {spec.critic!r}"
-        )
+    if spec.critic not in ALL_CRITICS:
+        raise ValueError(f"critic must be one of {ALL_CRITICS}, got {spec.critic!r}")
     n_envs, kwargs, policy_kwargs = algo_kwargs(spec.algo, spec.hyperparams)
     env = make_vec_env(spec.env_id, n_envs=n_envs, seed=spec.seed)
     if spec.critic == "mlp":

@@ -27,9 +27,8 @@ class RunSpec:
     ----------
     algo : {"ppo", "a2c"}
     critic : str
-        ``"mlp"``, or the GP critic's kernel: ``"rbf"`` and ``"geodesic"`` are compared; any
-        other name of :data:`sb3_geogp.kernels.KERNELS` (``"laplacian"``) builds and runs, for
-        diagnoses outside the published sweep.
+        One of :data:`~sb3_geogp.comparison.hyperparams.ALL_CRITICS`: ``"mlp"``, or the GP
+        critic's kernel (``"rbf"``, ``"geodesic"``, ``"laplacian"``).
     env_id : str
     seed : int
         Seed of the model and the training environments.

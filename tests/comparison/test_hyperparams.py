@@ -11,6 +11,8 @@ import pytest
 import torch as th
 
 from sb3_geogp.comparison.hyperparams import (
+    ALL_CRITICS,
+    CRITICS,
     ENVS,
     THRESHOLDS,
     TIMESTEPS,
@@ -22,7 +24,9 @@ from sb3_geogp.comparison.hyperparams import (
     parse_policy_kwargs,
     threshold,
 )
+from sb3_geogp.comparison.results import PAIRS
 from sb3_geogp.comparison.specs import SweepConfig
+from sb3_geogp.kernels import KERNELS
 
 TOY = "tests.comparison.toy_env:ToyEnv-v0"
 
@@ -31,6 +35,13 @@ TOY = "tests.comparison.toy_env:ToyEnv-v0"
 def _tests_importable(monkeypatch: pytest.MonkeyPatch) -> None:
     """``tests.comparison.toy_env`` importable however pytest was started."""
     monkeypatch.syspath_prepend(str(Path(__file__).parents[2]))
+
+
+def test_every_gp_kernel_is_a_critic_compared_with_the_mlp() -> None:
+    """Two lists that must not drift: the critics a sweep runs and the kernels the GP has."""
+    assert ALL_CRITICS[: len(CRITICS)] == CRITICS == SweepConfig().critics
+    assert sorted(ALL_CRITICS) == sorted(["mlp", *KERNELS])
+    assert {a for a, b in PAIRS if b == "mlp"} == set(KERNELS)
 
 
 def test_hyperparams_identical_across_critics_and_from_the_zoo() -> None:

@@ -67,7 +67,8 @@ def test_verdict_respects_the_direction_of_the_metric() -> None:
 
 def test_comparisons_against_hand_computed_means() -> None:
     diffs = comparisons(_results())
-    assert len(diffs) == len(METRICS) * len(PAIRS)
+    ran = {"mlp", "rbf", "geodesic"}
+    assert len(diffs) == len(METRICS) * sum(a in ran and b in ran for a, b in PAIRS) == 9
     by = {(d["metric"], d["a"], d["b"]): d for d in diffs}
     # hand-computed: final returns 100..105 vs 0..5, curve means (-10 + 1.5 f) / 3.
     geo_mlp = by[("final_return", "geodesic", "mlp")]
@@ -187,7 +188,7 @@ def test_comparison_table_gives_neither_interval_nor_verdict_below_five_seeds() 
     cells = [line for line in table.splitlines() if line.startswith("| `E-v0`")]
     assert len(cells) == len(METRICS)
     for line in cells:
-        assert line.count(NO_INTERVAL) == len(PAIRS)
+        assert line.count(NO_INTERVAL) == 3  # the three pairs of mlp, rbf and geodesic
         assert "[" not in line and "too few seeds" not in line
     assert "on either side: the difference alone, no interval and no verdict" in table
     five = comparisons([r for r in _results() if r["spec"]["seed"] < 5], seed=4)
@@ -234,6 +235,26 @@ def test_a_rerun_is_compared_under_the_published_rule() -> None:
     assert all(r["family_size"] == 3 for r in before + after)  # the published sweep's 3 pairs
     text = rerun_markdown(before, after)
     assert text.count("| `E-v0` | ppo | rbf − mlp |") == len(METRICS)
+
+
+def test_a_new_default_critic_is_compared_with_the_one_it_replaces() -> None:
+    """A re-run Laplacian critic replaces the published geodesic one: before is geodesic - b,
+    after laplacian - b, against the critics not re-run only, under the published family."""
+    published = _results()
+    rerun = [_result("laplacian", s, final=-50.0 - s, rmse=1.0) for s in range(6)]
+    before, after = rerun_comparisons(published, rerun, replaces={"laplacian": "geodesic"})
+    assert {(r["a"], r["b"]) for r in before} == {("geodesic", "mlp"), ("geodesic", "rbf")}
+    assert {(r["a"], r["b"]) for r in after} == {("laplacian", "mlp"), ("laplacian", "rbf")}
+    assert all(r["family_size"] == 3 for r in before + after)
+    final = {(r["metric"], r["b"]): r for r in after}[("final_return", "mlp")]
+    # hand-computed: -50..-55 against 0..5
+    assert final["diff"] == pytest.approx(-55.0) and final["fw_verdict"] == "worse"
+    text = rerun_markdown(before, after, {"laplacian": "geodesic"})
+    row = "| `E-v0` | ppo | laplacian − mlp (published: geodesic − mlp) | 100.0 ["
+    assert text.count(row) == 1  # final return; the published geodesic was 100 ahead
+    # Without the mapping the published geodesic runs stay in the cell as a critic not re-run.
+    _, plain = rerun_comparisons(published, rerun)
+    assert ("laplacian", "geodesic") in {(r["a"], r["b"]) for r in plain}
 
 
 def test_load_sweeps_takes_a_cell_whole_from_the_last_folder(tmp_path: Path) -> None:
