@@ -273,3 +273,34 @@ def test_load_sweeps_takes_a_cell_whole_from_the_last_folder(tmp_path: Path) -> 
     assert merged[("E-v0", "ppo", "mlp")] == group_runs(load_results(sweep))[("E-v0", "ppo", "mlp")]
     reverse = group_runs(load_sweeps([rerun, sweep]))
     assert [r["spec"]["seed"] for r in reverse[("E-v0", "ppo", "geodesic")]] == list(range(6))
+
+
+def test_rerun_verdicts_script_writes_the_before_and_after(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from tests.test_examples_engine import load_script
+
+    def write(folder: Path, results: list[dict[str, Any]]) -> Path:
+        (folder / "runs").mkdir(parents=True)
+        for r in results:
+            s = r["spec"]
+            (folder / "runs" / f"{s['critic']}_{s['seed']}.json").write_text(json.dumps(r))
+        return folder
+
+    published = write(tmp_path / "published", _results())
+    rerun = write(
+        tmp_path / "rerun", [_result("laplacian", s, final=-50.0 - s, rmse=1.0) for s in range(6)]
+    )
+    script = load_script("rerun_verdicts")
+    out = tmp_path / "before_after.md"
+    argv = ["--published", str(published), "--rerun", str(rerun), "--out", str(out)]
+    assert script.main([*argv, "--replaces", "laplacian=geodesic"]) == 0
+    written = json.loads(out.with_suffix(".json").read_text())
+    before, after = rerun_comparisons(
+        _results(), load_results(rerun), replaces={"laplacian": "geodesic"}
+    )
+    assert (written["before"], written["after"]) == (before, after)
+    assert out.read_text() in capsys.readouterr().out
+    with pytest.raises(SystemExit):
+        script.main([*argv, "--replaces", "laplacian=ppo"])
+    assert "expected NEW=OLD" in capsys.readouterr().err
