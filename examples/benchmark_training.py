@@ -1,4 +1,4 @@
-"""Training wall clock of the three critics inside SB3, and where the GP critic's time goes.
+"""Training wall clock of the critics inside SB3, and where the GP critic's time goes.
 
 Two workloads with rl-baselines3-zoo's hyperparameters (as recorded for the critic
 comparison): PPO on Pendulum-v1 and A2C on CartPole-v1 (GP ``forgetting=0.9``, as the
@@ -42,7 +42,7 @@ from stable_baselines3 import A2C, PPO
 from stable_baselines3.common.env_util import make_vec_env
 
 from sb3_geogp import GPActorCriticPolicy, GPValueCallback
-from sb3_geogp.comparison.hyperparams import algo_kwargs, hyperparams
+from sb3_geogp.comparison.hyperparams import ALL_CRITICS, algo_kwargs, hyperparams
 from sb3_geogp.toolbox.benchmarks import GPClock
 from sb3_geogp.toolbox.provenance import provenance
 
@@ -51,8 +51,9 @@ WORKLOADS = {
     "A2C CartPole-v1": (A2C, "a2c", "CartPole-v1", 30_000, {"forgetting": 0.9}),
 }
 CRITICS = ("mlp", "rbf", "geodesic")
-#: GP critics with adaptation (``gp_kwargs=dict(adapt=True)``), measured with ``--adapt``.
-ADAPTIVE = ("rbf+adapt", "geodesic+adapt")
+#: GP critics with adaptation (``gp_kwargs=dict(adapt=True)``), measured with ``--adapt``; the
+#: Laplacian one with the policy's options for it (``novelty_tol=0.1``) is the default critic.
+ADAPTIVE = ("rbf+adapt", "geodesic+adapt", "laplacian+adapt")
 #: What a suffix of a critic's name adds to its ``gp_kwargs``.
 SUFFIXES: dict[str, dict[str, Any]] = {
     "adapt": {"adapt": True},
@@ -91,11 +92,11 @@ def critic_name(text: str) -> str:
     """``text`` if it names a critic (``mlp``, or a kernel with known suffixes), else an
     argparse error listing them."""
     kernel, *suffixes = text.split("+")
-    known = kernel in CRITICS and (kernel != "mlp" or not suffixes)
+    known = kernel in ALL_CRITICS and (kernel != "mlp" or not suffixes)
     if not known or gp_kwargs_of(suffixes) is None:
         counted = " +".join(f"{k}N" for k in SETTING_SUFFIXES)
         raise argparse.ArgumentTypeError(
-            f"unknown critic {text!r}: use one of {CRITICS}, a GP kernel optionally followed "
+            f"unknown critic {text!r}: use one of {ALL_CRITICS}, a GP kernel optionally followed "
             f"by +{' +'.join(SUFFIXES)}, and after +adapt by +{counted} (e.g. "
             "geodesic+adapt+shared, geodesic+adapt+thin512+gap4)"
         )

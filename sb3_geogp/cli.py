@@ -1,4 +1,4 @@
-"""Command line: ``sb3-geogp train --algo ppo --env Pendulum-v1 --critic geodesic ...``.
+"""Command line: ``sb3-geogp train --algo ppo --env Pendulum-v1 --critic laplacian ...``.
 
 ``sb3-geogp compare ...`` runs the critic comparison (:mod:`sb3_geogp.comparison`).
 
@@ -40,10 +40,10 @@ from sb3_geogp.comparison.command import (
     check_env,
     run_from_args,
 )
-from sb3_geogp.comparison.hyperparams import ALGOS, CRITICS
+from sb3_geogp.comparison.hyperparams import ALGOS, ALL_CRITICS
 from sb3_geogp.comparison.hyperparams import threshold as comparison_threshold
 from sb3_geogp.comparison.report import pyplot
-from sb3_geogp.policies import GPActorCriticPolicy
+from sb3_geogp.policies import DEFAULT_KERNEL, GPActorCriticPolicy
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -60,7 +60,7 @@ def build_parser() -> argparse.ArgumentParser:
     add_arguments(
         commands.add_parser(
             "compare",
-            help="compare MLP / RBF-GP / geodesic-GP critics in PPO and A2C",
+            help="compare the MLP critic with GP critics (RBF, geodesic, Laplacian) in PPO and A2C",
             description=DESCRIPTION,
             epilog=EPILOG,
             formatter_class=argparse.RawDescriptionHelpFormatter,
@@ -73,7 +73,12 @@ def build_parser() -> argparse.ArgumentParser:
     )
     train.add_argument("--algo", choices=sorted(ALGOS), default="ppo")
     train.add_argument("--env", default="Pendulum-v1", help="gymnasium environment id")
-    train.add_argument("--critic", choices=CRITICS, default="geodesic")
+    train.add_argument(
+        "--critic",
+        choices=ALL_CRITICS,
+        default=DEFAULT_KERNEL,
+        help="mlp (SB3's) or the GP critic's kernel (laplacian: GPActorCriticPolicy's default)",
+    )
     train.add_argument("--timesteps", type=int, default=100_000)
     train.add_argument("--seed", type=int, default=0)
     train.add_argument("--out", type=Path, default=None, help="output directory")

@@ -19,7 +19,7 @@ from __future__ import annotations
 import contextlib
 import sys
 import time
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from typing import TYPE_CHECKING, Any, Self
 
 import numpy as np
@@ -34,7 +34,7 @@ from stable_baselines3.common.type_aliases import PyTorchObs, Schedule
 from stable_baselines3.common.utils import explained_variance
 from torch import nn
 
-from sb3_geogp.kernels import make_kernel
+from sb3_geogp.kernels import KERNELS, make_kernel
 from sb3_geogp.sparse_gp import SparseOnlineGP
 
 if TYPE_CHECKING:
@@ -45,6 +45,21 @@ else:
 
 #: ``gp_kwargs`` keys the policy sets itself.
 _RESERVED = ("input_dim", "device", "input_bounds")
+
+#: The GP critic's kernel where ``gp_kwargs`` names none. The Euclidean Laplacian kernel since
+#: 0.6 (the geodesic one before): with the options of :data:`KERNEL_DEFAULTS` it is worse than
+#: SB3's MLP critic family-wise in none of the 14 cells of the published sweep, and within 1.2x
+#: of a batch sparse GP on the fixed-policy pendulum; the geodesic default was in neither
+#: (docs/results.md, "The default critic, 0.6").
+DEFAULT_KERNEL = "laplacian"
+#: Options the policy gives the GP critic of a kernel named in ``gp_kwargs`` (or of
+#: :data:`DEFAULT_KERNEL`) where ``gp_kwargs`` leaves them unset. The Laplacian kernel gets a
+#: denser basis than the engine's default (``novelty_tol`` 0.39 for this kernel,
+#: :data:`sb3_geogp.defaults.NOVELTY_RADIUS`): with the default it realises less of its fit on
+#: the pendulums (docs/results.md, "What limits the PaperPendulum PPO critic").
+KERNEL_DEFAULTS: dict[str, dict[str, Any]] = {"laplacian": {"novelty_tol": 0.1}}
+#: Kernel names by class name (the name a kernel's state records).
+_KERNEL_NAMES = {cls.__name__: name for name, cls in KERNELS.items()}
 
 _SUPPORTED = (
     "the GP critic supports Box observations of any shape (flattened; not images) with "
@@ -150,6 +165,14 @@ class GPCriticMixin(_PolicyBase):
         # The GP reads the critic's features directly.
         self.mlp_extractor.value_net = nn.Sequential()
         self.mlp_extractor.latent_dim_vf = self.vf_features_extractor.features_dim
+        self._build_gp()
+        self.optimizer = self.optimizer_class(  # type: ignore[call-arg]
+            self.parameters(), lr=lr_schedule(1), **self.optimizer_kwargs
+        )
+
+    def _build_gp(self) -> None:
+        """Set ``value_net`` to a new GP critic of ``self._gp_options`` (it has no parameters
+        for the optimizer: the GP learns in its own updates)."""
         # The observation bounds bound the GP's inputs only when the features are the
         # flattened observations.
         bounds = (
@@ -158,16 +181,35 @@ class GPCriticMixin(_PolicyBase):
             else None
         )
         gp = build_gp_critic(self._gp_options, self.mlp_extractor.latent_dim_vf, bounds)
-        gp = gp.to(self.device)
-        self.value_net = GPValueHead(gp)  # type: ignore[assignment]
-        self.optimizer = self.optimizer_class(  # type: ignore[call-arg]
-            self.parameters(), lr=lr_schedule(1), **self.optimizer_kwargs
-        )
+        self.value_net = GPValueHead(gp.to(self.device))  # type: ignore[assignment]
 
     def _get_constructor_parameters(self) -> dict[str, Any]:
         data = super()._get_constructor_parameters()
-        data.update(gp_kwargs=self.gp_kwargs)
+        # With the defaults written out, a saved model loads with the critic it was trained
+        # with whatever a later version's defaults are.
+        data.update(gp_kwargs=resolved_gp_kwargs(self.gp_kwargs))
         return data
+
+    def load_state_dict(self, state_dict: Mapping[str, Any], *args: Any, **kwargs: Any) -> Any:
+        """Load a state, as :meth:`torch.nn.Module.load_state_dict`.
+
+        A model saved before 0.6 without a kernel in ``gp_kwargs`` has the geodesic kernel (the
+        default then): where this policy's ``gp_kwargs`` name no kernel either, the critic is
+        rebuilt with the kernel the state was saved with before it is loaded.
+        """
+        self._adopt_saved_kernel(state_dict)
+        return super().load_state_dict(state_dict, *args, **kwargs)
+
+    def _adopt_saved_kernel(self, state_dict: Mapping[str, Any]) -> None:
+        if "kernel" in self.gp_kwargs:
+            return
+        saved = state_dict.get("value_net.gp.kernel._extra_state")
+        name = _KERNEL_NAMES.get(str(saved.get("kernel"))) if isinstance(saved, dict) else None
+        if name is None or isinstance(self.gp.kernel, KERNELS[name]):
+            return
+        self.gp_kwargs = {**self.gp_kwargs, "kernel": name}
+        self._gp_options = check_gp_kwargs(self.gp_kwargs)
+        self._build_gp()
 
     @property
     def gp(self) -> SparseOnlineGP:
@@ -392,11 +434,14 @@ class GPActorCriticPolicy(GPCriticMixin, ActorCriticPolicy):
     gp_kwargs : dict, optional
         Options of :class:`~sb3_geogp.SparseOnlineGP` (``max_basis``, ``noise_var``,
         ``novelty_tol``, ``forgetting``, ``target_mean``, ``target_scale``, ``dtype``,
-        ``num_threads``, ``condition_guard``) plus ``kernel`` (``"geodesic"`` (default),
-        ``"rbf"``, ``"laplacian"`` or a :class:`~sb3_geogp.Kernel`, which is copied) and
-        ``kernel_kwargs`` (options of the named kernel, e.g.
-        ``dict(profile="laplacian", n_neighbors=4)``). ``dtype`` may be a string such as
-        ``"float64"``. ``input_dim``, ``device`` and ``input_bounds`` are set by the policy.
+        ``num_threads``, ``condition_guard``) plus ``kernel`` (``"laplacian"`` (default since
+        0.6, :data:`DEFAULT_KERNEL`), ``"geodesic"`` (the default before), ``"rbf"`` or a
+        :class:`~sb3_geogp.Kernel`, which is copied) and ``kernel_kwargs`` (options of the
+        named kernel, e.g. ``dict(profile="laplacian", n_neighbors=4)`` for the geodesic one).
+        A kernel given by name gets the options of :data:`KERNEL_DEFAULTS` that ``gp_kwargs``
+        leaves unset (the Laplacian kernel: ``novelty_tol=0.1``); the others get the engine's
+        defaults. ``dtype`` may be a string such as ``"float64"``. ``input_dim``, ``device``
+        and ``input_bounds`` are set by the policy.
         ``adapt`` is ``True`` unless given (unlike the engine's default): the GP learns its
         hyperparameters, target mean and scale and forgetting from the stream
         (:class:`~sb3_geogp.Adaptation`); ``adapt=False`` gives 0.2's critic with fixed
@@ -493,6 +538,18 @@ def check_gp_kwargs(gp_kwargs: dict[str, Any] | None) -> dict[str, Any]:
     return options
 
 
+def resolved_gp_kwargs(gp_kwargs: dict[str, Any]) -> dict[str, Any]:
+    """``gp_kwargs`` with the policy's defaults written out.
+
+    ``adapt=True``, ``kernel=``:data:`DEFAULT_KERNEL` and, for a kernel given by name, its
+    :data:`KERNEL_DEFAULTS`, each where ``gp_kwargs`` does not set it.
+    """
+    options = {"adapt": True, "kernel": DEFAULT_KERNEL, **gp_kwargs}
+    kernel = options["kernel"]
+    named = KERNEL_DEFAULTS.get(kernel, {}) if isinstance(kernel, str) else {}
+    return {**named, **options}
+
+
 def build_gp_critic(
     options: dict[str, Any],
     input_dim: int,
@@ -510,8 +567,8 @@ def build_gp_critic(
         Bounds of the features, where known (they set unset lengthscales of bounded
         dimensions, see :mod:`sb3_geogp.defaults`).
     """
-    options = {"adapt": True, **options}
-    kernel = options.pop("kernel", "geodesic")
+    options = resolved_gp_kwargs(options)
+    kernel = options.pop("kernel")
     kernel_kwargs = dict(options.pop("kernel_kwargs", None) or {})
     return SparseOnlineGP(
         input_dim=input_dim,

@@ -20,7 +20,15 @@ from stable_baselines3.common.env_util import make_vec_env
 from stable_baselines3.common.logger import configure
 from stable_baselines3.common.vec_env import SubprocVecEnv
 
-from sb3_geogp import Adaptation, GPActorCriticPolicy, GPValueCallback, RBFKernel, SparseOnlineGP
+from sb3_geogp import (
+    Adaptation,
+    GeodesicKernel,
+    GPActorCriticPolicy,
+    GPValueCallback,
+    LaplacianKernel,
+    RBFKernel,
+    SparseOnlineGP,
+)
 from sb3_geogp.policies import SUPPORTED_ALGORITHMS
 
 ALGOS = [PPO, A2C]
@@ -192,7 +200,60 @@ def test_policy_kwargs_options_reach_the_gp_and_constructor_parameters() -> None
     assert model.policy.net_arch == [32]  # as SB3: pi=[32] and vf=[32], vf then dropped
     assert model.policy.mlp_extractor.latent_dim_pi == 32
     assert model.policy.gp.input_dim == 3
-    assert model.policy._get_constructor_parameters()["gp_kwargs"] == gp_kwargs
+    # Saved with the policy's defaults written out (adapt), so that a later version's defaults
+    # do not change a saved model.
+    assert model.policy._get_constructor_parameters()["gp_kwargs"] == {"adapt": True, **gp_kwargs}
+
+
+def test_default_critic_is_the_laplacian_kernel_with_a_dense_basis() -> None:
+    """Without a kernel: Laplacian with novelty 0.1; a kernel named otherwise, or given as an
+    object, gets the engine's default novelty, 1 - rho(r)^2 at r = 0.25 lengthscales."""
+    env = make_vec_env("Pendulum-v1", n_envs=1, seed=0)
+
+    def built(**gp_kwargs: Any) -> GPActorCriticPolicy:
+        model = PPO(GPActorCriticPolicy, env, n_steps=64, batch_size=64,
+                    policy_kwargs=dict(gp_kwargs=gp_kwargs, net_arch=[8]))  # fmt: skip
+        assert isinstance(model.policy, GPActorCriticPolicy)
+        return model.policy
+
+    default = built()
+    assert isinstance(default.gp.kernel, LaplacianKernel) and default.gp.novelty_tol == 0.1
+    assert default.gp.adaptation is not None
+    saved = default._get_constructor_parameters()["gp_kwargs"]
+    assert saved == {"adapt": True, "kernel": "laplacian", "novelty_tol": 0.1}
+    assert built(kernel="laplacian", novelty_tol=0.2).gp.novelty_tol == 0.2
+    laplacian_engine_default = 1 - np.exp(-0.25) ** 2
+    geodesic = built(kernel="geodesic")
+    assert isinstance(geodesic.gp.kernel, GeodesicKernel)
+    assert geodesic.gp.novelty_tol == pytest.approx(laplacian_engine_default)  # its profile
+    assert built(kernel=LaplacianKernel()).gp.novelty_tol == pytest.approx(laplacian_engine_default)
+    rbf = built(kernel="rbf").gp.novelty_tol
+    assert rbf == pytest.approx(1 - np.exp(-0.5 * 0.25**2) ** 2)
+
+
+def test_model_saved_before_0_6_without_a_kernel_loads_with_its_geodesic_critic(
+    tmp_path: Path,
+) -> None:
+    """Up to 0.5 the default kernel was the geodesic one and saved models did not name it: a
+    model saved with ``gp_kwargs`` without a kernel (as 0.5 saved it) keeps its critic."""
+    env = make_vec_env("Pendulum-v1", n_envs=2, seed=0)
+    old_kwargs = dict(gp_kwargs=dict(max_basis=16), net_arch=[16])
+    geodesic = dict(old_kwargs, gp_kwargs=dict(kernel="geodesic", max_basis=16))
+    model = PPO(GPActorCriticPolicy, env, n_steps=64, batch_size=64, seed=0, policy_kwargs=geodesic)
+    model.learn(256, callback=GPValueCallback())
+    model.save(tmp_path / "model.zip")
+    loaded = PPO.load(tmp_path / "model.zip", env=env, custom_objects={"policy_kwargs": old_kwargs})
+    assert isinstance(loaded.policy, GPActorCriticPolicy)
+    assert isinstance(loaded.policy.gp.kernel, GeodesicKernel)
+    assert loaded.policy.gp_kwargs == {"max_basis": 16, "kernel": "geodesic"}
+    for name, value in model.policy.state_dict().items():
+        other = loaded.policy.state_dict()[name]
+        assert th.equal(other, value) if isinstance(value, th.Tensor) else other == value, name
+    obs = flat_obs(model)
+    assert th.equal(loaded.policy.predict_values(obs), model.policy.predict_values(obs))
+    seen = int(loaded.policy.gp.n_seen)
+    loaded.learn(128, callback=GPValueCallback(), reset_num_timesteps=False)
+    assert int(loaded.policy.gp.n_seen) == seen + 128
 
 
 def test_separate_critic_features_extractor() -> None:

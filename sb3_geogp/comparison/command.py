@@ -35,7 +35,9 @@ from sb3_geogp.comparison.sweep import pending_runs, run_sweep
 from sb3_geogp.policies import build_gp_critic, check_gp_kwargs
 
 #: First line of ``--help``.
-DESCRIPTION = "Compare critics inside ordinary SB3 training: MLP vs RBF-GP vs geodesic-GP."
+DESCRIPTION = (
+    "Compare critics inside ordinary SB3 training: MLP vs GP critics (RBF, geodesic, Laplacian)."
+)
 #: End of ``--help``.
 EPILOG = """\
 On your own environment, with rl-baselines3-zoo hyperparameters (ppo.yml: an entry MyEnv-v0
