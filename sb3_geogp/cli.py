@@ -43,7 +43,7 @@ from sb3_geogp.comparison.command import (
 from sb3_geogp.comparison.hyperparams import ALGOS, ALL_CRITICS
 from sb3_geogp.comparison.hyperparams import threshold as comparison_threshold
 from sb3_geogp.comparison.report import pyplot
-from sb3_geogp.policies import DEFAULT_KERNEL, GPActorCriticPolicy
+from sb3_geogp.policies import GPActorCriticPolicy, default_kernel
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -76,8 +76,9 @@ def build_parser() -> argparse.ArgumentParser:
     train.add_argument(
         "--critic",
         choices=ALL_CRITICS,
-        default=DEFAULT_KERNEL,
-        help="mlp (SB3's) or the GP critic's kernel (laplacian: GPActorCriticPolicy's default)",
+        default=None,
+        help="mlp (SB3's) or the GP critic's kernel (default: GPActorCriticPolicy's for --algo, "
+        "laplacian with ppo, geodesic with a2c)",
     )
     train.add_argument("--timesteps", type=int, default=100_000)
     train.add_argument("--seed", type=int, default=0)
@@ -149,6 +150,8 @@ def _settings(args: argparse.Namespace) -> dict[str, Any]:
 
 def train(args: argparse.Namespace) -> Path:
     """Train one model as described by the parsed ``train`` arguments; return the output dir."""
+    if args.critic is None:
+        args.critic = default_kernel(ALGOS[args.algo])
     out: Path = args.out or Path("runs") / f"{args.algo}_{args.critic}_{args.env}_s{args.seed}"
     check_train_args(args, out)
     th.set_num_threads(args.threads)

@@ -46,15 +46,20 @@ else:
 #: ``gp_kwargs`` keys the policy sets itself.
 _RESERVED = ("input_dim", "device", "input_bounds")
 
-#: The GP critic's kernel where ``gp_kwargs`` names none. The Euclidean Laplacian kernel since
-#: 0.6 (the geodesic one before): with the options of :data:`KERNEL_DEFAULTS` it is worse than
-#: SB3's MLP critic family-wise in none of the 14 cells of the published sweep, and within 1.2x
-#: of a batch sparse GP on the fixed-policy pendulum; the geodesic default was in neither
-#: (docs/results.md, "The default critic, 0.6").
+#: The GP critic's kernel where ``gp_kwargs`` names none, unless the algorithm training the
+#: policy is in :data:`DEFAULT_KERNELS`: the Euclidean Laplacian kernel since 0.6 (the geodesic
+#: one before). Under PPO, with the options of :data:`KERNEL_DEFAULTS`, it is worse than SB3's
+#: MLP critic family-wise in none of the 7 PPO cells of the published sweep, where the geodesic
+#: kernel loses PaperPendulum, and it is within 1.2x of a batch sparse GP on the fixed-policy
+#: pendulum (docs/results.md, "The default critic, 0.6").
 DEFAULT_KERNEL = "laplacian"
-#: Options the policy gives the GP critic of a kernel named in ``gp_kwargs`` (or of
-#: :data:`DEFAULT_KERNEL`) where ``gp_kwargs`` leaves them unset. The Laplacian kernel gets a
-#: denser basis than the engine's default (``novelty_tol`` 0.39 for this kernel,
+#: Algorithms (their subclasses included) whose GP critic has another default kernel. A2C keeps
+#: the geodesic kernel: with A2C the Laplacian critic is worse than the MLP family-wise on
+#: Acrobot on fresh seeds, the geodesic critic in no cell (docs/results.md, "A2C confirmation").
+DEFAULT_KERNELS: dict[type[BaseAlgorithm], str] = {A2C: "geodesic"}
+#: Options the policy gives the GP critic of a kernel named in ``gp_kwargs`` (or of the
+#: default kernel, :func:`default_kernel`) where ``gp_kwargs`` leaves them unset. The Laplacian
+#: kernel gets a denser basis than the engine's default (``novelty_tol`` 0.39 for this kernel,
 #: :data:`sb3_geogp.defaults.NOVELTY_RADIUS`): with the default it realises less of its fit on
 #: the pendulums (docs/results.md, "What limits the PaperPendulum PPO critic").
 KERNEL_DEFAULTS: dict[str, dict[str, Any]] = {"laplacian": {"novelty_tol": 0.1}}
@@ -134,6 +139,8 @@ class GPCriticMixin(_PolicyBase):
     ) -> None:
         _check_spaces(observation_space, action_space)
         # Needed by _build(), which the SB3 policy's __init__ calls.
+        algorithm = _constructing_algorithm()
+        self._default_kernel = default_kernel(None if algorithm is None else type(algorithm))
         self._gp_options = check_gp_kwargs(gp_kwargs)
         super().__init__(observation_space, action_space, lr_schedule, net_arch=net_arch, **kwargs)
         self.gp_kwargs = dict(gp_kwargs or {})
@@ -180,14 +187,15 @@ class GPCriticMixin(_PolicyBase):
             if isinstance(self.vf_features_extractor, FlattenExtractor)
             else None
         )
-        gp = build_gp_critic(self._gp_options, self.mlp_extractor.latent_dim_vf, bounds)
+        options = {"kernel": self._default_kernel, **self._gp_options}
+        gp = build_gp_critic(options, self.mlp_extractor.latent_dim_vf, bounds)
         self.value_net = GPValueHead(gp.to(self.device))  # type: ignore[assignment]
 
     def _get_constructor_parameters(self) -> dict[str, Any]:
         data = super()._get_constructor_parameters()
         # With the defaults written out, a saved model loads with the critic it was trained
         # with whatever a later version's defaults are.
-        data.update(gp_kwargs=resolved_gp_kwargs(self.gp_kwargs))
+        data.update(gp_kwargs=resolved_gp_kwargs(self.gp_kwargs, self._default_kernel))
         return data
 
     def load_state_dict(self, state_dict: Mapping[str, Any], *args: Any, **kwargs: Any) -> Any:
@@ -434,10 +442,12 @@ class GPActorCriticPolicy(GPCriticMixin, ActorCriticPolicy):
     gp_kwargs : dict, optional
         Options of :class:`~sb3_geogp.SparseOnlineGP` (``max_basis``, ``noise_var``,
         ``novelty_tol``, ``forgetting``, ``target_mean``, ``target_scale``, ``dtype``,
-        ``num_threads``, ``condition_guard``) plus ``kernel`` (``"laplacian"`` (default since
-        0.6, :data:`DEFAULT_KERNEL`), ``"geodesic"`` (the default before), ``"rbf"`` or a
-        :class:`~sb3_geogp.Kernel`, which is copied) and ``kernel_kwargs`` (options of the
-        named kernel, e.g. ``dict(profile="laplacian", n_neighbors=4)`` for the geodesic one).
+        ``num_threads``, ``condition_guard``) plus ``kernel`` (``"laplacian"``, ``"geodesic"``,
+        ``"rbf"`` or a :class:`~sb3_geogp.Kernel`, which is copied; by default since 0.6
+        ``"laplacian"`` under PPO, TRPO and MaskablePPO and ``"geodesic"`` under A2C, see
+        :func:`default_kernel`; ``"geodesic"`` for every algorithm before) and
+        ``kernel_kwargs`` (options of the named kernel, e.g.
+        ``dict(profile="laplacian", n_neighbors=4)`` for the geodesic one).
         A kernel given by name gets the options of :data:`KERNEL_DEFAULTS` that ``gp_kwargs``
         leaves unset (the Laplacian kernel: ``novelty_tol=0.1``); the others get the engine's
         defaults. ``dtype`` may be a string such as ``"float64"``. ``input_dim``, ``device``
@@ -538,16 +548,26 @@ def check_gp_kwargs(gp_kwargs: dict[str, Any] | None) -> dict[str, Any]:
     return options
 
 
-def resolved_gp_kwargs(gp_kwargs: dict[str, Any]) -> dict[str, Any]:
+def default_kernel(algorithm: type[BaseAlgorithm] | None) -> str:
+    """The GP critic's kernel where ``gp_kwargs`` names none, for policies trained by
+    ``algorithm`` (``None``: a policy built outside an algorithm): :data:`DEFAULT_KERNELS`, else
+    :data:`DEFAULT_KERNEL`."""
+    for cls, kernel in DEFAULT_KERNELS.items():
+        if algorithm is not None and issubclass(algorithm, cls):
+            return kernel
+    return DEFAULT_KERNEL
+
+
+def resolved_gp_kwargs(gp_kwargs: dict[str, Any], kernel: str = DEFAULT_KERNEL) -> dict[str, Any]:
     """``gp_kwargs`` with the policy's defaults written out.
 
-    ``adapt=True``, ``kernel=``:data:`DEFAULT_KERNEL` and, for a kernel given by name, its
-    :data:`KERNEL_DEFAULTS`, each where ``gp_kwargs`` does not set it.
+    ``adapt=True``, ``kernel`` (the default kernel, see :func:`default_kernel`) and, for a
+    kernel given by name, its :data:`KERNEL_DEFAULTS`, each where ``gp_kwargs`` does not set it.
     """
-    options = {"adapt": True, "kernel": DEFAULT_KERNEL, **gp_kwargs}
-    kernel = options["kernel"]
-    named = KERNEL_DEFAULTS.get(kernel, {}) if isinstance(kernel, str) else {}
-    return {**named, **options}
+    options = {"adapt": True, "kernel": kernel, **gp_kwargs}
+    named = options["kernel"]
+    extra = KERNEL_DEFAULTS.get(named, {}) if isinstance(named, str) else {}
+    return {**extra, **options}
 
 
 def build_gp_critic(

@@ -11,7 +11,7 @@ import pytest
 import torch as th
 from stable_baselines3 import A2C, PPO
 
-from sb3_geogp import Adaptation, GPActorCriticPolicy
+from sb3_geogp import Adaptation, GeodesicKernel, GPActorCriticPolicy, LaplacianKernel
 from sb3_geogp.cli import (
     CriticLog,
     build_parser,
@@ -41,14 +41,15 @@ def test_train_no_adapt_gives_the_fixed_critic(tmp_path: Path) -> None:
 
 @pytest.mark.parametrize(
     ("algo", "critic"),
-    [("ppo", "geodesic"), ("a2c", "geodesic"), ("a2c", "rbf"), ("ppo", "mlp"), ("a2c", "mlp")],
+    [("ppo", None), ("a2c", None), ("a2c", "rbf"), ("ppo", "mlp"), ("a2c", "mlp")],
 )
 def test_train_writes_model_logs_and_curve(
-    algo: str, critic: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+    algo: str, critic: str | None, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     plt = pytest.importorskip("matplotlib.pyplot")
     out = tmp_path / "run"
-    argv = ["train", "--algo", algo, "--env", "CartPole-v1", "--critic", critic]
+    argv = ["train", "--algo", algo, "--env", "CartPole-v1"]
+    argv += [] if critic is None else ["--critic", critic]
     argv += ["--timesteps", "256", "--seed", "1", "--out", str(out), "--n-envs", "2"]
     argv += ["--n-steps", "64", "--max-basis", "32", "--no-progress"]
     assert main(argv) == 0
@@ -60,6 +61,9 @@ def test_train_writes_model_logs_and_curve(
     if gp:  # default forgetting: 0.9 with A2C (docs/results.md), 1.0 with PPO; adaptive
         assert model.policy.gp.forgetting == (0.9 if algo == "a2c" else 1.0)
         assert model.policy.gp.adaptation == Adaptation()
+    if critic is None:  # the policy's default kernel for the algorithm
+        kernel = {"ppo": LaplacianKernel, "a2c": GeodesicKernel}[algo]
+        assert isinstance(model.policy.gp.kernel, kernel)
 
     # Every rollout (256 steps of 2 x 64) is in progress.csv; the terminal keeps SB3's pace.
     header = (out / "progress.csv").read_text().splitlines()[0].split(",")

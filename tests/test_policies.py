@@ -205,14 +205,15 @@ def test_policy_kwargs_options_reach_the_gp_and_constructor_parameters() -> None
     assert model.policy._get_constructor_parameters()["gp_kwargs"] == {"adapt": True, **gp_kwargs}
 
 
-def test_default_critic_is_the_laplacian_kernel_with_a_dense_basis() -> None:
-    """Without a kernel: Laplacian with novelty 0.1; a kernel named otherwise, or given as an
-    object, gets the engine's default novelty, 1 - rho(r)^2 at r = 0.25 lengthscales."""
+def test_default_critic_is_the_laplacian_kernel_with_a_dense_basis_except_under_a2c() -> None:
+    """Without a kernel: Laplacian with novelty 0.1 (PPO, or no algorithm), geodesic under A2C
+    and its subclasses; a kernel named otherwise, or given as an object, gets the engine's
+    default novelty, 1 - rho(r)^2 at r = 0.25 lengthscales."""
     env = make_vec_env("Pendulum-v1", n_envs=1, seed=0)
 
-    def built(**gp_kwargs: Any) -> GPActorCriticPolicy:
-        model = PPO(GPActorCriticPolicy, env, n_steps=64, batch_size=64,
-                    policy_kwargs=dict(gp_kwargs=gp_kwargs, net_arch=[8]))  # fmt: skip
+    def built(algo: type[BaseAlgorithm] = PPO, **gp_kwargs: Any) -> GPActorCriticPolicy:
+        model = algo(GPActorCriticPolicy, env, n_steps=64,
+                     policy_kwargs=dict(gp_kwargs=gp_kwargs, net_arch=[8]))  # fmt: skip
         assert isinstance(model.policy, GPActorCriticPolicy)
         return model.policy
 
@@ -223,12 +224,19 @@ def test_default_critic_is_the_laplacian_kernel_with_a_dense_basis() -> None:
     assert saved == {"adapt": True, "kernel": "laplacian", "novelty_tol": 0.1}
     assert built(kernel="laplacian", novelty_tol=0.2).gp.novelty_tol == 0.2
     laplacian_engine_default = 1 - np.exp(-0.25) ** 2
-    geodesic = built(kernel="geodesic")
-    assert isinstance(geodesic.gp.kernel, GeodesicKernel)
-    assert geodesic.gp.novelty_tol == pytest.approx(laplacian_engine_default)  # its profile
+    for policy in (built(A2C), built(type("MyA2C", (A2C,), {})), built(kernel="geodesic")):
+        assert isinstance(policy.gp.kernel, GeodesicKernel)
+        assert policy.gp.novelty_tol == pytest.approx(laplacian_engine_default)  # its profile
+    assert built(A2C)._get_constructor_parameters()["gp_kwargs"] == {
+        "adapt": True,
+        "kernel": "geodesic",
+    }
+    assert built(A2C, kernel="laplacian").gp.novelty_tol == 0.1
     assert built(kernel=LaplacianKernel()).gp.novelty_tol == pytest.approx(laplacian_engine_default)
     rbf = built(kernel="rbf").gp.novelty_tol
     assert rbf == pytest.approx(1 - np.exp(-0.5 * 0.25**2) ** 2)
+    alone = GPActorCriticPolicy(env.observation_space, env.action_space, lambda _: 3e-4)
+    assert isinstance(alone.gp.kernel, LaplacianKernel)  # built outside an algorithm
 
 
 def test_model_saved_before_0_6_without_a_kernel_loads_with_its_geodesic_critic(
