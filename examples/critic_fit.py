@@ -33,6 +33,8 @@ from tqdm.auto import tqdm
 
 from sb3_geogp import GPActorCriticPolicy, GPValueCallback
 from sb3_geogp.comparison.command import parse_gp_option
+from sb3_geogp.comparison.hyperparams import ALL_CRITICS, CRITICS
+from sb3_geogp.comparison.report import COLORS
 from sb3_geogp.comparison.run import build_model, write_json_atomic
 from sb3_geogp.comparison.specs import RunSpec, SweepConfig
 from sb3_geogp.toolbox.provenance import provenance
@@ -160,7 +162,6 @@ def plot(results: list[dict[str, Any]], critics: Sequence[str], path: Path) -> N
 
     envs = list(dict.fromkeys(r["env_id"] for r in results))
     fig, axes = plt.subplots(1, len(envs), figsize=(5 * len(envs), 3.6), squeeze=False)
-    colours = dict(zip(critics, ("tab:gray", "tab:blue", "tab:red"), strict=False))
     for ax, env_id in zip(axes[0], envs, strict=True):
         for r in sorted(results, key=lambda r: (r["critic"], r["seed"])):
             if r["env_id"] != env_id:
@@ -169,7 +170,7 @@ def plot(results: list[dict[str, Any]], critics: Sequence[str], path: Path) -> N
             ax.plot(
                 r["timesteps"],
                 np.clip(r["explained_variance"], -1, 1),
-                color=colours.get(r["critic"]),
+                color=COLORS.get(r["critic"]),
                 alpha=0.6,
                 lw=1,
                 label=r["critic"] if first else None,
@@ -187,7 +188,7 @@ def plot(results: list[dict[str, Any]], critics: Sequence[str], path: Path) -> N
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--envs", nargs="+", default=list(ENVS))
-    parser.add_argument("--critics", nargs="+", default=["mlp", "rbf", "geodesic"])
+    parser.add_argument("--critics", nargs="+", choices=ALL_CRITICS, default=list(CRITICS))
     parser.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2])
     parser.add_argument("--scale", type=float, default=1.0, help="multiplies the budgets")
     parser.add_argument("--last", type=float, default=0.2, help="share of rollouts averaged")

@@ -70,6 +70,8 @@ VARIANTS = {
         # The adaptive GP (issue 13): hyperparameters, targets and forgetting from the stream.
         Variant("rbf adapt", "rbf", {}, {"adapt": True}),
         Variant("geo laplace interp adapt", "geodesic", {}, {"adapt": True}),
+        # The policy's default critic under PPO since 0.6.
+        Variant("laplacian adapt n0.1", "laplacian", {}, {"adapt": True, "novelty_tol": 0.1}),
     ),
     # A full basis facing a stream that keeps moving away from it (issue 11, defect 2).
     "drift": (
@@ -77,6 +79,7 @@ VARIANTS = {
         Variant("geo laplace interp", "geodesic"),
         Variant("geo laplace interp f=0.9", "geodesic", {}, {"forgetting": 0.9}),
         Variant("geo laplace interp adapt", "geodesic", {}, {"adapt": True}),
+        Variant("laplacian adapt n0.1", "laplacian", {}, {"adapt": True, "novelty_tol": 0.1}),
     ),
 }
 STREAMS = {"pendulum": pendulum_stream, "drift": drifting_stream}

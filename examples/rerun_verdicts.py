@@ -10,12 +10,13 @@ last.
         --out results/compare_adaptive_losing/before_after.md
 
 A new default critic under another name is compared with the critic it replaces by
-``--replaces NEW=OLD`` (0.6: the Laplacian kernel replaced the geodesic one):
+``--replaces NEW=OLD``, and ``--algos`` keeps the re-run's cells of some algorithms only (0.6:
+the Laplacian kernel replaced the geodesic one under PPO):
 
     python examples/rerun_verdicts.py \\
         --published results/compare results/compare_adaptive results/compare_ard \\
         --rerun results/pilot_laplacian/A results/pilot_laplacian/A_rest \\
-        --replaces laplacian=geodesic --out results/pilot_laplacian/before_after.md
+        --replaces laplacian=geodesic --algos ppo --out results/default_0_6/before_after.md
 """
 
 from __future__ import annotations
@@ -25,7 +26,7 @@ import json
 from collections.abc import Sequence
 from pathlib import Path
 
-from sb3_geogp.comparison.hyperparams import ALL_CRITICS
+from sb3_geogp.comparison.hyperparams import ALGOS, ALL_CRITICS
 from sb3_geogp.comparison.report import rerun_markdown
 from sb3_geogp.comparison.results import load_sweeps, rerun_comparisons
 
@@ -54,9 +55,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         metavar="NEW=OLD",
         help="a re-run critic and the published critic it takes the place of (repeatable)",
     )
+    parser.add_argument(
+        "--algos", nargs="+", choices=sorted(ALGOS), default=None, help="default: every one"
+    )
     parser.add_argument("--out", type=Path, required=True, help="markdown file to write")
     args = parser.parse_args(argv)
-    rerun = load_sweeps(args.rerun)
+    rerun = [r for r in load_sweeps(args.rerun) if r["spec"]["algo"] in (args.algos or ALGOS)]
     if not rerun:
         raise SystemExit(f"no results in {[str(d) for d in args.rerun]}")
     replaces = dict(args.replaces)

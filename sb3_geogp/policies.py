@@ -193,8 +193,9 @@ class GPCriticMixin(_PolicyBase):
 
     def _get_constructor_parameters(self) -> dict[str, Any]:
         data = super()._get_constructor_parameters()
-        # With the defaults written out, a saved model loads with the critic it was trained
-        # with whatever a later version's defaults are.
+        # With the defaults written out, a policy saved on its own (policy.save) loads with the
+        # critic it was trained with whatever a later version's defaults are. (model.save
+        # keeps the algorithm's policy_kwargs: load_state_dict then adopts the saved kernel.)
         data.update(gp_kwargs=resolved_gp_kwargs(self.gp_kwargs, self._default_kernel))
         return data
 

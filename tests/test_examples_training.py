@@ -20,7 +20,14 @@ def test_benchmark_training_runs_every_critic(tmp_path: Path) -> None:
     argv = ["--workloads", "A2C CartPole-v1", "--seeds", "0", "--scale", "0.005", "--adapt"]
     bench.main([*argv, "--max-basis", "16", "--out", str(out)])
     results = json.loads(out.read_text())["results"]["A2C CartPole-v1"]
-    assert set(results) == {"mlp", "rbf", "geodesic", "rbf+adapt", "geodesic+adapt"}
+    assert set(results) == {
+        "mlp",
+        "rbf",
+        "geodesic",
+        "rbf+adapt",
+        "geodesic+adapt",
+        "laplacian+adapt",
+    }
     for critic, runs in results.items():
         assert runs[0]["wall"] > 0
         assert (runs[0]["update"] > 0) == (critic != "mlp")

@@ -433,6 +433,12 @@ VARIANTS: dict[str, Callable[[], dict[str, Any]]] = {
     # Every kernel that float32 allows (Kernel.supports_float32).
     "geodesic-float32": lambda: {"kernel": GeodesicKernel(), "dtype": torch.float32},
     "laplacian-euclid-float32": lambda: {"kernel": LaplacianKernel(), "dtype": torch.float32},
+    # The policy's default critic under PPO (0.6): adaptive, with a dense basis.
+    "laplacian-euclid-adapt-dense": lambda: {
+        "kernel": LaplacianKernel(),
+        "adapt": True,
+        "novelty_tol": 0.1,
+    },
 }
 
 

@@ -9,11 +9,12 @@ import os
 import subprocess
 import sys
 from pathlib import Path
+from typing import Any
 
 import pytest
 from stable_baselines3 import A2C, PPO
 
-from sb3_geogp import GPActorCriticPolicy
+from sb3_geogp import GeodesicKernel, GPActorCriticPolicy, LaplacianKernel
 
 pytest.importorskip("rl_zoo3")
 
@@ -44,9 +45,13 @@ def test_zoo_train_with_gp_critic(algo: str, n_timesteps: int, tmp_path: Path) -
     model = {"ppo": PPO, "a2c": A2C}[algo].load(saved[0], device="cpu")
     policy = model.policy
     assert isinstance(policy, GPActorCriticPolicy)
-    expected = {"kernel": "geodesic", "max_basis": 256}
+    # As the config gives them (model.save keeps the algorithm's policy_kwargs); the default
+    # kernel under PPO is the Laplacian one, the A2C config names the geodesic one.
+    expected: dict[str, Any] = {"max_basis": 256}
     if algo == "a2c":
-        expected["forgetting"] = 0.9
+        expected.update(kernel="geodesic", forgetting=0.9)
     assert policy.gp_kwargs == expected
+    kernel = {"ppo": LaplacianKernel, "a2c": GeodesicKernel}[algo]
+    assert isinstance(policy.gp.kernel, kernel)
     assert "forgetting=1.0" not in proc.stderr  # the config follows the A2C recommendation
     assert policy.gp.n_basis > 0  # GPValueCallback fed the critic

@@ -304,3 +304,5 @@ def test_rerun_verdicts_script_writes_the_before_and_after(
     with pytest.raises(SystemExit):
         script.main([*argv, "--replaces", "laplacian=ppo"])
     assert "expected NEW=OLD" in capsys.readouterr().err
+    with pytest.raises(SystemExit, match="no results"):  # the re-run has PPO cells only
+        script.main([*argv, "--algos", "a2c"])
