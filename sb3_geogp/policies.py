@@ -204,10 +204,21 @@ class GPCriticMixin(_PolicyBase):
 
         A model saved before 0.6 without a kernel in ``gp_kwargs`` has the geodesic kernel (the
         default then): where this policy's ``gp_kwargs`` name no kernel either, the critic is
-        rebuilt with the kernel the state was saved with before it is loaded.
+        rebuilt with the kernel the state was saved with before it is loaded. A state that is
+        refused (e.g. saved with another ``max_basis``) raises and leaves the policy as it was.
         """
+        kept = (self.gp_kwargs, self._gp_options, self.value_net)
+        # torch loads module by module: a state refused by the GP would leave the actor loaded.
+        snapshot = {k: v.clone() if isinstance(v, th.Tensor) else v
+                    for k, v in self.state_dict().items()}  # fmt: skip
         self._adopt_saved_kernel(state_dict)
-        return super().load_state_dict(state_dict, *args, **kwargs)
+        try:
+            return super().load_state_dict(state_dict, *args, **kwargs)
+        except Exception:
+            # A refused state leaves the policy as it was, its critic included.
+            self.gp_kwargs, self._gp_options, self.value_net = kept
+            super().load_state_dict(snapshot)
+            raise
 
     def _adopt_saved_kernel(self, state_dict: Mapping[str, Any]) -> None:
         if "kernel" in self.gp_kwargs:

@@ -262,6 +262,21 @@ def test_model_saved_before_0_6_without_a_kernel_loads_with_its_geodesic_critic(
     seen = int(loaded.policy.gp.n_seen)
     loaded.learn(128, callback=GPValueCallback(), reset_num_timesteps=False)
     assert int(loaded.policy.gp.n_seen) == seen + 128
+    # A state the adopted kernel cannot take (another max_basis) leaves the policy as it was.
+    other = PPO(GPActorCriticPolicy, env, n_steps=64, batch_size=64, seed=0,
+                policy_kwargs=dict(net_arch=[16], gp_kwargs=dict(max_basis=32)))  # fmt: skip
+    before = {k: v.clone() if isinstance(v, th.Tensor) else v
+              for k, v in other.policy.state_dict().items()}  # fmt: skip
+    with pytest.raises(ValueError, match="max_basis"):
+        other.policy.load_state_dict(model.policy.state_dict())
+    assert isinstance(other.policy.gp.kernel, LaplacianKernel) and "kernel" not in (
+        other.policy.gp_kwargs
+    )
+    for name, value in other.policy.state_dict().items():
+        ok = (
+            th.equal(value, before[name]) if isinstance(value, th.Tensor) else value == before[name]
+        )
+        assert ok, name
 
 
 def test_separate_critic_features_extractor() -> None:
