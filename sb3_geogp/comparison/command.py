@@ -44,9 +44,12 @@ On your own environment, with rl-baselines3-zoo hyperparameters (ppo.yml: an ent
 with the zoo's keys, e.g. n_envs, n_timesteps, n_steps, gamma, learning_rate, policy_kwargs):
 
   sb3-geogp compare --envs my_pkg.envs:MyEnv-v0 --hyperparams ppo=ppo.yml \\
+      --critics mlp geodesic laplacian \\
       --threshold 200 --timesteps 50000 --seeds 5 --out results/my_env
 
 'my_pkg.envs:' makes gymnasium import my_pkg.envs (which registers MyEnv-v0) in every worker.
+The default GP critic is laplacian under PPO and geodesic under A2C; the default --critics
+(the published sweep's) leave laplacian out.
 See docs/usage.md, "Comparing critics on your environment".
 """
 
