@@ -1,8 +1,10 @@
-"""Compare critics inside ordinary SB3 training: MLP vs RBF-GP vs geodesic-GP.
+"""Compare critics inside ordinary SB3 training: SB3's MLP critic vs GP critics.
 
-The harness behind ``sb3-geogp compare``. A sweep is the product ``{ppo, a2c} x {mlp, rbf,
-geodesic} x environments x seeds``; each run trains one model exactly as a user would and
-writes one JSON result file, atomically, so an interrupted sweep resumes where it stopped.
+The harness behind ``sb3-geogp compare``. A sweep is the product ``{ppo, a2c} x critics x
+environments x seeds``, the critics ``{mlp, rbf, geodesic}`` by default (the published
+sweep's) or any of ``{mlp, rbf, geodesic, laplacian}``; each run trains one model exactly as a
+user would and writes one JSON result file, atomically, so an interrupted sweep resumes where
+it stopped.
 One concept per module:
 
 * :mod:`~sb3_geogp.comparison.hyperparams`: algorithms, critics, environments, budgets,
