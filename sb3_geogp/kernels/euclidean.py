@@ -53,7 +53,9 @@ class LaplacianKernel(EuclideanKernel):
 
     The geodesic kernel's default profile without the graph: the control that separates the
     effect of the graph distance from that of the profile (docs/wall_experiment.md,
-    docs/reproduction.md).
+    docs/reproduction.md). With ``novelty_tol=0.1`` it is
+    :class:`~sb3_geogp.GPActorCriticPolicy`'s default critic under PPO since 0.6
+    (:data:`sb3_geogp.policies.DEFAULT_KERNEL`).
 
     Parameters
     ----------
