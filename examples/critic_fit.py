@@ -153,7 +153,7 @@ def summary(results: list[dict[str, Any]], critics: Sequence[str], last: float) 
     return "\n".join(lines) + "\n"
 
 
-def plot(results: list[dict[str, Any]], critics: Sequence[str], path: Path) -> None:
+def plot(results: list[dict[str, Any]], path: Path) -> None:
     """Explained variance per rollout, one panel per environment, one line per run."""
     import matplotlib
 
@@ -214,7 +214,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     results = run_all(config.specs(), args.last, args.out, args.workers)
     text = summary(results, args.critics, args.last)
     (args.out / "critic_fit.md").write_text(text)
-    plot(results, args.critics, args.out / "critic_fit.png")
+    plot(results, args.out / "critic_fit.png")
     print(text)
     return 0
 

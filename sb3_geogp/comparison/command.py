@@ -96,7 +96,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
         choices=ALL_CRITICS,
         default=None,
         help=f"default: {' '.join(CRITICS)} (the published sweep's); laplacian is the GP "
-        "policy's default critic since 0.6",
+        "policy's default critic under PPO since 0.6",
     )
     parser.add_argument(
         "--envs",
