@@ -26,6 +26,7 @@ from stable_baselines3.common.env_util import make_vec_env
 from sb3_geogp import (
     GPActorCriticPolicy,
     GPValueCallback,
+    LaplacianKernel,
     MaskableGPActorCriticPolicy,
 )
 from sb3_geogp.policies import SUPPORTED_ALGORITHMS
@@ -85,16 +86,19 @@ def actor_params(model: BaseAlgorithm) -> dict[str, th.Tensor]:
 # ------------------------------------------------------------------------------------------------
 # TRPO
 # ------------------------------------------------------------------------------------------------
-@pytest.mark.parametrize("kernel", ["rbf", "geodesic"])
-def test_trpo_trains_the_actor_and_feeds_the_gp(kernel: str) -> None:
+@pytest.mark.parametrize("kernel", ["rbf", "geodesic", None])
+def test_trpo_trains_the_actor_and_feeds_the_gp(kernel: str | None) -> None:
     env = make_vec_env("Pendulum-v1", n_envs=2, seed=0)
+    named = {} if kernel is None else {"kernel": kernel}
     model = TRPO(
         GPActorCriticPolicy,
         env,
         n_steps=64,
         seed=0,
-        policy_kwargs=dict(gp_kwargs=dict(kernel=kernel, max_basis=32)),
+        policy_kwargs=dict(gp_kwargs=dict(max_basis=32, **named)),
     )
+    if kernel is None:  # TRPO is no A2C: the default kernel is the Laplacian one
+        assert isinstance(model.policy.gp.kernel, LaplacianKernel)
     # TRPO skips parameters named "value" in its actor step: none of the actor's is.
     assert not any("value" in name for name, _ in model.policy.named_parameters())
     before = actor_params(model)
