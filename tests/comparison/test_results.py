@@ -257,17 +257,21 @@ def test_a_new_default_critic_is_compared_with_the_one_it_replaces() -> None:
     assert ("laplacian", "geodesic") in {(r["a"], r["b"]) for r in plain}
 
 
-def test_load_sweeps_takes_a_cell_whole_from_the_last_folder(tmp_path: Path) -> None:
-    def write(folder: Path, results: list[dict[str, Any]]) -> Path:
-        (folder / "runs").mkdir(parents=True)
-        for r in results:
-            s = r["spec"]
-            (folder / "runs" / f"{s['critic']}_{s['seed']}.json").write_text(json.dumps(r))
-        return folder
+def _write_sweep(folder: Path, results: list[dict[str, Any]]) -> Path:
+    """``results`` as a sweep folder's result files (``folder/runs/*.json``)."""
+    (folder / "runs").mkdir(parents=True)
+    for r in results:
+        s = r["spec"]
+        (folder / "runs" / f"{s['critic']}_{s['seed']}.json").write_text(json.dumps(r))
+    return folder
 
-    sweep = write(tmp_path / "sweep", _results())
+
+def test_load_sweeps_takes_a_cell_whole_from_the_last_folder(tmp_path: Path) -> None:
+    sweep = _write_sweep(tmp_path / "sweep", _results())
     # A re-run of the geodesic cell with fewer seeds and other returns.
-    rerun = write(tmp_path / "rerun", [_result("geodesic", s, final=-s, rmse=1.0) for s in (7, 8)])
+    rerun = _write_sweep(
+        tmp_path / "rerun", [_result("geodesic", s, final=-s, rmse=1.0) for s in (7, 8)]
+    )
     merged = group_runs(load_sweeps([sweep, rerun]))
     assert [r["spec"]["seed"] for r in merged[("E-v0", "ppo", "geodesic")]] == [7, 8]
     assert merged[("E-v0", "ppo", "mlp")] == group_runs(load_results(sweep))[("E-v0", "ppo", "mlp")]
@@ -280,15 +284,8 @@ def test_rerun_verdicts_script_writes_the_before_and_after(
 ) -> None:
     from tests.test_examples_engine import load_script
 
-    def write(folder: Path, results: list[dict[str, Any]]) -> Path:
-        (folder / "runs").mkdir(parents=True)
-        for r in results:
-            s = r["spec"]
-            (folder / "runs" / f"{s['critic']}_{s['seed']}.json").write_text(json.dumps(r))
-        return folder
-
-    published = write(tmp_path / "published", _results())
-    rerun = write(
+    published = _write_sweep(tmp_path / "published", _results())
+    rerun = _write_sweep(
         tmp_path / "rerun", [_result("laplacian", s, final=-50.0 - s, rmse=1.0) for s in range(6)]
     )
     script = load_script("rerun_verdicts")
