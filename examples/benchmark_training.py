@@ -42,7 +42,7 @@ from stable_baselines3 import A2C, PPO
 from stable_baselines3.common.env_util import make_vec_env
 
 from sb3_geogp import GPActorCriticPolicy, GPValueCallback
-from sb3_geogp.comparison.hyperparams import ALL_CRITICS, algo_kwargs, hyperparams
+from sb3_geogp.comparison.hyperparams import ALL_CRITICS, CRITICS, algo_kwargs, hyperparams
 from sb3_geogp.toolbox.benchmarks import GPClock
 from sb3_geogp.toolbox.provenance import provenance
 
@@ -50,7 +50,6 @@ WORKLOADS = {
     "PPO Pendulum-v1": (PPO, "ppo", "Pendulum-v1", 102_400, {}),
     "A2C CartPole-v1": (A2C, "a2c", "CartPole-v1", 30_000, {"forgetting": 0.9}),
 }
-CRITICS = ("mlp", "rbf", "geodesic")
 #: GP critics with adaptation (``gp_kwargs=dict(adapt=True)``), measured with ``--adapt``; the
 #: Laplacian one with the policy's options for it (``novelty_tol=0.1``) is the default critic.
 ADAPTIVE = ("rbf+adapt", "geodesic+adapt", "laplacian+adapt")

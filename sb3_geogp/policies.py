@@ -564,9 +564,10 @@ def default_kernel(algorithm: type[BaseAlgorithm] | None) -> str:
     """The GP critic's kernel where ``gp_kwargs`` names none, for policies trained by
     ``algorithm`` (``None``: a policy built outside an algorithm): :data:`DEFAULT_KERNELS`, else
     :data:`DEFAULT_KERNEL`."""
-    for cls, kernel in DEFAULT_KERNELS.items():
-        if algorithm is not None and issubclass(algorithm, cls):
-            return kernel
+    if algorithm is not None:
+        for cls, kernel in DEFAULT_KERNELS.items():
+            if issubclass(algorithm, cls):
+                return kernel
     return DEFAULT_KERNEL
 
 
