@@ -40,11 +40,17 @@ substitutes that vector's conditional mean given the others, as the on-line dele
 Without it a rebuild would forget everything older than the window (measured: 2-4x the batch
 sparse GP's error on the fixed-policy pendulum check, against about 1x without adaptation).
 
-With ``Adaptation(max_gap=g)``, steps 2-4 (the *refit*) run only on the blocks numbered by a
-power of two below ``g`` and on the multiples of ``g``; every block still chooses its
-forgetting. ``score_points`` and ``fold_points`` make step 1 and the summary below use an
-evenly spaced subsample of a batch (:func:`thinned`). All three are cheaper and off by default:
-docs/benchmarks.md measures what they save and what fit they cost.
+With ``Adaptation(max_gap=g)``, steps 2-4 (the *refit*) run only on the first block, on the
+blocks numbered by a power of two below ``g`` (unless ``settle=False``) and on the multiples of
+``g``; every block still chooses its forgetting. With ``drift_tol=c``, a block that does not
+refit but whose new targets have drifted, their mean square in the current standardised units
+(over the points scored in step 1) outside ``[1/c, c]``, runs steps 2 and 4 (targets and
+posterior; the hyperparameters stay): returns that grow as the policy improves get their new
+scale when they need it, not at a fixed schedule. ``score_points`` and ``fold_points`` make
+step 1 and the summary below use an evenly spaced subsample of a batch (:func:`thinned`). All
+of these are cheaper and off by default in the engine; the policy's PPO default critic turns
+them on (:data:`sb3_geogp.policies.CHEAP_ADAPTATION`). docs/benchmarks.md measures what they
+save and what fit they cost.
 
 Between adaptations the GP learns on-line as without adaptation, forgetting with the chosen
 ``lambda`` before each batch (``alpha <- sqrt(lambda) alpha``, ``C <- lambda C``), which the
@@ -115,6 +121,12 @@ class Adaptation:
         Points leaving the window at once are added to the summary through an evenly spaced
         subsample of at most this many, each with its weight times the length of its run.
         ``None``: every point (the summary is then exact).
+    settle : bool
+        Whether the blocks numbered by a power of two below ``max_gap`` refit too (while the
+        hyperparameters settle); ``False``: only the first block and the multiples.
+    drift_tol : float or None
+        Re-estimate targets and posterior on a block whose targets drifted beyond this factor
+        (module docstring); ``> 1``. ``None``: never outside the refits.
 
     Raises
     ------
@@ -137,6 +149,8 @@ class Adaptation:
     max_gap: int = 1
     score_points: int | None = None
     fold_points: int | None = None
+    settle: bool = True
+    drift_tol: float | None = None
 
     def __post_init__(self) -> None:
         optional = ("interval", "score_points", "fold_points")
@@ -156,6 +170,14 @@ class Adaptation:
             raise ValueError(
                 f"Adaptation.prior_sd must be positive and finite (or None: no prior), got "
                 f"{self.prior_sd}"
+            )
+        if not isinstance(self.settle, bool):
+            raise ValueError(f"Adaptation.settle must be True or False, got {self.settle!r}")
+        tol = self.drift_tol
+        if tol is not None and not (tol > 1 and math.isfinite(tol)):
+            raise ValueError(
+                f"Adaptation.drift_tol must be a finite factor > 1 (or None: no drift refits), "
+                f"got {self.drift_tol}"
             )
         candidates = tuple(float(c) for c in self.forgetting)
         if not candidates or not all(0 < c <= 1 for c in candidates):
@@ -179,11 +201,17 @@ class Adaptation:
         return self.interval if self.interval is not None else max(1, self.window // 2)
 
     def refits(self, block: int) -> bool:
-        """Whether the ``block``-th block (from 1) refits: a power of two below ``max_gap``,
-        or a multiple of it."""
-        if block % self.max_gap == 0:
+        """Whether the ``block``-th block (from 1) refits: the first, a multiple of
+        ``max_gap`` or, with ``settle``, a power of two below it."""
+        if block == 1 or block % self.max_gap == 0:
             return True
-        return block < self.max_gap and block & (block - 1) == 0
+        return self.settle and block < self.max_gap and block & (block - 1) == 0
+
+    def drifted(self, mean_square: float) -> bool:
+        """Whether targets whose mean square in standardised units is ``mean_square`` have
+        drifted beyond ``drift_tol`` (never without one)."""
+        tol = self.drift_tol
+        return tol is not None and not (1 / tol <= mean_square <= tol)
 
     def as_dict(self) -> dict[str, Any]:
         """JSON-compatible settings (stored in the GP's state)."""

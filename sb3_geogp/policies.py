@@ -57,12 +57,24 @@ DEFAULT_KERNEL = "laplacian"
 #: the geodesic kernel: with A2C the Laplacian critic is worse than the MLP family-wise on
 #: Acrobot on fresh seeds, the geodesic critic in no cell (docs/results.md, "A2C confirmation").
 DEFAULT_KERNELS: dict[type[BaseAlgorithm], str] = {A2C: "geodesic"}
+#: :class:`~sb3_geogp.Adaptation` settings of the PPO default critic (0.7): the hyperparameters
+#: are fitted (on 256 points) on the first block and every 16th, the targets and posterior are
+#: also re-estimated on a block whose targets drifted by a factor 2 in mean square, and the
+#: scores and the summary use at most 256 points of a batch. The engine's defaults do all of
+#: this on every block: about 60 % of the GP critic's time in PPO, against at most 10 % with
+#: these (docs/benchmarks.md, "Cheaper adaptation, 0.7").
+CHEAP_ADAPTATION: dict[str, Any] = dict(
+    max_gap=16, settle=False, drift_tol=2.0, fit_points=256, score_points=256, fold_points=256
+)
 #: Options the policy gives the GP critic of a kernel named in ``gp_kwargs`` (or of the
 #: default kernel, :func:`default_kernel`) where ``gp_kwargs`` leaves them unset. The Laplacian
 #: kernel gets a denser basis than the engine's default (``novelty_tol`` 0.39 for this kernel,
 #: :data:`sb3_geogp.defaults.NOVELTY_RADIUS`): with the default it realises less of its fit on
 #: the pendulums (docs/results.md, "What limits the PaperPendulum PPO critic").
-KERNEL_DEFAULTS: dict[str, dict[str, Any]] = {"laplacian": {"novelty_tol": 0.1}}
+#: Since 0.7 it also gets cheaper adaptation settings (:data:`CHEAP_ADAPTATION`).
+KERNEL_DEFAULTS: dict[str, dict[str, Any]] = {
+    "laplacian": {"novelty_tol": 0.1, "adapt": CHEAP_ADAPTATION}
+}
 #: Kernel names by class name (the name a kernel's state records).
 _KERNEL_NAMES = {cls.__name__: name for name, cls in KERNELS.items()}
 
@@ -576,11 +588,18 @@ def resolved_gp_kwargs(gp_kwargs: dict[str, Any], kernel: str = DEFAULT_KERNEL) 
 
     ``adapt=True``, ``kernel`` (the default kernel, see :func:`default_kernel`) and, for a
     kernel given by name, its :data:`KERNEL_DEFAULTS`, each where ``gp_kwargs`` does not set it.
+    A kernel default ``adapt`` (settings of :class:`~sb3_geogp.Adaptation`) is what ``adapt``
+    unset or ``True`` means for that kernel, and a dict of settings is applied on top of it;
+    an :class:`~sb3_geogp.Adaptation` object or ``False`` is used as given.
     """
-    options = {"adapt": True, "kernel": kernel, **gp_kwargs}
+    options = {"kernel": kernel, **gp_kwargs}
     named = options["kernel"]
-    extra = KERNEL_DEFAULTS.get(named, {}) if isinstance(named, str) else {}
-    return {**extra, **options}
+    extra = dict(KERNEL_DEFAULTS.get(named, {})) if isinstance(named, str) else {}
+    adapt = options.get("adapt", True)
+    settings = extra.pop("adapt", None)
+    if settings is not None and (adapt is True or isinstance(adapt, Mapping)):
+        adapt = {**settings, **(adapt if isinstance(adapt, Mapping) else {})}
+    return {**extra, **options, "adapt": adapt}
 
 
 def build_gp_critic(

@@ -246,6 +246,7 @@ class SparseOnlineGP(nn.Module):
     n_blocks: Tensor
     block_new: Tensor
     forgetting_scores: Tensor
+    block_moments: Tensor
     n_pruned: Tensor
     novelty_floor: Tensor
     block_forgetting: Tensor
@@ -330,6 +331,8 @@ class SparseOnlineGP(nn.Module):
         self.register_buffer("block_forgetting", torch.tensor(self.forgetting, **kw))
         n_candidates = len(self.adaptation.forgetting) if self.adaptation is not None else 1
         self.register_buffer("forgetting_scores", torch.zeros(n_candidates, **kw))
+        # Points scored in the open block and the sum of their squared standardised targets.
+        self.register_buffer("block_moments", torch.zeros(2, **kw))
         self.register_buffer("ls_start", self.kernel.lengthscale.to(**kw).clone())
         self.window = RetainedWindow(size, self.input_dim).to(**kw)
         self.last_stats: dict[str, float] = {}
@@ -478,6 +481,8 @@ class SparseOnlineGP(nn.Module):
         if scores is None or scores.shape != self.forgetting_scores.shape:
             # Another candidate list (adapt may change on load): the open block starts unscored.
             state_dict[prefix + "forgetting_scores"] = torch.zeros_like(self.forgetting_scores)
+        # Saved before drift refits (0.6): the open block's targets count from the next batch.
+        state_dict.setdefault(prefix + "block_moments", torch.zeros_like(self.block_moments))
         # Check every stored option before loading anything, so a refused state leaves this
         # GP exactly as it was (the kernel's check would otherwise come after the GP's buffers).
         for key, module in (("_extra_state", self), ("kernel._extra_state", self.kernel)):
@@ -984,19 +989,25 @@ class SparseOnlineGP(nn.Module):
         scored = bool((scores != 0).any())
         lam = a.forgetting[int(scores.argmin())] if scored else float(self.block_forgetting)
         scores.zero_()
+        points, squares = self.block_moments.tolist()
+        self.block_moments.zero_()
         self.block_forgetting.fill_(lam)
-        self.last_stats.update(forgetting=lam)
+        drift = squares / points if points > 0 else 1.0
+        self.last_stats.update(forgetting=lam, target_drift=drift)
         if a.refits(int(self.n_blocks)):
-            self._refit(a, x, y, age_weights(age, lam).to(y))
+            self._refit(a, x, y, age_weights(age, lam).to(y), a.steps)
+        elif a.drifted(drift) and a.targets:
+            self._refit(a, x, y, age_weights(age, lam).to(y), 0)
 
-    def _refit(self, a: Adaptation, x: Tensor, y: Tensor, w: Tensor) -> None:
-        """Steps 2-4 of the adaptation on the window ``x, y`` with weights ``w``."""
+    def _refit(self, a: Adaptation, x: Tensor, y: Tensor, w: Tensor, steps: int) -> None:
+        """Steps 2-4 of the adaptation on the window ``x, y`` with weights ``w``, ``steps``
+        Adam steps in step 3."""
         if a.targets:
             self._restandardise(y, w)
         yn = (y - self.y_mean) / self.y_scale
-        if a.steps:
+        if steps:
             k = a.fit_points
-            self._fit(x[-k:], yn[-k:], w[-k:], a.steps, a.lr, a)
+            self._fit(x[-k:], yn[-k:], w[-k:], steps, a.lr, a)
         self._rebuild(x, yn, w)
         ls = self.kernel.lengthscale
         self.last_stats.update(
@@ -1046,6 +1057,7 @@ class SparseOnlineGP(nn.Module):
         variances = (1 - lam) * self.kernel.variance + lam * var + self.noise_var
         nll = 0.5 * (torch.log(2 * math.pi * variances) + (yn - means).square() / variances)
         self.forgetting_scores += nll @ count
+        self.block_moments += torch.stack([count.sum(), yn.square() @ count])
 
     def _restandardise(self, y: Tensor, w: Tensor) -> None:
         """Weighted mean and scale of the retained targets, where the user fixed neither.

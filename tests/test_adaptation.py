@@ -38,6 +38,9 @@ from tests.test_sparse_gp import assert_same_state, nystrom_posterior, rbf, snap
         dict(max_gap=None),
         dict(score_points=0),
         dict(fold_points=1.5),
+        dict(settle=1),
+        dict(drift_tol=1.0),
+        dict(drift_tol=float("nan")),
     ],
 )
 def test_bad_settings_raise_naming_the_setting(bad: dict) -> None:
@@ -61,11 +64,13 @@ def test_adapt_as_a_dict_is_the_adaptation_of_those_settings() -> None:
         SparseOnlineGP(2, "rbf", adapt={"prior_sd": -1.0})
 
 
+@pytest.mark.parametrize("settle", [True, False])
 @pytest.mark.parametrize("max_gap", [1, 2, 6, 8])
-def test_refits_on_powers_of_two_then_every_max_gap_blocks(max_gap: int) -> None:
-    powers = {2**k for k in range(8) if 2**k < max_gap}
+def test_refits_on_powers_of_two_then_every_max_gap_blocks(max_gap: int, settle: bool) -> None:
+    """With ``settle=False`` only the first block and the multiples of ``max_gap`` refit."""
+    powers = {2**k for k in range(8) if 2**k < max_gap} if settle else {1}
     multiples = set(range(max_gap, 101, max_gap))
-    refits = {b for b in range(1, 101) if Adaptation(max_gap=max_gap).refits(b)}
+    refits = {b for b in range(1, 101) if Adaptation(max_gap=max_gap, settle=settle).refits(b)}
     assert refits == powers | multiples
     # The longest wait between refits is max_gap blocks.
     assert max(np.diff(sorted(refits | {0}))) <= max_gap
@@ -269,6 +274,52 @@ def test_between_refits_only_the_forgetting_is_chosen() -> None:
         assert int(gp.n_blocks) == i + 1 and not bool(gp.forgetting_scores.any())
     assert [i + 1 for i, c in enumerate(changed) if c] == [1, 2, 4, 8]
     assert gp.block_forgetting == 0.3  # the drift is seen by the choice made after every batch
+
+
+def test_a_drifted_block_refits_targets_and_posterior_only() -> None:
+    """``drift_tol=2`` with refits only on block 1 (``max_gap`` beyond the stream), a block per
+    batch: a block whose targets, in the units of the moment, have a mean square outside
+    [1/2, 2] (here: the targets jump by 6 at batch 5) re-estimates the target mean and scale
+    (the weighted moments of the window) and rebuilds the posterior (the exact sparse
+    posterior of the window); the lengthscale, signal and noise variance stay. The other
+    blocks keep the units."""
+    adapt = Adaptation(
+        window=1000,
+        interval=50,
+        steps=3,
+        max_gap=100,
+        settle=False,
+        drift_tol=2.0,
+        forgetting=(0.5,),
+    )
+    rng = np.random.default_rng(11)
+    batches = []
+    for i in range(8):
+        x = rng.uniform(size=(50, 1))
+        jump = 6.0 if i >= 4 else 0.0
+        batches.append((x, np.sin(4 * x[:, 0]) + jump + 0.1 * rng.normal(size=50)))
+    gp = SparseOnlineGP(1, RBFKernel(lengthscale=0.3), max_basis=20, adapt=adapt)
+    refitted, retargeted = [], []
+    for i, (x, y) in enumerate(batches):
+        hyper = (gp.lengthscale.clone(), gp.kernel.variance.clone(), gp.noise_var.clone())
+        units = (float(gp.y_mean), float(gp.y_scale))
+        gp.update(x, y)
+        if i > 0:  # the first batch is not scored: the basis was empty
+            drift = np.mean(((y - units[0]) / units[1]) ** 2)
+            assert gp.last_stats["target_drift"] == pytest.approx(drift, rel=1e-12)
+        after = (gp.lengthscale, gp.kernel.variance, gp.noise_var)
+        refitted.append(not all(torch.equal(a, b) for a, b in zip(hyper, after, strict=True)))
+        retargeted.append((float(gp.y_mean), float(gp.y_scale)) != units)
+        if i + 1 == 5:
+            wx, wy, batch = (t.numpy() for t in gp.window.data())
+            w = 0.5 ** (batch.max() - batch)
+            mean = np.sum(w * wy) / np.sum(w)
+            scale = np.sqrt(np.sum(w * (wy - mean) ** 2) / np.sum(w))
+            assert float(gp.y_mean) == pytest.approx(mean, rel=1e-12)
+            assert float(gp.y_scale) == pytest.approx(scale, rel=1e-12)
+            assert_weighted_sparse_posterior(gp, wx, wy, w, rng)
+    assert [i + 1 for i, c in enumerate(refitted) if c] == [1]
+    assert [i + 1 for i, c in enumerate(retargeted) if c] == [1, 5]
 
 
 def assert_weighted_sparse_posterior(
