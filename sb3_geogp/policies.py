@@ -418,7 +418,7 @@ class GPCriticMixin(_PolicyBase):
             :attr:`~sb3_geogp.SparseOnlineGP.last_stats` (``nlpd`` of the batch before it was
             absorbed, and after each adaptation the forgetting in effect, ``lengthscale`` (the
             geometric mean) and ``lengthscale_<i>``, ``signal_var``, ``noise_var``,
-            ``target_mean``, ``target_scale``).
+            ``target_mean``, ``target_scale``, ``target_drift``).
         """
         stats: dict[str, float] = {}
         start = time.perf_counter()
@@ -473,13 +473,16 @@ class GPActorCriticPolicy(GPCriticMixin, ActorCriticPolicy):
         ``kernel_kwargs`` (options of the named kernel, e.g.
         ``dict(profile="laplacian", n_neighbors=4)`` for the geodesic one).
         A kernel given by name gets the options of :data:`KERNEL_DEFAULTS` that ``gp_kwargs``
-        leaves unset (the Laplacian kernel: ``novelty_tol=0.1``); the others get the engine's
-        defaults. ``dtype`` may be a string such as ``"float64"``. ``input_dim``, ``device``
-        and ``input_bounds`` are set by the policy.
+        leaves unset (the Laplacian kernel: ``novelty_tol=0.1`` and, since 0.7, the adaptation
+        settings :data:`CHEAP_ADAPTATION`); the others get the engine's defaults. ``dtype`` may
+        be a string such as ``"float64"``. ``input_dim``, ``device`` and ``input_bounds`` are
+        set by the policy.
         ``adapt`` is ``True`` unless given (unlike the engine's default): the GP learns its
         hyperparameters, target mean and scale and forgetting from the stream
-        (:class:`~sb3_geogp.Adaptation`); ``adapt=False`` gives 0.2's critic with fixed
-        hyperparameters (``forgetting`` then stays as given).
+        (:class:`~sb3_geogp.Adaptation`, with the kernel's default settings; a dict of
+        settings goes on top of them, an ``Adaptation`` object is taken as given);
+        ``adapt=False`` gives 0.2's critic with fixed hyperparameters (``forgetting`` then
+        stays as given).
     **kwargs
         Every other option of :class:`~stable_baselines3.common.policies.ActorCriticPolicy`.
 

@@ -214,8 +214,10 @@ class SparseOnlineGP(nn.Module):
     last_stats : dict of str to float
         With adaptation, after each :meth:`update`: ``nlpd`` and ``explained_variance`` of the
         batch under the posterior before it was absorbed (out of sample, in the targets'
-        units), and after each adaptation ``forgetting``, ``lengthscale`` (geometric mean),
-        ``lengthscale_<i>``, ``signal_var``, ``noise_var``, ``target_mean``, ``target_scale``.
+        units), and after each adaptation ``forgetting`` and ``target_drift`` (the block's
+        mean squared standardised target, see :class:`~sb3_geogp.Adaptation`'s ``drift_tol``),
+        after each refit ``lengthscale`` (geometric mean), ``lengthscale_<i>``,
+        ``signal_var``, ``noise_var``, ``target_mean``, ``target_scale``.
 
     Notes
     -----

@@ -66,6 +66,10 @@ def test_benchmark_training_setting_suffixes_build_those_settings() -> None:
     expected = Adaptation(max_gap=4, score_points=512, fold_points=512)
     assert as_adaptation(options["adapt"]) == expected
     assert bench.gp_kwargs_of(["adapt"]) == {"adapt": True}
+    # +engine: the engine's defaults written out (the policy would otherwise put the
+    # Laplacian kernel's cheaper settings under them), settings on top.
+    assert as_adaptation(bench.gp_kwargs_of(["engine"])["adapt"]) == Adaptation()
+    assert as_adaptation(bench.gp_kwargs_of(["engine", "gap4"])["adapt"]) == Adaptation(max_gap=4)
 
 
 def test_critic_fit_scores_each_rollout_as_sb3_does() -> None:
