@@ -50,11 +50,14 @@ import torch
 from tqdm import tqdm
 
 from sb3_geogp import SparseOnlineGP
+from sb3_geogp.policies import CHEAP_ADAPTATION
 from sb3_geogp.toolbox.benchmarks import Variant, torch_threads
 from sb3_geogp.toolbox.provenance import provenance
 from sb3_geogp.toolbox.streams import Rollout, drifting_stream, pendulum_stream
 from sb3_geogp.toolbox.tables import format_table
 
+#: The GP options of the policy's PPO default critic since 0.7.
+CHEAP_DEFAULT = {"adapt": CHEAP_ADAPTATION, "novelty_tol": 0.1}
 VARIANTS = {
     "pendulum": (
         Variant("rbf", "rbf"),
@@ -70,8 +73,9 @@ VARIANTS = {
         # The adaptive GP (issue 13): hyperparameters, targets and forgetting from the stream.
         Variant("rbf adapt", "rbf", {}, {"adapt": True}),
         Variant("geo laplace interp adapt", "geodesic", {}, {"adapt": True}),
-        # The policy's default critic under PPO since 0.6.
+        # The policy's default critic under PPO in 0.6, and since 0.7 (cheaper adaptation).
         Variant("laplacian adapt n0.1", "laplacian", {}, {"adapt": True, "novelty_tol": 0.1}),
+        Variant("laplacian cheap n0.1", "laplacian", {}, CHEAP_DEFAULT),
     ),
     # A full basis facing a stream that keeps moving away from it (issue 11, defect 2).
     "drift": (
@@ -80,6 +84,7 @@ VARIANTS = {
         Variant("geo laplace interp f=0.9", "geodesic", {}, {"forgetting": 0.9}),
         Variant("geo laplace interp adapt", "geodesic", {}, {"adapt": True}),
         Variant("laplacian adapt n0.1", "laplacian", {}, {"adapt": True, "novelty_tol": 0.1}),
+        Variant("laplacian cheap n0.1", "laplacian", {}, CHEAP_DEFAULT),
     ),
 }
 STREAMS = {"pendulum": pendulum_stream, "drift": drifting_stream}
