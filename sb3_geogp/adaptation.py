@@ -42,15 +42,15 @@ sparse GP's error on the fixed-policy pendulum check, against about 1x without a
 
 With ``Adaptation(max_gap=g)``, steps 2-4 (the *refit*) run only on the first block, on the
 blocks numbered by a power of two below ``g`` (unless ``settle=False``) and on the multiples of
-``g``; every block still chooses its forgetting. With ``drift_tol=c``, a block that does not
-refit but whose new targets have drifted, their mean square in the current standardised units
-(over the points scored in step 1) outside ``[1/c, c]``, runs steps 2 and 4 (targets and
-posterior; the hyperparameters stay): returns that grow as the policy improves get their new
-scale when they need it, not at a fixed schedule. ``score_points`` and ``fold_points`` make
-step 1 and the summary below use an evenly spaced subsample of a batch (:func:`thinned`). All
-of these are cheaper and off by default in the engine; the policy's PPO default critic turns
-them on (:data:`sb3_geogp.policies.CHEAP_ADAPTATION`). docs/benchmarks.md measures what they
-save and what fit they cost.
+``g``; every block still chooses its forgetting. With ``drift_tol=c``, a block whose new
+targets have drifted, their mean square in the current standardised units (over the points
+scored in step 1) outside ``[1/c, c]``, refits too: returns that grow as the policy improves
+get their new scale, and hyperparameters fitted on the first returns (often nearly constant)
+their refit, when the data say so rather than on a fixed schedule. ``score_points`` and
+``fold_points`` make step 1 and the summary below use an evenly spaced subsample of a batch
+(:func:`thinned`). All of these are cheaper and off by default in the engine (the policy's
+:data:`sb3_geogp.policies.CHEAP_ADAPTATION` turns them on); docs/benchmarks.md measures what
+they save and what fit they cost.
 
 Between adaptations the GP learns on-line as without adaptation, forgetting with the chosen
 ``lambda`` before each batch (``alpha <- sqrt(lambda) alpha``, ``C <- lambda C``), which the
@@ -125,8 +125,8 @@ class Adaptation:
         Whether the blocks numbered by a power of two below ``max_gap`` refit too (while the
         hyperparameters settle); ``False``: only the first block and the multiples.
     drift_tol : float or None
-        Re-estimate targets and posterior on a block whose targets drifted beyond this factor
-        (module docstring); ``> 1``. ``None``: never outside the refits.
+        Refit a block whose targets drifted beyond this factor (module docstring); ``> 1``.
+        ``None``: only on the schedule of ``max_gap``.
 
     Raises
     ------

@@ -57,12 +57,11 @@ DEFAULT_KERNEL = "laplacian"
 #: the geodesic kernel: with A2C the Laplacian critic is worse than the MLP family-wise on
 #: Acrobot on fresh seeds, the geodesic critic in no cell (docs/results.md, "A2C confirmation").
 DEFAULT_KERNELS: dict[type[BaseAlgorithm], str] = {A2C: "geodesic"}
-#: :class:`~sb3_geogp.Adaptation` settings of the PPO default critic (0.7): the hyperparameters
-#: are fitted (on 256 points) on the first block and every 16th, the targets and posterior are
-#: also re-estimated on a block whose targets drifted by a factor 2 in mean square, and the
-#: scores and the summary use at most 256 points of a batch. The engine's defaults do all of
-#: this on every block: about 60 % of the GP critic's time in PPO, against at most 10 % with
-#: these (docs/benchmarks.md, "Cheaper adaptation, 0.7").
+#: :class:`~sb3_geogp.Adaptation` settings of the PPO default critic (0.7): targets,
+#: hyperparameters (fitted on 256 points) and posterior are refitted on the first block, every
+#: 16th, and any block whose targets drifted by a factor 2 in mean square; the scores and the
+#: summary use at most 256 points of a batch. The engine's defaults refit every block, about
+#: 60 % of the GP critic's time in PPO (docs/benchmarks.md, "Cheaper adaptation, 0.7").
 CHEAP_ADAPTATION: dict[str, Any] = dict(
     max_gap=16, settle=False, drift_tol=2.0, fit_points=256, score_points=256, fold_points=256
 )

@@ -996,20 +996,17 @@ class SparseOnlineGP(nn.Module):
         self.block_forgetting.fill_(lam)
         drift = squares / points if points > 0 else 1.0
         self.last_stats.update(forgetting=lam, target_drift=drift)
-        if a.refits(int(self.n_blocks)):
-            self._refit(a, x, y, age_weights(age, lam).to(y), a.steps)
-        elif a.drifted(drift) and a.targets:
-            self._refit(a, x, y, age_weights(age, lam).to(y), 0)
+        if a.refits(int(self.n_blocks)) or a.drifted(drift):
+            self._refit(a, x, y, age_weights(age, lam).to(y))
 
-    def _refit(self, a: Adaptation, x: Tensor, y: Tensor, w: Tensor, steps: int) -> None:
-        """Steps 2-4 of the adaptation on the window ``x, y`` with weights ``w``, ``steps``
-        Adam steps in step 3."""
+    def _refit(self, a: Adaptation, x: Tensor, y: Tensor, w: Tensor) -> None:
+        """Steps 2-4 of the adaptation on the window ``x, y`` with weights ``w``."""
         if a.targets:
             self._restandardise(y, w)
         yn = (y - self.y_mean) / self.y_scale
-        if steps:
+        if a.steps:
             k = a.fit_points
-            self._fit(x[-k:], yn[-k:], w[-k:], steps, a.lr, a)
+            self._fit(x[-k:], yn[-k:], w[-k:], a.steps, a.lr, a)
         self._rebuild(x, yn, w)
         ls = self.kernel.lengthscale
         self.last_stats.update(
