@@ -9,13 +9,12 @@ the seconds spent in GP updates, in GP predictions, and in everything else; with
 also the GP critics with adaptation, and the seconds their updates spent on it (out-of-sample
 statistics, summary of dropped points, adaptation proper) with its share of the GP's time.
 ``--critics`` picks the critics instead: a kernel, optionally followed by ``+adapt`` (the
-policy's adaptation settings for the kernel: since 0.7 the Laplacian kernel's are
-:data:`~sb3_geogp.policies.CHEAP_ADAPTATION`), ``+engine`` (adaptation with the engine's
-:class:`~sb3_geogp.Adaptation` defaults, every block refitted: the 0.6 default critic is
-``laplacian+engine``) and, for the geodesic kernel, ``+shared`` (0.3's one lengthscale factor,
-``kernel_kwargs=dict(ard=False)``), and after ``+adapt`` or ``+engine`` by other adaptation
-settings (``+gapN``: ``max_gap=N``; ``+thinN``: ``score_points`` and ``fold_points`` N;
-``+stepsN``), so that the cost of an option is measured interleaved with the default's.
+policy's default, :class:`~sb3_geogp.Adaptation`'s defaults: the default critic under PPO is
+``laplacian+adapt``), ``+cheap`` (:data:`~sb3_geogp.CHEAP_ADAPTATION`) and, for the geodesic
+kernel, ``+shared`` (0.3's one lengthscale factor, ``kernel_kwargs=dict(ard=False)``), and
+after ``+adapt`` or ``+cheap`` by other adaptation settings (``+gapN``: ``max_gap=N``;
+``+thinN``: ``score_points`` and ``fold_points`` N; ``+stepsN``), so that the cost of an
+option is measured interleaved with the default's.
 
 ``--threads default`` leaves torch's thread count as a new user has it (the engine then runs
 its own work single-threaded, see ``SparseOnlineGP(num_threads=...)``); ``--load N`` keeps N
@@ -26,7 +25,7 @@ busy processes running during the benchmark, to measure a loaded machine. Exampl
     python examples/benchmark_training.py --workloads "PPO Pendulum-v1" \\
         --critics geodesic+adapt geodesic+adapt+shared geodesic+adapt+thin512+gap4
     python examples/benchmark_training.py --workloads "PPO Pendulum-v1" \\
-        --critics mlp laplacian+engine laplacian+adapt
+        --critics mlp laplacian+adapt laplacian+cheap
 """
 
 from __future__ import annotations
@@ -46,7 +45,7 @@ import torch as th
 from stable_baselines3 import A2C, PPO
 from stable_baselines3.common.env_util import make_vec_env
 
-from sb3_geogp import Adaptation, GPActorCriticPolicy, GPValueCallback
+from sb3_geogp import CHEAP_ADAPTATION, GPActorCriticPolicy, GPValueCallback
 from sb3_geogp.comparison.hyperparams import ALL_CRITICS, CRITICS, algo_kwargs, hyperparams
 from sb3_geogp.toolbox.benchmarks import GPClock
 from sb3_geogp.toolbox.provenance import provenance
@@ -56,13 +55,13 @@ WORKLOADS = {
     "A2C CartPole-v1": (A2C, "a2c", "CartPole-v1", 30_000, {"forgetting": 0.9}),
 }
 #: GP critics with adaptation (``gp_kwargs=dict(adapt=True)``), measured with ``--adapt``; the
-#: Laplacian one with the policy's options for it (``novelty_tol=0.1`` and, since 0.7, cheaper
-#: adaptation) is the default critic under PPO.
+#: Laplacian one with the policy's options for it (``novelty_tol=0.1``) is the default critic
+#: under PPO.
 ADAPTIVE = ("rbf+adapt", "geodesic+adapt", "laplacian+adapt")
 #: What a suffix of a critic's name adds to its ``gp_kwargs``.
 SUFFIXES: dict[str, dict[str, Any]] = {
     "adapt": {"adapt": True},
-    "engine": {"adapt": Adaptation().as_dict()},
+    "cheap": {"adapt": CHEAP_ADAPTATION.as_dict()},
     "shared": {"kernel_kwargs": {"ard": False}},
 }
 #: Suffixes with a count (after ``+adapt``): the :class:`~sb3_geogp.adaptation.Adaptation`
@@ -106,7 +105,7 @@ def critic_name(text: str) -> str:
         counted = " +".join(f"{k}N" for k in SETTING_SUFFIXES)
         raise argparse.ArgumentTypeError(
             f"unknown critic {text!r}: use one of {ALL_CRITICS}, a GP kernel optionally followed "
-            f"by +{' +'.join(SUFFIXES)}, and after +adapt or +engine by +{counted} (e.g. "
+            f"by +{' +'.join(SUFFIXES)}, and after +adapt or +cheap by +{counted} (e.g. "
             "geodesic+adapt+shared, geodesic+adapt+thin512+gap4)"
         )
     return text
@@ -180,7 +179,8 @@ def table(results: dict[str, dict[str, list[dict[str, Any]]]]) -> str:
                     r.get("adaptation", 0.0) / (r["update"] + r["predict"]) for r in runs
                 )
                 cells += [f"{upd:.2f}", f"{pred:.2f}", f"{wall - upd - pred:.1f}"]
-                cells += [f"{adapt:.2f}", f"{share:.0%}"] if "+adapt" in critic else ["–", "–"]
+                adaptive = "adapt" in (gp_kwargs_of(critic.split("+")[1:]) or {})
+                cells += [f"{adapt:.2f}", f"{share:.0%}"] if adaptive else ["–", "–"]
             lines.append(f"| {workload} | {critic} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
 

@@ -49,14 +49,13 @@ import matplotlib.pyplot as plt
 import torch
 from tqdm import tqdm
 
-from sb3_geogp import SparseOnlineGP
-from sb3_geogp.policies import CHEAP_ADAPTATION
+from sb3_geogp import CHEAP_ADAPTATION, SparseOnlineGP
 from sb3_geogp.toolbox.benchmarks import Variant, torch_threads
 from sb3_geogp.toolbox.provenance import provenance
 from sb3_geogp.toolbox.streams import Rollout, drifting_stream, pendulum_stream
 from sb3_geogp.toolbox.tables import format_table
 
-#: The GP options of the policy's PPO default critic since 0.7.
+#: The policy's PPO default critic with the cheaper adaptation preset (0.7).
 CHEAP_DEFAULT = {"adapt": CHEAP_ADAPTATION, "novelty_tol": 0.1}
 VARIANTS = {
     "pendulum": (
@@ -73,7 +72,7 @@ VARIANTS = {
         # The adaptive GP (issue 13): hyperparameters, targets and forgetting from the stream.
         Variant("rbf adapt", "rbf", {}, {"adapt": True}),
         Variant("geo laplace interp adapt", "geodesic", {}, {"adapt": True}),
-        # The policy's default critic under PPO in 0.6, and since 0.7 (cheaper adaptation).
+        # The policy's default critic under PPO since 0.6, and with the cheaper preset (0.7).
         Variant("laplacian adapt n0.1", "laplacian", {}, {"adapt": True, "novelty_tol": 0.1}),
         Variant("laplacian cheap n0.1", "laplacian", {}, CHEAP_DEFAULT),
     ),

@@ -15,7 +15,7 @@ from __future__ import annotations
 import importlib
 from typing import TYPE_CHECKING, Any
 
-from sb3_geogp.adaptation import Adaptation
+from sb3_geogp.adaptation import CHEAP_ADAPTATION, Adaptation
 from sb3_geogp.graph import BVGraph
 from sb3_geogp.kernels import GeodesicKernel, Kernel, LaplacianKernel, RBFKernel
 from sb3_geogp.sparse_gp import SparseOnlineGP
@@ -27,7 +27,7 @@ if TYPE_CHECKING:
     from sb3_geogp.contrib import MaskableGPActorCriticPolicy
     from sb3_geogp.policies import GPActorCriticPolicy
 
-__version__ = "0.6.0"
+__version__ = "0.7.0"
 
 #: Names loaded on first access (PEP 562): they import stable-baselines3, sb3-contrib or
 #: gymnasium.
@@ -51,6 +51,7 @@ def __dir__() -> list[str]:
 
 
 __all__ = [
+    "CHEAP_ADAPTATION",
     "Adaptation",
     "BVGraph",
     "GPActorCriticPolicy",

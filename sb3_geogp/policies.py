@@ -57,23 +57,12 @@ DEFAULT_KERNEL = "laplacian"
 #: the geodesic kernel: with A2C the Laplacian critic is worse than the MLP family-wise on
 #: Acrobot on fresh seeds, the geodesic critic in no cell (docs/results.md, "A2C confirmation").
 DEFAULT_KERNELS: dict[type[BaseAlgorithm], str] = {A2C: "geodesic"}
-#: :class:`~sb3_geogp.Adaptation` settings of the PPO default critic (0.7): targets,
-#: hyperparameters (fitted on 256 points) and posterior are refitted on the first block, every
-#: 16th, and any block whose targets drifted by a factor 2 in mean square; the scores and the
-#: summary use at most 256 points of a batch. The engine's defaults refit every block, about
-#: 60 % of the GP critic's time in PPO (docs/benchmarks.md, "Cheaper adaptation, 0.7").
-CHEAP_ADAPTATION: dict[str, Any] = dict(
-    max_gap=16, settle=False, drift_tol=2.0, fit_points=256, score_points=256, fold_points=256
-)
 #: Options the policy gives the GP critic of a kernel named in ``gp_kwargs`` (or of the
 #: default kernel, :func:`default_kernel`) where ``gp_kwargs`` leaves them unset. The Laplacian
 #: kernel gets a denser basis than the engine's default (``novelty_tol`` 0.39 for this kernel,
 #: :data:`sb3_geogp.defaults.NOVELTY_RADIUS`): with the default it realises less of its fit on
 #: the pendulums (docs/results.md, "What limits the PaperPendulum PPO critic").
-#: Since 0.7 it also gets cheaper adaptation settings (:data:`CHEAP_ADAPTATION`).
-KERNEL_DEFAULTS: dict[str, dict[str, Any]] = {
-    "laplacian": {"novelty_tol": 0.1, "adapt": CHEAP_ADAPTATION}
-}
+KERNEL_DEFAULTS: dict[str, dict[str, Any]] = {"laplacian": {"novelty_tol": 0.1}}
 #: Kernel names by class name (the name a kernel's state records).
 _KERNEL_NAMES = {cls.__name__: name for name, cls in KERNELS.items()}
 
@@ -472,16 +461,15 @@ class GPActorCriticPolicy(GPCriticMixin, ActorCriticPolicy):
         ``kernel_kwargs`` (options of the named kernel, e.g.
         ``dict(profile="laplacian", n_neighbors=4)`` for the geodesic one).
         A kernel given by name gets the options of :data:`KERNEL_DEFAULTS` that ``gp_kwargs``
-        leaves unset (the Laplacian kernel: ``novelty_tol=0.1`` and, since 0.7, the adaptation
-        settings :data:`CHEAP_ADAPTATION`); the others get the engine's defaults. ``dtype`` may
-        be a string such as ``"float64"``. ``input_dim``, ``device`` and ``input_bounds`` are
-        set by the policy.
+        leaves unset (the Laplacian kernel: ``novelty_tol=0.1``); the others get the engine's
+        defaults. ``dtype`` may be a string such as ``"float64"``. ``input_dim``, ``device``
+        and ``input_bounds`` are set by the policy.
         ``adapt`` is ``True`` unless given (unlike the engine's default): the GP learns its
         hyperparameters, target mean and scale and forgetting from the stream
-        (:class:`~sb3_geogp.Adaptation`, with the kernel's default settings; a dict of
-        settings goes on top of them, an ``Adaptation`` object is taken as given);
-        ``adapt=False`` gives 0.2's critic with fixed hyperparameters (``forgetting`` then
-        stays as given).
+        (:class:`~sb3_geogp.Adaptation`); ``adapt=False`` gives 0.2's critic with fixed
+        hyperparameters (``forgetting`` then stays as given);
+        ``adapt=sb3_geogp.CHEAP_ADAPTATION`` adapts at a fraction of the cost, with the losses
+        docs/results.md reports ("Cheaper adaptation, 0.7").
     **kwargs
         Every other option of :class:`~stable_baselines3.common.policies.ActorCriticPolicy`.
 
@@ -590,18 +578,11 @@ def resolved_gp_kwargs(gp_kwargs: dict[str, Any], kernel: str = DEFAULT_KERNEL) 
 
     ``adapt=True``, ``kernel`` (the default kernel, see :func:`default_kernel`) and, for a
     kernel given by name, its :data:`KERNEL_DEFAULTS`, each where ``gp_kwargs`` does not set it.
-    A kernel default ``adapt`` (settings of :class:`~sb3_geogp.Adaptation`) is what ``adapt``
-    unset or ``True`` means for that kernel, and a dict of settings is applied on top of it;
-    an :class:`~sb3_geogp.Adaptation` object or ``False`` is used as given.
     """
-    options = {"kernel": kernel, **gp_kwargs}
+    options = {"adapt": True, "kernel": kernel, **gp_kwargs}
     named = options["kernel"]
-    extra = dict(KERNEL_DEFAULTS.get(named, {})) if isinstance(named, str) else {}
-    adapt = options.get("adapt", True)
-    settings = extra.pop("adapt", None)
-    if settings is not None and (adapt is True or isinstance(adapt, Mapping)):
-        adapt = {**settings, **(adapt if isinstance(adapt, Mapping) else {})}
-    return {**extra, **options, "adapt": adapt}
+    extra = KERNEL_DEFAULTS.get(named, {}) if isinstance(named, str) else {}
+    return {**extra, **options}
 
 
 def build_gp_critic(

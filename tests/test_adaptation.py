@@ -450,6 +450,27 @@ def test_a_state_saved_by_0_2_loads_with_the_ages_it_had() -> None:
     assert float(copy.summary_prec.abs().sum()) == 0.0
 
 
+def test_a_state_saved_by_0_6_loads_without_drift_moments() -> None:
+    """0.6 stored no ``block_moments``: the state loads, predicts as saved, and the open
+    block's drift counts the targets of the batches fed after loading only."""
+    rng = np.random.default_rng(8)
+    adapt = Adaptation(window=300, interval=200, steps=1, drift_tol=2.0)
+    gp = SparseOnlineGP(2, "rbf", max_basis=30, adapt=adapt)
+    for _ in range(3):  # 300 points: the second block is open, with 100 scored
+        gp.update(rng.uniform(size=(100, 2)), rng.normal(size=100))
+    state = {k: v for k, v in gp.state_dict().items() if k != "block_moments"}
+    copy = SparseOnlineGP(2, "rbf", max_basis=30, adapt=adapt)
+    copy.load_state_dict(state)
+    probe = rng.uniform(size=(7, 2))
+    for a, b in zip(gp.predict(probe), copy.predict(probe), strict=True):
+        torch.testing.assert_close(a, b, rtol=0, atol=0)
+    x, y = rng.uniform(size=(100, 2)), 3.0 + rng.normal(size=100)
+    units = (float(copy.y_mean), float(copy.y_scale))
+    copy.update(x, y)  # closes the block
+    expected = np.mean(((y - units[0]) / units[1]) ** 2)
+    assert copy.last_stats["target_drift"] == pytest.approx(expected, rel=1e-12)
+
+
 def test_a_failure_inside_the_adaptation_leaves_the_state_unchanged(monkeypatch) -> None:
     """The fit has already rescaled the kernel (and the geodesic graph) when the rebuild fails."""
     rng = np.random.default_rng(5)

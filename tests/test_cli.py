@@ -21,7 +21,6 @@ from sb3_geogp.cli import (
     read_monitor_logs,
     reward_threshold,
 )
-from sb3_geogp.policies import CHEAP_ADAPTATION
 
 
 @pytest.fixture(autouse=True)
@@ -61,10 +60,7 @@ def test_train_writes_model_logs_and_curve(
     assert isinstance(model.policy, GPActorCriticPolicy) == gp
     if gp:  # default forgetting: 0.9 with A2C (docs/results.md), 1.0 with PPO; adaptive
         assert model.policy.gp.forgetting == (0.9 if algo == "a2c" else 1.0)
-        # The Laplacian kernel (PPO's default) adapts with the policy's cheaper settings.
-        laplacian = isinstance(model.policy.gp.kernel, LaplacianKernel)
-        expected = Adaptation(**CHEAP_ADAPTATION) if laplacian else Adaptation()
-        assert model.policy.gp.adaptation == expected
+        assert model.policy.gp.adaptation == Adaptation()
     if critic is None:  # the policy's default kernel for the algorithm
         kernel = {"ppo": LaplacianKernel, "a2c": GeodesicKernel}[algo]
         assert isinstance(model.policy.gp.kernel, kernel)

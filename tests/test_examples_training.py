@@ -58,7 +58,9 @@ def test_benchmark_training_critics_option(tmp_path: Path, monkeypatch: pytest.M
 
 
 def test_benchmark_training_setting_suffixes_build_those_settings() -> None:
-    from sb3_geogp.adaptation import Adaptation, as_adaptation
+    import dataclasses
+
+    from sb3_geogp.adaptation import CHEAP_ADAPTATION, Adaptation, as_adaptation
 
     bench = load_script("benchmark_training")
     options = bench.gp_kwargs_of(["adapt", "thin512", "gap4", "shared"])
@@ -66,10 +68,10 @@ def test_benchmark_training_setting_suffixes_build_those_settings() -> None:
     expected = Adaptation(max_gap=4, score_points=512, fold_points=512)
     assert as_adaptation(options["adapt"]) == expected
     assert bench.gp_kwargs_of(["adapt"]) == {"adapt": True}
-    # +engine: the engine's defaults written out (the policy would otherwise put the
-    # Laplacian kernel's cheaper settings under them), settings on top.
-    assert as_adaptation(bench.gp_kwargs_of(["engine"])["adapt"]) == Adaptation()
-    assert as_adaptation(bench.gp_kwargs_of(["engine", "gap4"])["adapt"]) == Adaptation(max_gap=4)
+    # +cheap: the preset, settings on top of it.
+    assert as_adaptation(bench.gp_kwargs_of(["cheap"])["adapt"]) == CHEAP_ADAPTATION
+    cheap = as_adaptation(bench.gp_kwargs_of(["cheap", "steps2"])["adapt"])
+    assert cheap == dataclasses.replace(CHEAP_ADAPTATION, steps=2)
 
 
 def test_critic_fit_scores_each_rollout_as_sb3_does() -> None:

@@ -21,6 +21,7 @@ from stable_baselines3.common.logger import configure
 from stable_baselines3.common.vec_env import SubprocVecEnv
 
 from sb3_geogp import (
+    CHEAP_ADAPTATION,
     Adaptation,
     GeodesicKernel,
     GPActorCriticPolicy,
@@ -220,12 +221,9 @@ def test_default_critic_is_the_laplacian_kernel_with_a_dense_basis_except_under_
     default = built()
     assert isinstance(default.gp.kernel, LaplacianKernel) and default.gp.novelty_tol == 0.1
     assert default.gp.adaptation is not None
-    cheap = dict(
-        max_gap=16, settle=False, drift_tol=2.0, fit_points=256, score_points=256, fold_points=256
-    )
-    assert default.gp.adaptation == Adaptation(**cheap)
+    assert default.gp.adaptation == Adaptation()
     saved = default._get_constructor_parameters()["gp_kwargs"]
-    assert saved == {"adapt": cheap, "kernel": "laplacian", "novelty_tol": 0.1}
+    assert saved == {"adapt": True, "kernel": "laplacian", "novelty_tol": 0.1}
     assert built(kernel="laplacian", novelty_tol=0.2).gp.novelty_tol == 0.2
     laplacian_engine_default = 1 - np.exp(-0.25) ** 2
     for policy in (built(A2C), built(type("MyA2C", (A2C,), {})), built(kernel="geodesic")):
@@ -235,16 +233,9 @@ def test_default_critic_is_the_laplacian_kernel_with_a_dense_basis_except_under_
         "adapt": True,
         "kernel": "geodesic",
     }
-    assert built(A2C).gp.adaptation == Adaptation()  # the engine's
+    assert built(A2C).gp.adaptation == Adaptation()
     assert built(A2C, kernel="laplacian").gp.novelty_tol == 0.1
-    # The Laplacian kernel's adaptation settings are what adapt=True means for it; a dict
-    # goes on top of them, an Adaptation object or False is taken as given.
-    assert built(kernel="laplacian", adapt=True).gp.adaptation == Adaptation(**cheap)
-    on_top = built(kernel="laplacian", adapt={"prior_sd": 0.1, "max_gap": 4}).gp.adaptation
-    assert on_top == Adaptation(**{**cheap, "prior_sd": 0.1, "max_gap": 4})
-    assert built(kernel="laplacian", adapt=Adaptation()).gp.adaptation == Adaptation()
-    assert built(kernel="laplacian", adapt=False).gp.adaptation is None
-    assert built(kernel="rbf", adapt={"steps": 2}).gp.adaptation == Adaptation(steps=2)
+    assert built(adapt=CHEAP_ADAPTATION).gp.adaptation == CHEAP_ADAPTATION  # the preset
     assert built(kernel=LaplacianKernel()).gp.novelty_tol == pytest.approx(laplacian_engine_default)
     rbf = built(kernel="rbf").gp.novelty_tol
     assert rbf == pytest.approx(1 - np.exp(-0.5 * 0.25**2) ** 2)

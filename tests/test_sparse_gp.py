@@ -19,10 +19,16 @@ from scipy.linalg import cho_factor, cho_solve
 from scipy.spatial.distance import cdist
 from torch import Tensor
 
-from sb3_geogp import GeodesicKernel, Kernel, LaplacianKernel, RBFKernel, SparseOnlineGP
+from sb3_geogp import (
+    CHEAP_ADAPTATION,
+    GeodesicKernel,
+    Kernel,
+    LaplacianKernel,
+    RBFKernel,
+    SparseOnlineGP,
+)
 from sb3_geogp.defaults import default_lengthscale
 from sb3_geogp.kernels import make_kernel
-from sb3_geogp.policies import CHEAP_ADAPTATION
 from tests.test_graph import assert_valid_forest, straight_edges
 
 FULL = bool(os.environ.get("SB3_GEOGP_FULL"))
@@ -434,8 +440,8 @@ VARIANTS: dict[str, Callable[[], dict[str, Any]]] = {
     # Every kernel that float32 allows (Kernel.supports_float32).
     "geodesic-float32": lambda: {"kernel": GeodesicKernel(), "dtype": torch.float32},
     "laplacian-euclid-float32": lambda: {"kernel": LaplacianKernel(), "dtype": torch.float32},
-    # The policy's default critic under PPO in 0.6: adaptive, with a dense basis; and since
-    # 0.7, with cheaper adaptation (refits rarely, re-estimates drifted targets, thins).
+    # The policy's default critic under PPO (0.6): adaptive, with a dense basis; and with the
+    # cheaper adaptation preset (0.7: refits rarely and on drifted targets, thins).
     "laplacian-euclid-adapt-dense": lambda: {
         "kernel": LaplacianKernel(),
         "adapt": True,
