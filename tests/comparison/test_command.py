@@ -10,6 +10,7 @@ from pathlib import Path
 
 import pytest
 
+from sb3_geogp.adaptation import CHEAP_ADAPTATION, as_adaptation
 from sb3_geogp.cli import main
 from sb3_geogp.comparison.command import (
     UsageError,
@@ -74,6 +75,12 @@ def test_gp_options_reach_every_gp_run_and_bad_ones_fail_early() -> None:
     # JSON as well as Python literals: a dict in either spelling is a dict, not a string.
     for spelling in ('{"ard": false}', '{"ard": False}'):
         assert parse_gp_option(f"kernel_kwargs={spelling}") == ("kernel_kwargs", {"ard": False})
+    # The preset as documented for the command line (docs/usage.md, adapt).
+    key, settings = parse_gp_option(
+        'adapt={"max_gap": 16, "settle": false, "drift_tol": 2.0, "fit_points": 256, '
+        '"score_points": 256, "fold_points": 256}'
+    )
+    assert key == "adapt" and as_adaptation(settings) == CHEAP_ADAPTATION
     for bad, message in (
         ("forgetting=1.5", "forgetting"),  # rejected by SparseOnlineGP
         ("no_such_option=1", "no_such_option"),
