@@ -221,7 +221,7 @@ class Adaptation:
 #: Adaptation at a fraction of the default's cost (0.7): targets, hyperparameters (fitted on 256
 #: points) and posterior are refitted on the first block, every 16th, and any block whose
 #: targets drifted by a factor 2 in mean square; scores and summary use at most 256 points of a
-#: batch. With the PPO default critic it halves the GP's time (adaptation 61 % -> 17 % of it on
+#: batch. With the PPO default critic it halves the GP's time (adaptation 60 % -> 17 % of it on
 #: PPO Pendulum-v1) but loses MountainCarContinuous at 95 % (final return -13 against the
 #: default's adaptation) and lets Acrobot and CartPole fall behind SB3's MLP critic at 95 %
 #: (docs/results.md, "Cheaper adaptation, 0.7"), so it is an option, not the default.

@@ -215,7 +215,8 @@ class SparseOnlineGP(nn.Module):
         With adaptation, after each :meth:`update`: ``nlpd`` and ``explained_variance`` of the
         batch under the posterior before it was absorbed (out of sample, in the targets'
         units), and after each adaptation ``forgetting`` and ``target_drift`` (the block's
-        mean squared standardised target, see :class:`~sb3_geogp.Adaptation`'s ``drift_tol``),
+        mean squared standardised target, 1 where none was scored, see
+        :class:`~sb3_geogp.Adaptation`'s ``drift_tol``),
         after each refit ``lengthscale`` (geometric mean), ``lengthscale_<i>``,
         ``signal_var``, ``noise_var``, ``target_mean``, ``target_scale``.
 
