@@ -223,8 +223,9 @@ class Adaptation:
 #: targets drifted by a factor 2 in mean square; scores and summary use at most 256 points of a
 #: batch. With the PPO default critic it halves the GP's time (adaptation 60 % -> 17 % of it on
 #: PPO Pendulum-v1) but loses MountainCarContinuous at 95 % (final return -13 against the
-#: default's adaptation) and lets Acrobot and CartPole fall behind SB3's MLP critic at 95 %
-#: (docs/results.md, "Cheaper adaptation, 0.7"), so it is an option, not the default.
+#: default's adaptation; its 256 fitted points explain it) and Acrobot falls behind SB3's MLP
+#: critic at 95 % (docs/results.md, "Cheaper adaptation, 0.7"), so it is an option, not the
+#: default.
 CHEAP_ADAPTATION = Adaptation(
     max_gap=16, settle=False, drift_tol=2.0, fit_points=256, score_points=256, fold_points=256
 )
