@@ -223,7 +223,7 @@ class Adaptation:
 #: targets drifted by a factor 2 in mean square; scores and summary use at most 256 points of a
 #: batch. With the PPO default critic it halves the GP's time (adaptation 60 % -> 17 % of it on
 #: PPO Pendulum-v1) but loses MountainCarContinuous at 95 % (final return -13 against the
-#: default's adaptation; its 256 fitted points explain it) and Acrobot falls behind SB3's MLP
+#: default's adaptation; not firmly attributed) and Acrobot falls behind SB3's MLP
 #: critic at 95 % (docs/results.md, "Cheaper adaptation, 0.7"), so it is an option, not the
 #: default.
 CHEAP_ADAPTATION = Adaptation(
