@@ -70,7 +70,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
     parser.add_argument("--out", type=Path, default=Path("results/compare"), help="results dir")
     parser.add_argument("--quick", action="store_true", help="smoke sweep: 5%% budgets, 2 seeds")
     parser.add_argument("--workers", type=int, default=2, help="parallel processes")
-    parser.add_argument("--seeds", type=int, default=None, help="number of seeds (0..n-1)")
+    parser.add_argument(
+        "--seeds", type=int, default=None, help="number of seeds (first-seed..first-seed+n-1)"
+    )
+    parser.add_argument(
+        "--first-seed",
+        type=int,
+        default=0,
+        metavar="S",
+        help="seed of the first run (default 0); e.g. --seeds 10 --first-seed 10 runs fresh "
+        "seeds 10-19 beside the published 0-9",
+    )
     parser.add_argument(
         "--timesteps",
         type=int,
@@ -243,9 +253,12 @@ def config_from_args(args: argparse.Namespace) -> SweepConfig:
         value = getattr(args, name)
         if value is not None and value < 1:
             raise UsageError(f"--{name} must be at least 1, got {value}")
+    if args.first_seed < 0:
+        raise UsageError(f"--first-seed must be at least 0, got {args.first_seed}")
     changes: dict[str, Any] = {}
-    if args.seeds is not None:
-        changes["seeds"] = tuple(range(args.seeds))
+    n_seeds = len(config.seeds) if args.seeds is None else args.seeds
+    if args.seeds is not None or args.first_seed:
+        changes["seeds"] = tuple(range(args.first_seed, args.first_seed + n_seeds))
     if args.timesteps_scale is not None:
         if not args.timesteps_scale > 0:
             raise UsageError(f"--timesteps-scale must be positive, got {args.timesteps_scale}")

@@ -61,6 +61,9 @@ def test_cli_arguments() -> None:
     config = config_from_args(_parse("--envs", "CartPole-v1", "--algos", "ppo", "--critics", "mlp"))
     assert config.envs == ("CartPole-v1",) and config.seeds == (0, 1, 2, 3, 4)
     assert len(config.specs()) == 5
+    config = config_from_args(_parse("--seeds", "3", "--first-seed", "10"))
+    assert config.seeds == (10, 11, 12)
+    assert config_from_args(_parse("--quick", "--first-seed", "7")).seeds == (7, 8)
 
 
 def test_gp_options_reach_every_gp_run_and_bad_ones_fail_early() -> None:
@@ -205,6 +208,7 @@ def test_mistakes_end_in_one_line_and_status_2_before_any_run(
         (("--algos", "a2c", "--hyperparams", f"ppo={good}"), "ppo is not among --algos"),
         (("--timesteps", "0"), "--timesteps must be at least 1, got 0"),
         (("--seeds", "0"), "--seeds must be at least 1, got 0"),
+        (("--first-seed", "-1"), "--first-seed must be at least 0, got -1"),
         (("--workers", "0"), "--workers must be at least 1, got 0"),
         (("--timesteps", "9", "--timesteps-scale", "2"), "drop --timesteps-scale"),
         (("--gp-option", "forgetting=1.5"), "--gp-option: the GP critic rejects"),
