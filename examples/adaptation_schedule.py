@@ -18,6 +18,14 @@ that a setting is the only thing that changes:
    an adaptive GP does (out-of-sample statistics and forgetting scores, the summary of points
    leaving the window, the adaptation proper), as ``examples/benchmark_training.py`` does.
 
+``--same-policy`` asks whether a critic's fit is limited by the change of policy from one
+rollout to the next: each batch is split at the environment boundary in its middle (the
+callback feeds it env by env), and its second half is scored twice, by the critic before it
+learns from the batch (the next-rollout fit above, on half the points), and by a copy of it
+that has first learnt the batch's first half, other environments of the *same* policy
+(:func:`same_policy`; the first setting's GP critic, and SB3's MLP critic with ``--mlp``;
+untimed). Written to ``OUT/same_policy.md`` and ``same_policy`` in ``OUT/results.json``.
+
 References, scored on the same batches and untimed: ``--mlp``, SB3's MLP critic trained on
 them as PPO trains it (:func:`replay_mlp`); ``--batch``, the default GP critic's basis refitted
 in batch on each newest batch alone, with its kernel and with the Euclidean Laplacian kernel
@@ -32,6 +40,8 @@ difference from the first setting with a 95% t interval) and ``OUT/frontier.png`
     python examples/adaptation_schedule.py --seeds 0 1 2 --out docs/adaptation_schedule
     python examples/adaptation_schedule.py --settings '{"default": {}, "gap4": {"max_gap": 4}}'
     python examples/adaptation_schedule.py --envs sb3_geogp/PaperPendulum-v0 --mlp --batch
+    python examples/adaptation_schedule.py --envs Acrobot-v1 --settings '{"default": {}}' \
+        --mlp --same-policy
 
 Time it on an otherwise idle machine: the replays run one after another.
 """
@@ -39,6 +49,7 @@ Time it on an otherwise idle machine: the replays run one after another.
 from __future__ import annotations
 
 import argparse
+import copy
 import functools
 import json
 from collections.abc import Callable, Sequence
@@ -131,6 +142,91 @@ def _scored(
         learn(x, y, starts)
     tail = explained[int(np.floor((1 - LAST) * len(explained))) :]
     return dict(explained_variance=explained, tail=float(np.mean(tail)), n_batches=len(batches))
+
+
+class _GPLearner:
+    """A GP critic as :func:`same_policy` uses it (deep-copyable, untimed)."""
+
+    def __init__(self, gp: SparseOnlineGP) -> None:
+        self.gp = gp
+
+    def predict(self, x: th.Tensor) -> th.Tensor:
+        return self.gp.predict(x, return_var=False)[0]
+
+    def learn(self, x: th.Tensor, y: th.Tensor, starts: th.Tensor | None) -> None:
+        self.gp.update(x, y, starts)
+
+
+class _MLPLearner(MLPShadow):
+    """:class:`~sb3_geogp.comparison.shadow.MLPShadow` with the learners' signature."""
+
+    def learn(  # type: ignore[override]
+        self, x: th.Tensor, y: th.Tensor, starts: th.Tensor | None = None
+    ) -> None:
+        super().learn(x, y)
+
+
+def _explained(y: th.Tensor, value: th.Tensor) -> float:
+    target = y.double()
+    return 1.0 - float((target - value.double()).var() / target.var())
+
+
+def same_policy(batches: list[Any], learner: Any) -> dict[str, Any]:
+    """Fit to the next rollout against fit to other environments of the same rollout.
+
+    ``learner`` (``predict(x)``, ``learn(x, y, starts)``, deep-copyable) is fed ``batches`` in
+    order. Each batch after the first is split at the environment boundary in its middle;
+    its second half is scored by the explained variance of ``learner``'s values before it
+    learns from the batch (``next``), and of a copy's after the copy has learnt the first half
+    (``same``). Their difference is what the change of policy between rollouts costs the fit.
+
+    Raises
+    ------
+    ValueError
+        If a batch's middle is not an environment boundary (``episode_starts`` there False).
+    """
+    scores: dict[str, list[float]] = {"next": [], "same": []}
+    for i, (x, y, starts) in enumerate(batches):
+        half = x.shape[0] // 2
+        if starts is None or not bool(starts[half]):
+            raise ValueError(
+                f"batch {i}: row {half} (its middle) does not start an environment's stretch; "
+                "--same-policy needs an even number of environments, fed env by env"
+            )
+        if i > 0:
+            scores["next"].append(_explained(y[half:], learner.predict(x[half:])))
+            fork = copy.deepcopy(learner)
+            fork.learn(x[:half], y[:half], starts[:half])
+            scores["same"].append(_explained(y[half:], fork.predict(x[half:])))
+        learner.learn(x, y, starts)
+    first = int(np.floor((1 - LAST) * len(scores["next"])))
+    return {
+        **scores,
+        "tail_next": float(np.mean(scores["next"][first:])),
+        "tail_same": float(np.mean(scores["same"][first:])),
+    }
+
+
+def same_policy_table(results: dict[str, Any]) -> str:
+    """Markdown: per environment and critic, the tail fit to the next rollout and to the same
+    rollout's other environments (means over seeds), and their paired difference."""
+    lines = [
+        f"| env | critic | next rollout (last {LAST:.0%}) | same rollout, other envs | "
+        "same − next [95% CI] | seeds |",
+        "|---|---|---:|---:|---|---:|",
+    ]
+    for env_id, by_critic in results.items():
+        for critic, by_seed in by_critic.items():
+            runs = [by_seed[s] for s in sorted(by_seed)]
+            diff = np.asarray([r["tail_same"] - r["tail_next"] for r in runs])
+            mean, half = (float(v) for v in mean_ci(diff, nan_policy="propagate"))
+            nxt = np.mean([r["tail_next"] for r in runs])
+            same = np.mean([r["tail_same"] for r in runs])
+            lines.append(
+                f"| `{env_id}` | {critic} | {nxt:.3f} | {same:.3f} | "
+                f"{mean:+.3f} [{mean - half:+.3f}, {mean + half:+.3f}] | {len(runs)} |"
+            )
+    return "\n".join(lines) + "\n"
 
 
 def replay(env_id: str, seed: int, batches: list[Any], setting: dict[str, Any]) -> dict[str, Any]:
@@ -291,6 +387,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         action="store_true",
         help=f"also score the default GP's basis fitted in batch ({BATCH!r}, {BATCH_EUCLIDEAN!r})",
     )
+    parser.add_argument(
+        "--same-policy",
+        action="store_true",
+        help="also score each critic's fit to other environments of the same rollout "
+        "(the first setting's GP critic; the MLP's with --mlp)",
+    )
     parser.add_argument("--out", type=Path, default=Path("runs/adaptation_schedule"))
     parser.add_argument(
         "--streams", type=Path, default=None, help="recorded streams (default: OUT/streams)"
@@ -305,7 +407,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.batch:
         references[BATCH] = replay_batch
         references[BATCH_EUCLIDEAN] = functools.partial(replay_batch, euclidean=True)
-    per_job = 1 + len(settings) + len(references)
+    first = next(iter(settings))
+    learners: dict[str, Callable[[str, int], Any]] = {}
+    if args.same_policy:
+        learners[f"GP critic, {first}"] = lambda env_id, seed: _GPLearner(
+            gp_shadow(ppo_spec(env_id, seed, 1, settings[first]))
+        )
+        if args.mlp:
+            learners[MLP] = _MLPLearner
+    same: dict[str, dict[str, dict[int, Any]]] = {e: {c: {} for c in learners} for e in args.envs}
+    per_job = 1 + len(settings) + len(references) + len(learners)
     bar = tqdm(total=len(jobs) * per_job, unit="run", desc="record + replay")
     for env_id, seed in jobs:
         stream = streams / f"{env_id.replace('/', '-')}__s{seed}.pt"
@@ -320,6 +431,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         for name, reference in references.items():
             results[env_id][seed][name] = reference(env_id, seed, batches)
             bar.update()
+        for critic, make in learners.items():
+            same[env_id][critic][seed] = same_policy(batches, make(env_id, seed))
+            bar.update()
     bar.close()
     names = list(settings) + list(references)
     text = table(results, names)
@@ -331,10 +445,15 @@ def main(argv: Sequence[str] | None = None) -> int:
         {
             "args": {**vars(args), "out": str(args.out), "streams": str(streams)},
             "results": results,
+            "same_policy": same,
             "provenance": record_,
         },
     )
     plot(results, names, args.out / "frontier.png")
+    if learners:
+        text = same_policy_table(same)
+        print(text)
+        (args.out / "same_policy.md").write_text(text)
     return 0
 
 

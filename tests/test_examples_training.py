@@ -156,7 +156,16 @@ def test_adaptation_schedule_replays_the_recorded_stream(tmp_path: Path) -> None
         "uncapped": {"score_points": 10**6, "fold_points": 10**6},
         "small basis": {"gp_options": {"max_basis": 4}},
     }
-    argv = ["--envs", "CartPole-v1", "--seeds", "0", "--timesteps", "1200", "--mlp"]
+    argv = [
+        "--envs",
+        "CartPole-v1",
+        "--seeds",
+        "0",
+        "--timesteps",
+        "1200",
+        "--mlp",
+        "--same-policy",
+    ]
     argv += ["--settings", json.dumps(settings), "--out", str(tmp_path)]
     schedule.main(argv)
     first = json.loads((tmp_path / "results.json").read_text())["results"]["CartPole-v1"]["0"]
@@ -178,6 +187,11 @@ def test_adaptation_schedule_replays_the_recorded_stream(tmp_path: Path) -> None
     assert len(mlp["explained_variance"]) == len(ev) and mlp["share"] is None
     assert f"| `CartPole-v1` | {schedule.MLP} | – | – |" in table
     assert (tmp_path / "frontier.png").stat().st_size > 0
+    # --same-policy scores the first setting's GP critic and the MLP on every later batch.
+    same = json.loads((tmp_path / "results.json").read_text())["same_policy"]["CartPole-v1"]
+    assert set(same) == {"GP critic, default", schedule.MLP}
+    assert all(len(r["0"]["same"]) == len(ev) for r in same.values())
+    assert "| `CartPole-v1` | GP critic, default |" in (tmp_path / "same_policy.md").read_text()
 
 
 def test_adaptation_schedule_batch_reference_learns_a_fixed_function() -> None:
@@ -220,3 +234,35 @@ def test_action_gap_scores_every_critic_on_the_same_states(tmp_path: Path) -> No
     assert done.stat().st_mtime_ns == written
     assert f"| geodesic | {gaps.MLP} |" in (tmp_path / "table.md").read_text()
     assert (tmp_path / "action_gap.png").stat().st_size > 0
+
+
+def test_same_policy_separates_a_changed_function_from_a_fixed_one() -> None:
+    """On batches of one fixed function, fitting other environments of the same batch first
+    predicts the held-out half no better than the past batches did; when the function flips
+    sign from batch to batch, only the copy that learnt the batch's first half predicts it.
+    A batch whose middle is not an environment boundary is refused."""
+    schedule = load_script("adaptation_schedule")
+    generator = th.Generator().manual_seed(0)
+    high = th.tensor([3.0, 8.0])
+    starts = th.zeros(400, dtype=th.bool)
+    starts[[0, 100, 200, 300]] = True  # four environments of 100 steps
+
+    def batch(sign: float) -> tuple[th.Tensor, th.Tensor, th.Tensor]:
+        x = (2 * th.rand(400, 2, generator=generator) - 1) * high
+        return x, sign * (th.cos(x[:, 0]) + 0.1 * x[:, 1]), starts
+
+    def learner() -> object:
+        spec = schedule.ppo_spec("sb3_geogp/PaperPendulum-v0", 0, 1, {})
+        return schedule._GPLearner(schedule.gp_shadow(spec))
+
+    fixed = schedule.same_policy([batch(1.0) for _ in range(5)], learner())
+    assert len(fixed["next"]) == len(fixed["same"]) == 4
+    assert min(fixed["next"]) > 0.9 and abs(fixed["tail_same"] - fixed["tail_next"]) < 0.05
+    flipped = schedule.same_policy([batch((-1.0) ** i) for i in range(5)], learner())
+    # Every batch: the copy that saw the new sign predicts better; once the forgetting has
+    # adapted to the flips (the last batch) it predicts well, the past batches not at all.
+    assert all(s > n for s, n in zip(flipped["same"], flipped["next"], strict=True))
+    assert max(flipped["next"]) < 0 and flipped["tail_same"] > 0.5
+    x, y, _ = batch(1.0)
+    with pytest.raises(ValueError, match="row 200"):
+        schedule.same_policy([(x, y, th.zeros(400, dtype=th.bool))], learner())

@@ -303,3 +303,61 @@ def test_rerun_verdicts_script_writes_the_before_and_after(
     assert "expected NEW=OLD" in capsys.readouterr().err
     with pytest.raises(SystemExit, match="no results"):  # the re-run has PPO cells only
         script.main([*argv, "--algos", "a2c"])
+
+
+def test_replication_reading_follows_the_fixed_rule() -> None:
+    from tests.test_examples_engine import load_script
+
+    script = load_script("replication_verdicts")
+    cases = {
+        ("better", "better"): "replicates",
+        ("worse", "worse"): "replicates",
+        ("better", "no difference"): "not confirmed",
+        ("worse", "better"): "contradicted",
+        ("no difference", "no difference"): "stays no difference",
+        ("no difference", "worse"): "new: worse",
+    }
+    for (old, new), reading in cases.items():
+        assert script.replication({"verdict": old}, {"verdict": new}) == reading
+
+
+def test_replication_verdicts_script_pools_and_refuses_shared_runs(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Seeds 0-5: the Laplacian critic 100 ahead of the MLP; fresh seeds 10-15: level with
+    it. The fresh column says no difference, the pooled one the hand-computed +50, and the
+    reading is "not confirmed"; the RBF runs of the published sweep are left out."""
+    from tests.test_examples_engine import load_script
+
+    script = load_script("replication_verdicts")
+    before = [r for r in _results() if r["spec"]["critic"] != "geodesic"]
+    before += [_result("laplacian", s, final=100.0 + s, rmse=5.0) for s in range(6)]
+    fresh = [
+        _result(c, s, final=float(s % 3), rmse=20.0)
+        for c in ("mlp", "laplacian")
+        for s in range(10, 16)
+    ]
+    out = tmp_path / "verdicts.md"
+    argv = ["--before", str(_write_sweep(tmp_path / "before", before))]
+    argv += ["--fresh", str(_write_sweep(tmp_path / "fresh", fresh))]
+    assert script.main([*argv, "--critic", "ppo=laplacian", "--out", str(out)]) == 0
+    rows = {r["metric"]: r for r in json.loads(out.with_suffix(".json").read_text())}
+    final = rows["final_return"]
+    assert final["critic"] == "laplacian" and final["reading"] == "not confirmed"
+    assert (
+        final["before"]["diff"] == pytest.approx(100.0) and final["before"]["verdict"] == "better"
+    )
+    assert (
+        final["fresh"]["diff"] == pytest.approx(0.0)
+        and final["fresh"]["verdict"] == "no difference"
+    )
+    # Pooled over 12 seeds each: (102.5 + 1) / 2 - (2.5 + 1) / 2 = 50.
+    assert final["pooled"]["diff"] == pytest.approx(50.0) and final["pooled"]["n_a"] == 12
+    assert final["fresh"]["family_size"] == 42
+    assert "| **counts** |" in out.read_text() and out.with_suffix(".png").stat().st_size > 0
+    capsys.readouterr()
+    with pytest.raises(ValueError, match="on both sides"):
+        script.main([*argv[:2], "--fresh", argv[1], "--critic", "ppo=laplacian", "--out", str(out)])
+    with pytest.raises(SystemExit):
+        script.main([*argv, "--critic", "ppo=mlp", "--out", str(out)])
+    assert "expected ALGO=CRITIC" in capsys.readouterr().err
