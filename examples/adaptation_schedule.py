@@ -165,6 +165,22 @@ class _MLPLearner(MLPShadow):
     ) -> None:
         super().learn(x, y)
 
+    def __deepcopy__(self, memo: dict[int, Any]) -> _MLPLearner:
+        # gSDE keeps its exploration weights as non-leaf tensors, which torch refuses to
+        # deep-copy; the value function never uses them, and they are resampled anyway.
+        dist = self.model.policy.action_dist
+        for name, value in list(vars(dist).items()):
+            if isinstance(value, th.Tensor):
+                setattr(dist, name, value.detach())
+            elif isinstance(value, th.distributions.Normal):
+                setattr(
+                    dist, name, th.distributions.Normal(value.loc.detach(), value.scale.detach())
+                )
+        twin = _MLPLearner.__new__(_MLPLearner)
+        memo[id(self)] = twin
+        twin.__dict__.update(copy.deepcopy(self.__dict__, memo))
+        return twin
+
 
 def _explained(y: th.Tensor, value: th.Tensor) -> float:
     target = y.double()

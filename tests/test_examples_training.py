@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import copy
 import json
 from pathlib import Path
 
@@ -266,3 +267,20 @@ def test_same_policy_separates_a_changed_function_from_a_fixed_one() -> None:
     x, y, _ = batch(1.0)
     with pytest.raises(ValueError, match="row 200"):
         schedule.same_policy([(x, y, th.zeros(400, dtype=th.bool))], learner())
+
+
+def test_same_policy_copies_of_the_mlp_critic_learn_as_the_original() -> None:
+    """Pendulum's PPO policy uses gSDE, whose exploration weights torch cannot deep-copy; the
+    copy :func:`same_policy` makes must still be faithful: after the same batch, the copy and
+    the original predict identically, and differently from before."""
+    schedule = load_script("adaptation_schedule")
+    generator = th.Generator().manual_seed(0)
+    x, y = th.randn(64, 3, generator=generator), th.randn(64, generator=generator)
+    original = schedule._MLPLearner("Pendulum-v1", 0)
+    original.learn(x, y)
+    before = original.predict(x)
+    twin = copy.deepcopy(original)
+    for learner in (original, twin):
+        learner.learn(x, y)
+    assert th.equal(original.predict(x), twin.predict(x))
+    assert not th.equal(original.predict(x), before)
