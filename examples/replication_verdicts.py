@@ -33,7 +33,7 @@ from pathlib import Path
 from typing import Any
 
 from sb3_geogp.comparison.hyperparams import ALGOS, ALL_CRITICS
-from sb3_geogp.comparison.report import _comparison_cell
+from sb3_geogp.comparison.report import comparison_cell
 from sb3_geogp.comparison.results import METRICS, comparisons, load_sweeps
 from sb3_geogp.toolbox.tables import markdown_table
 
@@ -140,7 +140,7 @@ def markdown(rows: list[dict[str, Any]]) -> str:
         body = []
         for r in mine:
             cells = [f"`{r['env']}`", r["algo"], r["critic"]]
-            cells += [_comparison_cell(r[side]) for side in SIDES]
+            cells += [comparison_cell(r[side]) for side in SIDES]
             cells += [r.get("reading", "–")] if name == "final_return" else []
             body.append(cells)
         total = ["**counts**", "", "better (fw) / n.d. / worse (fw)"]

@@ -95,7 +95,7 @@ def comparisons_markdown(rows: list[dict[str, Any]]) -> str:
         body = []
         for env_id, algo in sorted({(r["env"], r["algo"]) for r in mine}):
             cells = {(r["a"], r["b"]): r for r in mine if (r["env"], r["algo"]) == (env_id, algo)}
-            body.append([f"`{env_id}`", algo, *(_comparison_cell(cells.get(p)) for p in columns)])
+            body.append([f"`{env_id}`", algo, *(comparison_cell(cells.get(p)) for p in columns)])
         lines += [
             f"### {metric.label}",
             "",
@@ -134,7 +134,7 @@ def rerun_markdown(
         fw = next(iter(new.values()))["fw_level"]
         body = [
             [f"`{env}`", algo, _pair_label(a, b, renamed.get(a, a)),
-             _comparison_cell(old.get((env, algo, renamed.get(a, a), b))), _comparison_cell(new[k])]
+             comparison_cell(old.get((env, algo, renamed.get(a, a), b))), comparison_cell(new[k])]
             for k in sorted(new)
             for env, algo, a, b in [k]
         ]  # fmt: skip
@@ -155,7 +155,10 @@ def _pair_label(a: str, b: str, published: str) -> str:
     return label if published == a else f"{label} (published: {published} − {b})"
 
 
-def _comparison_cell(r: dict[str, Any] | None) -> str:
+def comparison_cell(r: dict[str, Any] | None) -> str:
+    """A :func:`~sb3_geogp.comparison.results.comparisons` row as a table cell: the difference
+    with its 95 % interval and verdict, the verdict in bold where it also holds family-wise
+    (empty for ``None``; no verdict below the seeds an interval needs)."""
     if r is None:
         return ""
     n = min(r["n_a"], r["n_b"])
