@@ -137,11 +137,20 @@ def _scored(
     explained = []
     for i, (x, y, starts) in enumerate(batches):
         if i > 0 and x.shape[0] > 1:
-            target, value = y.double(), predict(x).double()
-            explained.append(1.0 - float((target - value).var() / target.var()))
+            explained.append(_explained(y, predict(x)))
         learn(x, y, starts)
-    tail = explained[int(np.floor((1 - LAST) * len(explained))) :]
-    return dict(explained_variance=explained, tail=float(np.mean(tail)), n_batches=len(batches))
+    return dict(explained_variance=explained, tail=_tail(explained), n_batches=len(batches))
+
+
+def _explained(y: th.Tensor, value: th.Tensor) -> float:
+    """Explained variance of the targets ``y`` by the values ``value``, in float64."""
+    target = y.double()
+    return 1.0 - float((target - value.double()).var() / target.var())
+
+
+def _tail(scores: list[float]) -> float:
+    """Mean of the last :data:`LAST` of ``scores``."""
+    return float(np.mean(scores[int(np.floor((1 - LAST) * len(scores))) :]))
 
 
 class _GPLearner:
@@ -182,11 +191,6 @@ class _MLPLearner(MLPShadow):
         return twin
 
 
-def _explained(y: th.Tensor, value: th.Tensor) -> float:
-    target = y.double()
-    return 1.0 - float((target - value.double()).var() / target.var())
-
-
 def same_policy(batches: list[Any], learner: Any) -> dict[str, Any]:
     """Fit to the next rollout against fit to other environments of the same rollout.
 
@@ -215,12 +219,7 @@ def same_policy(batches: list[Any], learner: Any) -> dict[str, Any]:
             fork.learn(x[:half], y[:half], starts[:half])
             scores["same"].append(_explained(y[half:], fork.predict(x[half:])))
         learner.learn(x, y, starts)
-    first = int(np.floor((1 - LAST) * len(scores["next"])))
-    return {
-        **scores,
-        "tail_next": float(np.mean(scores["next"][first:])),
-        "tail_same": float(np.mean(scores["same"][first:])),
-    }
+    return {**scores, "tail_next": _tail(scores["next"]), "tail_same": _tail(scores["same"])}
 
 
 def same_policy_table(results: dict[str, Any]) -> str:
