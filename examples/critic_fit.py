@@ -22,6 +22,7 @@ from __future__ import annotations
 import argparse
 import concurrent.futures as cf
 import json
+import multiprocessing as mp
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -115,13 +116,20 @@ def run_all(specs: list[RunSpec], last: float, out: Path, workers: int) -> list[
             )
     todo = [s for s in specs if s not in existing]
     bar = tqdm(total=len(specs), initial=len(done), unit="run", desc="runs")
-    with cf.ProcessPoolExecutor(max_workers=workers) as pool:
-        futures = {pool.submit(_run_and_save, s, last, out): s for s in todo}
-        for future in cf.as_completed(futures):
-            result = future.result()
-            done.append(result)
-            bar.set_postfix_str(f"{result['critic']} {result['env_id']} {result['tail_mean']:.2f}")
-            bar.update()
+
+    def finished(result: dict[str, Any]) -> None:
+        done.append(result)
+        bar.set_postfix_str(f"{result['critic']} {result['env_id']} {result['tail_mean']:.2f}")
+        bar.update()
+
+    if workers <= 1:
+        for spec in todo:
+            finished(_run_and_save(spec, last, out))
+    else:
+        # Spawned, not forked: a fork after autograd has run on a GPU cannot backpropagate.
+        with cf.ProcessPoolExecutor(workers, mp_context=mp.get_context("spawn")) as pool:
+            for future in cf.as_completed([pool.submit(_run_and_save, s, last, out) for s in todo]):
+                finished(future.result())
     bar.close()
     return done
 

@@ -147,6 +147,12 @@ def test_version(capsys: pytest.CaptureFixture[str]) -> None:
         (["--max-basis", "0"], "--max-basis must be at least 1, got 0"),
         (["--timesteps", "0"], "--timesteps must be at least 1"),
         (["--forgetting", "1.5"], "--forgetting must be in (0, 1]"),
+        (["--device", "gpu0"], "--device 'gpu0' is not a torch device"),
+        pytest.param(
+            ["--device", "cuda"],
+            "torch sees no CUDA device here; use --device cpu",
+            marks=pytest.mark.skipif(th.cuda.is_available(), reason="this machine has CUDA"),
+        ),
     ],
 )
 def test_user_errors_are_one_line_with_exit_status_2(

@@ -284,3 +284,16 @@ def test_same_policy_copies_of_the_mlp_critic_learn_as_the_original() -> None:
         learner.learn(x, y)
     assert th.equal(original.predict(x), twin.predict(x))
     assert not th.equal(original.predict(x), before)
+
+
+def test_device_check_on_the_cpu_passes_and_writes_its_figures(tmp_path: Path) -> None:
+    """The script's own checks (finite values, save/load on the CPU) hold; on the CPU the
+    engine gaps are exactly 0."""
+    device_check = load_script("device_check")
+    out = tmp_path / "device.json"
+    argv = ["--device", "cpu", "--timesteps", "256", "--batches", "2", "--points", "64"]
+    assert device_check.main([*argv, "--out", str(out)]) == 0
+    report = json.loads(out.read_text())
+    assert report["failed"] == []
+    assert {report[f"engine_{k}"]["mean_gap"] for k in device_check.KERNELS} == {0.0}
+    assert report["train_ppo_cpu"]["finite"] and report["train_a2c_cpu"]["load_gap"] == 0.0

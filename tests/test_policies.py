@@ -160,16 +160,17 @@ def test_values_are_float32_column_on_policy_device(algo: type[BaseAlgorithm]) -
     model = make_model(algo)
     model.learn(128, callback=GPValueCallback())
     policy = model.policy
-    obs = th.as_tensor(model.observation_space.sample()[None])
-    for batch in (obs, flat_obs(model)):
+    obs = th.as_tensor(model.observation_space.sample()[None], device=policy.device)
+    for batch in (obs, flat_obs(model).to(policy.device)):
         values = policy.predict_values(batch)
         assert values.shape == (batch.shape[0], 1)
         assert values.dtype == th.float32
         assert values.device == policy.device
-    actions, values, log_prob = policy(flat_obs(model)[:5])
+    first = flat_obs(model)[:5].to(policy.device)
+    actions, values, log_prob = policy(first)
     assert values.shape == (5, 1) and values.dtype == th.float32
     policy.set_training_mode(False)
-    values, log_prob, _entropy = policy.evaluate_actions(flat_obs(model)[:5], actions)
+    values, log_prob, _entropy = policy.evaluate_actions(first, actions)
     assert values.shape == (5, 1) and not values.requires_grad
     assert log_prob.requires_grad
     policy.set_training_mode(True)
@@ -306,7 +307,7 @@ def test_kernel_instance_is_copied_per_policy() -> None:
     b = PPO(GPActorCriticPolicy, "Pendulum-v1", **kwargs)
     assert a.policy.gp.kernel is not b.policy.gp.kernel
     assert a.policy.gp.kernel is not kernel
-    assert th.allclose(a.policy.gp.lengthscale, th.full((3,), 0.5, dtype=th.float64))
+    assert th.allclose(a.policy.gp.lengthscale.cpu(), th.full((3,), 0.5, dtype=th.float64))
 
 
 class _ShapedEnv(gym.Env[np.ndarray, Any]):
@@ -584,7 +585,10 @@ def test_model_saved_by_v0_1_loads_and_predicts_the_same() -> None:
     after ``learn(64)``, with its values and greedy actions on 5 probe observations.
     """
     data = Path(__file__).parent / "data"
-    model = PPO.load(data / "gp_ppo_v0_1.zip", env=make_vec_env("Pendulum-v1", seed=0))
+    # On the CPU, where the expected values were computed: the claim is the format, not devices.
+    model = PPO.load(
+        data / "gp_ppo_v0_1.zip", env=make_vec_env("Pendulum-v1", seed=0), device="cpu"
+    )
     saved = th.load(data / "gp_ppo_v0_1_expected.pt")
     with th.no_grad():
         assert th.equal(model.policy.predict_values(saved["probe"]), saved["values"])
@@ -637,4 +641,4 @@ def test_bounded_observations_set_the_lengthscale_before_any_data() -> None:
     low, high = env.observation_space.low.ravel(), env.observation_space.high.ravel()
     expected = (high.astype(np.float64) - low) / np.sqrt(12)
     model = PPO(GPActorCriticPolicy, env, n_steps=64, batch_size=64)
-    np.testing.assert_allclose(model.policy.gp.lengthscale.numpy(), expected, rtol=1e-12)
+    np.testing.assert_allclose(model.policy.gp.lengthscale.cpu().numpy(), expected, rtol=1e-12)
