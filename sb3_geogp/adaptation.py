@@ -447,29 +447,36 @@ class Summary(NamedTuple):
 
     Data ``(x, y)`` with noise ``N`` contributes, as in :func:`sparse_posterior`,
     ``precision = K_zz^{-1} K_zx N^{-1} K_xz K_zz^{-1}`` and
-    ``shift = K_zz^{-1} K_zx N^{-1} y`` (:meth:`of_data`); ``unit_shift`` is the shift the
-    same points would give with every target 1, which a change of the targets' origin needs
-    (the projection of a constant is not constant).
+    ``shift = K_zz^{-1} K_zx N^{-1} y`` (:meth:`of_data`); ``unit_shift`` and
+    ``input_shift`` are the shifts the same points would give with every target 1 and with
+    targets ``x_k`` (column ``k``), which a change of the prior mean ``c + b^T x`` needs: the
+    shift of ``y - c - b^T x`` is ``shift - c unit_shift - input_shift b`` (the projection of
+    a constant or of a linear function is neither).
     """
 
     precision: Tensor
     shift: Tensor
     unit_shift: Tensor
+    input_shift: Tensor
 
     @staticmethod
-    def of_data(Kzz: Tensor, Kxz: Tensor, y: Tensor, noise: Tensor, variance: float) -> Summary:
-        """The summary of ``y : (n,)`` at rows ``Kxz : (n, m)`` with noise ``noise : (n,)``:
-        :class:`Projection`'s whitened sums, taken back from ``v = L^-1 f`` to ``f``."""
+    def of_data(
+        Kzz: Tensor, Kxz: Tensor, x: Tensor, y: Tensor, noise: Tensor, variance: float
+    ) -> Summary:
+        """The summary of ``y : (n,)`` at inputs ``x : (n, d)``, rows ``Kxz : (n, m)``, with
+        noise ``noise : (n,)``: :class:`Projection`'s whitened sums, taken back from
+        ``v = L^-1 f`` to ``f``."""
         projection = Projection(Kzz, Kxz, variance)
         S = projection._gram(noise)
-        shifts = projection._rhs(torch.stack([y, torch.ones_like(y)], dim=1), noise)
+        targets = torch.cat([y[:, None], torch.ones_like(y)[:, None], x], dim=1)
+        shifts = projection._rhs(targets, noise)
 
         def unwhiten(X: Tensor) -> Tensor:  # L^-T X
             return torch.linalg.solve_triangular(projection.L.T, X, upper=True)
 
         precision = unwhiten(unwhiten(S).T)
         shifts = unwhiten(shifts)
-        return Summary(0.5 * (precision + precision.T), shifts[:, 0], shifts[:, 1])
+        return Summary(0.5 * (precision + precision.T), shifts[:, 0], shifts[:, 1], shifts[:, 2:])
 
 
 def age_weights(age: Tensor, forgetting: float) -> Tensor:
@@ -488,6 +495,25 @@ def weighted_moments(y: Tensor, w: Tensor) -> tuple[float, float]:
     w = w / w.sum()
     mean = (w * y).sum()
     return float(mean), float((w * (y - mean).square()).sum().sqrt())
+
+
+def linear_moments(x: Tensor, y: Tensor, w: Tensor) -> tuple[float, Tensor, float]:
+    """Weighted least-squares line through ``(x : (n, d), y : (n,))`` with weights ``w``.
+
+    Returns ``(c, b, s)``: ``y ~ c + b^T x`` with ``b : (d,)``, and ``s`` the weighted standard
+    deviation of the residuals. A ridge of ``1000 eps`` (the dtype's) relative to each input's
+    variance, plus 1e-12 of the largest, keeps ``b`` finite, and 0 along inputs that do not
+    vary.
+    """
+    w = w / w.sum()
+    x_bar, y_bar = w @ x, w @ y
+    xc, yc = x - x_bar, y - y_bar
+    cov = (xc * w[:, None]).T @ xc
+    eps = 1e3 * torch.finfo(cov.dtype).eps
+    ridge = eps * torch.diagonal(cov) + 1e-12 * float(cov.abs().max().clamp_min(1e-300))
+    b = torch.linalg.solve(cov + torch.diag(ridge), (xc * w[:, None]).T @ yc)
+    residual = yc - xc @ b
+    return float(y_bar - x_bar @ b), b, float((w * residual.square()).sum().sqrt())
 
 
 class RetainedWindow(nn.Module):

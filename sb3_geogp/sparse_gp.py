@@ -43,6 +43,7 @@ from sb3_geogp.adaptation import (
     age_weights,
     as_adaptation,
     jittered_cholesky,
+    linear_moments,
     nlpd,
     sparse_posterior,
     thinned,
@@ -70,6 +71,8 @@ _Q_GROWTH = 1e4
 
 #: Stored options that may differ on load (they only steer later updates).
 _UPDATE_RULES = ("novelty_tol", "forgetting", "adapt")
+#: Prior mean functions of :class:`SparseOnlineGP`.
+_PRIOR_MEANS = ("constant", "linear")
 #: Points retained for :meth:`SparseOnlineGP.fit_hyperparameters` without adaptation.
 _DEFAULT_WINDOW = Adaptation.window
 #: Largest state the constructor allocates (bytes); above it, it refuses with the estimate.
@@ -176,6 +179,13 @@ class SparseOnlineGP(nn.Module):
     target_mean, target_scale : float or None
         Prior mean and scale of the targets: the GP models ``(y - target_mean) / target_scale``.
         ``None`` takes the mean and standard deviation of the first batch (kept fixed after).
+    prior_mean : {"constant", "linear"}
+        The GP's prior mean function ``m(x)``: a constant (``target_mean``), or ``c + b^T x``,
+        fitted by least squares to the first batch and, with adaptation, to the retained
+        window at every refit, the scale then being that of the residuals. Far from the data
+        the constant mean reverts to the targets' average and the linear one follows their
+        trend, as a linear model or an MLP would (docs/method.md, section 4). ``"linear"``
+        takes no ``target_mean``.
     input_bounds : (low, high) of array-likes with ``input_dim`` entries each, optional
         Bounds of the inputs where known: unset lengthscales of bounded dimensions then come
         from the bounds rather than from the first batch (:mod:`sb3_geogp.defaults`).
@@ -237,9 +247,11 @@ class SparseOnlineGP(nn.Module):
     summary_prec: Tensor
     summary_shift: Tensor
     summary_unit: Tensor
+    summary_input: Tensor
     noise_var: Tensor
     y_mean: Tensor
     y_scale: Tensor
+    y_slope: Tensor
     count: Tensor
     initialized: Tensor
     n_seen: Tensor
@@ -272,6 +284,7 @@ class SparseOnlineGP(nn.Module):
         device: torch.device | str | None = None,
         dtype: torch.dtype | str = torch.float64,
         adapt: Adaptation | Mapping[str, Any] | bool | None = None,
+        prior_mean: str = "constant",
     ) -> None:
         super().__init__()
         input_dim, max_basis = _count("input_dim", input_dim), _count("max_basis", max_basis)
@@ -285,6 +298,14 @@ class SparseOnlineGP(nn.Module):
             raise ValueError(f"target_scale must be positive and finite, got {target_scale}")
         if target_mean is not None and not math.isfinite(target_mean):
             raise ValueError(f"target_mean must be finite, got {target_mean}")
+        if prior_mean not in _PRIOR_MEANS:
+            raise ValueError(f"prior_mean must be one of {_PRIOR_MEANS}, got {prior_mean!r}")
+        if prior_mean == "linear" and target_mean is not None:
+            raise ValueError(
+                "prior_mean='linear' fits its own intercept: leave target_mean None, or use "
+                "prior_mean='constant' to fix the mean"
+            )
+        self.prior_mean = prior_mean
         if num_threads is not None:
             num_threads = _count("num_threads", num_threads)
         self.input_dim = int(input_dim)
@@ -324,9 +345,11 @@ class SparseOnlineGP(nn.Module):
         self.register_buffer("summary_prec", torch.zeros(cap, cap, **kw))
         self.register_buffer("summary_shift", torch.zeros(cap, **kw))
         self.register_buffer("summary_unit", torch.zeros(cap, **kw))
+        self.register_buffer("summary_input", torch.zeros(cap, self.input_dim, **kw))
         self._fixed_target = (target_mean, target_scale)
         self.register_buffer("y_mean", torch.tensor(float(target_mean or 0.0), **kw))
         self.register_buffer("y_scale", torch.tensor(float(target_scale or 1.0), **kw))
+        self.register_buffer("y_slope", torch.zeros(self.input_dim, **kw))
         # Counters and flags as long tensors so that they travel with state_dict().
         for name in _COUNTERS:
             self.register_buffer(name, torch.zeros((), dtype=torch.long, device=device))
@@ -434,8 +457,16 @@ class SparseOnlineGP(nn.Module):
             var = variance.expand(x.shape[0]).clone() if return_var else None
         else:
             mean, var = self._latent(self._scaled(x), return_var)
-        mean = mean * self.y_scale + self.y_mean
+        mean = mean * self.y_scale + self._prior(x)
         return mean, None if var is None else var * self.y_scale**2
+
+    def _prior(self, x: Tensor) -> Tensor:
+        """The prior mean ``m(x) = c + b^T x`` of ``x : (n, d)``, shape (n,), target units."""
+        return self.y_mean + x @ self.y_slope
+
+    def _standardised(self, x: Tensor, y: Tensor) -> Tensor:
+        """``(y - m(x)) / scale``: the targets the GP models."""
+        return (y - self._prior(x)) / self.y_scale
 
     def _matrices(self) -> _PosteriorMatrices:
         """The basis matrices of the current state, each formed once and kept while valid.
@@ -467,12 +498,15 @@ class SparseOnlineGP(nn.Module):
             "forgetting": self.forgetting,
             "window": self.window.size,
             "adapt": None if self.adaptation is None else self.adaptation.as_dict(),
+            "prior_mean": self.prior_mean,
         }
 
     def get_extra_state(self) -> dict[str, Any]:
         return self.options()
 
     def set_extra_state(self, state: Any) -> None:
+        if isinstance(state, dict):
+            state = {"prior_mean": "constant", **state}  # saved before 0.8: constant
         check_same_options("SparseOnlineGP", state, self.options(), _UPDATE_RULES)
 
     def _load_from_state_dict(
@@ -486,6 +520,9 @@ class SparseOnlineGP(nn.Module):
             state_dict[prefix + "forgetting_scores"] = torch.zeros_like(self.forgetting_scores)
         # Saved before drift refits (0.6): the open block's targets count from the next batch.
         state_dict.setdefault(prefix + "block_moments", torch.zeros_like(self.block_moments))
+        # Saved before the linear prior mean (0.8): a constant one.
+        for name in ("y_slope", "summary_input"):
+            state_dict.setdefault(prefix + name, torch.zeros_like(getattr(self, name)))
         # Check every stored option before loading anything, so a refused state leaves this
         # GP exactly as it was (the kernel's check would otherwise come after the GP's buffers).
         for key, module in (("_extra_state", self), ("kernel._extra_state", self.kernel)):
@@ -555,7 +592,7 @@ class SparseOnlineGP(nn.Module):
             self._initialize(x, y)
             self._cache = None
         self._scaled(x)
-        yn = (y - self.y_mean) / self.y_scale
+        yn = self._standardised(x, y)
         if not bool(torch.isfinite(yn).all()):
             raise ValueError(
                 f"targets standardised with mean {float(self.y_mean):.3g} and scale "
@@ -617,13 +654,18 @@ class SparseOnlineGP(nn.Module):
         ``C <- lam C`` (``P <- lam P + (1 - lam) Q``), and the summary's weights times ``lam``."""
         self.alpha.mul_(math.sqrt(lam))
         self.P.mul_(lam).add_(self.Q, alpha=1 - lam)
-        for buf in (self.summary_prec, self.summary_shift, self.summary_unit):
+        for buf in (self.summary_prec, self.summary_shift, self.summary_unit, self.summary_input):
             buf.mul_(lam)
         self._matrices().posterior_changed()
 
     def _initialize(self, x: Tensor, y: Tensor) -> None:
         """Standardise targets and choose the remaining lengthscales from the first batch."""
         mean, scale = defaults.target_standardisation(y, *self._fixed_target)
+        if self.prior_mean == "linear":
+            mean, slope, residual = linear_moments(x, y, torch.ones_like(y))
+            self.y_slope.copy_(slope)
+            if self._fixed_target[1] is None and residual > 1e-8 * float(scale):
+                scale = residual
         self.y_mean.fill_(mean)
         self.y_scale.fill_(scale)
         if not (math.isfinite(float(self.y_mean)) and 0 < float(self.y_scale) < math.inf):
@@ -833,9 +875,9 @@ class SparseOnlineGP(nn.Module):
             vec[: m - 1], mat_new = _substitute(vec[:m], mat[:m, :m], j, keep, q_star)
             vec[m - 1] = 0.0
             self._set_square(mat, _sym(mat_new))
-        unit = self.summary_unit
-        unit[: m - 1] = unit[keep] - unit[j] * q_star
-        unit[m - 1] = 0.0
+        for unit in (self.summary_unit, self.summary_input):
+            unit[: m - 1] = unit[keep] - unit[j] * q_star.reshape(-1, *[1] * (unit.ndim - 1))
+            unit[m - 1] = 0.0
         for buf in (self.bv_x, self.bv_y, self.nugget):
             buf[: m - 1] = buf[keep].clone()
             buf[m - 1] = 0
@@ -922,7 +964,7 @@ class SparseOnlineGP(nn.Module):
             raise ValueError("fit_hyperparameters needs retained data; call update first")
         forgetting = float(self.block_forgetting) if self.adaptation else self.forgetting
         w = age_weights(self._ages(batch), forgetting).to(y)
-        yn = (y - self.y_mean) / self.y_scale
+        yn = self._standardised(x, y)
         with self._transaction(), torch.no_grad():
             self._fit(x, yn, w, n_iter, lr, self.adaptation or Adaptation())
             Kzz, Kxz = self._rebuild(x, yn, w)
@@ -966,11 +1008,12 @@ class SparseOnlineGP(nn.Module):
         x, y, batch = x[index], y[index], batch[index]
         Kzz, Kxz = self._basis_covariances(x)
         w = age_weights(self._ages(batch), float(self.block_forgetting)).to(y) * count.to(y)
-        yn = (y - self.y_mean) / self.y_scale
-        part = Summary.of_data(Kzz, Kxz, yn, 1 / w, float(self.kernel.variance))
+        yn = self._standardised(x, y)
+        part = Summary.of_data(Kzz, Kxz, x, yn, 1 / w, float(self.kernel.variance))
         self.summary_prec[:m, :m] += part.precision
         self.summary_shift[:m] += part.shift
         self.summary_unit[:m] += part.unit_shift
+        self.summary_input[:m] += part.input_shift
 
     def _summary(self) -> Summary:
         m, noise = self.n_basis, self.noise_var
@@ -978,6 +1021,7 @@ class SparseOnlineGP(nn.Module):
             self.summary_prec[:m, :m] / noise,
             self.summary_shift[:m] / noise,
             self.summary_unit[:m] / noise,
+            self.summary_input[:m] / noise,
         )
 
     def _ages(self, batch: Tensor) -> Tensor:
@@ -1003,8 +1047,8 @@ class SparseOnlineGP(nn.Module):
     def _refit(self, a: Adaptation, x: Tensor, y: Tensor, w: Tensor) -> None:
         """Steps 2-4 of the adaptation on the window ``x, y`` with weights ``w``."""
         if a.targets:
-            self._restandardise(y, w)
-        yn = (y - self.y_mean) / self.y_scale
+            self._restandardise(x, y, w)
+        yn = self._standardised(x, y)
         if a.steps:
             k = a.fit_points
             self._fit(x[-k:], yn[-k:], w[-k:], a.steps, a.lr, a)
@@ -1034,8 +1078,8 @@ class SparseOnlineGP(nn.Module):
         x, y = x[index], y[index]
         mean, var = self._latent(self._scaled(x), return_var=True)
         assert var is not None
-        self._score_forgetting(mean, var, (y - self.y_mean) / self.y_scale, count.to(y))
-        mean = mean * self.y_scale + self.y_mean
+        self._score_forgetting(mean, var, self._standardised(x, y), count.to(y))
+        mean = mean * self.y_scale + self._prior(x)
         var = (var + self.noise_var) * self.y_scale**2
         spread = float(y.var()) if y.shape[0] > 1 else 0.0
         explained = 1.0 - float((y - mean).var()) / spread if spread > 0 else math.nan
@@ -1059,24 +1103,35 @@ class SparseOnlineGP(nn.Module):
         self.forgetting_scores += nll @ count
         self.block_moments += torch.stack([count.sum(), yn.square() @ count])
 
-    def _restandardise(self, y: Tensor, w: Tensor) -> None:
-        """Weighted mean and scale of the retained targets, where the user fixed neither.
+    def _restandardise(self, x: Tensor, y: Tensor, w: Tensor) -> None:
+        """The prior mean and scale of the retained targets ``y : (n,)`` at ``x : (n, d)``
+        with weights ``w``, where the user fixed neither: their weighted mean and standard
+        deviation, or (``prior_mean="linear"``) their weighted least-squares line and the
+        standard deviation of its residuals.
 
         The summary follows the new units as its points would in the window: with
-        ``y_old = a y_new + b``, ``a`` the ratio of the new scale to the old and ``b`` the
-        mean's shift in old units, its shift becomes ``(eta - b u) / a``; its precision and
-        unit shift (per unit noise variance, :meth:`_summarise`) do not change.
+        ``y_old = a y_new + b + c^T x``, ``a`` the ratio of the new scale to the old and
+        ``b + c^T x`` the prior mean's change in old units, its shift becomes
+        ``(eta - b u - U c) / a`` (``u``, ``U``: its unit and input shifts); its precision and
+        those shifts (per unit noise variance, :meth:`_summarise`) do not change.
         """
         old_mean, old_scale = self.y_mean.clone(), self.y_scale.clone()
-        mean, scale = weighted_moments(y, w)
+        old_slope = self.y_slope.clone()
+        if self.prior_mean == "linear":
+            mean, slope, scale = linear_moments(x, y, w)
+            self.y_slope.copy_(slope)
+        else:
+            mean, scale = weighted_moments(y, w)
         fixed_mean, fixed_scale = self._fixed_target
         if fixed_mean is None:
             self.y_mean.fill_(mean)
         if fixed_scale is None and scale > 1e-8 * max(1.0, abs(mean)):
             self.y_scale.fill_(scale)
         a, b = self.y_scale / old_scale, (self.y_mean - old_mean) / old_scale
+        c = (self.y_slope - old_slope) / old_scale
         m = self.n_basis
-        self.summary_shift[:m].sub_(b * self.summary_unit[:m]).div_(a)
+        shift = self.summary_shift[:m] - b * self.summary_unit[:m] - self.summary_input[:m] @ c
+        self.summary_shift[:m] = shift / a
 
     def _fit(
         self, x: Tensor, yn: Tensor, w: Tensor, steps: int, lr: float, bounds: Adaptation
@@ -1260,7 +1315,7 @@ def _upgrade_v02_state(state: dict[str, Any], prefix: str, gp: SparseOnlineGP) -
     one saved by 0.2 lacks: an empty summary of the points that left the window, and batch
     indices for the window (from 0.2's block indices, so that a point's age in batches is its
     age in blocks: its weight is that of 0.2)."""
-    for name in ("summary_prec", "summary_shift", "summary_unit"):
+    for name in ("summary_prec", "summary_shift", "summary_unit", "summary_input"):
         if prefix + name not in state:
             state[prefix + name] = torch.zeros_like(getattr(gp, name))
     if prefix + "window.block" in state:
@@ -1384,7 +1439,9 @@ class _Rollback:
 
 
 #: GP buffers with one row per BV slot, and (m, m) ones.
-_PER_SLOT = frozenset({"bv_x", "bv_y", "nugget", "alpha", "summary_shift", "summary_unit"})
+_PER_SLOT = frozenset(
+    {"bv_x", "bv_y", "nugget", "alpha", "summary_shift", "summary_unit", "summary_input"}
+)
 _SLOT_BY_SLOT = frozenset({"P", "Q", "summary_prec"})
 
 

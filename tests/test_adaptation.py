@@ -131,12 +131,13 @@ def test_summary_of_data_is_its_projected_likelihood(n: int) -> None:
     y, noise = rng.normal(size=n), rng.uniform(0.05, 2.0, size=n)
     Kzz, Kxz = rbf(z, z, 0.4) + 1e-6 * np.eye(9), rbf(x, z, 0.4)
     t = torch.as_tensor
-    summary = Summary.of_data(t(Kzz), t(Kxz), t(y), t(noise), 1.0)
+    summary = Summary.of_data(t(Kzz), t(Kxz), t(x), t(y), t(noise), 1.0)
     B = np.linalg.solve(Kzz, Kxz.T)  # K_zz^-1 K_zx
     scale = np.abs(B).max() ** 2 / noise.min()
     np.testing.assert_allclose(summary.precision, B / noise @ B.T, atol=1e-9 * scale)
     np.testing.assert_allclose(summary.shift, B @ (y / noise), atol=1e-9 * scale * n)
     np.testing.assert_allclose(summary.unit_shift, B @ (1 / noise), atol=1e-9 * scale * n)
+    np.testing.assert_allclose(summary.input_shift, B @ (x / noise[:, None]), atol=1e-9 * scale * n)
 
 
 # -- the adapting GP ----------------------------------------------------------------------------
@@ -326,8 +327,10 @@ def assert_weighted_sparse_posterior(
     gp: SparseOnlineGP, x: np.ndarray, y: np.ndarray, w: np.ndarray, rng: np.random.Generator
 ) -> None:
     """``gp`` (RBF) predicts, to 1e-8, as the exact sparse posterior of ``(x, y)`` with noise
-    ``sigma_n^2 / w`` and its own basis and hyperparameters (the Nystrom GP, an (n, n) solve)."""
-    yn = (y - float(gp.y_mean)) / float(gp.y_scale)
+    ``sigma_n^2 / w`` and its own basis, hyperparameters and prior mean ``c + b^T x`` (the
+    Nystrom GP, an (n, n) solve)."""
+    c, b = float(gp.y_mean), gp.y_slope.numpy()
+    yn = (y - c - x @ b) / float(gp.y_scale)
     ls, var, z = gp.lengthscale.numpy(), float(gp.kernel.variance), gp.basis_inputs.numpy()
     white = np.sqrt(w / float(gp.noise_var))
     Kzz = rbf(z, z, ls, var) + np.diag(gp.nugget[: gp.n_basis].numpy())
@@ -337,41 +340,50 @@ def assert_weighted_sparse_posterior(
     )
     mean, latent = gp.predict(probe)
     s = float(gp.y_scale)
-    np.testing.assert_allclose(mean.numpy(), ref_mean * s + float(gp.y_mean), atol=1e-8 * s)
+    np.testing.assert_allclose(mean.numpy(), ref_mean * s + c + probe @ b, atol=1e-8 * s)
     np.testing.assert_allclose(latent.numpy(), ref_var * s**2, atol=1e-8 * s**2)
 
 
-def test_rebuilt_posterior_is_the_sparse_posterior_of_the_weighted_window() -> None:
+@pytest.mark.parametrize("prior_mean", ["constant", "linear"])
+def test_rebuilt_posterior_is_the_sparse_posterior_of_the_weighted_window(prior_mean: str) -> None:
     rng = np.random.default_rng(3)
     # The window holds every point fed: the summary of dropped points stays empty.
     adapt = Adaptation(window=400, interval=100, steps=3, forgetting=(0.5,))
-    gp = SparseOnlineGP(2, "rbf", max_basis=40, adapt=adapt)
+    gp = SparseOnlineGP(2, "rbf", max_basis=40, adapt=adapt, prior_mean=prior_mean)
     for _ in range(4):
         x = rng.uniform(size=(100, 2))
         gp.update(x, np.sin(3 * x[:, 0]) + x[:, 1] + 0.1 * rng.normal(size=100))
     x, y, block = (t.numpy() for t in gp.window.data())
-    assert_weighted_sparse_posterior(gp, x, y, 0.5 ** (block.max() - block), rng)
+    w = 0.5 ** (block.max() - block)
+    assert_weighted_sparse_posterior(gp, x, y, w, rng)
+    if prior_mean == "linear":  # the weighted least-squares line of the window
+        H = np.column_stack([np.ones(len(x)), x]) * np.sqrt(w)[:, None]
+        coef = np.linalg.lstsq(H, y * np.sqrt(w), rcond=None)[0]
+        np.testing.assert_allclose([float(gp.y_mean), *gp.y_slope.numpy()], coef, rtol=1e-9)
 
 
 @pytest.mark.parametrize(
-    ("forgetting", "drift", "fit_noise", "fold"),
+    ("forgetting", "drift", "fit_noise", "fold", "prior_mean"),
     [
-        (1.0, 0.0, False, None),
-        (0.7, 0.0, False, None),
-        (0.7, 0.5, False, None),
-        (0.7, 0.5, True, None),
-        (1.0, 0.0, False, 10),
-        (0.7, 0.5, True, 10),
+        (1.0, 0.0, False, None, "constant"),
+        (0.7, 0.0, False, None, "constant"),
+        (0.7, 0.5, False, None, "constant"),
+        (0.7, 0.5, True, None, "constant"),
+        (1.0, 0.0, False, 10, "constant"),
+        (0.7, 0.5, True, 10, "constant"),
+        (0.7, 0.5, False, None, "linear"),
+        (0.7, 0.5, True, 10, "linear"),
     ],
 )
 def test_summary_keeps_what_the_dropped_points_said(
-    forgetting: float, drift: float, fit_noise: bool, fold: int | None
+    forgetting: float, drift: float, fit_noise: bool, fold: int | None, prior_mean: str
 ) -> None:
     """With the kernel and the basis fixed, a 150-point window on a 1200-point stream, fed in
     50-point batches and adapting every 100 points, gives the exact sparse posterior of all
     1200 points, weighted ``forgetting ** age`` with ``age`` in batches; also when the target
     mean and scale, re-estimated each block, follow a drift, and when the noise is re-fitted
-    each block (the summarised points then count with the final noise, as in the window).
+    each block (the summarised points then count with the final noise, as in the window),
+    and when the prior mean is a line re-fitted each block to targets whose trend drifts.
     With ``fold_points=10`` each dropped batch of 50 counts as its points 2, 7, ..., 47 (the
     middles of runs of 5), each weighted 5 times."""
     rng = np.random.default_rng(5)
@@ -385,12 +397,16 @@ def test_summary_keeps_what_the_dropped_points_said(
         lengthscale_range=(1.0, 1.0),
         variance_bounds=(1.0, 1.0),
     )
-    gp = SparseOnlineGP(1, RBFKernel(lengthscale=0.2), max_basis=30, adapt=adapt)
+    gp = SparseOnlineGP(
+        1, RBFKernel(lengthscale=0.2), max_basis=30, adapt=adapt, prior_mean=prior_mean
+    )
     grid = np.linspace(0.0, 1.0, 11)[:, None]  # half a lengthscale apart: later points project
     xs = [np.concatenate([grid, rng.uniform(size=(39, 1))])]
     xs += [rng.uniform(size=(50, 1)) for _ in range(23)]
     ys = [
-        (1 + drift * i) * np.sin(5 * x[:, 0]) + drift * i + 0.1 * rng.normal(size=50)
+        (1 + drift * i) * np.sin(5 * x[:, 0])
+        + drift * i * (1 + x[:, 0])
+        + 0.1 * rng.normal(size=50)
         for i, x in enumerate(xs)
     ]
     gp.update(xs[0], ys[0])
@@ -400,6 +416,7 @@ def test_summary_keeps_what_the_dropped_points_said(
     torch.testing.assert_close(gp.basis_inputs, basis, rtol=0, atol=0)  # the basis stayed
     assert int(gp.n_blocks) == 12 and gp.summary_prec.abs().sum() > 0
     assert (float(gp.noise_var) != 0.05) == fit_noise
+    assert (float(gp.y_slope.abs().sum()) > 0) == (prior_mean == "linear")
     x, y = np.concatenate(xs), np.concatenate(ys)
     age = np.repeat(np.arange(len(xs))[::-1], 50)
     w = forgetting**age
@@ -411,14 +428,15 @@ def test_summary_keeps_what_the_dropped_points_said(
     assert_weighted_sparse_posterior(gp, x, y, w, rng)
 
 
-def test_adaptation_state_round_trips_bit_for_bit() -> None:
+@pytest.mark.parametrize("prior_mean", ["constant", "linear"])
+def test_adaptation_state_round_trips_bit_for_bit(prior_mean: str) -> None:
     rng = np.random.default_rng(4)
     adapt = Adaptation(window=300, interval=150, steps=2)
     batches = [(rng.uniform(size=(100, 2)), rng.normal(size=100)) for _ in range(6)]
-    gp = SparseOnlineGP(2, "geodesic", max_basis=40, adapt=adapt)
+    gp = SparseOnlineGP(2, "geodesic", max_basis=40, adapt=adapt, prior_mean=prior_mean)
     for x, y in batches[:3]:
         gp.update(x, y)
-    copy = SparseOnlineGP(2, "geodesic", max_basis=40, adapt=adapt)
+    copy = SparseOnlineGP(2, "geodesic", max_basis=40, adapt=adapt, prior_mean=prior_mean)
     copy.load_state_dict(gp.state_dict())
     assert_same_state(snapshot(gp), snapshot(copy))
     for x, y in batches[3:]:
@@ -458,7 +476,10 @@ def test_a_state_saved_by_0_6_loads_without_drift_moments() -> None:
     gp = SparseOnlineGP(2, "rbf", max_basis=30, adapt=adapt)
     for _ in range(3):  # 300 points: the second block is open, with 100 scored
         gp.update(rng.uniform(size=(100, 2)), rng.normal(size=100))
-    state = {k: v for k, v in gp.state_dict().items() if k != "block_moments"}
+    # Also without what 0.8's linear prior mean added (a constant mean saved as before).
+    added = ("block_moments", "y_slope", "summary_input")
+    state = {k: v for k, v in gp.state_dict().items() if k not in added}
+    state["_extra_state"] = {k: v for k, v in state["_extra_state"].items() if k != "prior_mean"}
     copy = SparseOnlineGP(2, "rbf", max_basis=30, adapt=adapt)
     copy.load_state_dict(state)
     probe = rng.uniform(size=(7, 2))

@@ -1251,3 +1251,52 @@ def test_rollback_restores_slots_grown_during_the_failed_update(monkeypatch) -> 
     assert_same_state(before, snapshot(gp))
     for a, b in zip(predicted, gp.predict(probe), strict=True):
         assert torch.equal(a, b)
+
+
+# -- the linear prior mean -------------------------------------------------------------------------
+@pytest.mark.parametrize("kernel", ["rbf", "laplacian", "geodesic"])
+def test_linear_prior_mean_follows_a_line_far_from_the_data(kernel: str) -> None:
+    """On ``y = 2 + 3 x_0 - x_1`` (plus small noise) seen in the unit square, far outside it
+    the linear mean predicts the line; with a Euclidean kernel the constant mean reverts to the
+    targets' average there (the geodesic kernel measures a far point from the graph node it
+    attaches to, so its covariance does not vanish)."""
+    rng = np.random.default_rng(11)
+    x = rng.uniform(size=(200, 2))
+    y = 2 + 3 * x[:, 0] - x[:, 1] + 0.01 * rng.normal(size=200)
+    far = np.array([[4.0, 0.5], [-3.0, 2.0]])
+    line = 2 + 3 * far[:, 0] - far[:, 1]
+    linear = SparseOnlineGP(2, kernel, max_basis=30, prior_mean="linear")
+    constant = SparseOnlineGP(2, kernel, max_basis=30)
+    for gp in (linear, constant):
+        gp.update(x, y)
+    np.testing.assert_allclose(linear.predict(far)[0].numpy(), line, atol=0.05)
+    if kernel != "geodesic":
+        np.testing.assert_allclose(constant.predict(far)[0].numpy(), y.mean(), atol=0.05)
+    # the first batch's least-squares line, and the residuals' scale
+    H = np.column_stack([np.ones(200), x])
+    coef, *_ = np.linalg.lstsq(H, y, rcond=None)
+    np.testing.assert_allclose([float(linear.y_mean), *linear.y_slope.numpy()], coef, rtol=1e-9)
+    assert float(linear.y_scale) == pytest.approx(np.std(y - H @ coef), rel=1e-9)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        (dict(prior_mean="quadratic"), "prior_mean must be one of"),
+        (dict(prior_mean="linear", target_mean=0.0), "leave target_mean None"),
+    ],
+)
+def test_bad_prior_mean_raises(kwargs: dict[str, Any], message: str) -> None:
+    with pytest.raises(ValueError, match=message):
+        SparseOnlineGP(2, "rbf", **kwargs)
+
+
+def test_a_linear_mean_state_is_refused_by_a_constant_mean_gp() -> None:
+    rng = np.random.default_rng(12)
+    gp = SparseOnlineGP(2, "rbf", max_basis=10, prior_mean="linear")
+    gp.update(rng.uniform(size=(50, 2)), rng.normal(size=50))
+    other = SparseOnlineGP(2, "rbf", max_basis=10)
+    before = copy.deepcopy(other.state_dict())
+    with pytest.raises(ValueError, match="prior_mean='linear'"):
+        other.load_state_dict(gp.state_dict())
+    assert_same_state(before, other.state_dict())
