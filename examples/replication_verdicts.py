@@ -33,7 +33,7 @@ from pathlib import Path
 from typing import Any
 
 from sb3_geogp.comparison.hyperparams import ALGOS, ALL_CRITICS
-from sb3_geogp.comparison.report import comparison_cell
+from sb3_geogp.comparison.report import comparison_cell, count_verdicts
 from sb3_geogp.comparison.results import METRICS, comparisons, load_sweeps
 from sb3_geogp.toolbox.tables import markdown_table
 
@@ -113,17 +113,6 @@ def verdict_rows(
     return rows
 
 
-def _counts(rows: list[dict[str, Any]], side: str) -> str:
-    cells = [r[side] for r in rows if r[side] is not None]
-
-    def count(v: str) -> str:
-        n = sum(c["verdict"] == v for c in cells)
-        fw = sum(c["fw_verdict"] == v for c in cells)
-        return f"{n} ({fw})" if v != "no difference" else str(n)
-
-    return " / ".join(count(v) for v in ("better", "no difference", "worse"))
-
-
 def markdown(rows: list[dict[str, Any]]) -> str:
     """One table per metric; the last row of each counts better (family-wise) / no difference
     / worse (family-wise) per column."""
@@ -144,7 +133,7 @@ def markdown(rows: list[dict[str, Any]]) -> str:
             cells += [r.get("reading", "–")] if name == "final_return" else []
             body.append(cells)
         total = ["**counts**", "", "better (fw) / n.d. / worse (fw)"]
-        total += [_counts(mine, side) for side in SIDES]
+        total += [count_verdicts([r[side] for r in mine if r[side] is not None]) for side in SIDES]
         total += [""] if name == "final_return" else []
         lines += [
             f"### {metric.label}",

@@ -171,6 +171,18 @@ def comparison_cell(r: dict[str, Any] | None) -> str:
     return f"{cell} {word}"
 
 
+def count_verdicts(rows: Sequence[dict[str, Any]]) -> str:
+    """``"better (family-wise) / no difference / worse (family-wise)"`` counts of
+    :func:`~sb3_geogp.comparison.results.comparisons` rows, e.g. ``"4 (1) / 9 / 1 (0)"``."""
+
+    def count(v: str) -> str:
+        n = sum(r["verdict"] == v for r in rows)
+        fw = sum(r["fw_verdict"] == v for r in rows)
+        return f"{n} ({fw})" if v != "no difference" else str(n)
+
+    return " / ".join(count(v) for v in ("better", "no difference", "worse"))
+
+
 def _num(x: float | None) -> float:
     return math.nan if x is None else float(x)
 

@@ -361,3 +361,35 @@ def test_replication_verdicts_script_pools_and_refuses_shared_runs(
     with pytest.raises(SystemExit):
         script.main([*argv, "--critic", "ppo=mlp", "--out", str(out)])
     assert "expected ALGO=CRITIC" in capsys.readouterr().err
+
+
+def test_option_verdicts_compares_variant_reference_and_mlp(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Seeds 0-5: the variant 10 ahead of the reference GP critic run for run, which is level
+    with the MLP; hand-computed differences 10, 10, 0, the final returns listed sorted, the
+    counts of each column; a variant sweep holding the MLP is refused."""
+    from tests.test_examples_engine import load_script
+
+    script = load_script("option_verdicts")
+    reference = [_result(c, s, final=float(s % 3), rmse=20.0) for c in ("mlp", "laplacian")
+                 for s in range(6)]  # fmt: skip
+    variant = [_result("laplacian", s, final=10.0 + s % 3, rmse=20.0) for s in range(6)]
+    out = tmp_path / "option.md"
+    argv = ["--variant", str(_write_sweep(tmp_path / "variant", variant))]
+    argv += ["--reference", str(_write_sweep(tmp_path / "reference", reference))]
+    argv += ["--critic", "laplacian", "--label", "prior_mean=linear", "--out", str(out)]
+    assert script.main(argv) == 0
+    rows = {r["metric"]: r for r in json.loads(out.with_suffix(".json").read_text())}
+    final = rows["final_return"]
+    diffs = [final[c]["diff"] for c in script.COLUMNS]
+    assert diffs == pytest.approx([10.0, 10.0, 0.0])
+    assert [final[c]["verdict"] for c in script.COLUMNS] == ["better", "better", "no difference"]
+    assert final[script.COLUMNS[0]]["family_size"] == 42
+    text = out.read_text()
+    assert "| `E-v0` ppo | variant | 6 | 10, 10, 11, 11, 12, 12 |" in text
+    assert "| **counts** | better (fw) / n.d. / worse (fw) | 1 (1) / 0 / 0 (0) |" in text
+    assert out.with_suffix(".png").stat().st_size > 0
+    capsys.readouterr()
+    with pytest.raises(ValueError, match="runs of laplacian only"):
+        script.main([*argv[:1], str(tmp_path / "reference"), *argv[2:]])

@@ -1,0 +1,192 @@
+"""A GP critic option against the default GP critic and against the MLP critic, per cell.
+
+A sweep of one GP critic with an option (``--variant``, e.g. ``sb3-geogp compare ...
+--gp-option prior_mean=linear``) next to a sweep of the same critic without it and of SB3's MLP
+critic on the same seeds (``--reference``). Per cell (environment, algorithm) and metric, with
+the published rule (:func:`~sb3_geogp.comparison.results.comparisons`: difference of means,
+95 % percentile-bootstrap interval, family-wise level of the published sweep's 42
+comparisons): variant − reference GP critic, variant − MLP, reference − MLP; and the final
+returns of every run, sorted, so that stalls (e.g. Acrobot's -500 cap) are seen one by one.
+
+    python examples/option_verdicts.py --critic laplacian --label prior_mean=linear \\
+        --variant results/linear_mean/acrobot_s30_linear \\
+        --reference results/linear_mean/acrobot_s30 --out results/linear_mean/acrobot_s30.md
+
+Writes the markdown, the rows as JSON beside it and a figure of the final-return intervals
+(``.png``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from sb3_geogp.comparison.report import comparison_cell, count_verdicts
+from sb3_geogp.comparison.results import METRICS, comparisons, group_runs, load_sweeps
+from sb3_geogp.toolbox.tables import markdown_table
+
+#: Comparisons per metric of the published sweep: the family the family-wise level corrects for.
+PUBLISHED_FAMILY = 42
+#: The columns: which runs are compared with which.
+COLUMNS = ("variant − reference", "variant − MLP", "reference − MLP")
+
+
+def verdict_rows(
+    variant: list[dict[str, Any]],
+    reference: list[dict[str, Any]],
+    critic: str,
+    family_size: int = PUBLISHED_FAMILY,
+) -> list[dict[str, Any]]:
+    """Per cell and metric, the three comparisons of :data:`COLUMNS` (``None`` where a side
+    has no runs).
+
+    Raises
+    ------
+    ValueError
+        If ``variant`` holds runs of another critic than ``critic`` (the option's sweep is of
+        one GP critic), or has none.
+    """
+    others = {r["spec"]["critic"] for r in variant} - {critic}
+    if others or not variant:
+        raise ValueError(f"--variant must hold runs of {critic} only, found {sorted(others)}")
+    gp = [r for r in reference if r["spec"]["critic"] == critic]
+    mlp = [r for r in reference if r["spec"]["critic"] == "mlp"]
+    found = {
+        COLUMNS[0]: comparisons(variant, baseline=gp, family_size=family_size),
+        COLUMNS[1]: comparisons(variant + mlp, family_size=family_size),
+        COLUMNS[2]: comparisons(gp + mlp, family_size=family_size),
+    }
+    keyed = {
+        column: {(r["env"], r["algo"], r["metric"]): r for r in rows if r["b"] in (critic, "mlp")}
+        for column, rows in found.items()
+    }
+    cells = sorted(
+        {(r["spec"]["env_id"], r["spec"]["algo"]) for r in variant},
+    )
+    return [
+        dict(
+            env=env,
+            algo=algo,
+            metric=metric,
+            **{c: keyed[c].get((env, algo, metric)) for c in COLUMNS},
+        )
+        for env, algo in cells
+        for metric in METRICS
+    ]
+
+
+def finals(
+    variant: list[dict[str, Any]], reference: list[dict[str, Any]], critic: str
+) -> list[list[str]]:
+    """Rows ``[cell, side, n, sorted final returns]`` for the variant, the reference GP critic
+    and the MLP of each cell."""
+    sides = {"variant": group_runs(variant), "reference": group_runs(reference)}
+    rows = []
+    for env, algo in sorted({(r["spec"]["env_id"], r["spec"]["algo"]) for r in variant}):
+        for label, groups, name in (
+            ("variant", sides["variant"], critic),
+            ("reference", sides["reference"], critic),
+            ("MLP", sides["reference"], "mlp"),
+        ):
+            runs = groups.get((env, algo, name), [])
+            values = sorted(r["final_return"] for r in runs)
+            rows.append(
+                [f"`{env}` {algo}", label, str(len(runs)), ", ".join(f"{v:.0f}" for v in values)]
+            )
+    return rows
+
+
+def markdown(rows: list[dict[str, Any]], finals_rows: list[list[str]], label: str) -> str:
+    """One table per metric (the last row counts better (family-wise) / no difference / worse
+    (family-wise) per column), then the final returns of every run."""
+    lines = [f"Variant: `{label}`.", ""]
+    for name, metric in METRICS.items():
+        mine = [r for r in rows if r["metric"] == name]
+        body = [
+            [f"`{r['env']}`", r["algo"], *(comparison_cell(r[c]) for c in COLUMNS)] for r in mine
+        ]
+        total = ["**counts**", "better (fw) / n.d. / worse (fw)"]
+        total += [count_verdicts([r[c] for r in mine if r[c] is not None]) for c in COLUMNS]
+        lines += [
+            f"### {metric.label}",
+            "",
+            "Difference of means [95 % bootstrap CI] and verdict; **bold**: also at the "
+            f"published family-wise level ({PUBLISHED_FAMILY} comparisons).",
+            "",
+            markdown_table(["env", "algo", *COLUMNS], [*body, total]),
+            "",
+        ]
+    lines += [
+        "### final returns of every run, sorted",
+        "",
+        markdown_table(["cell", "critic", "runs", "final returns"], finals_rows),
+        "",
+    ]
+    return "\n".join(lines)
+
+
+def plot(rows: list[dict[str, Any]], path: Path, label: str) -> None:
+    """Final return differences with 95 % intervals: one panel per cell, one bar per column."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    mine = [r for r in rows if r["metric"] == "final_return"]
+    n_cols = min(len(mine), 4)
+    n_rows = -(-len(mine) // n_cols)
+    fig, axes = plt.subplots(n_rows, n_cols, figsize=(3.2 * n_cols, 3.0 * n_rows), squeeze=False)
+    for ax, r in zip(axes.flat, mine, strict=False):
+        for k, column in enumerate(COLUMNS):
+            c = r[column]
+            if c is None:
+                continue
+            ax.errorbar(
+                k, c["diff"], yerr=[[c["diff"] - c["low"]], [c["high"] - c["diff"]]],
+                fmt="o", color=f"C{k}", capsize=3,
+            )  # fmt: skip
+        ax.axhline(0, color="k", lw=0.8)
+        ax.set_xticks(range(len(COLUMNS)), [c.replace(" − ", "\n− ") for c in COLUMNS], fontsize=7)
+        ax.set_xlim(-0.6, len(COLUMNS) - 0.4)
+        ax.set_title(f"{r['env'].split('/')[-1]}, {r['algo']}", fontsize=9)
+        ax.tick_params(axis="y", labelsize=7)
+        ax.grid(alpha=0.3, axis="y")
+    for ax in axes.flat[len(mine) :]:
+        ax.axis("off")
+    fig.suptitle(
+        f"Final return differences, 95 % bootstrap intervals (variant: {label})", fontsize=10
+    )
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument(
+        "--variant", type=Path, nargs="+", required=True, help="the option's sweeps"
+    )
+    parser.add_argument(
+        "--reference", type=Path, nargs="+", required=True, help="the default GP and MLP runs"
+    )
+    parser.add_argument("--critic", required=True, help="the GP critic (kernel) of both sweeps")
+    parser.add_argument("--label", required=True, help="the option, as shown in the tables")
+    parser.add_argument("--family-size", type=int, default=PUBLISHED_FAMILY)
+    parser.add_argument("--out", type=Path, required=True, help="markdown file to write")
+    args = parser.parse_args(argv)
+    variant, reference = load_sweeps(args.variant), load_sweeps(args.reference)
+    rows = verdict_rows(variant, reference, args.critic, args.family_size)
+    text = markdown(rows, finals(variant, reference, args.critic), args.label)
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    args.out.write_text(text)
+    args.out.with_suffix(".json").write_text(json.dumps(rows, indent=1))
+    plot(rows, args.out.with_suffix(".png"), args.label)
+    print(text)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
