@@ -6,6 +6,7 @@ import copy
 import json
 from pathlib import Path
 
+import gymnasium as gym
 import numpy as np
 import pytest
 import torch as th
@@ -297,3 +298,28 @@ def test_device_check_on_the_cpu_passes_and_writes_its_figures(tmp_path: Path) -
     assert report["failed"] == []
     assert {report[f"engine_{k}"]["mean_gap"] for k in device_check.KERNELS} == {0.0}
     assert report["train_ppo_cpu"]["finite"] and report["train_a2c_cpu"]["load_gap"] == 0.0
+
+
+def test_acrobot_stall_height_is_gymnasiums_and_a_tiny_run_writes_its_figures(
+    tmp_path: Path,
+) -> None:
+    """The tip height from observations equals gymnasium's own, from the joint angles (its
+    goal test is ``-cos(s0) - cos(s1 + s0) > 1``); one rollout per critic is recorded."""
+    script = load_script("acrobot_stall")
+    env = gym.make("Acrobot-v1")
+    obs, _ = env.reset(seed=0)
+    observations, heights = [], []
+    for _ in range(200):
+        obs, *_ = env.step(env.action_space.sample())
+        s = env.unwrapped.state
+        observations.append(obs)
+        heights.append(-np.cos(s[0]) - np.cos(s[1] + s[0]))
+    np.testing.assert_allclose(script.tip_height(np.array(observations)), heights, atol=1e-6)
+    assert script.main(["--seeds", "0", "--timesteps", "4096", "--out", str(tmp_path)]) == 0
+    results = json.loads((tmp_path / "acrobot_stall.json").read_text())
+    assert set(results) == set(script.CRITICS)
+    for runs in results.values():
+        (rows,) = runs.values()
+        assert [r["timesteps"] for r in rows] == [4096]
+        assert -1 <= rows[0]["corr"] <= 1 and rows[0]["goals"] <= rows[0]["ended"]
+    assert (tmp_path / "acrobot_stall.png").stat().st_size > 0

@@ -1,0 +1,149 @@
+"""Why the GP critic stalls PPO on Acrobot-v1: what each critic's values say about height.
+
+Run: ``python examples/acrobot_stall.py --seeds 11 15 --out docs/acrobot_stall`` (PPO with the
+comparison's zoo hyperparameters and budget; about 2 minutes a run on one core).
+
+Per rollout, for SB3's MLP critic, the default GP critic (Laplacian, adaptive, constant prior
+mean) and the same GP critic with ``prior_mean="linear"``, on the same seeds (the actor starts
+from the same parameters): how many episodes of the rollout reached the goal (episodes shorter
+than the 500-step cap), and the correlation, over the rollout's states, between the critic's
+values (predicted before it learns from the rollout: those the advantages use) and the height
+of the acrobot's tip, ``-cos(t1) - cos(t1 + t2)``. Reaching the goal means reaching height 1;
+a critic whose values rise with height points the actor there.
+
+Writes ``acrobot_stall.json`` (every rollout's figures) and ``acrobot_stall.png``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch as th
+from stable_baselines3.common.callbacks import BaseCallback, CallbackList
+from tqdm.auto import tqdm
+
+from sb3_geogp import GPValueCallback
+from sb3_geogp.comparison.hyperparams import GP_KWARGS, hyperparams
+from sb3_geogp.comparison.run import build_model
+from sb3_geogp.comparison.specs import RunSpec
+
+#: Critic label -> (critic of the comparison, extra GP options).
+CRITICS: dict[str, tuple[str, dict[str, Any]]] = {
+    "MLP": ("mlp", {}),
+    "GP, constant mean (default)": ("laplacian", {}),
+    "GP, linear mean": ("laplacian", {"prior_mean": "linear"}),
+}
+ENV_ID = "Acrobot-v1"
+CAP = 500
+
+
+def tip_height(obs: np.ndarray) -> np.ndarray:
+    """``-cos(t1) - cos(t1 + t2)`` of Acrobot observations ``(n, 6)``
+    (``cos t1, sin t1, cos t2, sin t2, ...``), in [-2, 2]."""
+    cos_sum = obs[:, 0] * obs[:, 2] - obs[:, 1] * obs[:, 3]
+    return -obs[:, 0] - cos_sum
+
+
+class RolloutRecorder(BaseCallback):
+    """Per rollout: episodes ended, episodes that reached the goal, corr(values, height)."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.rows: list[dict[str, float]] = []
+        self._ended = self._goals = 0
+
+    def _on_step(self) -> bool:
+        for info in self.locals["infos"]:
+            if "episode" in info:
+                self._ended += 1
+                self._goals += int(info["episode"]["l"] < CAP)
+        return True
+
+    def _on_rollout_end(self) -> None:
+        buffer = self.model.rollout_buffer  # type: ignore[attr-defined]
+        values = buffer.values.ravel()
+        height = tip_height(buffer.observations.reshape(-1, buffer.obs_shape[0]))
+        corr = float(np.corrcoef(values, height)[0, 1]) if values.std() > 0 else 0.0
+        self.rows.append(
+            dict(timesteps=self.num_timesteps, ended=self._ended, goals=self._goals, corr=corr)
+        )
+        self._ended = self._goals = 0
+
+
+def run(label: str, seed: int, timesteps: int) -> list[dict[str, float]]:
+    """One PPO run of the critic ``label`` on ``seed``: its rollouts' figures."""
+    critic, extra = CRITICS[label]
+    params = hyperparams("ppo", ENV_ID)
+    spec = RunSpec(
+        algo="ppo", critic=critic, env_id=ENV_ID, seed=seed, total_timesteps=timesteps,
+        gp_kwargs=tuple(sorted({**GP_KWARGS, **extra}.items())),
+        hyperparams=params.values, hyperparams_source=params.source, threshold=-100.0,
+    )  # fmt: skip
+    model = build_model(spec)
+    recorder = RolloutRecorder()
+    callbacks: list[BaseCallback] = [recorder] if critic == "mlp" else [GPValueCallback(), recorder]
+    model.learn(timesteps, callback=CallbackList(callbacks))
+    env = model.get_env()
+    assert env is not None
+    env.close()
+    return recorder.rows
+
+
+def plot(results: dict[str, Any], path: Path) -> None:
+    """Goals per rollout (top) and corr(values, height) (bottom), a column per seed."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    seeds = sorted({int(s) for runs in results.values() for s in runs})
+    fig, axes = plt.subplots(2, len(seeds), figsize=(4.2 * len(seeds), 6), squeeze=False)
+    for k, label in enumerate(CRITICS):
+        for j, seed in enumerate(seeds):
+            rows = results[label][str(seed)]
+            t = [r["timesteps"] for r in rows]
+            axes[0, j].plot(t, [r["goals"] for r in rows], "o-", color=f"C{k}", label=label)
+            axes[1, j].plot(t, [r["corr"] for r in rows], "o-", color=f"C{k}", label=label)
+    for j, seed in enumerate(seeds):
+        axes[0, j].set_title(f"PPO {ENV_ID}, seed {seed}", fontsize=10)
+        axes[0, j].set_ylabel("episodes reaching the goal")
+        axes[1, j].set_ylabel("corr(critic values, tip height)")
+        axes[1, j].set_xlabel("timesteps")
+        axes[1, j].axhline(0, color="k", lw=0.8)
+        for ax in axes[:, j]:
+            ax.grid(alpha=0.3)
+    axes[0, 0].legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seeds", type=int, nargs="+", default=[11, 15])
+    parser.add_argument("--timesteps", type=int, default=30_000)
+    parser.add_argument("--out", type=Path, default=Path("acrobot_stall"))
+    args = parser.parse_args(argv)
+    th.set_num_threads(1)
+    args.out.mkdir(parents=True, exist_ok=True)
+    results: dict[str, Any] = {label: {} for label in CRITICS}
+    jobs = [(label, seed) for seed in args.seeds for label in CRITICS]
+    for label, seed in tqdm(jobs, unit="run", desc="runs"):
+        results[label][str(seed)] = run(label, seed, args.timesteps)
+    (args.out / "acrobot_stall.json").write_text(json.dumps(results, indent=1))
+    plot(results, args.out / "acrobot_stall.png")
+    for label, runs in results.items():
+        for seed, rows in runs.items():
+            goals = " ".join(f"{r['goals']:2d}" for r in rows)
+            corr = " ".join(f"{r['corr']:+.2f}" for r in rows)
+            print(f"{label:28s} seed {seed}: goals {goals} | corr {corr}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
