@@ -73,6 +73,10 @@ _Q_GROWTH = 1e4
 _UPDATE_RULES = ("novelty_tol", "forgetting", "adapt")
 #: Prior mean functions of :class:`SparseOnlineGP`.
 _PRIOR_MEANS = ("constant", "linear")
+#: Trends of :class:`SparseOnlineGP`.
+_TRENDS = ("none", "linear")
+#: Ridge of the linear trend, per point, on the raw second moments of ``[x, 1]``.
+_TREND_RIDGE = 1e-3
 #: Points retained for :meth:`SparseOnlineGP.fit_hyperparameters` without adaptation.
 _DEFAULT_WINDOW = Adaptation.window
 #: Largest state the constructor allocates (bytes); above it, it refuses with the estimate.
@@ -89,6 +93,11 @@ _COUNTERS = (
     "block_new",
     "n_pruned",
 )
+
+
+def _with_ones(x: Tensor) -> Tensor:
+    """``[x, 1]``: ``x : (n, d)`` with a column of ones, shape (n, d + 1)."""
+    return torch.cat([x, torch.ones(x.shape[0], 1, dtype=x.dtype, device=x.device)], dim=1)
 
 
 def _count(name: str, value: Any) -> int:
@@ -186,6 +195,15 @@ class SparseOnlineGP(nn.Module):
         the constant mean reverts to the targets' average and the linear one follows their
         trend, as a linear model or an MLP would (docs/method.md, section 4). ``"linear"``
         takes no ``target_mean``.
+    trend : {"none", "linear"}
+        ``"linear"``: a least-squares line ``w^T [x, 1]`` (ridge ``1e-3 n`` on the raw second
+        moments of ``[x, 1]``) is refitted to each batch as it arrives and the GP is fed what
+        it leaves, ``y - w^T [x, 1]``; predictions are the current line plus the GP. Unlike
+        ``prior_mean="linear"``, the GP's data are never re-expressed relative to a new line:
+        they keep the residuals of the line of their own batch. Meant for batches of thousands
+        of points (a PPO rollout); the out-of-sample statistics of :attr:`last_stats` are
+        then the GP's, on the residuals (docs/method.md, section 4). Not with
+        ``prior_mean="linear"``.
     input_bounds : (low, high) of array-likes with ``input_dim`` entries each, optional
         Bounds of the inputs where known: unset lengthscales of bounded dimensions then come
         from the bounds rather than from the first batch (:mod:`sb3_geogp.defaults`).
@@ -252,6 +270,7 @@ class SparseOnlineGP(nn.Module):
     y_mean: Tensor
     y_scale: Tensor
     y_slope: Tensor
+    trend_coef: Tensor
     count: Tensor
     initialized: Tensor
     n_seen: Tensor
@@ -285,6 +304,7 @@ class SparseOnlineGP(nn.Module):
         dtype: torch.dtype | str = torch.float64,
         adapt: Adaptation | Mapping[str, Any] | bool | None = None,
         prior_mean: str = "constant",
+        trend: str = "none",
     ) -> None:
         super().__init__()
         input_dim, max_basis = _count("input_dim", input_dim), _count("max_basis", max_basis)
@@ -305,7 +325,14 @@ class SparseOnlineGP(nn.Module):
                 "prior_mean='linear' fits its own intercept: leave target_mean None, or use "
                 "prior_mean='constant' to fix the mean"
             )
+        if trend not in _TRENDS:
+            raise ValueError(f"trend must be one of {_TRENDS}, got {trend!r}")
+        if trend == "linear" and prior_mean == "linear":
+            raise ValueError(
+                "trend='linear' and prior_mean='linear' are two ways of one line: choose one"
+            )
         self.prior_mean = prior_mean
+        self.trend = trend
         if num_threads is not None:
             num_threads = _count("num_threads", num_threads)
         self.input_dim = int(input_dim)
@@ -350,6 +377,7 @@ class SparseOnlineGP(nn.Module):
         self.register_buffer("y_mean", torch.tensor(float(target_mean or 0.0), **kw))
         self.register_buffer("y_scale", torch.tensor(float(target_scale or 1.0), **kw))
         self.register_buffer("y_slope", torch.zeros(self.input_dim, **kw))
+        self.register_buffer("trend_coef", torch.zeros(self.input_dim + 1, **kw))
         # Counters and flags as long tensors so that they travel with state_dict().
         for name in _COUNTERS:
             self.register_buffer(name, torch.zeros((), dtype=torch.long, device=device))
@@ -457,8 +485,19 @@ class SparseOnlineGP(nn.Module):
             var = variance.expand(x.shape[0]).clone() if return_var else None
         else:
             mean, var = self._latent(self._scaled(x), return_var)
-        mean = mean * self.y_scale + self._prior(x)
+        mean = mean * self.y_scale + self._prior(x) + self._trend(x)
         return mean, None if var is None else var * self.y_scale**2
+
+    def _trend(self, x: Tensor) -> Tensor:
+        """The linear trend ``w^T [x, 1]`` of ``x : (n, d)``, shape (n,); 0 without one."""
+        return _with_ones(x) @ self.trend_coef
+
+    def _fit_trend(self, x: Tensor, y: Tensor) -> Tensor:
+        """Refit the trend to the batch ``(x, y)``; return what it leaves, ``y - trend(x)``."""
+        A = _with_ones(x)
+        ridge = _TREND_RIDGE * y.shape[0] * torch.eye(A.shape[1], dtype=A.dtype, device=A.device)
+        self.trend_coef.copy_(torch.linalg.solve(A.T @ A + ridge, A.T @ y))
+        return y - self._trend(x)
 
     def _prior(self, x: Tensor) -> Tensor:
         """The prior mean ``m(x) = c + b^T x`` of ``x : (n, d)``, shape (n,), target units."""
@@ -499,6 +538,7 @@ class SparseOnlineGP(nn.Module):
             "window": self.window.size,
             "adapt": None if self.adaptation is None else self.adaptation.as_dict(),
             "prior_mean": self.prior_mean,
+            "trend": self.trend,
         }
 
     def get_extra_state(self) -> dict[str, Any]:
@@ -506,7 +546,7 @@ class SparseOnlineGP(nn.Module):
 
     def set_extra_state(self, state: Any) -> None:
         if isinstance(state, dict):
-            state = {"prior_mean": "constant", **state}  # saved before 0.8: constant
+            state = {"prior_mean": "constant", "trend": "none", **state}  # saved before 0.8
         check_same_options("SparseOnlineGP", state, self.options(), _UPDATE_RULES)
 
     def _load_from_state_dict(
@@ -521,7 +561,7 @@ class SparseOnlineGP(nn.Module):
         # Saved before drift refits (0.6): the open block's targets count from the next batch.
         state_dict.setdefault(prefix + "block_moments", torch.zeros_like(self.block_moments))
         # Saved before the linear prior mean (0.8): a constant one.
-        for name in ("y_slope", "summary_input"):
+        for name in ("y_slope", "summary_input", "trend_coef"):
             state_dict.setdefault(prefix + name, torch.zeros_like(getattr(self, name)))
         # Check every stored option before loading anything, so a refused state leaves this
         # GP exactly as it was (the kernel's check would otherwise come after the GP's buffers).
@@ -588,6 +628,8 @@ class SparseOnlineGP(nn.Module):
             self._rollback = None
 
     def _update(self, x: Tensor, y: Tensor, starts: Tensor) -> None:
+        if self.trend == "linear":
+            y = self._fit_trend(x, y)
         if not bool(self.initialized):
             self._initialize(x, y)
             self._cache = None
