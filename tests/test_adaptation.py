@@ -477,9 +477,10 @@ def test_a_state_saved_by_0_6_loads_without_drift_moments() -> None:
     for _ in range(3):  # 300 points: the second block is open, with 100 scored
         gp.update(rng.uniform(size=(100, 2)), rng.normal(size=100))
     # Also without what 0.8's linear prior mean added (a constant mean saved as before).
-    added = ("block_moments", "y_slope", "summary_input")
+    added = ("block_moments", "y_slope", "summary_input", "trend_coef")
     state = {k: v for k, v in gp.state_dict().items() if k not in added}
-    state["_extra_state"] = {k: v for k, v in state["_extra_state"].items() if k != "prior_mean"}
+    extra = state["_extra_state"]
+    state["_extra_state"] = {k: v for k, v in extra.items() if k not in ("prior_mean", "trend")}
     copy = SparseOnlineGP(2, "rbf", max_basis=30, adapt=adapt)
     copy.load_state_dict(state)
     probe = rng.uniform(size=(7, 2))

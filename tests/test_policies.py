@@ -577,6 +577,21 @@ def test_adaptation_is_logged_and_survives_save_load_bit_for_bit(
     assert th.isfinite(loaded.policy.predict_values(obs)).all()
 
 
+@pytest.mark.parametrize("option", [dict(prior_mean="linear"), dict(trend="linear")])
+def test_linear_options_survive_save_load_bit_for_bit(option: dict, tmp_path: Path) -> None:
+    model = make_model(PPO, n_envs=2, **option)
+    model.learn(256, callback=GPValueCallback())
+    gp = model.policy.gp
+    assert float((gp.y_slope.abs().sum() + gp.trend_coef.abs().sum()).item()) > 0
+    model.save(tmp_path / "model.zip")
+    loaded = PPO.load(tmp_path / "model.zip", env=make_vec_env("Pendulum-v1", n_envs=2))
+    obs = flat_obs(model)
+    assert th.equal(loaded.policy.predict_values(obs), model.policy.predict_values(obs))
+    assert (loaded.policy.gp.prior_mean, loaded.policy.gp.trend) == (gp.prior_mean, gp.trend)
+    loaded.learn(256, callback=GPValueCallback(), reset_num_timesteps=False)
+    assert th.isfinite(loaded.policy.predict_values(obs)).all()
+
+
 def test_model_saved_by_v0_1_loads_and_predicts_the_same() -> None:
     """tests/data holds a PPO model saved by sb3_geogp 0.1, whose policy built no vf layers.
 

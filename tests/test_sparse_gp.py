@@ -1300,3 +1300,59 @@ def test_a_linear_mean_state_is_refused_by_a_constant_mean_gp() -> None:
     with pytest.raises(ValueError, match="prior_mean='linear'"):
         other.load_state_dict(gp.state_dict())
     assert_same_state(before, other.state_dict())
+
+
+# -- the linear trend ------------------------------------------------------------------------------
+def ridge_line(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """``w`` of ``y ~ w^T [x, 1]`` with the trend's ridge, ``1e-3 n`` on ``[x, 1]^T [x, 1]``."""
+    A = np.column_stack([x, np.ones(len(x))])
+    return np.linalg.solve(A.T @ A + 1e-3 * len(y) * np.eye(A.shape[1]), A.T @ y)
+
+
+@pytest.mark.parametrize("kernel", ["laplacian", "geodesic"])
+def test_trend_is_each_batchs_line_plus_a_gp_of_the_residuals_as_they_came(kernel: str) -> None:
+    """A GP with ``trend="linear"`` predicts the latest batch's ridge line plus exactly what a
+    GP without trend predicts after being fed each batch's residuals from its own line."""
+    rng = np.random.default_rng(13)
+    trend = SparseOnlineGP(2, kernel, max_basis=30, adapt=True, trend="linear")
+    plain = SparseOnlineGP(2, kernel, max_basis=30, adapt=True)
+    for k in range(3):  # the level and the slope change from batch to batch
+        x = rng.uniform(size=(400, 2))
+        y = (5.0 * k - 3) + (2 - k) * x[:, 0] + np.sin(6 * x[:, 1]) + 0.05 * rng.normal(size=400)
+        w = ridge_line(x, y)
+        trend.update(x, y)
+        plain.update(x, y - np.column_stack([x, np.ones(400)]) @ w)
+        np.testing.assert_allclose(trend.trend_coef.numpy(), w, rtol=1e-10, atol=1e-12)
+    probe = rng.uniform(-1, 2, size=(20, 2))
+    line = np.column_stack([probe, np.ones(20)]) @ w
+    mean, var = trend.predict(probe)
+    ref_mean, ref_var = plain.predict(probe)
+    np.testing.assert_allclose(mean.numpy(), ref_mean.numpy() + line, atol=1e-8)
+    np.testing.assert_allclose(var.numpy(), ref_var.numpy(), atol=1e-10)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        (dict(trend="quadratic"), "trend must be one of"),
+        (dict(trend="linear", prior_mean="linear"), "choose one"),
+    ],
+)
+def test_bad_trend_raises(kwargs: dict[str, Any], message: str) -> None:
+    with pytest.raises(ValueError, match=message):
+        SparseOnlineGP(2, "rbf", **kwargs)
+
+
+def test_trend_state_round_trips_and_is_refused_without_trend() -> None:
+    rng = np.random.default_rng(14)
+    gp = SparseOnlineGP(2, "laplacian", max_basis=20, adapt=True, trend="linear")
+    gp.update(rng.uniform(size=(100, 2)), rng.normal(size=100))
+    copy_ = SparseOnlineGP(2, "laplacian", max_basis=20, adapt=True, trend="linear")
+    copy_.load_state_dict(gp.state_dict())
+    probe = rng.uniform(size=(5, 2))
+    torch.testing.assert_close(copy_.predict(probe)[0], gp.predict(probe)[0], rtol=0, atol=0)
+    other = SparseOnlineGP(2, "laplacian", max_basis=20, adapt=True)
+    before = copy.deepcopy(other.state_dict())
+    with pytest.raises(ValueError, match="trend='linear'"):
+        other.load_state_dict(gp.state_dict())
+    assert_same_state(before, other.state_dict())
