@@ -63,9 +63,6 @@ def verdict_rows(
         column: {(r["env"], r["algo"], r["metric"]): r for r in rows if r["b"] in (critic, "mlp")}
         for column, rows in found.items()
     }
-    cells = sorted(
-        {(r["spec"]["env_id"], r["spec"]["algo"]) for r in variant},
-    )
     return [
         dict(
             env=env,
@@ -73,9 +70,14 @@ def verdict_rows(
             metric=metric,
             **{c: keyed[c].get((env, algo, metric)) for c in COLUMNS},
         )
-        for env, algo in cells
+        for env, algo in _cells(variant)
         for metric in METRICS
     ]
+
+
+def _cells(runs: list[dict[str, Any]]) -> list[tuple[str, str]]:
+    """The ``(environment, algorithm)`` cells of ``runs``, sorted."""
+    return sorted({(r["spec"]["env_id"], r["spec"]["algo"]) for r in runs})
 
 
 def finals(
@@ -85,7 +87,7 @@ def finals(
     and the MLP of each cell."""
     sides = {"variant": group_runs(variant), "reference": group_runs(reference)}
     rows = []
-    for env, algo in sorted({(r["spec"]["env_id"], r["spec"]["algo"]) for r in variant}):
+    for env, algo in _cells(variant):
         for label, groups, name in (
             ("variant", sides["variant"], critic),
             ("reference", sides["reference"], critic),
