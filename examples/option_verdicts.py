@@ -24,7 +24,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from sb3_geogp.comparison.report import comparison_cell, count_verdicts
+from sb3_geogp.comparison.report import comparison_cell, count_verdicts, plot_difference_panels
 from sb3_geogp.comparison.results import METRICS, comparisons, group_runs, load_sweeps
 from sb3_geogp.toolbox.tables import markdown_table
 
@@ -132,38 +132,16 @@ def markdown(rows: list[dict[str, Any]], finals_rows: list[list[str]], label: st
 
 def plot(rows: list[dict[str, Any]], path: Path, label: str) -> None:
     """Final return differences with 95 % intervals: one panel per cell, one bar per column."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     mine = [r for r in rows if r["metric"] == "final_return"]
-    n_cols = min(len(mine), 4)
-    n_rows = -(-len(mine) // n_cols)
-    fig, axes = plt.subplots(n_rows, n_cols, figsize=(3.2 * n_cols, 3.0 * n_rows), squeeze=False)
-    for ax, r in zip(axes.flat, mine, strict=False):
-        for k, column in enumerate(COLUMNS):
-            c = r[column]
-            if c is None:
-                continue
-            ax.errorbar(
-                k, c["diff"], yerr=[[c["diff"] - c["low"]], [c["high"] - c["diff"]]],
-                fmt="o", color=f"C{k}", capsize=3,
-            )  # fmt: skip
-        ax.axhline(0, color="k", lw=0.8)
-        ax.set_xticks(range(len(COLUMNS)), [c.replace(" − ", "\n− ") for c in COLUMNS], fontsize=7)
-        ax.set_xlim(-0.6, len(COLUMNS) - 0.4)
-        ax.set_title(f"{r['env'].split('/')[-1]}, {r['algo']}", fontsize=9)
-        ax.tick_params(axis="y", labelsize=7)
-        ax.grid(alpha=0.3, axis="y")
-    for ax in axes.flat[len(mine) :]:
-        ax.axis("off")
-    fig.suptitle(
-        f"Final return differences, 95 % bootstrap intervals (variant: {label})", fontsize=10
+    plot_difference_panels(
+        mine,
+        COLUMNS,
+        path,
+        f"Final return differences, 95 % bootstrap intervals (variant: {label})",
+        n_cols=min(len(mine), 4),
+        panel_size=(3.2, 3.0),
+        tick_labels=[c.replace(" − ", "\n− ") for c in COLUMNS],
     )
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
 
 
 def main(argv: Sequence[str] | None = None) -> int:

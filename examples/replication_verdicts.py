@@ -33,7 +33,7 @@ from pathlib import Path
 from typing import Any
 
 from sb3_geogp.comparison.hyperparams import ALGOS, ALL_CRITICS
-from sb3_geogp.comparison.report import comparison_cell, count_verdicts
+from sb3_geogp.comparison.report import comparison_cell, count_verdicts, plot_difference_panels
 from sb3_geogp.comparison.results import METRICS, comparisons, load_sweeps
 from sb3_geogp.toolbox.tables import markdown_table
 
@@ -160,41 +160,15 @@ def _seeds(rows: list[dict[str, Any]], side: str) -> str:
 
 def plot(rows: list[dict[str, Any]], path: Path) -> None:
     """Final return, critic − MLP, with 95 % intervals: one panel per cell, one bar per side."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    mine = [r for r in rows if r["metric"] == "final_return"]
-    n_cols = 7
-    n_rows = -(-len(mine) // n_cols)
-    fig, axes = plt.subplots(n_rows, n_cols, figsize=(2.3 * n_cols, 2.6 * n_rows), squeeze=False)
-    colours = {"before": "C0", "fresh": "C1", "pooled": "C2"}
-    for ax, r in zip(axes.flat, mine, strict=False):
-        for k, side in enumerate(SIDES):
-            c = r[side]
-            if c is None:
-                continue
-            ax.errorbar(
-                k, c["diff"], yerr=[[c["diff"] - c["low"]], [c["high"] - c["diff"]]],
-                fmt="o", color=colours[side], capsize=3, label=side,
-            )  # fmt: skip
-        ax.axhline(0, color="k", lw=0.8)
-        ax.set_xticks(range(len(SIDES)), SIDES, fontsize=7)
-        ax.set_xlim(-0.6, len(SIDES) - 0.4)
-        ax.set_title(f"{r['env'].split('/')[-1]}\n{r['algo']}, {r['critic']}", fontsize=8)
-        ax.tick_params(axis="y", labelsize=7)
-        ax.grid(alpha=0.3, axis="y")
-    for ax in axes.flat[len(mine) :]:
-        ax.axis("off")
-    fig.suptitle(
+    plot_difference_panels(
+        [r for r in rows if r["metric"] == "final_return"],
+        SIDES,
+        path,
         "Final return, default GP critic − MLP critic, 95 % bootstrap intervals "
         "(before: seeds the defaults were chosen on; fresh: new seeds)",
-        fontsize=10,
+        n_cols=7,
+        panel_size=(2.3, 2.6),
     )
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -229,6 +229,65 @@ def pyplot() -> Any:
     return plt
 
 
+def plot_difference_panels(
+    rows: Sequence[dict[str, Any]],
+    columns: Sequence[str],
+    path: str | Path,
+    title: str,
+    n_cols: int,
+    panel_size: tuple[float, float],
+    tick_labels: Sequence[str] | None = None,
+) -> Path:
+    """Differences of means with their 95 % intervals: a panel per row, a point per column.
+
+    Parameters
+    ----------
+    rows : sequence of dict
+        One per panel: ``env``, ``algo``, optional ``critic``, and under each of ``columns`` a
+        :func:`~sb3_geogp.comparison.results.comparisons` row (or ``None``: no point).
+    columns : sequence of str
+        The keys of ``rows`` plotted, left to right (colours C0, C1, ...).
+    path : str or Path
+    title : str
+        The figure's title.
+    n_cols : int
+        Panels per line.
+    panel_size : (float, float)
+        Width and height of a panel, inches.
+    tick_labels : sequence of str, optional
+        The x labels (``columns`` if not given).
+    """
+    plt = pyplot()
+    n_rows = -(-len(rows) // n_cols)
+    width, height = panel_size
+    fig, axes = plt.subplots(
+        n_rows, n_cols, figsize=(width * n_cols, height * n_rows), squeeze=False
+    )
+    for ax, r in zip(axes.flat, rows, strict=False):
+        for k, column in enumerate(columns):
+            c = r[column]
+            if c is None:
+                continue
+            ax.errorbar(
+                k, c["diff"], yerr=[[c["diff"] - c["low"]], [c["high"] - c["diff"]]],
+                fmt="o", color=f"C{k}", capsize=3,
+            )  # fmt: skip
+        ax.axhline(0, color="k", lw=0.8)
+        ax.set_xticks(range(len(columns)), list(tick_labels or columns), fontsize=7)
+        ax.set_xlim(-0.6, len(columns) - 0.4)
+        critic = f", {r['critic']}" if "critic" in r else ""
+        ax.set_title(f"{r['env'].split('/')[-1]}\n{r['algo']}{critic}", fontsize=8)
+        ax.tick_params(axis="y", labelsize=7)
+        ax.grid(alpha=0.3, axis="y")
+    for ax in axes.flat[len(rows) :]:
+        ax.axis("off")
+    fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return Path(path)
+
+
 #: The caption under each figure: what its lines and bands are (:func:`_band`).
 BAND_CAPTION = (
     f"Lines: mean over seeds (n in the legend). Shaded: {100 * LEVEL:g} % percentile-bootstrap "
