@@ -74,7 +74,7 @@ _UPDATE_RULES = ("novelty_tol", "forgetting", "adapt")
 #: Prior mean functions of :class:`SparseOnlineGP`.
 _PRIOR_MEANS = ("constant", "linear")
 #: Trends of :class:`SparseOnlineGP`.
-_TRENDS = ("none", "linear")
+_TRENDS = ("none", "constant", "linear", "level")
 #: Ridge of the linear trend, per point, on the raw second moments of ``[x, 1]``.
 _TREND_RIDGE = 1e-3
 #: Points retained for :meth:`SparseOnlineGP.fit_hyperparameters` without adaptation.
@@ -489,14 +489,24 @@ class SparseOnlineGP(nn.Module):
         return mean, None if var is None else var * self.y_scale**2
 
     def _trend(self, x: Tensor) -> Tensor:
-        """The linear trend ``w^T [x, 1]`` of ``x : (n, d)``, shape (n,); 0 without one."""
+        """The trend ``w^T [x, 1]`` of ``x : (n, d)``, shape (n,); 0 without one."""
         return _with_ones(x) @ self.trend_coef
 
     def _fit_trend(self, x: Tensor, y: Tensor) -> Tensor:
-        """Refit the trend to the batch ``(x, y)``; return what it leaves, ``y - trend(x)``."""
-        A = _with_ones(x)
+        """Refit the trend to the batch ``(x, y)``; return what it leaves, ``y - trend(x)``.
+        A constant trend is the line with its slopes held at 0 (its last column alone); the
+        level moves by the batch's mean error under the model before it absorbs the batch."""
+        if self.trend == "level":
+            if self.n_basis > 0:
+                latent = self._latent(self._scaled(x), return_var=False)[0]
+                error = y - (latent * self.y_scale + self._prior(x) + self._trend(x))
+                self.trend_coef[-1] += error.mean()
+            return y - self._trend(x)
+        fitted = slice(None) if self.trend == "linear" else slice(-1, None)
+        A = _with_ones(x)[:, fitted]
         ridge = _TREND_RIDGE * y.shape[0] * torch.eye(A.shape[1], dtype=A.dtype, device=A.device)
-        self.trend_coef.copy_(torch.linalg.solve(A.T @ A + ridge, A.T @ y))
+        self.trend_coef.zero_()
+        self.trend_coef[fitted] = torch.linalg.solve(A.T @ A + ridge, A.T @ y)
         return y - self._trend(x)
 
     def _prior(self, x: Tensor) -> Tensor:
@@ -628,7 +638,7 @@ class SparseOnlineGP(nn.Module):
             self._rollback = None
 
     def _update(self, x: Tensor, y: Tensor, starts: Tensor) -> None:
-        if self.trend == "linear":
+        if self.trend != "none":
             y = self._fit_trend(x, y)
         if not bool(self.initialized):
             self._initialize(x, y)
