@@ -195,14 +195,17 @@ class SparseOnlineGP(nn.Module):
         the constant mean reverts to the targets' average and the linear one follows their
         trend, as a linear model or an MLP would (docs/method.md, section 4). ``"linear"``
         takes no ``target_mean``.
-    trend : {"none", "linear"}
-        ``"linear"``: a least-squares line ``w^T [x, 1]`` (ridge ``1e-3 n`` on the raw second
-        moments of ``[x, 1]``) is refitted to each batch as it arrives and the GP is fed what
-        it leaves, ``y - w^T [x, 1]``; predictions are the current line plus the GP. Unlike
-        ``prior_mean="linear"``, the GP's data are never re-expressed relative to a new line:
-        they keep the residuals of the line of their own batch. Meant for batches of thousands
-        of points (a PPO rollout); the out-of-sample statistics of :attr:`last_stats` are
-        then the GP's, on the residuals (docs/method.md, section 4). Not with
+    trend : {"none", "level", "constant", "linear"}
+        A trend ``w^T [x, 1]`` under the GP, moved as each batch arrives, before the GP is fed
+        what it leaves, ``y - w^T [x, 1]``; predictions are the current trend plus the GP.
+        ``"linear"``: the batch's least-squares line (ridge ``1e-3 n`` on the raw second moments
+        of ``[x, 1]``); ``"constant"``: its intercept alone (the batch's mean over ``1.001``);
+        ``"level"``: an intercept ``b`` moved by the batch's mean error under the model before
+        it absorbs the batch, ``b <- b + mean(y - b - mu(x))`` (the first batch leaves 0).
+        Unlike ``prior_mean="linear"``, the GP's data are never re-expressed relative to a new
+        trend: each keeps the residual of its own batch. Meant for batches of thousands of
+        points (a PPO rollout); the out-of-sample statistics of :attr:`last_stats` are then the
+        GP's, on the residuals (docs/method.md, section 4). ``"linear"`` not with
         ``prior_mean="linear"``.
     input_bounds : (low, high) of array-likes with ``input_dim`` entries each, optional
         Bounds of the inputs where known: unset lengthscales of bounded dimensions then come

@@ -8,7 +8,7 @@ from __future__ import annotations
 import copy
 import math
 import os
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -1302,33 +1302,71 @@ def test_a_linear_mean_state_is_refused_by_a_constant_mean_gp() -> None:
     assert_same_state(before, other.state_dict())
 
 
-# -- the linear trend ------------------------------------------------------------------------------
-def ridge_line(x: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """``w`` of ``y ~ w^T [x, 1]`` with the trend's ridge, ``1e-3 n`` on ``[x, 1]^T [x, 1]``."""
+# -- the trends ------------------------------------------------------------------------------------
+def ridge_line(x: np.ndarray, y: np.ndarray, slopes: bool = True) -> np.ndarray:
+    """``w`` of ``y ~ w^T [x, 1]`` with the trend's ridge, ``1e-3 n`` on ``[x, 1]^T [x, 1]``;
+    without ``slopes`` the intercept alone, ``sum(y) / (1.001 n)``, the slopes 0."""
     A = np.column_stack([x, np.ones(len(x))])
+    if not slopes:
+        return np.append(np.zeros(x.shape[1]), y.sum() / (1.001 * len(y)))
     return np.linalg.solve(A.T @ A + 1e-3 * len(y) * np.eye(A.shape[1]), A.T @ y)
 
 
-@pytest.mark.parametrize("kernel", ["laplacian", "geodesic"])
-def test_trend_is_each_batchs_line_plus_a_gp_of_the_residuals_as_they_came(kernel: str) -> None:
-    """A GP with ``trend="linear"`` predicts the latest batch's ridge line plus exactly what a
-    GP without trend predicts after being fed each batch's residuals from its own line."""
-    rng = np.random.default_rng(13)
-    trend = SparseOnlineGP(2, kernel, max_basis=30, adapt=True, trend="linear")
-    plain = SparseOnlineGP(2, kernel, max_basis=30, adapt=True)
-    for k in range(3):  # the level and the slope change from batch to batch
+def trend_batches(seed: int) -> Iterator[tuple[np.ndarray, np.ndarray]]:
+    """Three batches whose level and slope change from batch to batch."""
+    rng = np.random.default_rng(seed)
+    for k in range(3):
         x = rng.uniform(size=(400, 2))
         y = (5.0 * k - 3) + (2 - k) * x[:, 0] + np.sin(6 * x[:, 1]) + 0.05 * rng.normal(size=400)
-        w = ridge_line(x, y)
-        trend.update(x, y)
-        plain.update(x, y - np.column_stack([x, np.ones(400)]) @ w)
-        np.testing.assert_allclose(trend.trend_coef.numpy(), w, rtol=1e-10, atol=1e-12)
-    probe = rng.uniform(-1, 2, size=(20, 2))
-    line = np.column_stack([probe, np.ones(20)]) @ w
-    mean, var = trend.predict(probe)
+        yield x, y
+
+
+def assert_predicts_trend_plus(gp: SparseOnlineGP, plain: SparseOnlineGP, w: np.ndarray) -> None:
+    """``gp`` predicts the trend ``w^T [x, 1]`` plus exactly what ``plain`` predicts."""
+    probe = np.random.default_rng(0).uniform(-1, 2, size=(20, 2))
+    mean, var = gp.predict(probe)
     ref_mean, ref_var = plain.predict(probe)
+    line = np.column_stack([probe, np.ones(20)]) @ w
     np.testing.assert_allclose(mean.numpy(), ref_mean.numpy() + line, atol=1e-8)
     np.testing.assert_allclose(var.numpy(), ref_var.numpy(), atol=1e-10)
+
+
+@pytest.mark.parametrize("trend", ["linear", "constant"])
+@pytest.mark.parametrize("kernel", ["laplacian", "geodesic"])
+def test_trend_is_each_batchs_fit_plus_a_gp_of_the_residuals_as_they_came(
+    kernel: str, trend: str
+) -> None:
+    """A GP with ``trend="linear"`` (``"constant"``) predicts the latest batch's ridge line
+    (mean) plus exactly what a GP without trend predicts after being fed each batch's residuals
+    from its own line (mean)."""
+    gp = SparseOnlineGP(2, kernel, max_basis=30, adapt=True, trend=trend)
+    plain = SparseOnlineGP(2, kernel, max_basis=30, adapt=True)
+    for x, y in trend_batches(13):
+        w = ridge_line(x, y, slopes=trend == "linear")
+        gp.update(x, y)
+        plain.update(x, y - np.column_stack([x, np.ones(400)]) @ w)
+        np.testing.assert_allclose(gp.trend_coef.numpy(), w, rtol=1e-10, atol=1e-12)
+    assert_predicts_trend_plus(gp, plain, w)
+
+
+@pytest.mark.parametrize("kernel", ["laplacian", "geodesic"])
+def test_level_moves_by_each_batchs_mean_error_before_absorbing(kernel: str) -> None:
+    """``trend="level"``: the first batch leaves the level at 0; each later one moves it by
+    the batch's mean error under level + GP before the batch is absorbed, and the GP is fed
+    the batch minus the moved level. The reference: a GP without trend fed exactly that, the
+    level kept by hand from the reference's own predictions."""
+    gp = SparseOnlineGP(2, kernel, max_basis=30, adapt=True, trend="level")
+    plain = SparseOnlineGP(2, kernel, max_basis=30, adapt=True)
+    level = 0.0
+    for k, (x, y) in enumerate(trend_batches(15)):
+        if k > 0:
+            level += float(np.mean(y - level - plain.predict(x)[0].numpy()))
+        gp.update(x, y)
+        plain.update(x, y - level)
+        assert float(gp.trend_coef[-1]) == pytest.approx(level, abs=1e-9)
+    assert float(gp.trend_coef[:-1].abs().sum()) == 0
+    assert level > 5  # the batches' mean rose by 5 twice: the level did move
+    assert_predicts_trend_plus(gp, plain, np.array([0.0, 0.0, level]))
 
 
 @pytest.mark.parametrize(
@@ -1343,16 +1381,18 @@ def test_bad_trend_raises(kwargs: dict[str, Any], message: str) -> None:
         SparseOnlineGP(2, "rbf", **kwargs)
 
 
-def test_trend_state_round_trips_and_is_refused_without_trend() -> None:
+@pytest.mark.parametrize("trend", ["linear", "level"])
+def test_trend_state_round_trips_and_is_refused_without_trend(trend: str) -> None:
     rng = np.random.default_rng(14)
-    gp = SparseOnlineGP(2, "laplacian", max_basis=20, adapt=True, trend="linear")
-    gp.update(rng.uniform(size=(100, 2)), rng.normal(size=100))
-    copy_ = SparseOnlineGP(2, "laplacian", max_basis=20, adapt=True, trend="linear")
+    gp = SparseOnlineGP(2, "laplacian", max_basis=20, adapt=True, trend=trend)
+    for _ in range(2):  # the level moves from the second batch on
+        gp.update(rng.uniform(size=(100, 2)), rng.normal(size=100) + 3)
+    copy_ = SparseOnlineGP(2, "laplacian", max_basis=20, adapt=True, trend=trend)
     copy_.load_state_dict(gp.state_dict())
     probe = rng.uniform(size=(5, 2))
     torch.testing.assert_close(copy_.predict(probe)[0], gp.predict(probe)[0], rtol=0, atol=0)
     other = SparseOnlineGP(2, "laplacian", max_basis=20, adapt=True)
     before = copy.deepcopy(other.state_dict())
-    with pytest.raises(ValueError, match="trend='linear'"):
+    with pytest.raises(ValueError, match=f"trend='{trend}'"):
         other.load_state_dict(gp.state_dict())
     assert_same_state(before, other.state_dict())
