@@ -11,7 +11,8 @@ statistics, summary of dropped points, adaptation proper) with its share of the 
 ``--critics`` picks the critics instead: a kernel, optionally followed by ``+adapt`` (the
 policy's default, :class:`~sb3_geogp.Adaptation`'s defaults: the default critic under PPO is
 ``laplacian+adapt``), ``+cheap`` (:data:`~sb3_geogp.CHEAP_ADAPTATION`) and, for the geodesic
-kernel, ``+shared`` (0.3's one lengthscale factor, ``kernel_kwargs=dict(ard=False)``), and
+kernel, ``+shared`` (0.3's one lengthscale factor, ``kernel_kwargs=dict(ard=False)``),
+``+notrend`` (no trend: the critic before 0.9, whose PPO default moves a level), and
 after ``+adapt`` or ``+cheap`` by other adaptation settings (``+gapN``: ``max_gap=N``;
 ``+thinN``: ``score_points`` and ``fold_points`` N; ``+stepsN``), so that the cost of an
 option is measured interleaved with the default's.
@@ -26,6 +27,8 @@ busy processes running during the benchmark, to measure a loaded machine. Exampl
         --critics geodesic+adapt geodesic+adapt+shared geodesic+adapt+thin512+gap4
     python examples/benchmark_training.py --workloads "PPO Pendulum-v1" \\
         --critics mlp laplacian+adapt laplacian+cheap
+    python examples/benchmark_training.py --workloads "PPO Pendulum-v1" \\
+        --critics mlp laplacian+adapt laplacian+adapt+notrend
 """
 
 from __future__ import annotations
@@ -63,6 +66,7 @@ SUFFIXES: dict[str, dict[str, Any]] = {
     "adapt": {"adapt": True},
     "cheap": {"adapt": CHEAP_ADAPTATION.as_dict()},
     "shared": {"kernel_kwargs": {"ard": False}},
+    "notrend": {"trend": "none"},
 }
 #: Suffixes with a count (after ``+adapt``): the :class:`~sb3_geogp.adaptation.Adaptation`
 #: settings they give it, e.g. ``+gap4`` (``max_gap=4``), ``+thin512`` (``score_points`` and

@@ -57,6 +57,16 @@ DEFAULT_KERNEL = "laplacian"
 #: the geodesic kernel: with A2C the Laplacian critic is worse than the MLP family-wise on
 #: Acrobot on fresh seeds, the geodesic critic in no cell (docs/results.md, "A2C confirmation").
 DEFAULT_KERNELS: dict[type[BaseAlgorithm], str] = {A2C: "geodesic"}
+#: The GP critic's trend (:class:`~sb3_geogp.SparseOnlineGP`'s ``trend``) where ``gp_kwargs``
+#: sets none, unless the algorithm training the policy is in :data:`DEFAULT_TRENDS`: since 0.9
+#: a level moved by each rollout's mean error under the critic before it absorbs the rollout
+#: (``"none"`` before). In its pre-registered test on fresh seeds it removed most of the PPO
+#: Acrobot stalls of the Laplacian critic and lost no PPO cell (docs/results.md, "A moving
+#: level").
+DEFAULT_TREND = "level"
+#: Algorithms whose GP critic has another default trend. A2C feeds the GP a few steps per
+#: environment at a time, too few points to move a level by their mean error; not measured.
+DEFAULT_TRENDS: dict[type[BaseAlgorithm], str] = {A2C: "none"}
 #: Options the policy gives the GP critic of a kernel named in ``gp_kwargs`` (or of the
 #: default kernel, :func:`default_kernel`) where ``gp_kwargs`` leaves them unset. The Laplacian
 #: kernel gets a denser basis than the engine's default (``novelty_tol`` 0.39 for this kernel,
@@ -140,7 +150,9 @@ class GPCriticMixin(_PolicyBase):
         _check_spaces(observation_space, action_space)
         # Needed by _build(), which the SB3 policy's __init__ calls.
         algorithm = _constructing_algorithm()
-        self._default_kernel = default_kernel(None if algorithm is None else type(algorithm))
+        algorithm_class = None if algorithm is None else type(algorithm)
+        self._default_kernel = default_kernel(algorithm_class)
+        self._default_trend = default_trend(algorithm_class)
         self._gp_options = check_gp_kwargs(gp_kwargs)
         super().__init__(observation_space, action_space, lr_schedule, net_arch=net_arch, **kwargs)
         self.gp_kwargs = dict(gp_kwargs or {})
@@ -187,7 +199,7 @@ class GPCriticMixin(_PolicyBase):
             if isinstance(self.vf_features_extractor, FlattenExtractor)
             else None
         )
-        options = {"kernel": self._default_kernel, **self._gp_options}
+        options = {"kernel": self._default_kernel, "trend": self._default_trend, **self._gp_options}
         gp = build_gp_critic(options, self.mlp_extractor.latent_dim_vf, bounds)
         self.value_net = GPValueHead(gp.to(self.device))  # type: ignore[assignment]
 
@@ -196,22 +208,25 @@ class GPCriticMixin(_PolicyBase):
         # With the defaults written out, a policy saved on its own (policy.save) loads with the
         # critic it was trained with whatever a later version's defaults are. (model.save
         # keeps the algorithm's policy_kwargs: load_state_dict then adopts the saved kernel.)
-        data.update(gp_kwargs=resolved_gp_kwargs(self.gp_kwargs, self._default_kernel))
+        data.update(
+            gp_kwargs=resolved_gp_kwargs(self.gp_kwargs, self._default_kernel, self._default_trend)
+        )
         return data
 
     def load_state_dict(self, state_dict: Mapping[str, Any], *args: Any, **kwargs: Any) -> Any:
         """Load a state, as :meth:`torch.nn.Module.load_state_dict`.
 
-        A model saved before 0.6 without a kernel in ``gp_kwargs`` has the geodesic kernel (the
-        default then): where this policy's ``gp_kwargs`` name no kernel either, the critic is
-        rebuilt with the kernel the state was saved with before it is loaded. A state that is
-        refused (e.g. saved with another ``max_basis``) raises and leaves the policy as it was.
+        A model saved without a kernel or a trend in ``gp_kwargs`` has the defaults of its
+        version (the geodesic kernel before 0.6, no trend before 0.9): where this policy's
+        ``gp_kwargs`` set them neither, the critic is rebuilt with the kernel and the trend the
+        state was saved with before it is loaded. A state that is refused (e.g. saved with
+        another ``max_basis``) raises and leaves the policy as it was.
         """
         kept = (self.gp_kwargs, self._gp_options, self.value_net)
         # torch loads module by module: a state refused by the GP would leave the actor loaded.
         snapshot = {k: v.clone() if isinstance(v, th.Tensor) else v
                     for k, v in self.state_dict().items()}  # fmt: skip
-        self._adopt_saved_kernel(state_dict)
+        self._adopt_saved_defaults(state_dict)
         try:
             return super().load_state_dict(state_dict, *args, **kwargs)
         except Exception:
@@ -220,16 +235,22 @@ class GPCriticMixin(_PolicyBase):
             super().load_state_dict(snapshot)
             raise
 
-    def _adopt_saved_kernel(self, state_dict: Mapping[str, Any]) -> None:
-        if "kernel" in self.gp_kwargs:
-            return
-        saved = state_dict.get("value_net.gp.kernel._extra_state")
-        name = _KERNEL_NAMES.get(str(saved.get("kernel"))) if isinstance(saved, dict) else None
-        if name is None or isinstance(self.gp.kernel, KERNELS[name]):
-            return
-        self.gp_kwargs = {**self.gp_kwargs, "kernel": name}
-        self._gp_options = check_gp_kwargs(self.gp_kwargs)
-        self._build_gp()
+    def _adopt_saved_defaults(self, state_dict: Mapping[str, Any]) -> None:
+        saved: dict[str, Any] = {}
+        kernel_state = state_dict.get("value_net.gp.kernel._extra_state")
+        if "kernel" not in self.gp_kwargs and isinstance(kernel_state, dict):
+            name = _KERNEL_NAMES.get(str(kernel_state.get("kernel")))
+            if name is not None and not isinstance(self.gp.kernel, KERNELS[name]):
+                saved["kernel"] = name
+        gp_state = state_dict.get("value_net.gp._extra_state")
+        # States saved before 0.8 record no trend: they had none.
+        trend = gp_state.get("trend", "none") if isinstance(gp_state, dict) else "none"
+        if "trend" not in self.gp_kwargs and trend != self.gp.trend:
+            saved["trend"] = trend
+        if saved:
+            self.gp_kwargs = {**self.gp_kwargs, **saved}
+            self._gp_options = check_gp_kwargs(self.gp_kwargs)
+            self._build_gp()
 
     @property
     def gp(self) -> SparseOnlineGP:
@@ -462,8 +483,10 @@ class GPActorCriticPolicy(GPCriticMixin, ActorCriticPolicy):
         ``dict(profile="laplacian", n_neighbors=4)`` for the geodesic one).
         A kernel given by name gets the options of :data:`KERNEL_DEFAULTS` that ``gp_kwargs``
         leaves unset (the Laplacian kernel: ``novelty_tol=0.1``); the others get the engine's
-        defaults. ``dtype`` may be a string such as ``"float64"``. ``input_dim``, ``device``
-        and ``input_bounds`` are set by the policy.
+        defaults. ``trend`` is ``"level"`` under PPO, TRPO and MaskablePPO and ``"none"`` under
+        A2C unless given (since 0.9, see :func:`default_trend`; ``"none"`` before). ``dtype``
+        may be a string such as ``"float64"``. ``input_dim``, ``device`` and ``input_bounds``
+        are set by the policy.
         ``adapt`` is ``True`` unless given (unlike the engine's default): the GP learns its
         hyperparameters, target mean and scale and forgetting from the stream
         (:class:`~sb3_geogp.Adaptation`); ``adapt=False`` gives 0.2's critic with fixed
@@ -566,20 +589,36 @@ def default_kernel(algorithm: type[BaseAlgorithm] | None) -> str:
     """The GP critic's kernel where ``gp_kwargs`` names none, for policies trained by
     ``algorithm`` (``None``: a policy built outside an algorithm): :data:`DEFAULT_KERNELS`, else
     :data:`DEFAULT_KERNEL`."""
+    return _for_algorithm(DEFAULT_KERNELS, DEFAULT_KERNEL, algorithm)
+
+
+def default_trend(algorithm: type[BaseAlgorithm] | None) -> str:
+    """The GP critic's trend where ``gp_kwargs`` sets none, for policies trained by
+    ``algorithm`` (``None``: a policy built outside an algorithm): :data:`DEFAULT_TRENDS`, else
+    :data:`DEFAULT_TREND`."""
+    return _for_algorithm(DEFAULT_TRENDS, DEFAULT_TREND, algorithm)
+
+
+def _for_algorithm(
+    table: dict[type[BaseAlgorithm], str], default: str, algorithm: type[BaseAlgorithm] | None
+) -> str:
     if algorithm is not None:
-        for cls, kernel in DEFAULT_KERNELS.items():
+        for cls, value in table.items():
             if issubclass(algorithm, cls):
-                return kernel
-    return DEFAULT_KERNEL
+                return value
+    return default
 
 
-def resolved_gp_kwargs(gp_kwargs: dict[str, Any], kernel: str = DEFAULT_KERNEL) -> dict[str, Any]:
+def resolved_gp_kwargs(
+    gp_kwargs: dict[str, Any], kernel: str = DEFAULT_KERNEL, trend: str = DEFAULT_TREND
+) -> dict[str, Any]:
     """``gp_kwargs`` with the policy's defaults written out.
 
-    ``adapt=True``, ``kernel`` (the default kernel, see :func:`default_kernel`) and, for a
-    kernel given by name, its :data:`KERNEL_DEFAULTS`, each where ``gp_kwargs`` does not set it.
+    ``adapt=True``, ``kernel`` and ``trend`` (the defaults, see :func:`default_kernel` and
+    :func:`default_trend`) and, for a kernel given by name, its :data:`KERNEL_DEFAULTS`, each
+    where ``gp_kwargs`` does not set it.
     """
-    options = {"adapt": True, "kernel": kernel, **gp_kwargs}
+    options = {"adapt": True, "kernel": kernel, "trend": trend, **gp_kwargs}
     named = options["kernel"]
     extra = KERNEL_DEFAULTS.get(named, {}) if isinstance(named, str) else {}
     return {**extra, **options}

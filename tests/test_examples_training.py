@@ -70,6 +70,7 @@ def test_benchmark_training_setting_suffixes_build_those_settings() -> None:
     expected = Adaptation(max_gap=4, score_points=512, fold_points=512)
     assert as_adaptation(options["adapt"]) == expected
     assert bench.gp_kwargs_of(["adapt"]) == {"adapt": True}
+    assert bench.gp_kwargs_of(["adapt", "notrend"]) == {"adapt": True, "trend": "none"}
     # +cheap: the preset, settings on top of it.
     assert as_adaptation(bench.gp_kwargs_of(["cheap"])["adapt"]) == CHEAP_ADAPTATION
     cheap = as_adaptation(bench.gp_kwargs_of(["cheap", "steps2"])["adapt"])

@@ -204,7 +204,8 @@ def test_policy_kwargs_options_reach_the_gp_and_constructor_parameters() -> None
     assert model.policy.gp.input_dim == 3
     # Saved with the policy's defaults written out (adapt), so that a later version's defaults
     # do not change a saved model.
-    assert model.policy._get_constructor_parameters()["gp_kwargs"] == {"adapt": True, **gp_kwargs}
+    saved = model.policy._get_constructor_parameters()["gp_kwargs"]
+    assert saved == {"adapt": True, "trend": "level", **gp_kwargs}
 
 
 def test_default_critic_is_the_laplacian_kernel_with_a_dense_basis_except_under_a2c() -> None:
@@ -223,8 +224,9 @@ def test_default_critic_is_the_laplacian_kernel_with_a_dense_basis_except_under_
     assert isinstance(default.gp.kernel, LaplacianKernel) and default.gp.novelty_tol == 0.1
     assert default.gp.adaptation is not None
     assert default.gp.adaptation == Adaptation()
+    assert default.gp.trend == "level"
     saved = default._get_constructor_parameters()["gp_kwargs"]
-    assert saved == {"adapt": True, "kernel": "laplacian", "novelty_tol": 0.1}
+    assert saved == {"adapt": True, "kernel": "laplacian", "trend": "level", "novelty_tol": 0.1}
     assert built(kernel="laplacian", novelty_tol=0.2).gp.novelty_tol == 0.2
     laplacian_engine_default = 1 - np.exp(-0.25) ** 2
     for policy in (built(A2C), built(type("MyA2C", (A2C,), {})), built(kernel="geodesic")):
@@ -233,7 +235,11 @@ def test_default_critic_is_the_laplacian_kernel_with_a_dense_basis_except_under_
     assert built(A2C)._get_constructor_parameters()["gp_kwargs"] == {
         "adapt": True,
         "kernel": "geodesic",
+        "trend": "none",
     }
+    assert built(type("MyA2C", (A2C,), {})).gp.trend == "none"
+    assert built(A2C, trend="level").gp.trend == "level"
+    assert built(trend="none").gp.trend == "none"
     assert built(A2C).gp.adaptation == Adaptation()
     assert built(A2C, kernel="laplacian").gp.novelty_tol == 0.1
     assert built(adapt=CHEAP_ADAPTATION).gp.adaptation == CHEAP_ADAPTATION  # the preset
@@ -242,6 +248,35 @@ def test_default_critic_is_the_laplacian_kernel_with_a_dense_basis_except_under_
     assert rbf == pytest.approx(1 - np.exp(-0.5 * 0.25**2) ** 2)
     alone = GPActorCriticPolicy(env.observation_space, env.action_space, lambda _: 3e-4)
     assert isinstance(alone.gp.kernel, LaplacianKernel)  # built outside an algorithm
+    assert alone.gp.trend == "level"
+
+
+def test_model_saved_before_0_9_without_a_trend_loads_with_its_trend_free_critic(
+    tmp_path: Path,
+) -> None:
+    """Up to 0.8 the PPO critic had no trend by default and saved models did not name one: a
+    model saved with ``gp_kwargs`` without a trend (as 0.8 saved it) keeps its critic, values
+    and further learning included; one that names a trend is refused a state of another."""
+    env = make_vec_env("Pendulum-v1", n_envs=2, seed=0)
+    old_kwargs = dict(gp_kwargs=dict(max_basis=16), net_arch=[16])
+    trend_free = dict(old_kwargs, gp_kwargs=dict(max_basis=16, trend="none"))
+    model = PPO(
+        GPActorCriticPolicy, env, n_steps=64, batch_size=64, seed=0, policy_kwargs=trend_free
+    )
+    model.learn(256, callback=GPValueCallback())
+    model.save(tmp_path / "model.zip")
+    loaded = PPO.load(tmp_path / "model.zip", env=env, custom_objects={"policy_kwargs": old_kwargs})
+    assert isinstance(loaded.policy, GPActorCriticPolicy)
+    assert loaded.policy.gp.trend == "none"
+    assert loaded.policy.gp_kwargs == {"max_basis": 16, "trend": "none"}
+    obs = flat_obs(model)
+    assert th.equal(loaded.policy.predict_values(obs), model.policy.predict_values(obs))
+    seen = int(loaded.policy.gp.n_seen)
+    loaded.learn(128, callback=GPValueCallback(), reset_num_timesteps=False)
+    assert int(loaded.policy.gp.n_seen) == seen + 128 and loaded.policy.gp.trend == "none"
+    level = dict(old_kwargs, gp_kwargs=dict(max_basis=16, trend="level"))
+    with pytest.raises(ValueError, match="trend='none'"):
+        PPO.load(tmp_path / "model.zip", env=env, custom_objects={"policy_kwargs": level})
 
 
 def test_model_saved_before_0_6_without_a_kernel_loads_with_its_geodesic_critic(
