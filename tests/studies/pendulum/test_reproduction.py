@@ -6,7 +6,6 @@ import csv
 import importlib.util
 import json
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -74,9 +73,7 @@ def _load_example():  # type: ignore[no-untyped-def]
 
 def test_quick_run_writes_every_promised_file(tmp_path: Path) -> None:
     example = _load_example()
-    start = time.perf_counter()
     example.main(["--quick", "--out", str(tmp_path)])
-    assert time.perf_counter() - start < 60
     for name in (*example.FIGURES, *example.TABLES):
         assert (tmp_path / name).stat().st_size > 0, name
     record = json.loads((tmp_path / "results.json").read_text())
