@@ -57,6 +57,8 @@ from sb3_geogp.toolbox.tables import format_table
 
 #: The policy's PPO default critic with the cheaper adaptation preset (0.7).
 CHEAP_DEFAULT = {"adapt": CHEAP_ADAPTATION, "novelty_tol": 0.1}
+#: The policy's PPO default critic since 0.9: the 0.6 one with a moving level.
+LEVEL_DEFAULT = {"adapt": True, "novelty_tol": 0.1, "trend": "level"}
 VARIANTS = {
     "pendulum": (
         Variant("rbf", "rbf"),
@@ -72,9 +74,11 @@ VARIANTS = {
         # The adaptive GP (issue 13): hyperparameters, targets and forgetting from the stream.
         Variant("rbf adapt", "rbf", {}, {"adapt": True}),
         Variant("geo laplace interp adapt", "geodesic", {}, {"adapt": True}),
-        # The policy's default critic under PPO since 0.6, and with the cheaper preset (0.7).
+        # The policy's default critic under PPO since 0.6, with the cheaper preset (0.7), and
+        # with the level (0.9's default).
         Variant("laplacian adapt n0.1", "laplacian", {}, {"adapt": True, "novelty_tol": 0.1}),
         Variant("laplacian cheap n0.1", "laplacian", {}, CHEAP_DEFAULT),
+        Variant("laplacian adapt n0.1 level", "laplacian", {}, LEVEL_DEFAULT),
     ),
     # A full basis facing a stream that keeps moving away from it (issue 11, defect 2).
     "drift": (
@@ -84,6 +88,7 @@ VARIANTS = {
         Variant("geo laplace interp adapt", "geodesic", {}, {"adapt": True}),
         Variant("laplacian adapt n0.1", "laplacian", {}, {"adapt": True, "novelty_tol": 0.1}),
         Variant("laplacian cheap n0.1", "laplacian", {}, CHEAP_DEFAULT),
+        Variant("laplacian adapt n0.1 level", "laplacian", {}, LEVEL_DEFAULT),
     ),
 }
 STREAMS = {"pendulum": pendulum_stream, "drift": drifting_stream}
