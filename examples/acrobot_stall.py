@@ -3,8 +3,9 @@
 Run: ``python examples/acrobot_stall.py --seeds 11 15 --out docs/acrobot_stall`` (PPO with the
 comparison's zoo hyperparameters and budget; about 2 minutes a run on one core).
 
-Per rollout, for SB3's MLP critic, the default GP critic (Laplacian, adaptive, constant prior
-mean) and the same GP critic with ``prior_mean="linear"``, on the same seeds (the actor starts
+Per rollout, for SB3's MLP critic, 0.8's default GP critic (Laplacian, adaptive, constant prior
+mean, no trend: since 0.9 the default moves a level) and the same GP critic with
+``prior_mean="linear"``, on the same seeds (the actor starts
 from the same parameters): how many episodes of the rollout reached the goal (episodes shorter
 than the 500-step cap), and the correlation, over the rollout's states, between the critic's
 values (predicted before it learns from the rollout: those the advantages use) and the height
@@ -35,8 +36,8 @@ from sb3_geogp.comparison.specs import RunSpec
 #: Critic label -> (critic of the comparison, extra GP options).
 CRITICS: dict[str, tuple[str, dict[str, Any]]] = {
     "MLP": ("mlp", {}),
-    "GP, constant mean (default)": ("laplacian", {}),
-    "GP, linear mean": ("laplacian", {"prior_mean": "linear"}),
+    "GP, constant mean (default)": ("laplacian", {"trend": "none"}),
+    "GP, linear mean": ("laplacian", {"prior_mean": "linear", "trend": "none"}),
 }
 ENV_ID = "Acrobot-v1"
 CAP = 500
