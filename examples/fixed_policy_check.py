@@ -15,6 +15,7 @@ Usage::
     python examples/fixed_policy_check.py --quick --out runs/fixed_quick   # smoke run (seconds)
     python examples/fixed_policy_check.py --prior-sd 0.1 --out runs/fixed_prior  # with a hyperprior
     python examples/fixed_policy_check.py --adapt '{"max_gap": 8}' --out runs/fixed_gap8
+    python examples/fixed_policy_check.py --kernels laplacian --trend level --out runs/fixed_level
 """
 
 from __future__ import annotations
@@ -74,6 +75,12 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         type=json.loads,
         default=None,
         help='other Adaptation settings as JSON, e.g. \'{"max_gap": 8, "fold_points": 512}\'',
+    )
+    parser.add_argument(
+        "--trend",
+        choices=("none", "level", "constant", "linear"),
+        default="none",
+        help="the adaptive on-line GP's trend (the PPO default since 0.9: level)",
     )
     parser.add_argument(
         "--kernels",
@@ -141,6 +148,8 @@ def plot(result: CheckResult, path: Path) -> None:
         if bars
         else f"{n_seeds} seed(s): no error bars (fewer than {MIN_SAMPLES_FOR_INTERVAL})"
     )
+    if cfg.trend != "none":
+        what += f"; adaptive GP with trend={cfg.trend}"
     # Two lines: a one-kernel figure is too narrow for the title and its caption in one.
     fig.suptitle(f"Fixed-policy check, pendulum: on-line GP vs batch sparse GP\n({what})")
     fig.tight_layout()
@@ -159,6 +168,7 @@ def main(argv: list[str] | None = None) -> None:
         config = replace(config, max_basis=tuple(args.max_basis))
     if args.kernels is not None:
         config = replace(config, kernels=tuple(args.kernels))
+    config = replace(config, trend=args.trend)
     settings = dict(args.adapt or {})
     if args.prior_sd is not None:
         settings["prior_sd"] = args.prior_sd

@@ -64,8 +64,9 @@ def test_long_run_numerics_quick_passes_all_checks(tmp_path: Path, stream: str) 
 
 def test_fixed_policy_check_quick_checks_only_the_kernels_asked(tmp_path: Path) -> None:
     script = load_script("fixed_policy_check")
-    script.main(["--quick", "--kernels", "geodesic", "--out", str(tmp_path)])
+    script.main(["--quick", "--kernels", "geodesic", "--trend", "level", "--out", str(tmp_path)])
     result = json.loads((tmp_path / "results.json").read_text())
     assert result["config"]["kernels"] == ["geodesic"]
+    assert result["config"]["trend"] == "level"
     assert {row["kernel"] for row in result["rows"]} == {"geodesic"}
     assert (tmp_path / "mse_ratio.png").stat().st_size > 0

@@ -240,6 +240,9 @@ class CheckConfig:
         a rollout-sized batch).
     adaptation : Adaptation
         Settings of the adaptive on-line GP (the defaults: window 2048, a block of 1024).
+    trend : {"none", "level", "constant", "linear"}
+        The adaptive on-line GP's ``trend`` (:class:`~sb3_geogp.SparseOnlineGP`; the policy's
+        PPO default since 0.9 is ``"level"``); the default on-line GP has none.
     novelty_tol : float
         Relative novelty of a new basis vector: low, so that ``max_basis`` rather than the
         tolerance limits the basis (the library default, a quarter lengthscale, fills only
@@ -259,6 +262,7 @@ class CheckConfig:
     stride: int = 4
     episodes_per_batch: int = 40
     adaptation: Adaptation = field(default_factory=Adaptation)
+    trend: str = "none"
     novelty_tol: float = 1e-3
     grid_n: int = 60
     mc_rollouts: int = 100
@@ -397,9 +401,9 @@ def online_gp(
 ) -> SparseOnlineGP:
     """One on-line pass over ``data`` in batches of whole episodes, with their starts.
 
-    The GP has the library's defaults but ``novelty_tol`` (and ``config.adaptation`` where
-    ``adapt``), and knows the observation bounds (as the SB3 critic does), from which it
-    takes its starting lengthscales.
+    The GP has the library's defaults but ``novelty_tol`` (and ``config.adaptation`` and
+    ``config.trend`` where ``adapt``), and knows the observation bounds (as the SB3 critic
+    does), from which it takes its starting lengthscales.
     """
     high = np.array([math.pi, task.params.max_speed])
     gp = SparseOnlineGP(
@@ -409,6 +413,7 @@ def online_gp(
         novelty_tol=config.novelty_tol,
         input_bounds=(-high, high),
         adapt=config.adaptation if adapt else None,
+        trend=config.trend if adapt else "none",
     )
     for rows in episode_batches(data.episode_starts, config.episodes_per_batch):
         gp.update(data.states[rows], data.returns[rows], episode_starts=data.episode_starts[rows])
