@@ -148,10 +148,9 @@ def plot(result: CheckResult, path: Path) -> None:
         if bars
         else f"{n_seeds} seed(s): no error bars (fewer than {MIN_SAMPLES_FOR_INTERVAL})"
     )
-    if cfg.trend != "none":
-        what += f"; adaptive GP with trend={cfg.trend}"
-    # Two lines: a one-kernel figure is too narrow for the title and its caption in one.
-    fig.suptitle(f"Fixed-policy check, pendulum: on-line GP vs batch sparse GP\n({what})")
+    trend = "" if cfg.trend == "none" else f"\nadaptive on-line GP with trend={cfg.trend}"
+    # Lines: a one-kernel figure is too narrow for the title and its captions in one.
+    fig.suptitle(f"Fixed-policy check, pendulum: on-line GP vs batch sparse GP\n({what}){trend}")
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
