@@ -207,7 +207,8 @@ class GPCriticMixin(_PolicyBase):
         data = super()._get_constructor_parameters()
         # With the defaults written out, a policy saved on its own (policy.save) loads with the
         # critic it was trained with whatever a later version's defaults are. (model.save
-        # keeps the algorithm's policy_kwargs: load_state_dict then adopts the saved kernel.)
+        # keeps the algorithm's policy_kwargs: load_state_dict then adopts the saved kernel and
+        # trend.)
         data.update(
             gp_kwargs=resolved_gp_kwargs(self.gp_kwargs, self._default_kernel, self._default_trend)
         )
