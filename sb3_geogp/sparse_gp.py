@@ -488,8 +488,12 @@ class SparseOnlineGP(nn.Module):
             var = variance.expand(x.shape[0]).clone() if return_var else None
         else:
             mean, var = self._latent(self._scaled(x), return_var)
-        mean = mean * self.y_scale + self._prior(x) + self._trend(x)
-        return mean, None if var is None else var * self.y_scale**2
+        return self._in_units(x, mean), None if var is None else var * self.y_scale**2
+
+    def _in_units(self, x: Tensor, latent: Tensor) -> Tensor:
+        """The model's mean at ``x : (n, d)`` in target units from the GP's standardised mean
+        ``latent : (n,)`` there: ``latent * scale + m(x) + trend(x)``, shape (n,)."""
+        return latent * self.y_scale + self._prior(x) + self._trend(x)
 
     def _trend(self, x: Tensor) -> Tensor:
         """The trend ``w^T [x, 1]`` of ``x : (n, d)``, shape (n,); 0 without one."""
@@ -502,8 +506,7 @@ class SparseOnlineGP(nn.Module):
         if self.trend == "level":
             if self.n_basis > 0:
                 latent = self._latent(self._scaled(x), return_var=False)[0]
-                error = y - (latent * self.y_scale + self._prior(x) + self._trend(x))
-                self.trend_coef[-1] += error.mean()
+                self.trend_coef[-1] += (y - self._in_units(x, latent)).mean()
             return y - self._trend(x)
         fitted = slice(None) if self.trend == "linear" else slice(-1, None)
         A = _with_ones(x)[:, fitted]
