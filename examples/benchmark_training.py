@@ -14,7 +14,8 @@ policy's default, :class:`~sb3_geogp.Adaptation`'s defaults: the default critic 
 kernel, ``+shared`` (0.3's one lengthscale factor, ``kernel_kwargs=dict(ard=False)``),
 ``+notrend`` (no trend: the critic before 0.9, whose PPO default moves a level), and
 after ``+adapt`` or ``+cheap`` by other adaptation settings (``+gapN``: ``max_gap=N``;
-``+thinN``: ``score_points`` and ``fold_points`` N; ``+stepsN``), so that the cost of an
+``+thinN``: ``score_points`` and ``fold_points`` N; ``+stepsN``; ``+nosettle``:
+``settle=False``), so that the cost of an
 option is measured interleaved with the default's.
 
 ``--threads default`` leaves torch's thread count as a new user has it (the engine then runs
@@ -76,18 +77,22 @@ SETTING_SUFFIXES: dict[str, tuple[str, ...]] = {
     "thin": ("score_points", "fold_points"),
     "steps": ("steps",),
 }
+#: Suffixes without a count (after ``+adapt``) and the settings they give it.
+SETTING_FLAGS: dict[str, dict[str, Any]] = {"nosettle": {"settle": False}}
 
 
 def gp_kwargs_of(suffixes: Sequence[str]) -> dict[str, Any] | None:
     """What the suffixes of a GP critic's name add to its ``gp_kwargs`` (``None``: a suffix
     is unknown, or a setting suffix comes without ``+adapt``)."""
     options: dict[str, Any] = {}
-    settings: dict[str, int] = {}
+    settings: dict[str, Any] = {}
     for suffix in suffixes:
         name = suffix.rstrip("0123456789")
         count = suffix[len(name) :]
         if suffix in SUFFIXES:
             options.update(SUFFIXES[suffix])
+        elif suffix in SETTING_FLAGS:
+            settings.update(SETTING_FLAGS[suffix])
         elif name in SETTING_SUFFIXES and count:
             settings.update(dict.fromkeys(SETTING_SUFFIXES[name], int(count)))
         else:
@@ -106,7 +111,7 @@ def critic_name(text: str) -> str:
     kernel, *suffixes = text.split("+")
     known = kernel in ALL_CRITICS and (kernel != "mlp" or not suffixes)
     if not known or gp_kwargs_of(suffixes) is None:
-        counted = " +".join(f"{k}N" for k in SETTING_SUFFIXES)
+        counted = " +".join([*(f"{k}N" for k in SETTING_SUFFIXES), *SETTING_FLAGS])
         raise argparse.ArgumentTypeError(
             f"unknown critic {text!r}: use one of {ALL_CRITICS}, a GP kernel optionally followed "
             f"by +{' +'.join(SUFFIXES)}, and after +adapt or +cheap by +{counted} (e.g. "

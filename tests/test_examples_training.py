@@ -75,6 +75,9 @@ def test_benchmark_training_setting_suffixes_build_those_settings() -> None:
     assert as_adaptation(bench.gp_kwargs_of(["cheap"])["adapt"]) == CHEAP_ADAPTATION
     cheap = as_adaptation(bench.gp_kwargs_of(["cheap", "steps2"])["adapt"])
     assert cheap == dataclasses.replace(CHEAP_ADAPTATION, steps=2)
+    rare = as_adaptation(bench.gp_kwargs_of(["adapt", "gap16", "nosettle"])["adapt"])
+    assert rare == Adaptation(max_gap=16, settle=False)
+    assert bench.gp_kwargs_of(["nosettle"]) is None  # a setting needs +adapt or +cheap
 
 
 def test_critic_fit_scores_each_rollout_as_sb3_does() -> None:
