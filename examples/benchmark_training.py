@@ -14,8 +14,8 @@ policy's default, :class:`~sb3_geogp.Adaptation`'s defaults: the default critic 
 kernel, ``+shared`` (0.3's one lengthscale factor, ``kernel_kwargs=dict(ard=False)``),
 ``+notrend`` (no trend: the critic before 0.9, whose PPO default moves a level), and
 after ``+adapt`` or ``+cheap`` by other adaptation settings (``+gapN``: ``max_gap=N``;
-``+thinN``: ``score_points`` and ``fold_points`` N; ``+stepsN``; ``+nosettle``:
-``settle=False``), so that the cost of an
+``+thinN``: ``score_points`` and ``fold_points`` N; ``+stepsN``; ``+floorN``:
+``fit_floor=N/100``; ``+nosettle``: ``settle=False``), so that the cost of an
 option is measured interleaved with the default's.
 
 ``--threads default`` leaves torch's thread count as a new user has it (the engine then runs
@@ -70,12 +70,14 @@ SUFFIXES: dict[str, dict[str, Any]] = {
     "notrend": {"trend": "none"},
 }
 #: Suffixes with a count (after ``+adapt``): the :class:`~sb3_geogp.adaptation.Adaptation`
-#: settings they give it, e.g. ``+gap4`` (``max_gap=4``), ``+thin512`` (``score_points`` and
-#: ``fold_points`` 512), ``+steps2``.
-SETTING_SUFFIXES: dict[str, tuple[str, ...]] = {
-    "gap": ("max_gap",),
-    "thin": ("score_points", "fold_points"),
-    "steps": ("steps",),
+#: settings they give it and what the count is divided by, e.g. ``+gap4`` (``max_gap=4``),
+#: ``+thin512`` (``score_points`` and ``fold_points`` 512), ``+steps2``, ``+floor80``
+#: (``fit_floor=0.8``).
+SETTING_SUFFIXES: dict[str, tuple[tuple[str, ...], int]] = {
+    "gap": (("max_gap",), 1),
+    "thin": (("score_points", "fold_points"), 1),
+    "steps": (("steps",), 1),
+    "floor": (("fit_floor",), 100),
 }
 #: Suffixes without a count (after ``+adapt``) and the settings they give it.
 SETTING_FLAGS: dict[str, dict[str, Any]] = {"nosettle": {"settle": False}}
@@ -94,7 +96,9 @@ def gp_kwargs_of(suffixes: Sequence[str]) -> dict[str, Any] | None:
         elif suffix in SETTING_FLAGS:
             settings.update(SETTING_FLAGS[suffix])
         elif name in SETTING_SUFFIXES and count:
-            settings.update(dict.fromkeys(SETTING_SUFFIXES[name], int(count)))
+            names, divisor = SETTING_SUFFIXES[name]
+            value = int(count) if divisor == 1 else int(count) / divisor
+            settings.update(dict.fromkeys(names, value))
         else:
             return None
     adapt = options.get("adapt")

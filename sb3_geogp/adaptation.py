@@ -46,7 +46,10 @@ blocks numbered by a power of two below ``g`` (unless ``settle=False``) and on t
 targets have drifted, their mean square in the current standardised units (over the points
 scored in step 1) outside ``[1/c, c]``, refits too: returns that grow as the policy improves
 get their new scale, and hyperparameters fitted on the first returns (often nearly constant)
-their refit, when the data say so rather than on a fixed schedule. ``score_points`` and
+their refit, when the data say so rather than on a fixed schedule. With ``fit_floor=f``, a
+block whose targets the posterior predicted (step 1's out-of-sample predictions, over the
+points it scored) with an explained variance below ``f`` refits too: the refits go where the
+model is wrong. ``score_points`` and
 ``fold_points`` make step 1 and the summary below use an evenly spaced subsample of a batch
 (:func:`thinned`). All of these are cheaper and off by default; :data:`CHEAP_ADAPTATION`
 combines them. docs/benchmarks.md measures what they save and what fit they cost,
@@ -127,6 +130,11 @@ class Adaptation:
     drift_tol : float or None
         Refit a block whose targets drifted beyond this factor (module docstring); ``> 1``.
         ``None``: only on the schedule of ``max_gap``.
+    fit_floor : float or None
+        Refit a block whose targets the posterior predicted, before absorbing each batch,
+        with an explained variance below this (over the points scored in step 1; a block of
+        targets that do not vary never counts); ``< 1``. ``None``: only on the schedule of
+        ``max_gap`` (and ``drift_tol``).
 
     Raises
     ------
@@ -151,6 +159,7 @@ class Adaptation:
     fold_points: int | None = None
     settle: bool = True
     drift_tol: float | None = None
+    fit_floor: float | None = None
 
     def __post_init__(self) -> None:
         optional = ("interval", "score_points", "fold_points")
@@ -178,6 +187,12 @@ class Adaptation:
             raise ValueError(
                 f"Adaptation.drift_tol must be a finite factor > 1 (or None: no drift refits), "
                 f"got {self.drift_tol}"
+            )
+        floor = self.fit_floor
+        if floor is not None and not (floor < 1 and math.isfinite(floor)):
+            raise ValueError(
+                f"Adaptation.fit_floor must be a finite explained variance < 1 (or None: no fit "
+                f"refits), got {self.fit_floor}"
             )
         candidates = tuple(float(c) for c in self.forgetting)
         if not candidates or not all(0 < c <= 1 for c in candidates):
@@ -212,6 +227,11 @@ class Adaptation:
         drifted beyond ``drift_tol`` (never without one)."""
         tol = self.drift_tol
         return tol is not None and not (1 / tol <= mean_square <= tol)
+
+    def misfitted(self, explained: float) -> bool:
+        """Whether a block whose targets were predicted with explained variance ``explained``
+        (NaN: targets that do not vary) falls below ``fit_floor`` (never without one)."""
+        return self.fit_floor is not None and explained < self.fit_floor
 
     def as_dict(self) -> dict[str, Any]:
         """JSON-compatible settings (stored in the GP's state)."""

@@ -428,7 +428,7 @@ class GPCriticMixin(_PolicyBase):
             :attr:`~sb3_geogp.SparseOnlineGP.last_stats` (``nlpd`` of the batch before it was
             absorbed, and after each adaptation the forgetting in effect, ``lengthscale`` (the
             geometric mean) and ``lengthscale_<i>``, ``signal_var``, ``noise_var``,
-            ``target_mean``, ``target_scale``, ``target_drift``).
+            ``target_mean``, ``target_scale``, ``target_drift``, ``block_fit``).
         """
         stats: dict[str, float] = {}
         start = time.perf_counter()

@@ -284,6 +284,7 @@ class SparseOnlineGP(nn.Module):
     block_new: Tensor
     forgetting_scores: Tensor
     block_moments: Tensor
+    block_errors: Tensor
     n_pruned: Tensor
     novelty_floor: Tensor
     block_forgetting: Tensor
@@ -388,8 +389,10 @@ class SparseOnlineGP(nn.Module):
         self.register_buffer("block_forgetting", torch.tensor(self.forgetting, **kw))
         n_candidates = len(self.adaptation.forgetting) if self.adaptation is not None else 1
         self.register_buffer("forgetting_scores", torch.zeros(n_candidates, **kw))
-        # Points scored in the open block and the sum of their squared standardised targets.
+        # Points scored in the open block and the sum of their squared standardised targets;
+        # the sums of those targets, of their out-of-sample errors and of the errors' squares.
         self.register_buffer("block_moments", torch.zeros(2, **kw))
+        self.register_buffer("block_errors", torch.zeros(3, **kw))
         self.register_buffer("ls_start", self.kernel.lengthscale.to(**kw).clone())
         self.window = RetainedWindow(size, self.input_dim).to(**kw)
         self.last_stats: dict[str, float] = {}
@@ -576,6 +579,8 @@ class SparseOnlineGP(nn.Module):
             state_dict[prefix + "forgetting_scores"] = torch.zeros_like(self.forgetting_scores)
         # Saved before drift refits (0.6): the open block's targets count from the next batch.
         state_dict.setdefault(prefix + "block_moments", torch.zeros_like(self.block_moments))
+        # Saved before fit refits (0.10): the open block's errors count as none (no fit refit).
+        state_dict.setdefault(prefix + "block_errors", torch.zeros_like(self.block_errors))
         # Saved before the linear prior mean (0.8): a constant one.
         for name in ("y_slope", "summary_input", "trend_coef"):
             state_dict.setdefault(prefix + name, torch.zeros_like(getattr(self, name)))
@@ -1094,13 +1099,26 @@ class SparseOnlineGP(nn.Module):
         scored = bool((scores != 0).any())
         lam = a.forgetting[int(scores.argmin())] if scored else float(self.block_forgetting)
         scores.zero_()
-        points, squares = self.block_moments.tolist()
-        self.block_moments.zero_()
+        drift, explained = self._block_fit()
         self.block_forgetting.fill_(lam)
-        drift = squares / points if points > 0 else 1.0
-        self.last_stats.update(forgetting=lam, target_drift=drift)
-        if a.refits(int(self.n_blocks)) or a.drifted(drift):
+        self.last_stats.update(forgetting=lam, target_drift=drift, block_fit=explained)
+        if a.refits(int(self.n_blocks)) or a.drifted(drift) or a.misfitted(explained):
             self._refit(a, x, y, age_weights(age, lam).to(y))
+
+    def _block_fit(self) -> tuple[float, float]:
+        """The closing block's drift (mean square of its scored standardised targets; 1 if
+        none was scored) and the explained variance of its out-of-sample predictions (NaN if
+        its targets do not vary); starts the next block's sums."""
+        points, squares = self.block_moments.tolist()
+        total, errors, error_squares = self.block_errors.tolist()
+        self.block_moments.zero_()
+        self.block_errors.zero_()
+        if points <= 0:
+            return 1.0, math.nan
+        spread = squares / points - (total / points) ** 2
+        miss = error_squares / points - (errors / points) ** 2
+        explained = 1.0 - miss / spread if spread > 1e-12 * squares / points else math.nan
+        return squares / points, explained
 
     def _refit(self, a: Adaptation, x: Tensor, y: Tensor, w: Tensor) -> None:
         """Steps 2-4 of the adaptation on the window ``x, y`` with weights ``w``."""
@@ -1160,6 +1178,8 @@ class SparseOnlineGP(nn.Module):
         nll = 0.5 * (torch.log(2 * math.pi * variances) + (yn - means).square() / variances)
         self.forgetting_scores += nll @ count
         self.block_moments += torch.stack([count.sum(), yn.square() @ count])
+        error = yn - mean
+        self.block_errors += torch.stack([yn @ count, error @ count, error.square() @ count])
 
     def _restandardise(self, x: Tensor, y: Tensor, w: Tensor) -> None:
         """The prior mean and scale of the retained targets ``y : (n,)`` at ``x : (n, d)``

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import copy
+
 import numpy as np
 import pytest
 import torch
@@ -41,6 +43,8 @@ from tests.test_sparse_gp import assert_same_state, nystrom_posterior, rbf, snap
         dict(settle=1),
         dict(drift_tol=1.0),
         dict(drift_tol=float("nan")),
+        dict(fit_floor=1.0),
+        dict(fit_floor=float("-inf")),
     ],
 )
 def test_bad_settings_raise_naming_the_setting(bad: dict) -> None:
@@ -468,6 +472,38 @@ def test_a_state_saved_by_0_2_loads_with_the_ages_it_had() -> None:
     assert float(copy.summary_prec.abs().sum()) == 0.0
 
 
+@pytest.mark.parametrize("floor", [None, 0.5, 0.99])
+def test_a_block_predicted_below_the_fit_floor_refits(floor: float | None) -> None:
+    """``fit_floor`` with scheduled refits only on block 1, a block per two batches: the
+    block's fit, logged as ``block_fit``, is the explained variance of the predictions the GP
+    made of each of its batches before absorbing it (computed here from copies of the GP); a
+    block below the floor refits (its hyperparameters move), the others keep them."""
+    adapt = Adaptation(
+        window=1000, interval=100, steps=3, max_gap=100, settle=False, fit_floor=floor
+    )
+    rng = np.random.default_rng(5)
+    gp = SparseOnlineGP(1, RBFKernel(lengthscale=0.3), max_basis=20, adapt=adapt)
+    truth, predicted, fits, refitted = [], [], [], []
+    for i in range(8):
+        x = rng.uniform(size=(50, 1))
+        y = np.sin(4 * x[:, 0]) + 0.3 * rng.normal(size=50)
+        hyper = gp.lengthscale.clone()
+        if gp.n_basis > 0:  # an empty basis scores nothing
+            truth.append(y)
+            predicted.append(copy.deepcopy(gp).predict(x, return_var=False)[0].numpy())
+        gp.update(x, y)
+        if i % 2 == 1 and i > 1:  # blocks 2, 3, 4 close
+            y_all, mean = np.concatenate(truth), np.concatenate(predicted)
+            expected = 1 - np.var(y_all - mean) / np.var(y_all)
+            assert gp.last_stats["block_fit"] == pytest.approx(expected, rel=1e-9)
+            fits.append(expected)
+            refitted.append(not torch.equal(hyper, gp.lengthscale))
+        if i % 2 == 1:
+            truth, predicted = [], []
+    assert all(0.5 < f < 0.99 for f in fits)  # the noise leaves about 0.8 explained
+    assert refitted == [floor == 0.99] * 3
+
+
 def test_a_state_saved_by_0_6_loads_without_drift_moments() -> None:
     """0.6 stored no ``block_moments``: the state loads, predicts as saved, and the open
     block's drift counts the targets of the batches fed after loading only."""
@@ -477,7 +513,7 @@ def test_a_state_saved_by_0_6_loads_without_drift_moments() -> None:
     for _ in range(3):  # 300 points: the second block is open, with 100 scored
         gp.update(rng.uniform(size=(100, 2)), rng.normal(size=100))
     # Also without what 0.8's linear prior mean added (a constant mean saved as before).
-    added = ("block_moments", "y_slope", "summary_input", "trend_coef")
+    added = ("block_moments", "block_errors", "y_slope", "summary_input", "trend_coef")
     state = {k: v for k, v in gp.state_dict().items() if k not in added}
     extra = state["_extra_state"]
     state["_extra_state"] = {k: v for k, v in extra.items() if k not in ("prior_mean", "trend")}
