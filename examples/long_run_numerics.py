@@ -50,6 +50,7 @@ import torch
 from tqdm import tqdm
 
 from sb3_geogp import CHEAP_ADAPTATION, SparseOnlineGP
+from sb3_geogp.policies import DEFAULT_ADAPTATION
 from sb3_geogp.toolbox.benchmarks import Variant, torch_threads
 from sb3_geogp.toolbox.provenance import provenance
 from sb3_geogp.toolbox.streams import Rollout, drifting_stream, pendulum_stream
@@ -59,6 +60,8 @@ from sb3_geogp.toolbox.tables import format_table
 CHEAP_DEFAULT = {"adapt": CHEAP_ADAPTATION, "novelty_tol": 0.1}
 #: The policy's PPO default critic since 0.9: the 0.6 one with a moving level.
 LEVEL_DEFAULT = {"adapt": True, "novelty_tol": 0.1, "trend": "level"}
+#: The policy's PPO default critic since 0.10: 0.9's with a refit every 16 blocks.
+RARE_DEFAULT = {**LEVEL_DEFAULT, "adapt": DEFAULT_ADAPTATION}
 VARIANTS = {
     "pendulum": (
         Variant("rbf", "rbf"),
@@ -74,11 +77,12 @@ VARIANTS = {
         # The adaptive GP (issue 13): hyperparameters, targets and forgetting from the stream.
         Variant("rbf adapt", "rbf", {}, {"adapt": True}),
         Variant("geo laplace interp adapt", "geodesic", {}, {"adapt": True}),
-        # The policy's default critic under PPO since 0.6, with the cheaper preset (0.7), and
-        # with the level (0.9's default).
+        # The policy's default critic under PPO since 0.6, with the cheaper preset (0.7), with
+        # the level (0.9's default) and with rare refits (0.10's).
         Variant("laplacian adapt n0.1", "laplacian", {}, {"adapt": True, "novelty_tol": 0.1}),
         Variant("laplacian cheap n0.1", "laplacian", {}, CHEAP_DEFAULT),
         Variant("laplacian adapt n0.1 level", "laplacian", {}, LEVEL_DEFAULT),
+        Variant("laplacian rare n0.1 level", "laplacian", {}, RARE_DEFAULT),
     ),
     # A full basis facing a stream that keeps moving away from it (issue 11, defect 2).
     "drift": (
@@ -89,6 +93,7 @@ VARIANTS = {
         Variant("laplacian adapt n0.1", "laplacian", {}, {"adapt": True, "novelty_tol": 0.1}),
         Variant("laplacian cheap n0.1", "laplacian", {}, CHEAP_DEFAULT),
         Variant("laplacian adapt n0.1 level", "laplacian", {}, LEVEL_DEFAULT),
+        Variant("laplacian rare n0.1 level", "laplacian", {}, RARE_DEFAULT),
     ),
 }
 STREAMS = {"pendulum": pendulum_stream, "drift": drifting_stream}

@@ -20,7 +20,7 @@ import contextlib
 import sys
 import time
 from collections.abc import Iterator, Mapping
-from typing import TYPE_CHECKING, Any, Self
+from typing import TYPE_CHECKING, Any, Self, TypeVar
 
 import numpy as np
 import torch as th
@@ -34,6 +34,7 @@ from stable_baselines3.common.type_aliases import PyTorchObs, Schedule
 from stable_baselines3.common.utils import explained_variance
 from torch import nn
 
+from sb3_geogp.adaptation import Adaptation, as_adaptation
 from sb3_geogp.kernels import KERNELS, make_kernel
 from sb3_geogp.sparse_gp import SparseOnlineGP
 
@@ -67,6 +68,22 @@ DEFAULT_TREND = "level"
 #: Algorithms whose GP critic has another default trend. A2C feeds the GP a few steps per
 #: environment at a time, too few points to move a level by their mean error; not measured.
 DEFAULT_TRENDS: dict[type[BaseAlgorithm], str] = {A2C: "none"}
+#: The GP critic's adaptation where ``gp_kwargs`` leaves ``adapt`` unset or ``True``, unless the
+#: algorithm training the policy is in :data:`DEFAULT_ADAPTATIONS`: since 0.10 a refit (new
+#: target units, the hyperparameters' Adam steps, the rebuild) on the first block, every 16th
+#: and any block whose targets the critic predicted with an explained variance below 0.8, each
+#: batch scored and the points leaving the window summarised through at most 256 of them;
+#: every block still chooses its forgetting and the level moves with every rollout. It takes
+#: 8 % of the GP critic's time on PPO Pendulum-v1 where a refit every block (0.9) took 58 %,
+#: and in its pre-registered test it lost no PPO cell against 0.9's critic (docs/results.md,
+#: "Rare refits where the fit is good").
+DEFAULT_ADAPTATION = Adaptation(
+    max_gap=16, settle=False, score_points=256, fold_points=256, fit_floor=0.8
+)
+#: Algorithms whose GP critic has another default adaptation. A2C keeps a refit every block
+#: (the engine's :class:`~sb3_geogp.Adaptation` defaults): a schedule of rare refits is not
+#: measured with it.
+DEFAULT_ADAPTATIONS: dict[type[BaseAlgorithm], Adaptation] = {A2C: Adaptation()}
 #: Options the policy gives the GP critic of a kernel named in ``gp_kwargs`` (or of the
 #: default kernel, :func:`default_kernel`) where ``gp_kwargs`` leaves them unset. The Laplacian
 #: kernel gets a denser basis than the engine's default (``novelty_tol`` 0.39 for this kernel,
@@ -153,6 +170,7 @@ class GPCriticMixin(_PolicyBase):
         algorithm_class = None if algorithm is None else type(algorithm)
         self._default_kernel = default_kernel(algorithm_class)
         self._default_trend = default_trend(algorithm_class)
+        self._default_adaptation = default_adaptation(algorithm_class)
         self._gp_options = check_gp_kwargs(gp_kwargs)
         super().__init__(observation_space, action_space, lr_schedule, net_arch=net_arch, **kwargs)
         self.gp_kwargs = dict(gp_kwargs or {})
@@ -199,7 +217,7 @@ class GPCriticMixin(_PolicyBase):
             if isinstance(self.vf_features_extractor, FlattenExtractor)
             else None
         )
-        options = {"kernel": self._default_kernel, "trend": self._default_trend, **self._gp_options}
+        options = resolved_gp_kwargs(self._gp_options, *self._defaults)
         gp = build_gp_critic(options, self.mlp_extractor.latent_dim_vf, bounds)
         self.value_net = GPValueHead(gp.to(self.device))  # type: ignore[assignment]
 
@@ -207,21 +225,26 @@ class GPCriticMixin(_PolicyBase):
         data = super()._get_constructor_parameters()
         # With the defaults written out, a policy saved on its own (policy.save) loads with the
         # critic it was trained with whatever a later version's defaults are. (model.save
-        # keeps the algorithm's policy_kwargs: load_state_dict then adopts the saved kernel and
-        # trend.)
-        data.update(
-            gp_kwargs=resolved_gp_kwargs(self.gp_kwargs, self._default_kernel, self._default_trend)
-        )
+        # keeps the algorithm's policy_kwargs: load_state_dict then adopts the saved kernel,
+        # trend and adaptation.)
+        data.update(gp_kwargs=resolved_gp_kwargs(self.gp_kwargs, *self._defaults))
         return data
+
+    @property
+    def _defaults(self) -> tuple[str, str, Adaptation]:
+        """The kernel, trend and adaptation the policy gives its critic where ``gp_kwargs``
+        does not set them."""
+        return self._default_kernel, self._default_trend, self._default_adaptation
 
     def load_state_dict(self, state_dict: Mapping[str, Any], *args: Any, **kwargs: Any) -> Any:
         """Load a state, as :meth:`torch.nn.Module.load_state_dict`.
 
-        A model saved without a kernel or a trend in ``gp_kwargs`` has the defaults of its
-        version (the geodesic kernel before 0.6, no trend before 0.9): where this policy's
-        ``gp_kwargs`` set them neither, the critic is rebuilt with the kernel and the trend the
-        state was saved with before it is loaded. A state that is refused (e.g. saved with
-        another ``max_basis``) raises and leaves the policy as it was.
+        A model saved without a kernel, a trend or adaptation settings in ``gp_kwargs`` has
+        the defaults of its version (the geodesic kernel before 0.6, no trend before 0.9, a
+        refit every block before 0.10): where this policy's ``gp_kwargs`` do not set them (for
+        the adaptation: unset or ``True``), the critic is rebuilt with the kernel, the trend and
+        the adaptation the state was saved with before it is loaded. A state that is refused
+        (e.g. saved with another ``max_basis``) raises and leaves the policy as it was.
         """
         kept = (self.gp_kwargs, self._gp_options, self.value_net)
         # torch loads module by module: a state refused by the GP would leave the actor loaded.
@@ -248,6 +271,10 @@ class GPCriticMixin(_PolicyBase):
         trend = gp_state.get("trend", "none") if isinstance(gp_state, dict) else "none"
         if "trend" not in self.gp_kwargs and trend != self.gp.trend:
             saved["trend"] = trend
+        adapt = gp_state.get("adapt") if isinstance(gp_state, dict) else None
+        unset = self.gp_kwargs.get("adapt", True) is True
+        if unset and isinstance(adapt, dict) and as_adaptation(adapt) != self.gp.adaptation:
+            saved["adapt"] = adapt
         if saved:
             self.gp_kwargs = {**self.gp_kwargs, **saved}
             self._gp_options = check_gp_kwargs(self.gp_kwargs)
@@ -488,11 +515,15 @@ class GPActorCriticPolicy(GPCriticMixin, ActorCriticPolicy):
         A2C unless given (since 0.9, see :func:`default_trend`; ``"none"`` before). ``dtype``
         may be a string such as ``"float64"``. ``input_dim``, ``device`` and ``input_bounds``
         are set by the policy.
-        ``adapt`` is ``True`` unless given (unlike the engine's default): the GP learns its
+        ``adapt`` is on unless given (unlike the engine's default): the GP learns its
         hyperparameters, target mean and scale and forgetting from the stream
-        (:class:`~sb3_geogp.Adaptation`); ``adapt=False`` gives 0.2's critic with fixed
-        hyperparameters (``forgetting`` then stays as given);
-        ``adapt=sb3_geogp.CHEAP_ADAPTATION`` adapts at a fraction of the cost, with the losses
+        (:class:`~sb3_geogp.Adaptation`). Unset or ``True``, it takes the policy's settings
+        for the algorithm (:func:`default_adaptation`: since 0.10 under PPO, TRPO and
+        MaskablePPO :data:`DEFAULT_ADAPTATION`, refits on the first block, every 16th and
+        badly predicted ones; under A2C the engine's ``Adaptation()``, a refit every block,
+        which was every algorithm's before 0.10 and is ``adapt={}``); ``adapt=False`` gives
+        0.2's critic with fixed hyperparameters (``forgetting`` then stays as given);
+        ``adapt=sb3_geogp.CHEAP_ADAPTATION`` is 0.7's cheaper preset, with the losses
         docs/results.md reports ("Cheaper adaptation, 0.7").
     **kwargs
         Every other option of :class:`~stable_baselines3.common.policies.ActorCriticPolicy`.
@@ -600,9 +631,21 @@ def default_trend(algorithm: type[BaseAlgorithm] | None) -> str:
     return _for_algorithm(DEFAULT_TRENDS, DEFAULT_TREND, algorithm)
 
 
+def default_adaptation(algorithm: type[BaseAlgorithm] | None) -> Adaptation:
+    """The GP critic's adaptation where ``gp_kwargs`` leaves ``adapt`` unset or ``True``, for
+    policies trained by ``algorithm`` (``None``: a policy built outside an algorithm):
+    :data:`DEFAULT_ADAPTATIONS`, else :data:`DEFAULT_ADAPTATION`."""
+    return _for_algorithm(DEFAULT_ADAPTATIONS, DEFAULT_ADAPTATION, algorithm)
+
+
+_Default = TypeVar("_Default")
+
+
 def _for_algorithm(
-    table: dict[type[BaseAlgorithm], str], default: str, algorithm: type[BaseAlgorithm] | None
-) -> str:
+    table: dict[type[BaseAlgorithm], _Default],
+    default: _Default,
+    algorithm: type[BaseAlgorithm] | None,
+) -> _Default:
     if algorithm is not None:
         for cls, value in table.items():
             if issubclass(algorithm, cls):
@@ -611,15 +654,21 @@ def _for_algorithm(
 
 
 def resolved_gp_kwargs(
-    gp_kwargs: dict[str, Any], kernel: str = DEFAULT_KERNEL, trend: str = DEFAULT_TREND
+    gp_kwargs: dict[str, Any],
+    kernel: str = DEFAULT_KERNEL,
+    trend: str = DEFAULT_TREND,
+    adapt: Adaptation = DEFAULT_ADAPTATION,
 ) -> dict[str, Any]:
     """``gp_kwargs`` with the policy's defaults written out.
 
-    ``adapt=True``, ``kernel`` and ``trend`` (the defaults, see :func:`default_kernel` and
-    :func:`default_trend`) and, for a kernel given by name, its :data:`KERNEL_DEFAULTS`, each
-    where ``gp_kwargs`` does not set it.
+    ``kernel``, ``trend`` and ``adapt`` (the defaults, see :func:`default_kernel`,
+    :func:`default_trend` and :func:`default_adaptation`; the adaptation as its settings, also
+    where ``gp_kwargs`` has ``adapt=True``) and, for a kernel given by name, its
+    :data:`KERNEL_DEFAULTS`, each where ``gp_kwargs`` does not set it.
     """
-    options = {"adapt": True, "kernel": kernel, "trend": trend, **gp_kwargs}
+    options = {"kernel": kernel, "trend": trend, **gp_kwargs}
+    if options.get("adapt", True) is True:
+        options["adapt"] = adapt.as_dict()
     named = options["kernel"]
     extra = KERNEL_DEFAULTS.get(named, {}) if isinstance(named, str) else {}
     return {**extra, **options}

@@ -21,6 +21,7 @@ from sb3_geogp.cli import (
     read_monitor_logs,
     reward_threshold,
 )
+from sb3_geogp.policies import DEFAULT_ADAPTATION
 
 
 @pytest.fixture(autouse=True)
@@ -60,7 +61,8 @@ def test_train_writes_model_logs_and_curve(
     assert isinstance(model.policy, GPActorCriticPolicy) == gp
     if gp:  # default forgetting: 0.9 with A2C (docs/results.md), 1.0 with PPO; adaptive
         assert model.policy.gp.forgetting == (0.9 if algo == "a2c" else 1.0)
-        assert model.policy.gp.adaptation == Adaptation()
+        adaptation = {"ppo": DEFAULT_ADAPTATION, "a2c": Adaptation()}[algo]
+        assert model.policy.gp.adaptation == adaptation
     if critic is None:  # the policy's default kernel for the algorithm
         kernel = {"ppo": LaplacianKernel, "a2c": GeodesicKernel}[algo]
         assert isinstance(model.policy.gp.kernel, kernel)

@@ -30,7 +30,7 @@ from sb3_geogp import (
     RBFKernel,
     SparseOnlineGP,
 )
-from sb3_geogp.policies import SUPPORTED_ALGORITHMS
+from sb3_geogp.policies import DEFAULT_ADAPTATION, SUPPORTED_ALGORITHMS
 
 ALGOS = [PPO, A2C]
 KERNELS = ["geodesic", "rbf"]
@@ -205,7 +205,7 @@ def test_policy_kwargs_options_reach_the_gp_and_constructor_parameters() -> None
     # Saved with the policy's defaults written out (adapt), so that a later version's defaults
     # do not change a saved model.
     saved = model.policy._get_constructor_parameters()["gp_kwargs"]
-    assert saved == {"adapt": True, "trend": "level", **gp_kwargs}
+    assert saved == {"adapt": DEFAULT_ADAPTATION.as_dict(), "trend": "level", **gp_kwargs}
 
 
 def test_default_critic_is_the_laplacian_kernel_with_a_dense_basis_except_under_a2c() -> None:
@@ -222,25 +222,29 @@ def test_default_critic_is_the_laplacian_kernel_with_a_dense_basis_except_under_
 
     default = built()
     assert isinstance(default.gp.kernel, LaplacianKernel) and default.gp.novelty_tol == 0.1
-    assert default.gp.adaptation is not None
-    assert default.gp.adaptation == Adaptation()
+    # Since 0.10 PPO refits on the first block, every 16th and those it predicted badly.
+    rare = Adaptation(max_gap=16, settle=False, score_points=256, fold_points=256, fit_floor=0.8)
+    assert default.gp.adaptation == rare and built(adapt=True).gp.adaptation == rare
     assert default.gp.trend == "level"
     saved = default._get_constructor_parameters()["gp_kwargs"]
-    assert saved == {"adapt": True, "kernel": "laplacian", "trend": "level", "novelty_tol": 0.1}
+    written = {"adapt": rare.as_dict(), "kernel": "laplacian", "trend": "level"}
+    assert saved == {**written, "novelty_tol": 0.1}
     assert built(kernel="laplacian", novelty_tol=0.2).gp.novelty_tol == 0.2
     laplacian_engine_default = 1 - np.exp(-0.25) ** 2
     for policy in (built(A2C), built(type("MyA2C", (A2C,), {})), built(kernel="geodesic")):
         assert isinstance(policy.gp.kernel, GeodesicKernel)
         assert policy.gp.novelty_tol == pytest.approx(laplacian_engine_default)  # its profile
     assert built(A2C)._get_constructor_parameters()["gp_kwargs"] == {
-        "adapt": True,
+        "adapt": Adaptation().as_dict(),
         "kernel": "geodesic",
         "trend": "none",
     }
     assert built(type("MyA2C", (A2C,), {})).gp.trend == "none"
     assert built(A2C, trend="level").gp.trend == "level"
     assert built(trend="none").gp.trend == "none"
-    assert built(A2C).gp.adaptation == Adaptation()
+    assert built(A2C).gp.adaptation == Adaptation() == built(A2C, adapt=True).gp.adaptation
+    assert built(adapt={}).gp.adaptation == Adaptation()  # the engine's: every block refits
+    assert built(adapt=False).gp.adaptation is None
     assert built(A2C, kernel="laplacian").gp.novelty_tol == 0.1
     assert built(adapt=CHEAP_ADAPTATION).gp.adaptation == CHEAP_ADAPTATION  # the preset
     assert built(kernel=LaplacianKernel()).gp.novelty_tol == pytest.approx(laplacian_engine_default)
@@ -248,7 +252,37 @@ def test_default_critic_is_the_laplacian_kernel_with_a_dense_basis_except_under_
     assert rbf == pytest.approx(1 - np.exp(-0.5 * 0.25**2) ** 2)
     alone = GPActorCriticPolicy(env.observation_space, env.action_space, lambda _: 3e-4)
     assert isinstance(alone.gp.kernel, LaplacianKernel)  # built outside an algorithm
-    assert alone.gp.trend == "level"
+    assert alone.gp.trend == "level" and alone.gp.adaptation == rare
+
+
+@pytest.mark.parametrize("adapt_then", [{}, {"adapt": True}])
+def test_model_saved_before_0_10_loads_with_the_adaptation_it_was_trained_with(
+    tmp_path: Path, adapt_then: dict[str, Any]
+) -> None:
+    """Up to 0.9 the PPO critic refitted every block (``Adaptation()``) and saved models said
+    ``adapt=True`` or nothing: such a model keeps its adaptation, values and further learning
+    included; ``gp_kwargs`` that name settings get those."""
+    env = make_vec_env("Pendulum-v1", n_envs=2, seed=0)
+    every_block = dict(gp_kwargs=dict(max_basis=16, adapt={}), net_arch=[16])
+    model = PPO(
+        GPActorCriticPolicy, env, n_steps=64, batch_size=64, seed=0, policy_kwargs=every_block
+    )
+    model.learn(256, callback=GPValueCallback())
+    model.save(tmp_path / "model.zip")
+    as_saved = dict(gp_kwargs=dict(max_basis=16, **adapt_then), net_arch=[16])
+    loaded = PPO.load(tmp_path / "model.zip", env=env, custom_objects={"policy_kwargs": as_saved})
+    assert isinstance(loaded.policy, GPActorCriticPolicy)
+    assert loaded.policy.gp.adaptation == Adaptation()
+    obs = flat_obs(model)
+    assert th.equal(loaded.policy.predict_values(obs), model.policy.predict_values(obs))
+    seen = int(loaded.policy.gp.n_seen)
+    loaded.learn(128, callback=GPValueCallback(), reset_num_timesteps=False)
+    assert (
+        int(loaded.policy.gp.n_seen) == seen + 128 and loaded.policy.gp.adaptation == Adaptation()
+    )
+    named = dict(gp_kwargs=dict(max_basis=16, adapt=CHEAP_ADAPTATION.as_dict()), net_arch=[16])
+    cheap = PPO.load(tmp_path / "model.zip", env=env, custom_objects={"policy_kwargs": named})
+    assert cheap.policy.gp.adaptation == CHEAP_ADAPTATION
 
 
 def test_model_saved_before_0_9_without_a_trend_loads_with_its_trend_free_critic(
@@ -583,7 +617,8 @@ def test_save_load_is_exact_and_training_continues(
 
 
 def test_the_policy_gp_adapts_unless_told_not_to() -> None:
-    assert make_model(PPO).policy.gp.adaptation == Adaptation()
+    assert make_model(PPO).policy.gp.adaptation == DEFAULT_ADAPTATION
+    assert make_model(A2C).policy.gp.adaptation == Adaptation()
     assert make_model(PPO, adapt=False).policy.gp.adaptation is None
     assert SparseOnlineGP(2).adaptation is None  # the engine's own default stays off
 
