@@ -9,14 +9,17 @@ the seconds spent in GP updates, in GP predictions, and in everything else; with
 also the GP critics with adaptation, and the seconds their updates spent on it (out-of-sample
 statistics, summary of dropped points, adaptation proper) with its share of the GP's time.
 ``--critics`` picks the critics instead: a kernel, optionally followed by ``+adapt`` (the
-policy's default, :class:`~sb3_geogp.Adaptation`'s defaults: the default critic under PPO is
+policy's default adaptation for the workload's algorithm,
+:func:`~sb3_geogp.policies.default_adaptation`: the default critic under PPO is
 ``laplacian+adapt``), ``+cheap`` (:data:`~sb3_geogp.CHEAP_ADAPTATION`) and, for the geodesic
 kernel, ``+shared`` (0.3's one lengthscale factor, ``kernel_kwargs=dict(ard=False)``),
 ``+notrend`` (no trend: the critic before 0.9, whose PPO default moves a level), and
 after ``+adapt`` or ``+cheap`` by other adaptation settings (``+gapN``: ``max_gap=N``;
 ``+thinN``: ``score_points`` and ``fold_points`` N; ``+stepsN``; ``+floorN``:
-``fit_floor=N/100``; ``+nosettle``: ``settle=False``), so that the cost of an
-option is measured interleaved with the default's.
+``fit_floor=N/100``; ``+nosettle``: ``settle=False``; settings after ``+adapt`` start
+from :class:`~sb3_geogp.Adaptation`'s defaults, so ``laplacian+adapt+gap1`` is PPO's critic
+before 0.10, a refit every block), so that the cost of an option is measured interleaved with
+the default's.
 
 ``--threads default`` leaves torch's thread count as a new user has it (the engine then runs
 its own work single-threaded, see ``SparseOnlineGP(num_threads=...)``); ``--load N`` keeps N

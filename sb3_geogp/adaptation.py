@@ -49,11 +49,12 @@ get their new scale, and hyperparameters fitted on the first returns (often near
 their refit, when the data say so rather than on a fixed schedule. With ``fit_floor=f``, a
 block whose targets the posterior predicted (step 1's out-of-sample predictions, over the
 points it scored) with an explained variance below ``f`` refits too: the refits go where the
-model is wrong. ``score_points`` and
-``fold_points`` make step 1 and the summary below use an evenly spaced subsample of a batch
-(:func:`thinned`). All of these are cheaper and off by default; :data:`CHEAP_ADAPTATION`
-combines them. docs/benchmarks.md measures what they save and what fit they cost,
-docs/results.md what they cost in training.
+model is wrong. ``score_points`` and ``fold_points`` make step 1 and the summary below use an
+evenly spaced subsample of a batch (:func:`thinned`). All of these are off by default;
+:data:`CHEAP_ADAPTATION` combines the cheaper ones, and since 0.10 the GP critic's policy under
+PPO uses all but ``drift_tol`` (:data:`sb3_geogp.policies.DEFAULT_ADAPTATION`).
+docs/benchmarks.md measures what they save and what fit they cost, docs/results.md what they
+cost in training.
 
 Between adaptations the GP learns on-line as without adaptation, forgetting with the chosen
 ``lambda`` before each batch (``alpha <- sqrt(lambda) alpha``, ``C <- lambda C``), which the
