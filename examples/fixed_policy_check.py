@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import textwrap
 import time
 import typing
 from dataclasses import replace
@@ -39,7 +40,7 @@ from matplotlib.ticker import FormatStrFormatter, LogLocator
 from rich.console import Console
 from tqdm import tqdm
 
-from sb3_geogp.adaptation import as_adaptation
+from sb3_geogp.adaptation import Adaptation, as_adaptation
 from sb3_geogp.kernels import KernelName
 from sb3_geogp.studies.pendulum.batch_check import ONLINE, CheckConfig, CheckResult, run_check
 from sb3_geogp.studies.pendulum.ground_truth import mc_value
@@ -52,7 +53,7 @@ from sb3_geogp.toolbox.tables import MIN_SAMPLES_FOR_INTERVAL
 GOAL_RATIO = 1.2
 #: Legend label and colour of each model.
 STYLE = {
-    "adaptive": ("on-line, adapt=True", "C0"),
+    "adaptive": ("on-line, adaptive", "C0"),
     "default": ("on-line, no adaptation", "C1"),
     "batch": ("batch DTC/VFE, ML hyperparameters", "C2"),
 }
@@ -148,9 +149,13 @@ def plot(result: CheckResult, path: Path) -> None:
         if bars
         else f"{n_seeds} seed(s): no error bars (fewer than {MIN_SAMPLES_FOR_INTERVAL})"
     )
-    trend = "" if cfg.trend == "none" else f"\nadaptive on-line GP with trend={cfg.trend}"
+    options = [f"trend={cfg.trend}"] if cfg.trend != "none" else []
+    engine = Adaptation().as_dict()
+    options += [f"{k}={v}" for k, v in cfg.adaptation.as_dict().items() if v != engine[k]]
+    listed = textwrap.fill(f"adaptive on-line GP: {', '.join(options)}", 60)
+    setting = f"\n{listed}" if options else ""
     # Lines: a one-kernel figure is too narrow for the title and its captions in one.
-    fig.suptitle(f"Fixed-policy check, pendulum: on-line GP vs batch sparse GP\n({what}){trend}")
+    fig.suptitle(f"Fixed-policy check, pendulum: on-line GP vs batch sparse GP\n({what}){setting}")
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
