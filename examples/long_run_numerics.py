@@ -60,7 +60,8 @@ from sb3_geogp.toolbox.tables import format_table
 CHEAP_DEFAULT = {"adapt": CHEAP_ADAPTATION, "novelty_tol": 0.1}
 #: The policy's PPO default critic since 0.9: the 0.6 one with a moving level.
 LEVEL_DEFAULT = {"adapt": True, "novelty_tol": 0.1, "trend": "level"}
-#: The policy's PPO default critic since 0.10: 0.9's with a refit every 16 blocks.
+#: The policy's PPO default critic since 0.10: 0.9's with its rare refits
+#: (:data:`~sb3_geogp.policies.DEFAULT_ADAPTATION`).
 RARE_DEFAULT = {**LEVEL_DEFAULT, "adapt": DEFAULT_ADAPTATION}
 VARIANTS = {
     "pendulum": (
