@@ -15,11 +15,11 @@ policy's default adaptation for the workload's algorithm,
 kernel, ``+shared`` (0.3's one lengthscale factor, ``kernel_kwargs=dict(ard=False)``),
 ``+notrend`` (no trend: the critic before 0.9, whose PPO default moves a level), and
 after ``+adapt`` or ``+cheap`` by other adaptation settings (``+gapN``: ``max_gap=N``;
-``+thinN``: ``score_points`` and ``fold_points`` N; ``+stepsN``; ``+floorN``:
-``fit_floor=N/100``; ``+nosettle``: ``settle=False``; settings after ``+adapt`` start
-from :class:`~sb3_geogp.Adaptation`'s defaults, so ``laplacian+adapt+gap1`` is PPO's critic
-before 0.10, a refit every block), so that the cost of an option is measured interleaved with
-the default's.
+``+thinN``: ``score_points`` and ``fold_points`` N; ``+scoreN``, ``+foldN``: one of them;
+``+stepsN``; ``+floorN``: ``fit_floor=N/100``; ``+nosettle``: ``settle=False``; settings after
+``+adapt`` start from :class:`~sb3_geogp.Adaptation`'s defaults, so ``laplacian+adapt+gap1``
+is PPO's critic before 0.10, a refit every block, and ``+adapt+score256`` folds every point),
+so that the cost of an option is measured interleaved with the default's.
 
 ``--threads default`` leaves torch's thread count as a new user has it (the engine then runs
 its own work single-threaded, see ``SparseOnlineGP(num_threads=...)``); ``--load N`` keeps N
@@ -74,11 +74,13 @@ SUFFIXES: dict[str, dict[str, Any]] = {
 }
 #: Suffixes with a count (after ``+adapt``): the :class:`~sb3_geogp.adaptation.Adaptation`
 #: settings they give it and what the count is divided by, e.g. ``+gap4`` (``max_gap=4``),
-#: ``+thin512`` (``score_points`` and ``fold_points`` 512), ``+steps2``, ``+floor80``
+#: ``+thin512`` (``score_points`` and ``fold_points`` 512), ``+fold1024``, ``+steps2``, ``+floor80``
 #: (``fit_floor=0.8``).
 SETTING_SUFFIXES: dict[str, tuple[tuple[str, ...], int]] = {
     "gap": (("max_gap",), 1),
     "thin": (("score_points", "fold_points"), 1),
+    "score": (("score_points",), 1),
+    "fold": (("fold_points",), 1),
     "steps": (("steps",), 1),
     "floor": (("fit_floor",), 100),
 }

@@ -77,6 +77,8 @@ def test_benchmark_training_setting_suffixes_build_those_settings() -> None:
     assert cheap == dataclasses.replace(CHEAP_ADAPTATION, steps=2)
     rare = as_adaptation(bench.gp_kwargs_of(["adapt", "gap16", "nosettle"])["adapt"])
     assert rare == Adaptation(max_gap=16, settle=False)
+    folded = as_adaptation(bench.gp_kwargs_of(["adapt", "score256", "fold1024"])["adapt"])
+    assert folded == Adaptation(score_points=256, fold_points=1024)
     floor = as_adaptation(bench.gp_kwargs_of(["adapt", "floor80"])["adapt"])
     assert floor == Adaptation(fit_floor=0.8)
     assert bench.gp_kwargs_of(["nosettle"]) is None  # a setting needs +adapt or +cheap
