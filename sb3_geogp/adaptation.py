@@ -482,21 +482,40 @@ class Summary(NamedTuple):
 
     @staticmethod
     def of_data(
-        Kzz: Tensor, Kxz: Tensor, x: Tensor, y: Tensor, noise: Tensor, variance: float
+        Kzz: Tensor,
+        Kxz: Tensor,
+        x: Tensor,
+        y: Tensor,
+        noise: Tensor,
+        variance: float,
+        inverse: Tensor | None = None,
     ) -> Summary:
         """The summary of ``y : (n,)`` at inputs ``x : (n, d)``, rows ``Kxz : (n, m)``, with
-        noise ``noise : (n,)``: :class:`Projection`'s whitened sums, taken back from
-        ``v = L^-1 f`` to ``f``."""
-        projection = Projection(Kzz, Kxz, variance)
-        S = projection._gram(noise)
+        noise ``noise : (n,)``.
+
+        Few points (``n < 2m``, e.g. an A2C rollout leaving the window): through
+        ``F = K_zz^{-1} K_zx``, ``precision = F N^-1 F^T``, ``O(m^2 n)`` given ``inverse``
+        (``K_zz^{-1}``, which the GP keeps as ``Q``), else by a Cholesky factorisation.
+        Many points: :class:`Projection`'s whitened sums, taken back from ``v = L^-1 f`` to
+        ``f`` by ``(m, m)`` solves, ``O(m^2 n + m^3)``. The same quantities; the order of the
+        products is the cheaper one.
+        """
         targets = torch.cat([y[:, None], torch.ones_like(y)[:, None], x], dim=1)
-        shifts = projection._rhs(targets, noise)
+        if Kxz.shape[0] < 2 * Kxz.shape[1]:
+            if inverse is None:
+                F = torch.cholesky_solve(Kxz.T, jittered_cholesky(Kzz, variance)[0])
+            else:
+                F = inverse @ Kxz.T
+            precision = (F / noise) @ F.T
+            shifts = F @ (targets / noise[:, None])
+        else:
+            projection = Projection(Kzz, Kxz, variance)
 
-        def unwhiten(X: Tensor) -> Tensor:  # L^-T X
-            return torch.linalg.solve_triangular(projection.L.T, X, upper=True)
+            def unwhiten(X: Tensor) -> Tensor:  # L^-T X
+                return torch.linalg.solve_triangular(projection.L.T, X, upper=True)
 
-        precision = unwhiten(unwhiten(S).T)
-        shifts = unwhiten(shifts)
+            precision = unwhiten(unwhiten(projection._gram(noise)).T)
+            shifts = unwhiten(projection._rhs(targets, noise))
         return Summary(0.5 * (precision + precision.T), shifts[:, 0], shifts[:, 1], shifts[:, 2:])
 
 

@@ -1072,7 +1072,8 @@ class SparseOnlineGP(nn.Module):
         Kzz, Kxz = self._basis_covariances(x)
         w = age_weights(self._ages(batch), float(self.block_forgetting)).to(y) * count.to(y)
         yn = self._standardised(x, y)
-        part = Summary.of_data(Kzz, Kxz, x, yn, 1 / w, float(self.kernel.variance))
+        variance = float(self.kernel.variance)
+        part = Summary.of_data(Kzz, Kxz, x, yn, 1 / w, variance, inverse=self.Q[:m, :m])
         self.summary_prec[:m, :m] += part.precision
         self.summary_shift[:m] += part.shift
         self.summary_unit[:m] += part.unit_shift

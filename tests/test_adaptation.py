@@ -127,15 +127,20 @@ def test_sparse_posterior_is_the_nystrom_gp_with_per_point_noise(n: int) -> None
     assert float(torch.linalg.eigvalsh(P).min()) > 0
 
 
-@pytest.mark.parametrize("n", [40, 12])
-def test_summary_of_data_is_its_projected_likelihood(n: int) -> None:
-    """``Summary.of_data`` against the formulas with explicit inverses, on both of its paths."""
+@pytest.mark.parametrize(
+    ("n", "given_inverse"), [(40, False), (18, False), (12, False), (12, True)]
+)
+def test_summary_of_data_is_its_projected_likelihood(n: int, given_inverse: bool) -> None:
+    """``Summary.of_data`` against the formulas with explicit inverses, on each of its paths
+    (9 inducing points: 12 points through ``K_zz^-1 K_zx``, factorised or given; 18 and 40
+    through the whitened sums, by each of the two ways :class:`Projection` forms them)."""
     rng = np.random.default_rng(1)
     x, z = rng.uniform(size=(n, 2)), rng.uniform(size=(9, 2))
     y, noise = rng.normal(size=n), rng.uniform(0.05, 2.0, size=n)
     Kzz, Kxz = rbf(z, z, 0.4) + 1e-6 * np.eye(9), rbf(x, z, 0.4)
     t = torch.as_tensor
-    summary = Summary.of_data(t(Kzz), t(Kxz), t(x), t(y), t(noise), 1.0)
+    inverse = t(np.linalg.inv(Kzz)) if given_inverse else None
+    summary = Summary.of_data(t(Kzz), t(Kxz), t(x), t(y), t(noise), 1.0, inverse)
     B = np.linalg.solve(Kzz, Kxz.T)  # K_zz^-1 K_zx
     scale = np.abs(B).max() ** 2 / noise.min()
     np.testing.assert_allclose(summary.precision, B / noise @ B.T, atol=1e-9 * scale)
