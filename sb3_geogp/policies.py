@@ -76,9 +76,11 @@ DEFAULT_TRENDS: dict[type[BaseAlgorithm], str] = {A2C: "none"}
 #: every block still chooses its forgetting and the level moves with every rollout. It takes
 #: 8 % of the GP critic's time on PPO Pendulum-v1 where a refit every block (0.9) took 58 %,
 #: and in its pre-registered test it lost no PPO cell against 0.9's critic (docs/results.md,
-#: "Rare refits where the fit is good"). On a stationary stream that it predicts well it refits
-#: too rarely for a large basis: on the fixed-policy pendulum its error is 1.35x a batch sparse
-#: GP's at 200 basis vectors, where ``Adaptation()`` is within 1.08x.
+#: "Rare refits where the fit is good"). Its fold cap costs accuracy on a stationary stream:
+#: on the fixed-policy pendulum its error is 1.35x a batch sparse GP's at 200 basis vectors,
+#: 1.13x with every point folded (``fold_points=None``), which takes 24 % of the GP critic's
+#: time instead of 10 % (docs/results.md, "The fixed-policy gap of the PPO default is the
+#: summary's thinning").
 DEFAULT_ADAPTATION = Adaptation(
     max_gap=16, settle=False, score_points=256, fold_points=256, fit_floor=0.8
 )
