@@ -85,8 +85,9 @@ DEFAULT_ADAPTATION = Adaptation(
     max_gap=16, settle=False, score_points=256, fold_points=256, fit_floor=0.8
 )
 #: Algorithms whose GP critic has another default adaptation. A2C keeps a refit every block
-#: (the engine's :class:`~sb3_geogp.Adaptation` defaults): a schedule of rare refits is not
-#: measured with it.
+#: (the engine's :class:`~sb3_geogp.Adaptation` defaults): :data:`DEFAULT_ADAPTATION` under A2C
+#: lost no cell in a pre-registered test but saved only 11 % of the GP critic's time, its fit
+#: floor refitting most blocks (docs/results.md, "Rare refits under A2C").
 DEFAULT_ADAPTATIONS: dict[type[BaseAlgorithm], Adaptation] = {A2C: Adaptation()}
 #: Options the policy gives the GP critic of a kernel named in ``gp_kwargs`` (or of the
 #: default kernel, :func:`default_kernel`) where ``gp_kwargs`` leaves them unset. The Laplacian
