@@ -16,11 +16,10 @@ kernel, ``+shared`` (0.3's one lengthscale factor, ``kernel_kwargs=dict(ard=Fals
 ``+notrend`` (no trend: the critic before 0.9, whose PPO default moves a level), and
 after ``+adapt`` or ``+cheap`` by other adaptation settings (``+gapN``: ``max_gap=N``;
 ``+thinN``: ``score_points`` and ``fold_points`` N; ``+scoreN``, ``+foldN``: one of them;
-``+foldtolN``: ``fold_tol=10^-N``; ``+stepsN``; ``+floorN``: ``fit_floor=N/100``;
-``+nosettle``: ``settle=False``; settings after ``+adapt`` start from
-:class:`~sb3_geogp.Adaptation`'s defaults, so ``laplacian+adapt+gap1`` is PPO's critic before
-0.10, a refit every block, and ``+adapt+score256`` folds every point), so that the cost of an
-option is measured interleaved with the default's.
+``+stepsN``; ``+floorN``: ``fit_floor=N/100``; ``+nosettle``: ``settle=False``; settings after
+``+adapt`` start from :class:`~sb3_geogp.Adaptation`'s defaults, so ``laplacian+adapt+gap1``
+is PPO's critic before 0.10, a refit every block, and ``+adapt+score256`` folds every point),
+so that the cost of an option is measured interleaved with the default's.
 
 ``--threads default`` leaves torch's thread count as a new user has it (the engine then runs
 its own work single-threaded, see ``SparseOnlineGP(num_threads=...)``); ``--load N`` keeps N
@@ -44,7 +43,7 @@ import multiprocessing as mp
 import os
 import statistics
 import time
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
@@ -74,17 +73,16 @@ SUFFIXES: dict[str, dict[str, Any]] = {
     "notrend": {"trend": "none"},
 }
 #: Suffixes with a count (after ``+adapt``): the :class:`~sb3_geogp.adaptation.Adaptation`
-#: settings they give it and the value a count ``N`` gives them, e.g. ``+gap4`` (``max_gap=4``),
-#: ``+thin512`` (``score_points`` and ``fold_points`` 512), ``+fold1024``, ``+steps2``,
-#: ``+floor80`` (``fit_floor=0.8``), ``+foldtol4`` (``fold_tol=1e-4``).
-SETTING_SUFFIXES: dict[str, tuple[tuple[str, ...], Callable[[int], Any]]] = {
-    "gap": (("max_gap",), int),
-    "thin": (("score_points", "fold_points"), int),
-    "score": (("score_points",), int),
-    "fold": (("fold_points",), int),
-    "steps": (("steps",), int),
-    "floor": (("fit_floor",), lambda n: n / 100),
-    "foldtol": (("fold_tol",), lambda n: 10.0**-n),
+#: settings they give it and what the count is divided by, e.g. ``+gap4`` (``max_gap=4``),
+#: ``+thin512`` (``score_points`` and ``fold_points`` 512), ``+fold1024``, ``+steps2``, ``+floor80``
+#: (``fit_floor=0.8``).
+SETTING_SUFFIXES: dict[str, tuple[tuple[str, ...], int]] = {
+    "gap": (("max_gap",), 1),
+    "thin": (("score_points", "fold_points"), 1),
+    "score": (("score_points",), 1),
+    "fold": (("fold_points",), 1),
+    "steps": (("steps",), 1),
+    "floor": (("fit_floor",), 100),
 }
 #: Suffixes without a count (after ``+adapt``) and the settings they give it.
 SETTING_FLAGS: dict[str, dict[str, Any]] = {"nosettle": {"settle": False}}
@@ -103,8 +101,9 @@ def gp_kwargs_of(suffixes: Sequence[str]) -> dict[str, Any] | None:
         elif suffix in SETTING_FLAGS:
             settings.update(SETTING_FLAGS[suffix])
         elif name in SETTING_SUFFIXES and count:
-            names, value = SETTING_SUFFIXES[name]
-            settings.update(dict.fromkeys(names, value(int(count))))
+            names, divisor = SETTING_SUFFIXES[name]
+            value = int(count) if divisor == 1 else int(count) / divisor
+            settings.update(dict.fromkeys(names, value))
         else:
             return None
     adapt = options.get("adapt")

@@ -127,12 +127,7 @@ class Adaptation:
         ``None``: every point (the summary is then exact). Not free where consecutive points
         are far apart or share their noise, as along a trajectory: on the fixed-policy
         pendulum 256 of 1,520 points cost 1.35x a batch sparse GP's error at 200 basis
-        vectors, every point 1.13x (docs/results.md). See also ``fold_tol``.
-    fold_tol : float or None
-        With ``fold_points``, each run of consecutive points is folded as its leading
-        combinations, which hold all but this fraction of its kernel rows' energy
-        (:func:`run_directions`: an exact likelihood of what is kept), instead of through its
-        middle point; in (0, 1). ``None``: the middle points.
+        vectors, every point 1.13x (docs/results.md).
     settle : bool
         Whether the blocks numbered by a power of two below ``max_gap`` refit too (while the
         hyperparameters settle); ``False``: only the first block and the multiples.
@@ -169,7 +164,6 @@ class Adaptation:
     settle: bool = True
     drift_tol: float | None = None
     fit_floor: float | None = None
-    fold_tol: float | None = None
 
     def __post_init__(self) -> None:
         optional = ("interval", "score_points", "fold_points")
@@ -203,11 +197,6 @@ class Adaptation:
             raise ValueError(
                 f"Adaptation.fit_floor must be a finite explained variance < 1 (or None: no fit "
                 f"refits), got {self.fit_floor}"
-            )
-        tol = self.fold_tol
-        if tol is not None and not 0 < tol < 1:
-            raise ValueError(
-                f"Adaptation.fold_tol must be in (0, 1) (or None: middle points), got {tol}"
             )
         candidates = tuple(float(c) for c in self.forgetting)
         if not candidates or not all(0 < c <= 1 for c in candidates):
@@ -307,50 +296,6 @@ def thinned(n: int, cap: int | None, device: torch.device | None = None) -> tupl
     starts = torch.arange(0, n, stride, device=device)
     count = (n - starts).clamp_max(stride)
     return starts + (count - 1) // 2, count
-
-
-def run_directions(
-    count: Tensor, w: Tensor, rows: Tensor, targets: Tensor, tol: float
-) -> tuple[Tensor, Tensor]:
-    """Each run of consecutive points as the few combinations of them that carry its rows.
-
-    The points, cut into runs of lengths ``count : (k,)`` (:func:`thinned`), observe ``f``
-    through ``rows : (n, m)`` with noise ``sigma_n^2 / w_i``. Scaled by ``sqrt(w_i)`` a run's
-    rows ``A`` (``c x m``) and targets ``T`` have noise ``sigma_n^2 I``; with ``A A^T = U S^2
-    U^T``, the combinations ``U^T T`` observe ``f`` through the rows ``U^T A = S V^T`` with the
-    same noise, and all of them together say exactly what the run says. Kept: a run's leading
-    combinations, until they hold ``1 - tol`` of its rows' energy ``sum S^2``; the likelihood
-    of those is exact, only the rest of the run is left out.
-
-    Parameters
-    ----------
-    count : Tensor, shape (k,)
-        Run lengths, summing to ``n``.
-    w : Tensor, shape (n,)
-        Weights of the points.
-    rows : Tensor, shape (n, m)
-    targets : Tensor, shape (n, t)
-        Columns projected alike (for the summary, ``[y, 1, x]``).
-    tol : float
-        Energy left out per run, in (0, 1).
-
-    Returns
-    -------
-    rows : Tensor, shape (r, m)
-    targets : Tensor, shape (r, t)
-        The kept combinations of every run, each with noise ``sigma_n^2`` (weight 1).
-    """
-    k, c = count.shape[0], int(count.max())
-    run = torch.repeat_interleave(torch.arange(k, device=w.device), count.to(w.device))
-    slot = torch.arange(w.shape[0], device=w.device) - (count.cumsum(0) - count).to(w.device)[run]
-    scale = w.clamp_min(0).sqrt()[:, None]
-    A = rows.new_zeros(k, c, rows.shape[1]).index_put_((run, slot), rows * scale)
-    T = targets.new_zeros(k, c, targets.shape[1]).index_put_((run, slot), targets * scale)
-    energy, U = torch.linalg.eigh(A @ A.mT)  # ascending
-    energy, U = energy.flip(-1).clamp_min(0), U.flip(-1)
-    before = energy.cumsum(-1) - energy  # the energy of the combinations ahead of each
-    keep = (before < (1 - tol) * energy.sum(-1, keepdim=True)) & (energy > 0)
-    return (U.mT @ A)[keep], (U.mT @ T)[keep]
 
 
 def jittered_cholesky(A: Tensor, scale: float) -> tuple[Tensor, float]:
@@ -549,40 +494,25 @@ class Summary(NamedTuple):
         inverse: Tensor | None = None,
     ) -> Summary:
         """The summary of ``y : (n,)`` at inputs ``x : (n, d)``, rows ``Kxz : (n, m)``, with
-        noise ``noise : (n,)`` (:meth:`of_observations` of the targets ``[y, 1, x]``)."""
-        targets = torch.cat([y[:, None], torch.ones_like(y)[:, None], x], dim=1)
-        return Summary.of_observations(Kzz, Kxz, targets, noise, variance, inverse)
+        noise ``noise : (n,)``.
 
-    @staticmethod
-    def of_observations(
-        Kzz: Tensor,
-        rows: Tensor,
-        targets: Tensor,
-        noise: Tensor,
-        variance: float,
-        inverse: Tensor | None = None,
-    ) -> Summary:
-        """The summary of observations ``rows @ K_zz^-1 f`` with noise ``noise : (n,)``, rows
-        ``rows : (n, m)``: their targets, and what a target of 1 and of each input gives, in
-        the columns of ``targets : (n, 2 + d)`` (for points, ``[y, 1, x]``; for
-        :func:`run_directions`, their projections).
-
-        Few observations (``n < 2m``, e.g. an A2C rollout leaving the window): through
+        Few points (``n < 2m``, e.g. an A2C rollout leaving the window): through
         ``F = K_zz^{-1} K_zx``, ``precision = F N^-1 F^T``, ``O(m^2 n)`` given ``inverse``
         (``K_zz^{-1}``, which the GP keeps as ``Q``), else by a Cholesky factorisation.
-        Many: :class:`Projection`'s whitened sums, taken back from ``v = L^-1 f`` to ``f`` by
-        ``(m, m)`` solves, ``O(m^2 n + m^3)``. The same quantities; the order of the products
-        is the cheaper one.
+        Many points: :class:`Projection`'s whitened sums, taken back from ``v = L^-1 f`` to
+        ``f`` by ``(m, m)`` solves, ``O(m^2 n + m^3)``. The same quantities; the order of the
+        products is the cheaper one.
         """
-        if rows.shape[0] < 2 * rows.shape[1]:
+        targets = torch.cat([y[:, None], torch.ones_like(y)[:, None], x], dim=1)
+        if Kxz.shape[0] < 2 * Kxz.shape[1]:
             if inverse is None:
-                F = torch.cholesky_solve(rows.T, jittered_cholesky(Kzz, variance)[0])
+                F = torch.cholesky_solve(Kxz.T, jittered_cholesky(Kzz, variance)[0])
             else:
-                F = inverse @ rows.T
+                F = inverse @ Kxz.T
             precision = (F / noise) @ F.T
             shifts = F @ (targets / noise[:, None])
         else:
-            projection = Projection(Kzz, rows, variance)
+            projection = Projection(Kzz, Kxz, variance)
 
             def unwhiten(X: Tensor) -> Tensor:  # L^-T X
                 return torch.linalg.solve_triangular(projection.L.T, X, upper=True)

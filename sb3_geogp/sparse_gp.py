@@ -45,7 +45,6 @@ from sb3_geogp.adaptation import (
     jittered_cholesky,
     linear_moments,
     nlpd,
-    run_directions,
     sparse_posterior,
     thinned,
     weighted_moments,
@@ -1066,24 +1065,15 @@ class SparseOnlineGP(nn.Module):
         variance of the moment when used (:meth:`_summary`), so that a summarised point counts
         exactly as it would in the window, also after the noise has been re-fitted.
         """
-        a = self.adaptation
-        assert a is not None
+        assert self.adaptation is not None
         m = self.n_basis
-        index, count = thinned(x.shape[0], a.fold_points, x.device)
-        tol = a.fold_tol if index.shape[0] < x.shape[0] else None
-        if tol is None:  # every point, or the runs' middle points
-            x, y, batch = x[index], y[index], batch[index]
-        w = age_weights(self._ages(batch), float(self.block_forgetting)).to(y)
+        index, count = thinned(x.shape[0], self.adaptation.fold_points, x.device)
+        x, y, batch = x[index], y[index], batch[index]
         Kzz, Kxz = self._basis_covariances(x)
+        w = age_weights(self._ages(batch), float(self.block_forgetting)).to(y) * count.to(y)
         yn = self._standardised(x, y)
-        targets = torch.cat([yn[:, None], torch.ones_like(yn)[:, None], x], dim=1)
-        if tol is None:
-            w = w * count.to(w)
-        else:
-            Kxz, targets = run_directions(count, w, Kxz, targets, tol)
-            w = torch.ones_like(Kxz[:, 0])
         variance = float(self.kernel.variance)
-        part = Summary.of_observations(Kzz, Kxz, targets, 1 / w, variance, self.Q[:m, :m])
+        part = Summary.of_data(Kzz, Kxz, x, yn, 1 / w, variance, inverse=self.Q[:m, :m])
         self.summary_prec[:m, :m] += part.precision
         self.summary_shift[:m] += part.shift
         self.summary_unit[:m] += part.unit_shift

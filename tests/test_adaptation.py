@@ -14,7 +14,6 @@ from sb3_geogp.adaptation import (
     Adaptation,
     Summary,
     jittered_cholesky,
-    run_directions,
     sparse_posterior,
     thinned,
 )
@@ -46,9 +45,6 @@ from tests.test_sparse_gp import assert_same_state, nystrom_posterior, rbf, snap
         dict(drift_tol=float("nan")),
         dict(fit_floor=1.0),
         dict(fit_floor=float("-inf")),
-        dict(fold_tol=0.0),
-        dict(fold_tol=1.0),
-        dict(fold_tol=float("nan")),
     ],
 )
 def test_bad_settings_raise_naming_the_setting(bad: dict) -> None:
@@ -98,64 +94,6 @@ def test_thinned_runs_cover_every_point_once(n: int, cap: int | None) -> None:
     assert set(count[:-1].tolist()) <= {stride} and 1 <= int(count[-1]) <= stride
     if cap is None or cap >= n:
         assert index.tolist() == list(range(n)) and count.tolist() == [1] * n
-
-
-@pytest.mark.parametrize("tol", [1e-13, 0.05, 0.5])
-def test_run_directions_keep_each_runs_leading_combinations(tol: float) -> None:
-    """Against a per-run SVD of the weighted rows: the kept combinations are the leading ones
-    until ``1 - tol`` of the run's energy, and they carry the run's precision ``A^T A`` and
-    shifts ``A^T T`` restricted to them (all of it when ``tol`` is tiny)."""
-    rng = np.random.default_rng(3)
-    n, m = 50, 7
-    _, count = thinned(n, 12)  # runs of 5
-    # Smooth rows along a path (nearly low rank within a run), weights of two ages.
-    path = np.cumsum(rng.normal(0, 0.1, size=(n, 2)), axis=0)
-    rows = rbf(path, rng.uniform(-1, 1, size=(m, 2)), 0.8)
-    targets, w = rng.normal(size=(n, 3)), np.where(np.arange(n) < 20, 0.5, 1.0)
-    t = torch.as_tensor
-    kept_rows, kept_targets = run_directions(count, t(w), t(rows), t(targets), tol)
-    precision, shift, kept = np.zeros((m, m)), np.zeros((m, 3)), 0
-    start = 0
-    for c in count.tolist():
-        scale = np.sqrt(w[start : start + c])[:, None]
-        A, T = rows[start : start + c] * scale, targets[start : start + c] * scale
-        start += c
-        U, S, _ = np.linalg.svd(A, full_matrices=False)
-        energy = S**2
-        r = int(np.sum(np.cumsum(energy) - energy < (1 - tol) * energy.sum()))
-        precision += A.T @ U[:, :r] @ U[:, :r].T @ A
-        shift += A.T @ U[:, :r] @ U[:, :r].T @ T
-        kept += r
-    assert kept_rows.shape == (kept, m) and kept_targets.shape == (kept, 3)
-    np.testing.assert_allclose(kept_rows.T @ kept_rows, precision, atol=1e-10)
-    np.testing.assert_allclose(kept_rows.T @ kept_targets, shift, atol=1e-10)
-    if tol < 1e-12:
-        np.testing.assert_allclose(precision, (rows * w[:, None]).T @ rows, atol=1e-10)
-    else:
-        assert kept < n
-
-
-def test_a_fold_of_every_runs_combinations_is_the_exact_fold() -> None:
-    """``fold_tol`` tiny keeps every combination of every run: the GP predicts as with every
-    point folded (``fold_points=None``); a coarse tolerance does not (the check can fail)."""
-    rng = np.random.default_rng(6)
-    path = np.cumsum(rng.normal(0, 0.05, size=(600, 2)), axis=0) % 1.0
-    batches = [(path[i : i + 100], np.sin(4 * path[i : i + 100, 0])) for i in range(0, 600, 100)]
-    probe = rng.uniform(size=(9, 2))
-
-    def predicted(**settings: object) -> tuple[torch.Tensor, torch.Tensor]:
-        adapt = Adaptation(window=150, interval=100, steps=2, **settings)  # type: ignore[arg-type]
-        gp = SparseOnlineGP(2, "laplacian", max_basis=25, adapt=adapt)
-        for x, y in batches:
-            gp.update(x, y + 0.05 * np.cos(9 * x[:, 1]))
-        assert gp.summary_prec.abs().sum() > 0
-        return gp.predict(probe)
-
-    exact = predicted()
-    for a, b in zip(predicted(fold_points=10, fold_tol=1e-13), exact, strict=True):
-        torch.testing.assert_close(a, b, rtol=1e-8, atol=1e-8)
-    coarse = predicted(fold_points=10, fold_tol=0.5)
-    assert not torch.allclose(coarse[0], exact[0], rtol=1e-6, atol=1e-6)
 
 
 # -- numerics -----------------------------------------------------------------------------------

@@ -79,8 +79,6 @@ def test_benchmark_training_setting_suffixes_build_those_settings() -> None:
     assert rare == Adaptation(max_gap=16, settle=False)
     folded = as_adaptation(bench.gp_kwargs_of(["adapt", "score256", "fold1024"])["adapt"])
     assert folded == Adaptation(score_points=256, fold_points=1024)
-    low_rank = as_adaptation(bench.gp_kwargs_of(["adapt", "fold256", "foldtol4"])["adapt"])
-    assert low_rank == Adaptation(fold_points=256, fold_tol=1e-4)
     floor = as_adaptation(bench.gp_kwargs_of(["adapt", "floor80"])["adapt"])
     assert floor == Adaptation(fit_floor=0.8)
     assert bench.gp_kwargs_of(["nosettle"]) is None  # a setting needs +adapt or +cheap
