@@ -74,7 +74,7 @@ DEFAULT_TRENDS: dict[type[BaseAlgorithm], str] = {A2C: "none"}
 #: and any block whose targets the critic predicted with an explained variance below 0.8, each
 #: batch scored and the points leaving the window summarised through at most 256 of them;
 #: every block still chooses its forgetting and the level moves with every rollout. It takes
-#: 8 % of the GP critic's time on PPO Pendulum-v1 where a refit every block (0.9) took 58 %,
+#: 8-11 % of the GP critic's time on PPO Pendulum-v1 where a refit every block (0.9) took 58 %,
 #: and in its pre-registered test it lost no PPO cell against 0.9's critic (docs/results.md,
 #: "Rare refits where the fit is good"). Its fold cap costs accuracy on a stationary stream:
 #: on the fixed-policy pendulum its error is 1.35x a batch sparse GP's at 200 basis vectors,
