@@ -496,19 +496,15 @@ class Summary(NamedTuple):
         """The summary of ``y : (n,)`` at inputs ``x : (n, d)``, rows ``Kxz : (n, m)``, with
         noise ``noise : (n,)``.
 
-        Few points (``n < 2m``, e.g. an A2C rollout leaving the window): through
-        ``F = K_zz^{-1} K_zx``, ``precision = F N^-1 F^T``, ``O(m^2 n)`` given ``inverse``
-        (``K_zz^{-1}``, which the GP keeps as ``Q``), else by a Cholesky factorisation.
-        Many points: :class:`Projection`'s whitened sums, taken back from ``v = L^-1 f`` to
-        ``f`` by ``(m, m)`` solves, ``O(m^2 n + m^3)``. The same quantities; the order of the
-        products is the cheaper one.
+        Given ``inverse`` (``K_zz^{-1}``, which the GP keeps as ``Q``) and few points
+        (``n < 2m``, e.g. an A2C rollout leaving the window): through ``F = K_zz^{-1} K_zx``,
+        ``precision = F N^-1 F^T``, ``O(m^2 n)``. Otherwise :class:`Projection`'s whitened
+        sums, taken back from ``v = L^-1 f`` to ``f`` by ``(m, m)`` solves,
+        ``O(m^2 n + m^3)``. The same quantities; the order of the products is the cheaper one.
         """
         targets = torch.cat([y[:, None], torch.ones_like(y)[:, None], x], dim=1)
-        if Kxz.shape[0] < 2 * Kxz.shape[1]:
-            if inverse is None:
-                F = torch.cholesky_solve(Kxz.T, jittered_cholesky(Kzz, variance)[0])
-            else:
-                F = inverse @ Kxz.T
+        if inverse is not None and Kxz.shape[0] < 2 * Kxz.shape[1]:
+            F = inverse @ Kxz.T
             precision = (F / noise) @ F.T
             shifts = F @ (targets / noise[:, None])
         else:

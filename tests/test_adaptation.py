@@ -132,7 +132,7 @@ def test_sparse_posterior_is_the_nystrom_gp_with_per_point_noise(n: int) -> None
 )
 def test_summary_of_data_is_its_projected_likelihood(n: int, given_inverse: bool) -> None:
     """``Summary.of_data`` against the formulas with explicit inverses, on each of its paths
-    (9 inducing points: 12 points through ``K_zz^-1 K_zx``, factorised or given; 18 and 40
+    (9 inducing points: 12 points with ``K_zz^-1`` given through ``K_zz^-1 K_zx``; otherwise
     through the whitened sums, by each of the two ways :class:`Projection` forms them)."""
     rng = np.random.default_rng(1)
     x, z = rng.uniform(size=(n, 2)), rng.uniform(size=(9, 2))
