@@ -72,6 +72,8 @@ from typing import Any, NamedTuple
 import torch
 from torch import Tensor, nn
 
+#: Ways the summary of :class:`Adaptation` is kept.
+SUMMARIES = ("fold", "snapshot")
 #: Multiplies the signal variance for the first jitter a failed Cholesky factorisation gets.
 _JITTER_START = 1e-6
 _JITTER_TRIES = 12
@@ -139,6 +141,13 @@ class Adaptation:
         with an explained variance below this (over the points scored in step 1; a block of
         targets that do not vary never counts); ``< 1``. ``None``: only on the schedule of
         ``max_gap`` (and ``drift_tol``).
+    summary : {"fold", "snapshot"}
+        How the summary comes to hold the points a rebuild does not use (module docstring).
+        ``"fold"``: each point leaving the window is folded in (through ``fold_points``).
+        ``"snapshot"``: at the end of every block the summary becomes the likelihood that the
+        posterior implies (:meth:`Summary.of_posterior`), which holds every point absorbed so
+        far; a rebuild then uses the window's points that arrived since, and only those of
+        them that leave the window before the next block ends are folded in.
 
     Raises
     ------
@@ -164,6 +173,7 @@ class Adaptation:
     settle: bool = True
     drift_tol: float | None = None
     fit_floor: float | None = None
+    summary: str = "fold"
 
     def __post_init__(self) -> None:
         optional = ("interval", "score_points", "fold_points")
@@ -198,6 +208,8 @@ class Adaptation:
                 f"Adaptation.fit_floor must be a finite explained variance < 1 (or None: no fit "
                 f"refits), got {self.fit_floor}"
             )
+        if self.summary not in SUMMARIES:
+            raise ValueError(f"Adaptation.summary must be one of {SUMMARIES}, got {self.summary!r}")
         candidates = tuple(float(c) for c in self.forgetting)
         if not candidates or not all(0 < c <= 1 for c in candidates):
             raise ValueError(
@@ -516,6 +528,38 @@ class Summary(NamedTuple):
             precision = unwhiten(unwhiten(projection._gram(noise)).T)
             shifts = unwhiten(projection._rhs(targets, noise))
         return Summary(0.5 * (precision + precision.T), shifts[:, 0], shifts[:, 1], shifts[:, 2:])
+
+    @staticmethod
+    def of_posterior(alpha: Tensor, P: Tensor, Q: Tensor, z: Tensor) -> Summary:
+        """The likelihood a posterior in Csató–Opper form implies, relative to its prior.
+
+        With the prior ``f ~ N(0, K)`` at the inducing points ``z : (m, d)``, ``Q = K^{-1}``,
+        the posterior ``Cov[f] = K P K``, ``E[f] = K alpha`` is the prior times the Gaussian
+        likelihood
+
+        .. math::  \\Lambda = \\mathrm{Cov}[f]^{-1} - K^{-1} = Q P^{-1} Q - Q, \\qquad
+                   \\eta = \\mathrm{Cov}[f]^{-1} E[f] = Q P^{-1} \\alpha,
+
+        whatever data it holds: for the sparse posterior of data (:func:`sparse_posterior`)
+        it is the data's :meth:`of_data` (plus any summary multiplied in). The unit and input
+        shifts are those of pseudo-observations at ``z`` itself, ``Lambda 1`` and
+        ``Lambda z``: exact for data at the inducing points, otherwise they stand in for the
+        data's own, which a posterior no longer knows.
+
+        Parameters
+        ----------
+        alpha : Tensor, shape (m,)
+        P, Q : Tensor, shape (m, m)
+            Symmetric positive definite.
+        z : Tensor, shape (m, d)
+            Inducing inputs, in the units of the prior mean's inputs.
+        """
+        m = alpha.shape[0]
+        L, _ = jittered_cholesky(P, float(P.diagonal().abs().mean()))
+        W = torch.linalg.solve_triangular(L, torch.cat([Q, alpha[:, None]], dim=1), upper=False)
+        precision = W[:, :m].T @ W[:, :m] - Q
+        precision = 0.5 * (precision + precision.T)
+        return Summary(precision, W[:, :m].T @ W[:, m], precision.sum(dim=1), precision @ z)
 
 
 def age_weights(age: Tensor, forgetting: float) -> Tensor:

@@ -92,6 +92,7 @@ _COUNTERS = (
     "n_blocks",
     "block_new",
     "n_pruned",
+    "summary_batch",
 )
 
 
@@ -241,7 +242,8 @@ class SparseOnlineGP(nn.Module):
     summary_prec, summary_shift, summary_unit : Tensor, shapes (m_max + 1, m_max + 1), (m_max + 1,)
         With adaptation, the :class:`~sb3_geogp.adaptation.Summary` of the points that left the
         window (a Gaussian likelihood of the standardised function values at the BVs), so that
-        a rebuild keeps what they said.
+        a rebuild keeps what they said; with ``Adaptation(summary="snapshot")``, of every
+        batch before ``summary_batch`` and the points of later ones that left the window.
     last_stats : dict of str to float
         With adaptation, after each :meth:`update`: ``nlpd`` and ``explained_variance`` of the
         batch under the posterior before it was absorbed (out of sample, in the targets'
@@ -286,6 +288,7 @@ class SparseOnlineGP(nn.Module):
     block_moments: Tensor
     block_errors: Tensor
     n_pruned: Tensor
+    summary_batch: Tensor
     novelty_floor: Tensor
     block_forgetting: Tensor
     ls_start: Tensor
@@ -581,6 +584,8 @@ class SparseOnlineGP(nn.Module):
         state_dict.setdefault(prefix + "block_moments", torch.zeros_like(self.block_moments))
         # Saved before fit refits (0.10): the open block's errors count as none (no fit refit).
         state_dict.setdefault(prefix + "block_errors", torch.zeros_like(self.block_errors))
+        # Saved before snapshots (0.11): the summary holds only points that left the window.
+        state_dict.setdefault(prefix + "summary_batch", torch.zeros_like(self.summary_batch))
         # Saved before the linear prior mean (0.8): a constant one.
         for name in ("y_slope", "summary_input", "trend_coef"):
             state_dict.setdefault(prefix + name, torch.zeros_like(getattr(self, name)))
@@ -1001,7 +1006,9 @@ class SparseOnlineGP(nn.Module):
         (:meth:`~sb3_geogp.kernels.Kernel.correlation_fn`): one per input dimension for the
         Euclidean kernels, one on all lengthscales for the geodesic kernel (every graph
         distance scales by its inverse, so the tree stays exact). The posterior is then the
-        exact sparse posterior of the retained data under the new hyperparameters.
+        exact sparse posterior of the retained data under the new hyperparameters, times the
+        summary of the points it no longer retains (with ``Adaptation(summary="snapshot")``,
+        of the retained points from ``summary_batch`` on, times the summary of the others).
 
         Parameters
         ----------
@@ -1030,7 +1037,7 @@ class SparseOnlineGP(nn.Module):
         yn = self._standardised(x, y)
         with self._transaction(), torch.no_grad():
             self._fit(x, yn, w, n_iter, lr, self.adaptation or Adaptation())
-            Kzz, Kxz = self._rebuild(x, yn, w)
+            Kzz, Kxz = self._rebuild(x, yn, w, batch)
             variance = self.kernel.variance
             projection = Projection(Kzz, Kxz, float(variance))
             final = projection.negative_bound(yn, self.noise_var / w, variance.expand(len(yn)))
@@ -1049,7 +1056,7 @@ class SparseOnlineGP(nn.Module):
         dropped = self.window.append(x, y, int(self.n_batches) - 1)
         self.block_new += x.shape[0]
         a = self.adaptation
-        if a is not None and self.n_basis > 0 and dropped[0].shape[0] > 0:
+        if a is not None and self.n_basis > 0:
             self._summarise(*dropped)
         if a is not None and int(self.block_new) < a.block:
             return
@@ -1057,15 +1064,22 @@ class SparseOnlineGP(nn.Module):
         self.block_new.zero_()
         if a is not None and self.n_basis > 0:
             self._adapt(a)
+            if a.summary == "snapshot":
+                self._snapshot()
 
     def _summarise(self, x: Tensor, y: Tensor, batch: Tensor) -> None:
-        """Add what the points leaving the window say to the summary, with their weights.
+        """Add what the points leaving the window say to the summary, with their weights;
+        those of batches the summary already holds (:meth:`_snapshot`) are skipped.
 
         The summary is kept per unit noise variance (noise ``1 / w``) and divided by the noise
         variance of the moment when used (:meth:`_summary`), so that a summarised point counts
         exactly as it would in the window, also after the noise has been re-fitted.
         """
         assert self.adaptation is not None
+        first = self._first_unsummarised(batch)
+        x, y, batch = x[first:], y[first:], batch[first:]
+        if x.shape[0] == 0:
+            return
         m = self.n_basis
         index, count = thinned(x.shape[0], self.adaptation.fold_points, x.device)
         x, y, batch = x[index], y[index], batch[index]
@@ -1078,6 +1092,27 @@ class SparseOnlineGP(nn.Module):
         self.summary_shift[:m] += part.shift
         self.summary_unit[:m] += part.unit_shift
         self.summary_input[:m] += part.input_shift
+
+    def _snapshot(self) -> None:
+        """Make the summary the likelihood the posterior implies
+        (:meth:`~sb3_geogp.adaptation.Summary.of_posterior`, per unit noise variance as the
+        summary is kept): it then holds every batch so far, and the next rebuild adds only
+        the window's points from the next batch on (``Adaptation(summary="snapshot")``)."""
+        m = self.n_basis
+        implied = Summary.of_posterior(
+            self.alpha[:m], self.P[:m, :m], self.Q[:m, :m], self.bv_x[:m]
+        )
+        noise = self.noise_var
+        self.summary_prec[:m, :m] = implied.precision * noise
+        self.summary_shift[:m] = implied.shift * noise
+        self.summary_unit[:m] = implied.unit_shift * noise
+        self.summary_input[:m] = implied.input_shift * noise
+        self.summary_batch.fill_(int(self.n_batches))
+
+    def _first_unsummarised(self, batch: Tensor) -> int:
+        """Index of the first of points of batches ``batch : (n,)`` (oldest first) that the
+        summary does not hold: all of them, unless it was made by :meth:`_snapshot`."""
+        return int((batch < self.summary_batch).sum())
 
     def _summary(self) -> Summary:
         m, noise = self.n_basis, self.noise_var
@@ -1104,7 +1139,7 @@ class SparseOnlineGP(nn.Module):
         self.block_forgetting.fill_(lam)
         self.last_stats.update(forgetting=lam, target_drift=drift, block_fit=explained)
         if a.refits(int(self.n_blocks)) or a.drifted(drift) or a.misfitted(explained):
-            self._refit(a, x, y, age_weights(age, lam).to(y))
+            self._refit(a, x, y, age_weights(age, lam).to(y), batch)
 
     def _block_fit(self) -> tuple[float, float]:
         """The closing block's drift (mean square of its scored standardised targets; 1 if
@@ -1121,15 +1156,16 @@ class SparseOnlineGP(nn.Module):
         explained = 1.0 - miss / spread if spread > 1e-12 * squares / points else math.nan
         return squares / points, explained
 
-    def _refit(self, a: Adaptation, x: Tensor, y: Tensor, w: Tensor) -> None:
-        """Steps 2-4 of the adaptation on the window ``x, y`` with weights ``w``."""
+    def _refit(self, a: Adaptation, x: Tensor, y: Tensor, w: Tensor, batch: Tensor) -> None:
+        """Steps 2-4 of the adaptation on the window ``x, y`` with weights ``w`` (points of
+        batches ``batch``)."""
         if a.targets:
             self._restandardise(x, y, w)
         yn = self._standardised(x, y)
         if a.steps:
             k = a.fit_points
             self._fit(x[-k:], yn[-k:], w[-k:], a.steps, a.lr, a)
-        self._rebuild(x, yn, w)
+        self._rebuild(x, yn, w, batch)
         ls = self.kernel.lengthscale
         self.last_stats.update(
             lengthscale=float(ls.log().mean().exp()),
@@ -1258,16 +1294,20 @@ class SparseOnlineGP(nn.Module):
         self.noise_var.copy_(log_noise.detach().exp())
         self._cache = None
 
-    def _rebuild(self, x: Tensor, yn: Tensor, w: Tensor) -> tuple[Tensor, Tensor]:
-        """The exact sparse posterior of ``(x, yn)`` with noise ``sigma_n^2 / w``, times the
-        summary, replaces the current one (:func:`~sb3_geogp.adaptation.sparse_posterior`);
-        returns the covariances it used (:meth:`_basis_covariances` of ``x``, after pruning)."""
+    def _rebuild(self, x: Tensor, yn: Tensor, w: Tensor, batch: Tensor) -> tuple[Tensor, Tensor]:
+        """The exact sparse posterior of the points of ``(x, yn)`` that the summary does not
+        hold (of batches ``batch``), with noise ``sigma_n^2 / w``, times the summary,
+        replaces the current one (:func:`~sb3_geogp.adaptation.sparse_posterior`); returns
+        the covariances of all of ``x`` (:meth:`_basis_covariances`, after pruning)."""
         self._refresh_Q()
         self._prune_redundant()
         m = self.n_basis
         Kzz, Kxz = self._basis_covariances(x)
         variance = float(self.kernel.variance)
-        alpha, P = sparse_posterior(Kzz, Kxz, yn, self.noise_var / w, variance, self._summary())
+        first = self._first_unsummarised(batch)
+        noise = self.noise_var / w[first:]
+        summary = self._summary()
+        alpha, P = sparse_posterior(Kzz, Kxz[first:], yn[first:], noise, variance, summary)
         self.alpha[:m] = alpha
         self.P[:m, :m] = P
         self._matrices().posterior_changed()

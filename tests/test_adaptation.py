@@ -149,6 +149,43 @@ def test_summary_of_data_is_its_projected_likelihood(n: int, given_inverse: bool
     np.testing.assert_allclose(summary.input_shift, B @ (x / noise[:, None]), atol=1e-9 * scale * n)
 
 
+def test_summary_of_a_posterior_is_the_likelihood_it_was_built_from() -> None:
+    """The sparse posterior of data times a summary implies, relative to its prior, the
+    summary plus the data's :meth:`Summary.of_data`; its unit and input shifts are those of
+    pseudo-observations at the inducing inputs, which are the data's own when the data lie
+    there (each row of ``K_zz^-1 K_zx`` is then a unit vector)."""
+    rng = np.random.default_rng(2)
+    z = rng.uniform(size=(9, 2))
+    Kzz = rbf(z, z, 0.4) + 1e-6 * np.eye(9)
+    t = torch.as_tensor
+
+    def data(x: np.ndarray) -> tuple[torch.Tensor, ...]:
+        y, noise = rng.normal(size=len(x)), rng.uniform(0.05, 2.0, size=len(x))
+        return t(rbf(x, z, 0.4)), t(x), t(y), t(noise)
+
+    Kxz, x, y, noise = data(rng.uniform(size=(30, 2)))
+    earlier = Summary.of_data(t(Kzz), *data(rng.uniform(size=(12, 2))), 1.0)
+    alpha, P = sparse_posterior(t(Kzz), Kxz, y, noise, 1.0, earlier)
+    implied = Summary.of_posterior(alpha, P, t(np.linalg.inv(Kzz)), t(z))
+    both = Summary.of_data(t(Kzz), Kxz, x, y, noise, 1.0)
+    scale = float(implied.precision.abs().max())
+    for got, want in zip(
+        implied[:2], (earlier.precision + both.precision, earlier.shift + both.shift), strict=True
+    ):
+        torch.testing.assert_close(got, want, rtol=0, atol=1e-8 * scale)
+    ones = torch.ones(9, dtype=torch.float64)
+    torch.testing.assert_close(implied.unit_shift, implied.precision @ ones, rtol=1e-12, atol=0)
+    torch.testing.assert_close(implied.input_shift, implied.precision @ t(z), rtol=1e-12, atol=0)
+    at_z = rng.integers(9, size=20)
+    _, x, y, noise = data(z[at_z])
+    Kxz = t(Kzz[at_z])  # with the nugget: rows of K_zz itself
+    alpha, P = sparse_posterior(t(Kzz), Kxz, y, noise, 1.0)
+    implied = Summary.of_posterior(alpha, P, t(np.linalg.inv(Kzz)), t(z))
+    direct = Summary.of_data(t(Kzz), Kxz, x, y, noise, 1.0)
+    for got, want in zip(implied, direct, strict=True):
+        torch.testing.assert_close(got, want, rtol=0, atol=1e-8 * float(want.abs().max()))
+
+
 # -- the adapting GP ----------------------------------------------------------------------------
 def gp_draw(
     rng: np.random.Generator, x: np.ndarray, ls: np.ndarray, noise: float
@@ -371,6 +408,7 @@ def test_rebuilt_posterior_is_the_sparse_posterior_of_the_weighted_window(prior_
         np.testing.assert_allclose([float(gp.y_mean), *gp.y_slope.numpy()], coef, rtol=1e-9)
 
 
+@pytest.mark.parametrize("summary", ["fold", "snapshot"])
 @pytest.mark.parametrize(
     ("forgetting", "drift", "fit_noise", "fold", "prior_mean"),
     [
@@ -385,7 +423,12 @@ def test_rebuilt_posterior_is_the_sparse_posterior_of_the_weighted_window(prior_
     ],
 )
 def test_summary_keeps_what_the_dropped_points_said(
-    forgetting: float, drift: float, fit_noise: bool, fold: int | None, prior_mean: str
+    forgetting: float,
+    drift: float,
+    fit_noise: bool,
+    fold: int | None,
+    prior_mean: str,
+    summary: str,
 ) -> None:
     """With the kernel and the basis fixed, a 150-point window on a 1200-point stream, fed in
     50-point batches and adapting every 100 points, gives the exact sparse posterior of all
@@ -394,7 +437,13 @@ def test_summary_keeps_what_the_dropped_points_said(
     each block (the summarised points then count with the final noise, as in the window),
     and when the prior mean is a line re-fitted each block to targets whose trend drifts.
     With ``fold_points=10`` each dropped batch of 50 counts as its points 2, 7, ..., 47 (the
-    middles of runs of 5), each weighted 5 times."""
+    middles of runs of 5), each weighted 5 times.
+
+    A snapshot summary holds the data as pseudo-observations at the basis inputs, which a
+    change of target units moves as it moves the data only where the data lie there: its
+    stream is drawn from the basis inputs. Every block refits, so each snapshot is of an exact
+    posterior, and no point leaves the window before the next snapshot holds it: the folds'
+    thinning never enters."""
     rng = np.random.default_rng(5)
     adapt = Adaptation(
         fold_points=fold,
@@ -405,13 +454,20 @@ def test_summary_keeps_what_the_dropped_points_said(
         targets=drift > 0,
         lengthscale_range=(1.0, 1.0),
         variance_bounds=(1.0, 1.0),
+        summary=summary,
     )
     gp = SparseOnlineGP(
         1, RBFKernel(lengthscale=0.2), max_basis=30, adapt=adapt, prior_mean=prior_mean
     )
     grid = np.linspace(0.0, 1.0, 11)[:, None]  # half a lengthscale apart: later points project
-    xs = [np.concatenate([grid, rng.uniform(size=(39, 1))])]
-    xs += [rng.uniform(size=(50, 1)) for _ in range(23)]
+    if summary == "snapshot":
+        grid = grid[::2]  # a lengthscale apart: each point becomes a basis vector
+
+    def draw(n: int) -> np.ndarray:
+        on_grid = summary == "snapshot"
+        return grid[rng.integers(len(grid), size=n)] if on_grid else rng.uniform(size=(n, 1))
+
+    xs = [np.concatenate([grid, draw(50 - len(grid))])] + [draw(50) for _ in range(23)]
     ys = [
         (1 + drift * i) * np.sin(5 * x[:, 0])
         + drift * i * (1 + x[:, 0])
@@ -423,13 +479,16 @@ def test_summary_keeps_what_the_dropped_points_said(
     for x, y in zip(xs[1:], ys[1:], strict=True):
         gp.update(x, y)
     torch.testing.assert_close(gp.basis_inputs, basis, rtol=0, atol=0)  # the basis stayed
+    if summary == "snapshot":
+        np.testing.assert_array_equal(basis.numpy(), grid)
     assert int(gp.n_blocks) == 12 and gp.summary_prec.abs().sum() > 0
     assert (float(gp.noise_var) != 0.05) == fit_noise
     assert (float(gp.y_slope.abs().sum()) > 0) == (prior_mean == "linear")
+    assert int(gp.summary_batch) == (24 if summary == "snapshot" else 0)
     x, y = np.concatenate(xs), np.concatenate(ys)
     age = np.repeat(np.arange(len(xs))[::-1], 50)
     w = forgetting**age
-    if fold is not None:
+    if fold is not None and summary == "fold":
         dropped = np.arange(len(x)) < len(x) - 150
         kept = ~dropped | (np.arange(len(x)) % 5 == 2)
         w = np.where(dropped, 5 * w, w)
@@ -437,10 +496,52 @@ def test_summary_keeps_what_the_dropped_points_said(
     assert_weighted_sparse_posterior(gp, x, y, w, rng)
 
 
+@pytest.mark.parametrize("fold", [None, 5])
+def test_a_snapshot_folds_only_the_head_of_a_batch_larger_than_the_window(fold: int | None) -> None:
+    """Batches of 50 into a 30-point window, one block each (as PPO's rollouts of thousands
+    into a window of 2,048): the 20 points of a batch that leave the window on arrival are
+    folded (through ``fold_points``), the 30 it keeps are rebuilt exactly, and each block's
+    snapshot passes both on, weighted ``0.7 ** age``: the posterior is the exact sparse
+    posterior of every tail and of each head as folded (``fold_points=5``: points 1, 5, ...,
+    17, the middles of runs of 4, each weighted 4 times). Inputs off the basis, target units
+    fixed, the basis fixed after the first batch."""
+    rng = np.random.default_rng(7)
+    adapt = Adaptation(
+        window=30,
+        interval=50,
+        steps=0,
+        forgetting=(0.7,),
+        targets=False,
+        fold_points=fold,
+        summary="snapshot",
+    )
+    gp = SparseOnlineGP(1, RBFKernel(lengthscale=0.2), max_basis=30, adapt=adapt, forgetting=0.7)
+    grid = np.linspace(0.0, 1.0, 11)[:, None]
+    xs = [np.concatenate([grid, rng.uniform(size=(39, 1))])]
+    xs += [rng.uniform(size=(50, 1)) for _ in range(9)]
+    ys = [np.sin(5 * x[:, 0]) + 0.1 * rng.normal(size=50) for x in xs]
+    gp.update(xs[0], ys[0])
+    basis = gp.basis_inputs.clone()
+    for x, y in zip(xs[1:], ys[1:], strict=True):
+        gp.update(x, y)
+    torch.testing.assert_close(gp.basis_inputs, basis, rtol=0, atol=0)
+    assert int(gp.n_blocks) == 10 and int(gp.summary_batch) == 10
+    x, y = np.concatenate(xs), np.concatenate(ys)
+    w = 0.7 ** np.repeat(np.arange(10)[::-1], 50)
+    position = np.tile(np.arange(50), 10)
+    head = position < 20
+    kept = ~head if fold is not None else np.ones(len(x), dtype=bool)
+    if fold is not None:
+        kept |= position % 4 == 1
+        w = np.where(head, 4 * w, w)
+    assert_weighted_sparse_posterior(gp, x[kept], y[kept], w[kept], rng)
+
+
+@pytest.mark.parametrize("summary", ["fold", "snapshot"])
 @pytest.mark.parametrize("prior_mean", ["constant", "linear"])
-def test_adaptation_state_round_trips_bit_for_bit(prior_mean: str) -> None:
+def test_adaptation_state_round_trips_bit_for_bit(prior_mean: str, summary: str) -> None:
     rng = np.random.default_rng(4)
-    adapt = Adaptation(window=300, interval=150, steps=2)
+    adapt = Adaptation(window=300, interval=150, steps=2, summary=summary)
     batches = [(rng.uniform(size=(100, 2)), rng.normal(size=100)) for _ in range(6)]
     gp = SparseOnlineGP(2, "geodesic", max_basis=40, adapt=adapt, prior_mean=prior_mean)
     for x, y in batches[:3]:
@@ -519,6 +620,7 @@ def test_a_state_saved_by_0_6_loads_without_drift_moments() -> None:
         gp.update(rng.uniform(size=(100, 2)), rng.normal(size=100))
     # Also without what 0.8's linear prior mean added (a constant mean saved as before).
     added = ("block_moments", "block_errors", "y_slope", "summary_input", "trend_coef")
+    added += ("summary_batch",)  # and without 0.11's snapshots
     state = {k: v for k, v in gp.state_dict().items() if k not in added}
     extra = state["_extra_state"]
     state["_extra_state"] = {k: v for k, v in extra.items() if k not in ("prior_mean", "trend")}
