@@ -85,7 +85,10 @@ SETTING_SUFFIXES: dict[str, tuple[tuple[str, ...], int]] = {
     "floor": (("fit_floor",), 100),
 }
 #: Suffixes without a count (after ``+adapt``) and the settings they give it.
-SETTING_FLAGS: dict[str, dict[str, Any]] = {"nosettle": {"settle": False}}
+SETTING_FLAGS: dict[str, dict[str, Any]] = {
+    "nosettle": {"settle": False},
+    "snapshot": {"summary": "snapshot"},
+}
 
 
 def gp_kwargs_of(suffixes: Sequence[str]) -> dict[str, Any] | None:

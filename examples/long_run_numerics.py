@@ -37,7 +37,7 @@ import operator
 import statistics
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -49,7 +49,7 @@ import matplotlib.pyplot as plt
 import torch
 from tqdm import tqdm
 
-from sb3_geogp import CHEAP_ADAPTATION, SparseOnlineGP
+from sb3_geogp import CHEAP_ADAPTATION, Adaptation, SparseOnlineGP
 from sb3_geogp.policies import DEFAULT_ADAPTATION
 from sb3_geogp.toolbox.benchmarks import Variant, torch_threads
 from sb3_geogp.toolbox.provenance import provenance
@@ -63,6 +63,10 @@ LEVEL_DEFAULT = {"adapt": True, "novelty_tol": 0.1, "trend": "level"}
 #: The policy's PPO default critic since 0.10: 0.9's with its rare refits
 #: (:data:`~sb3_geogp.policies.DEFAULT_ADAPTATION`).
 RARE_DEFAULT = {**LEVEL_DEFAULT, "adapt": DEFAULT_ADAPTATION}
+#: The same with the summary made from snapshots of the posterior (0.11's option).
+SNAPSHOT_DEFAULT = {**RARE_DEFAULT, "adapt": replace(DEFAULT_ADAPTATION, summary="snapshot")}
+#: The A2C default's adaptation (a refit every block) with snapshots.
+SNAPSHOT_ADAPT = {"adapt": Adaptation(summary="snapshot")}
 VARIANTS = {
     "pendulum": (
         Variant("rbf", "rbf"),
@@ -84,6 +88,8 @@ VARIANTS = {
         Variant("laplacian cheap n0.1", "laplacian", {}, CHEAP_DEFAULT),
         Variant("laplacian adapt n0.1 level", "laplacian", {}, LEVEL_DEFAULT),
         Variant("laplacian rare n0.1 level", "laplacian", {}, RARE_DEFAULT),
+        Variant("laplacian rare snapshot n0.1 level", "laplacian", {}, SNAPSHOT_DEFAULT),
+        Variant("geo laplace interp adapt snapshot", "geodesic", {}, SNAPSHOT_ADAPT),
     ),
     # A full basis facing a stream that keeps moving away from it (issue 11, defect 2).
     "drift": (
@@ -95,6 +101,8 @@ VARIANTS = {
         Variant("laplacian cheap n0.1", "laplacian", {}, CHEAP_DEFAULT),
         Variant("laplacian adapt n0.1 level", "laplacian", {}, LEVEL_DEFAULT),
         Variant("laplacian rare n0.1 level", "laplacian", {}, RARE_DEFAULT),
+        Variant("laplacian rare snapshot n0.1 level", "laplacian", {}, SNAPSHOT_DEFAULT),
+        Variant("geo laplace interp adapt snapshot", "geodesic", {}, SNAPSHOT_ADAPT),
     ),
 }
 STREAMS = {"pendulum": pendulum_stream, "drift": drifting_stream}

@@ -81,6 +81,8 @@ def test_benchmark_training_setting_suffixes_build_those_settings() -> None:
     assert folded == Adaptation(score_points=256, fold_points=1024)
     floor = as_adaptation(bench.gp_kwargs_of(["adapt", "floor80"])["adapt"])
     assert floor == Adaptation(fit_floor=0.8)
+    snap = as_adaptation(bench.gp_kwargs_of(["adapt", "fold256", "snapshot"])["adapt"])
+    assert snap == Adaptation(fold_points=256, summary="snapshot")
     assert bench.gp_kwargs_of(["nosettle"]) is None  # a setting needs +adapt or +cheap
 
 

@@ -73,8 +73,8 @@ def _blas_threads(threads: int | None) -> contextlib.AbstractContextManager[Any]
 
 #: :class:`SparseOnlineGP` methods that only run with adaptation (inside its updates): the
 #: out-of-sample statistics and forgetting scores, the summary of points leaving the window,
-#: and the adaptation proper.
-ADAPTATION_STEPS = ("_adapt", "_summarise", "_out_of_sample")
+#: its snapshots, and the adaptation proper.
+ADAPTATION_STEPS = ("_adapt", "_summarise", "_snapshot", "_out_of_sample")
 
 
 class GPClock:
