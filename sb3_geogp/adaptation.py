@@ -144,10 +144,15 @@ class Adaptation:
     summary : {"fold", "snapshot"}
         How the summary comes to hold the points a rebuild does not use (module docstring).
         ``"fold"``: each point leaving the window is folded in (through ``fold_points``).
-        ``"snapshot"``: at the end of every block the summary becomes the likelihood that the
+        ``"snapshot"``: when a block that refits opens (every block of several batches, whose
+        refit is known only at its end), the summary becomes the likelihood that the
         posterior implies (:meth:`Summary.of_posterior`), which holds every point absorbed so
-        far; a rebuild then uses the window's points that arrived since, and only those of
-        them that leave the window before the next block ends are folded in.
+        far; the refit's rebuild then uses the window's points that arrived since, and only
+        those of them that left the window in between are folded in (under PPO, the part of
+        a rollout larger than the window). No thinning of older points: on the fixed-policy
+        pendulum with the PPO default's schedule 1.08-1.12x a batch sparse GP's error at
+        50-200 basis vectors, against 1.23x / 1.35x at 100 / 200 with folds
+        (docs/results.md).
 
     Raises
     ------

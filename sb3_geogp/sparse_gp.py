@@ -669,6 +669,8 @@ class SparseOnlineGP(nn.Module):
             )
         if self.adaptation is not None and self.n_basis > 0:
             self.last_stats.update(self._out_of_sample(x, y))
+            if self._snapshot_due(self.adaptation, x.shape[0]):
+                self._snapshot()
         lam = self.forgetting if self.adaptation is None else float(self.block_forgetting)
         if lam < 1 and self.n_basis > 0:
             self._forget(lam)
@@ -1064,8 +1066,6 @@ class SparseOnlineGP(nn.Module):
         self.block_new.zero_()
         if a is not None and self.n_basis > 0:
             self._adapt(a)
-            if a.summary == "snapshot":
-                self._snapshot()
 
     def _summarise(self, x: Tensor, y: Tensor, batch: Tensor) -> None:
         """Add what the points leaving the window say to the summary, with their weights;
@@ -1093,11 +1093,24 @@ class SparseOnlineGP(nn.Module):
         self.summary_unit[:m] += part.unit_shift
         self.summary_input[:m] += part.input_shift
 
+    def _snapshot_due(self, a: Adaptation, n: int) -> bool:
+        """Whether a batch of ``n`` points, scored but not yet absorbed, opens a block that
+        needs a snapshot of the posterior first (``Adaptation(summary="snapshot")``).
+
+        A block of several batches always does: whether it refits is known only at its end.
+        A block of this batch alone (a PPO rollout) only if it refits, which its scores
+        already tell. The summary serves only a refit's rebuild, so the posterior is the same
+        as with a snapshot at the start of every block, at the price of the refits alone.
+        """
+        if a.summary != "snapshot" or int(self.block_new) > 0:
+            return False
+        return n < a.block or self._refit_due(a, int(self.n_blocks) + 1)
+
     def _snapshot(self) -> None:
         """Make the summary the likelihood the posterior implies
         (:meth:`~sb3_geogp.adaptation.Summary.of_posterior`, per unit noise variance as the
-        summary is kept): it then holds every batch so far, and the next rebuild adds only
-        the window's points from the next batch on (``Adaptation(summary="snapshot")``)."""
+        summary is kept): it then holds every batch before this one, and the next rebuild
+        adds only the window's points from this batch on."""
         m = self.n_basis
         implied = Summary.of_posterior(
             self.alpha[:m], self.P[:m, :m], self.Q[:m, :m], self.bv_x[:m]
@@ -1136,19 +1149,26 @@ class SparseOnlineGP(nn.Module):
         lam = a.forgetting[int(scores.argmin())] if scored else float(self.block_forgetting)
         scores.zero_()
         drift, explained = self._block_fit()
-        self.block_forgetting.fill_(lam)
-        self.last_stats.update(forgetting=lam, target_drift=drift, block_fit=explained)
-        if a.refits(int(self.n_blocks)) or a.drifted(drift) or a.misfitted(explained):
-            self._refit(a, x, y, age_weights(age, lam).to(y), batch)
-
-    def _block_fit(self) -> tuple[float, float]:
-        """The closing block's drift (mean square of its scored standardised targets; 1 if
-        none was scored) and the explained variance of its out-of-sample predictions (NaN if
-        its targets do not vary); starts the next block's sums."""
-        points, squares = self.block_moments.tolist()
-        total, errors, error_squares = self.block_errors.tolist()
+        refit = self._refit_due(a, int(self.n_blocks))
         self.block_moments.zero_()
         self.block_errors.zero_()
+        self.block_forgetting.fill_(lam)
+        self.last_stats.update(forgetting=lam, target_drift=drift, block_fit=explained)
+        if refit:
+            self._refit(a, x, y, age_weights(age, lam).to(y), batch)
+
+    def _refit_due(self, a: Adaptation, block: int) -> bool:
+        """Whether the ``block``-th block refits, on its schedule or for the drift or the fit
+        of the targets scored in it so far (:meth:`_block_fit`)."""
+        drift, explained = self._block_fit()
+        return a.refits(block) or a.drifted(drift) or a.misfitted(explained)
+
+    def _block_fit(self) -> tuple[float, float]:
+        """The open block's drift (mean square of its scored standardised targets; 1 if none
+        was scored) and the explained variance of its out-of-sample predictions (NaN if its
+        targets do not vary)."""
+        points, squares = self.block_moments.tolist()
+        total, errors, error_squares = self.block_errors.tolist()
         if points <= 0:
             return 1.0, math.nan
         spread = squares / points - (total / points) ** 2

@@ -484,7 +484,8 @@ def test_summary_keeps_what_the_dropped_points_said(
     assert int(gp.n_blocks) == 12 and gp.summary_prec.abs().sum() > 0
     assert (float(gp.noise_var) != 0.05) == fit_noise
     assert (float(gp.y_slope.abs().sum()) > 0) == (prior_mean == "linear")
-    assert int(gp.summary_batch) == (24 if summary == "snapshot" else 0)
+    # The last snapshot opened the last block (batches 22 and 23).
+    assert int(gp.summary_batch) == (22 if summary == "snapshot" else 0)
     x, y = np.concatenate(xs), np.concatenate(ys)
     age = np.repeat(np.arange(len(xs))[::-1], 50)
     w = forgetting**age
@@ -525,7 +526,7 @@ def test_a_snapshot_folds_only_the_head_of_a_batch_larger_than_the_window(fold: 
     for x, y in zip(xs[1:], ys[1:], strict=True):
         gp.update(x, y)
     torch.testing.assert_close(gp.basis_inputs, basis, rtol=0, atol=0)
-    assert int(gp.n_blocks) == 10 and int(gp.summary_batch) == 10
+    assert int(gp.n_blocks) == 10 and int(gp.summary_batch) == 9  # before the last batch
     x, y = np.concatenate(xs), np.concatenate(ys)
     w = 0.7 ** np.repeat(np.arange(10)[::-1], 50)
     position = np.tile(np.arange(50), 10)
@@ -535,6 +536,52 @@ def test_a_snapshot_folds_only_the_head_of_a_batch_larger_than_the_window(fold: 
         kept |= position % 4 == 1
         w = np.where(head, 4 * w, w)
     assert_weighted_sparse_posterior(gp, x[kept], y[kept], w[kept], rng)
+
+
+@pytest.mark.parametrize("batch", [60, 15])  # one batch per block, and four
+def test_snapshots_only_before_refits_predict_as_snapshots_before_every_block(
+    batch: int,
+) -> None:
+    """The snapshot serves only a refit's rebuild: taking it only when a block that refits
+    opens (known from the scores of a block of one batch) predicts bit for bit as taking it
+    when every block opens, through rare, fit-floor and drift refits, forgetting, new target
+    units and deletions at capacity; with one batch per block it is taken before the refits
+    alone."""
+    rng = np.random.default_rng(9)
+    adapt = Adaptation(
+        window=40, interval=60, steps=2, max_gap=4, settle=False, fit_floor=0.3,
+        drift_tol=3.0, fold_points=7, summary="snapshot",
+    )  # fmt: skip
+    lazy, eager = (SparseOnlineGP(2, "laplacian", max_basis=12, adapt=adapt) for _ in range(2))
+
+    def every_block(a: Adaptation, n: int) -> bool:
+        return int(eager.block_new) == 0
+
+    eager._snapshot_due = every_block  # type: ignore[method-assign]
+    taken = {"lazy": 0, "eager": 0}
+    for name, gp in (("lazy", lazy), ("eager", eager)):
+        take = gp._snapshot
+
+        def counted(take=take, name=name) -> None:
+            taken[name] += 1
+            take()
+
+        gp._snapshot = counted  # type: ignore[method-assign]
+    refits = 0
+    probe = rng.uniform(size=(9, 2))
+    for i in range(360 // batch):
+        x = rng.uniform(size=(batch, 2))
+        y = (1 + i // 4) * np.sin(4 * x[:, 0]) + x[:, 1] + 0.2 * rng.normal(size=batch)
+        before = lazy.lengthscale.clone()
+        for gp in (lazy, eager):
+            gp.update(x, y)
+        refits += not torch.equal(before, lazy.lengthscale)
+        for a, b in zip(lazy.predict(probe), eager.predict(probe), strict=True):
+            torch.testing.assert_close(a, b, rtol=0, atol=0)
+    # Blocks 1 and 4 on the schedule, at least one for the fit floor or the drift.
+    assert int(lazy.n_deleted) > 0 and refits >= 3 and int(lazy.n_blocks) == 6
+    assert taken["eager"] == 5  # blocks 2-6 (the basis is empty when block 1 opens)
+    assert taken["lazy"] == (refits - 1 if batch == 60 else 5)
 
 
 @pytest.mark.parametrize("summary", ["fold", "snapshot"])
