@@ -60,12 +60,12 @@ from sb3_geogp.toolbox.tables import format_table
 CHEAP_DEFAULT = {"adapt": CHEAP_ADAPTATION, "novelty_tol": 0.1}
 #: The policy's PPO default critic since 0.9: the 0.6 one with a moving level.
 LEVEL_DEFAULT = {"adapt": True, "novelty_tol": 0.1, "trend": "level"}
-#: The policy's PPO default critic since 0.10: 0.9's with its rare refits
+#: The policy's PPO default critic of 0.10: 0.9's with its rare refits, the summary folded.
+RARE_DEFAULT = {**LEVEL_DEFAULT, "adapt": replace(DEFAULT_ADAPTATION, summary="fold")}
+#: The policy's PPO default critic since 0.11: the summary from snapshots of the posterior
 #: (:data:`~sb3_geogp.policies.DEFAULT_ADAPTATION`).
-RARE_DEFAULT = {**LEVEL_DEFAULT, "adapt": DEFAULT_ADAPTATION}
-#: The same with the summary made from snapshots of the posterior (0.11's option).
-SNAPSHOT_DEFAULT = {**RARE_DEFAULT, "adapt": replace(DEFAULT_ADAPTATION, summary="snapshot")}
-#: The A2C default's adaptation (a refit every block) with snapshots.
+SNAPSHOT_DEFAULT = {**LEVEL_DEFAULT, "adapt": DEFAULT_ADAPTATION}
+#: The A2C default's adaptation (a refit every block) with snapshots (an option).
 SNAPSHOT_ADAPT = {"adapt": Adaptation(summary="snapshot")}
 VARIANTS = {
     "pendulum": (

@@ -72,17 +72,18 @@ DEFAULT_TRENDS: dict[type[BaseAlgorithm], str] = {A2C: "none"}
 #: algorithm training the policy is in :data:`DEFAULT_ADAPTATIONS`: since 0.10 a refit (new
 #: target units, the hyperparameters' Adam steps, the rebuild) on the first block, every 16th
 #: and any block whose targets the critic predicted with an explained variance below 0.8, each
-#: batch scored and the points leaving the window summarised through at most 256 of them;
-#: every block still chooses its forgetting and the level moves with every rollout. It takes
-#: 8-11 % of the GP critic's time on PPO Pendulum-v1 where a refit every block (0.9) took 58 %,
-#: and in its pre-registered test it lost no PPO cell against 0.9's critic (docs/results.md,
-#: "Rare refits where the fit is good"). Its fold cap costs accuracy on a stationary stream:
-#: on the fixed-policy pendulum its error is 1.35x a batch sparse GP's at 200 basis vectors,
-#: 1.13x with every point folded (``fold_points=None``), which takes 24 % of the GP critic's
-#: time instead of 10 % (docs/results.md, "The fixed-policy gap of the PPO default is the
-#: summary's thinning").
+#: batch scored through at most 256 of its points; every block still chooses its forgetting and
+#: the level moves with every rollout. It takes 8-11 % of the GP critic's time on PPO
+#: Pendulum-v1 where a refit every block (0.9) took 58 %, and in its pre-registered test it lost
+#: no PPO cell against 0.9's critic (docs/results.md, "Rare refits where the fit is good").
+#: Since 0.11 a refit's rebuild keeps the older points through a snapshot of the posterior
+#: (``summary="snapshot"``) rather than folds thinned to 256 points a batch: on the
+#: fixed-policy pendulum 1.08-1.12x a batch sparse GP's error at 50-200 basis vectors instead
+#: of 1.23x / 1.35x at 100 / 200, at the same 9 % of the GP critic's time, and in its
+#: pre-registered test no PPO cell lost against 0.10's critic, CartPole gained
+#: (docs/results.md, "A snapshot summary").
 DEFAULT_ADAPTATION = Adaptation(
-    max_gap=16, settle=False, score_points=256, fold_points=256, fit_floor=0.8
+    max_gap=16, settle=False, score_points=256, fold_points=256, fit_floor=0.8, summary="snapshot"
 )
 #: Algorithms whose GP critic has another default adaptation. A2C keeps a refit every block
 #: (the engine's :class:`~sb3_geogp.Adaptation` defaults): :data:`DEFAULT_ADAPTATION` under A2C
@@ -525,8 +526,9 @@ class GPActorCriticPolicy(GPCriticMixin, ActorCriticPolicy):
         (:class:`~sb3_geogp.Adaptation`). Unset or ``True``, it takes the policy's settings
         for the algorithm (:func:`default_adaptation`: since 0.10 under PPO, TRPO and
         MaskablePPO :data:`DEFAULT_ADAPTATION`, refits on the first block, every 16th and
-        badly predicted ones; under A2C the engine's ``Adaptation()``, a refit every block,
-        which was every algorithm's before 0.10 and is ``adapt={}``); ``adapt=False`` gives
+        badly predicted ones, since 0.11 from a snapshot of the posterior; under A2C the
+        engine's ``Adaptation()``, a refit every block, which was every algorithm's before
+        0.10 and is ``adapt={}``); ``adapt=False`` gives
         0.2's critic with fixed hyperparameters (``forgetting`` then stays as given);
         ``adapt=sb3_geogp.CHEAP_ADAPTATION`` is 0.7's cheaper preset, with the losses
         docs/results.md reports ("Cheaper adaptation, 0.7").

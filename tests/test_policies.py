@@ -222,8 +222,12 @@ def test_default_critic_is_the_laplacian_kernel_with_a_dense_basis_except_under_
 
     default = built()
     assert isinstance(default.gp.kernel, LaplacianKernel) and default.gp.novelty_tol == 0.1
-    # Since 0.10 PPO refits on the first block, every 16th and those it predicted badly.
-    rare = Adaptation(max_gap=16, settle=False, score_points=256, fold_points=256, fit_floor=0.8)
+    # Since 0.10 PPO refits on the first block, every 16th and those it predicted badly; since
+    # 0.11 from a snapshot of the posterior.
+    rare = Adaptation(
+        max_gap=16, settle=False, score_points=256, fold_points=256, fit_floor=0.8,
+        summary="snapshot",
+    )  # fmt: skip
     assert default.gp.adaptation == rare and built(adapt=True).gp.adaptation == rare
     assert default.gp.trend == "level"
     saved = default._get_constructor_parameters()["gp_kwargs"]
