@@ -39,6 +39,10 @@ per batch), follows a change of the target units, and a deletion of a basis vect
 substitutes that vector's conditional mean given the others, as the on-line deletion does.
 Without it a rebuild would forget everything older than the window (measured: 2-4x the batch
 sparse GP's error on the fixed-policy pendulum check, against about 1x without adaptation).
+With ``Adaptation(summary="snapshot")`` (the policy's PPO default since 0.11) the summary is
+instead, when a block that refits opens, the likelihood the posterior implies
+(:meth:`Summary.of_posterior`): it holds every point absorbed so far, unthinned, and the
+refit's rebuild uses the window's points from then on.
 
 With ``Adaptation(max_gap=g)``, steps 2-4 (the *refit*) run only on the first block, on the
 blocks numbered by a power of two below ``g`` (unless ``settle=False``) and on the multiples of
@@ -52,7 +56,8 @@ points it scored) with an explained variance below ``f`` refits too: the refits 
 model is wrong. ``score_points`` and ``fold_points`` make step 1 and the summary below use an
 evenly spaced subsample of a batch (:func:`thinned`). All of these are off by default;
 :data:`CHEAP_ADAPTATION` combines the cheaper ones, and since 0.10 the GP critic's policy under
-PPO uses all but ``drift_tol`` (:data:`sb3_geogp.policies.DEFAULT_ADAPTATION`).
+PPO uses all but ``drift_tol``, and since 0.11 the snapshot summary
+(:data:`sb3_geogp.policies.DEFAULT_ADAPTATION`).
 docs/benchmarks.md measures what they save and what fit they cost, docs/results.md what they
 cost in training.
 
