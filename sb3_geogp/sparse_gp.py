@@ -1039,9 +1039,9 @@ class SparseOnlineGP(nn.Module):
         yn = self._standardised(x, y)
         with self._transaction(), torch.no_grad():
             self._fit(x, yn, w, n_iter, lr, self.adaptation or Adaptation())
-            Kzz, Kxz = self._rebuild(x, yn, w, batch)
+            self._rebuild(x, yn, w, batch)
             variance = self.kernel.variance
-            projection = Projection(Kzz, Kxz, float(variance))
+            projection = Projection(*self._basis_covariances(x), float(variance))
             final = projection.negative_bound(yn, self.noise_var / w, variance.expand(len(yn)))
         return {
             "lengthscale": float(self.kernel.lengthscale[0]),
@@ -1314,24 +1314,21 @@ class SparseOnlineGP(nn.Module):
         self.noise_var.copy_(log_noise.detach().exp())
         self._cache = None
 
-    def _rebuild(self, x: Tensor, yn: Tensor, w: Tensor, batch: Tensor) -> tuple[Tensor, Tensor]:
+    def _rebuild(self, x: Tensor, yn: Tensor, w: Tensor, batch: Tensor) -> None:
         """The exact sparse posterior of the points of ``(x, yn)`` that the summary does not
         hold (of batches ``batch``), with noise ``sigma_n^2 / w``, times the summary,
-        replaces the current one (:func:`~sb3_geogp.adaptation.sparse_posterior`); returns
-        the covariances of all of ``x`` (:meth:`_basis_covariances`, after pruning)."""
+        replaces the current one (:func:`~sb3_geogp.adaptation.sparse_posterior`), after
+        pruning."""
         self._refresh_Q()
         self._prune_redundant()
         m = self.n_basis
-        Kzz, Kxz = self._basis_covariances(x)
-        variance = float(self.kernel.variance)
         first = self._first_unsummarised(batch)
-        noise = self.noise_var / w[first:]
-        summary = self._summary()
-        alpha, P = sparse_posterior(Kzz, Kxz[first:], yn[first:], noise, variance, summary)
+        Kzz, Kxz = self._basis_covariances(x[first:])
+        variance, noise = float(self.kernel.variance), self.noise_var / w[first:]
+        alpha, P = sparse_posterior(Kzz, Kxz, yn[first:], noise, variance, self._summary())
         self.alpha[:m] = alpha
         self.P[:m, :m] = P
         self._matrices().posterior_changed()
-        return Kzz, Kxz
 
     def _prune_redundant(self) -> None:
         """Delete, least novel first, the BVs that new hyperparameters made near-duplicates.
