@@ -850,9 +850,13 @@ class SparseOnlineGP(nn.Module):
             self.P[:m, :m] = _sym(P - PK @ gain)
             return
         weighted = rows.T / noise
-        system = torch.eye(m, dtype=P.dtype, device=P.device) + P @ (weighted @ rows)
-        rhs = torch.cat([P, (P @ (weighted @ resid))[:, None]], dim=1)
-        sol = torch.linalg.solve(system, rhs)
+        # The (m, m) system in float64 whatever the state's: with a float32 state, a dense
+        # Laplacian basis (novelty_tol=0.1) and rollouts of 2,048 points, its float32 solve
+        # made P indefinite within ten batches (smallest eigenvalue -1.6x the largest).
+        G, P64 = (weighted @ rows).double(), P.double()
+        system = torch.eye(m, dtype=torch.float64, device=P.device) + P64 @ G
+        rhs = torch.cat([P64, (P64 @ (weighted @ resid).double())[:, None]], dim=1)
+        sol = torch.linalg.solve(system, rhs).to(P.dtype)
         self.alpha[:m] += sol[:, m]
         self.P[:m, :m] = _sym(sol[:, :m])
 
