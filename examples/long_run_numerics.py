@@ -90,6 +90,12 @@ VARIANTS = {
         Variant("laplacian rare n0.1 level", "laplacian", {}, RARE_DEFAULT),
         Variant("laplacian rare snapshot n0.1 level", "laplacian", {}, SNAPSHOT_DEFAULT),
         Variant("geo laplace interp adapt snapshot", "geodesic", {}, SNAPSHOT_ADAPT),
+        Variant(
+            "laplacian rare snapshot n0.1 level float32",
+            "laplacian",
+            {},
+            {**SNAPSHOT_DEFAULT, "dtype": torch.float32},
+        ),
     ),
     # A full basis facing a stream that keeps moving away from it (issue 11, defect 2).
     "drift": (
@@ -103,6 +109,12 @@ VARIANTS = {
         Variant("laplacian rare n0.1 level", "laplacian", {}, RARE_DEFAULT),
         Variant("laplacian rare snapshot n0.1 level", "laplacian", {}, SNAPSHOT_DEFAULT),
         Variant("geo laplace interp adapt snapshot", "geodesic", {}, SNAPSHOT_ADAPT),
+        Variant(
+            "laplacian rare snapshot n0.1 level float32",
+            "laplacian",
+            {},
+            {**SNAPSHOT_DEFAULT, "dtype": torch.float32},
+        ),
     ),
 }
 STREAMS = {"pendulum": pendulum_stream, "drift": drifting_stream}

@@ -838,25 +838,26 @@ class SparseOnlineGP(nn.Module):
         basis.posterior_changed()
         mixed = self.kernel.rows(self.kernel.scale(x), basis.z)
         rows = mixed.dense(basis)
-        P, alpha = self.P[:m, :m], self.alpha[:m]
         noise = self.noise_var + (self.kernel.variance - mixed.kqk(basis)).clamp_min(0)
-        resid = yn - rows @ alpha
+        resid = yn - rows @ self.alpha[:m]
+        # In float64 whatever the state's dtype (a no-op for float64): with a float32 state,
+        # a dense Laplacian basis (novelty_tol=0.1) and 2,048-point rollouts this update made
+        # P indefinite within ten batches (smallest eigenvalue -1.6x the largest), and with
+        # long fitted lengthscales the observation form's S failed to factorise.
+        dtype = self.P.dtype
+        P, rows, noise, resid = (t.double() for t in (self.P[:m, :m], rows, noise, resid))
         if x.shape[0] < m:
             PK = P @ rows.T
             S = rows @ PK + torch.diag(noise)
             L, _ = jittered_cholesky(_sym(S), float(noise.mean()))
             gain = torch.cholesky_solve(PK.T, L)  # S^{-1} K_x P, shape (n, m)
-            self.alpha[:m] += gain.T @ resid
-            self.P[:m, :m] = _sym(P - PK @ gain)
+            self.alpha[:m] += (gain.T @ resid).to(dtype)
+            self.P[:m, :m] = _sym(P - PK @ gain).to(dtype)
             return
         weighted = rows.T / noise
-        # The (m, m) system in float64 whatever the state's: with a float32 state, a dense
-        # Laplacian basis (novelty_tol=0.1) and rollouts of 2,048 points, its float32 solve
-        # made P indefinite within ten batches (smallest eigenvalue -1.6x the largest).
-        G, P64 = (weighted @ rows).double(), P.double()
-        system = torch.eye(m, dtype=torch.float64, device=P.device) + P64 @ G
-        rhs = torch.cat([P64, (P64 @ (weighted @ resid).double())[:, None]], dim=1)
-        sol = torch.linalg.solve(system, rhs).to(P.dtype)
+        system = torch.eye(m, dtype=P.dtype, device=P.device) + P @ (weighted @ rows)
+        rhs = torch.cat([P, (P @ (weighted @ resid))[:, None]], dim=1)
+        sol = torch.linalg.solve(system, rhs).to(dtype)
         self.alpha[:m] += sol[:, m]
         self.P[:m, :m] = _sym(sol[:, :m])
 
