@@ -7,7 +7,8 @@ seeds, fed in batches of 2048 as a PPO rollout buffer would) into one
 * every entry of ``alpha``, ``P``, ``Q`` and of the predictions on a probe set is finite;
 * ``P`` and ``Q`` are symmetric: ``max |M - M^T| / max |M| <= --sym-tol``;
 * ``P`` and ``Q`` are positive semi-definite: smallest eigenvalue / largest absolute
-  eigenvalue ``>= -(--eig-tol)``;
+  eigenvalue ``>= -(--eig-tol)``, or ``>= -100 eps`` of the state's dtype where that is looser
+  (a float32 state's own rounding: ``-1.2e-5``);
 * the predictive variances on the probe set (a held-out rollout plus random states, some far
   from the data) are ``>= 0`` (``predict`` clamps them, so the eigenvalue check on ``P`` is the
   one with teeth);
@@ -135,8 +136,13 @@ class Check:
     worse: Callable[[float, float], bool]
 
 
-def make_checks(sym_tol: float, eig_tol: float) -> tuple[Check, ...]:
-    """The checks of every batch, with their limits."""
+#: Multiples of the state's machine epsilon that its eigenvalue checks allow at least.
+EPS_FACTOR = 100
+
+
+def make_checks(sym_tol: float, eig_tol: float, dtype: torch.dtype) -> tuple[Check, ...]:
+    """The checks of every batch of a GP whose state is ``dtype``, with their limits."""
+    eig_tol = max(eig_tol, EPS_FACTOR * torch.finfo(dtype).eps)
     at_most = (operator.le, operator.gt)
     at_least = (operator.ge, operator.lt)
     return (
@@ -339,7 +345,6 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
 
 def run(args: argparse.Namespace) -> list[Soak]:
     """Stream the data through every variant, checking after every batch."""
-    checks = make_checks(args.sym_tol, args.eig_tol)
     if args.stream == "pendulum":
         test = Rollout.pendulum(args.batch_size, TEST_SEED)
         probe = probe_states(test, 512, TEST_SEED)
@@ -350,7 +355,11 @@ def run(args: argparse.Namespace) -> list[Soak]:
     variants = [v for v in VARIANTS[args.stream] if not args.variants or v.label in args.variants]
     if not variants:
         raise SystemExit(f"--variants: none of {args.variants} is a variant of {args.stream!r}")
-    soaks = [Soak(v, v.build(dim, args.max_basis), checks) for v in variants]
+    gps = [v.build(dim, args.max_basis) for v in variants]
+    soaks = [
+        Soak(v, gp, make_checks(args.sym_tol, args.eig_tol, gp.P.dtype))
+        for v, gp in zip(variants, gps, strict=True)
+    ]
     deadline = time.perf_counter() + (args.time_budget or math.inf)
     with tqdm(total=args.points, desc="soak", unit="pt", unit_scale=True) as bar:
         for batch in STREAMS[args.stream](args.points, args.batch_size):
@@ -378,7 +387,7 @@ def write_results(
     for row in rows:
         for failure in row["first_failures"]:
             print(f"FAILED {row['variant']}: {failure}")
-    limits = {c.key: c.limit for c in soaks[0].checks}
+    limits = {s.variant.label: {c.key: c.limit for c in s.checks} for s in soaks}
     print(f"limits: {limits}; total wall time {total_s:.1f} s")
     print(f"provenance at start: {record}")
     print("all checks passed" if passed else "SOME CHECKS FAILED")
