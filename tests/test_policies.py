@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import io
 import re
 import zipfile
@@ -287,6 +288,26 @@ def test_model_saved_before_0_10_loads_with_the_adaptation_it_was_trained_with(
     named = dict(gp_kwargs=dict(max_basis=16, adapt=CHEAP_ADAPTATION.as_dict()), net_arch=[16])
     cheap = PPO.load(tmp_path / "model.zip", env=env, custom_objects={"policy_kwargs": named})
     assert cheap.policy.gp.adaptation == CHEAP_ADAPTATION
+
+
+def test_model_saved_by_0_10_keeps_its_folded_summary(tmp_path: Path) -> None:
+    """0.10 saved its PPO critic's adaptation as its settings, without ``summary``: such a
+    model loads with the folded summary it was trained with (values and further learning
+    included), not 0.11's snapshots."""
+    env = make_vec_env("Pendulum-v1", n_envs=2, seed=0)
+    saved_by_0_10 = {k: v for k, v in DEFAULT_ADAPTATION.as_dict().items() if k != "summary"}
+    kwargs = dict(gp_kwargs=dict(max_basis=16, adapt=saved_by_0_10), net_arch=[16])
+    model = PPO(GPActorCriticPolicy, env, n_steps=64, batch_size=64, seed=0, policy_kwargs=kwargs)
+    assert isinstance(model.policy, GPActorCriticPolicy)
+    model.learn(256, callback=GPValueCallback())
+    model.save(tmp_path / "model.zip")
+    loaded = PPO.load(tmp_path / "model.zip", env=env, custom_objects={"policy_kwargs": kwargs})
+    assert isinstance(loaded.policy, GPActorCriticPolicy)
+    assert loaded.policy.gp.adaptation == dataclasses.replace(DEFAULT_ADAPTATION, summary="fold")
+    obs = flat_obs(model)
+    assert th.equal(loaded.policy.predict_values(obs), model.policy.predict_values(obs))
+    loaded.learn(128, callback=GPValueCallback(), reset_num_timesteps=False)
+    assert int(loaded.policy.gp.summary_batch) == 0  # never a snapshot
 
 
 def test_model_saved_before_0_9_without_a_trend_loads_with_its_trend_free_critic(
