@@ -45,6 +45,7 @@ from tests.test_sparse_gp import assert_same_state, nystrom_posterior, rbf, snap
         dict(drift_tol=float("nan")),
         dict(fit_floor=1.0),
         dict(fit_floor=float("-inf")),
+        dict(summary="snapshots"),
     ],
 )
 def test_bad_settings_raise_naming_the_setting(bad: dict) -> None:
