@@ -1117,9 +1117,9 @@ class SparseOnlineGP(nn.Module):
         summary is kept): it then holds every batch before this one, and the next rebuild
         adds only the window's points from this batch on."""
         m = self.n_basis
-        implied = Summary.of_posterior(
-            self.alpha[:m], self.P[:m, :m], self.Q[:m, :m], self.bv_x[:m]
-        )
+        # In float64 whatever the state's dtype, as the absorb: Q P^-1 Q - Q cancels.
+        state = (self.alpha[:m], self.P[:m, :m], self.Q[:m, :m], self.bv_x[:m])
+        implied = Summary.of_posterior(*(t.double() for t in state))
         noise = self.noise_var
         self.summary_prec[:m, :m] = implied.precision * noise
         self.summary_shift[:m] = implied.shift * noise
@@ -1128,8 +1128,8 @@ class SparseOnlineGP(nn.Module):
         self.summary_batch.fill_(int(self.n_batches))
 
     def _first_unsummarised(self, batch: Tensor) -> int:
-        """Index of the first of points of batches ``batch : (n,)`` (oldest first) that the
-        summary does not hold: all of them, unless it was made by :meth:`_snapshot`."""
+        """Index of the first point the summary does not hold, among points oldest first
+        that arrived in batches ``batch : (n,)``: 0 unless a :meth:`_snapshot` made it."""
         return int((batch < self.summary_batch).sum())
 
     def _summary(self) -> Summary:
