@@ -88,7 +88,9 @@ DEFAULT_ADAPTATION = Adaptation(
 #: Algorithms whose GP critic has another default adaptation. A2C keeps a refit every block
 #: (the engine's :class:`~sb3_geogp.Adaptation` defaults): :data:`DEFAULT_ADAPTATION` under A2C
 #: lost no cell in a pre-registered test but saved only 11 % of the GP critic's time, its fit
-#: floor refitting most blocks (docs/results.md, "Rare refits under A2C").
+#: floor refitting most blocks (docs/results.md, "Rare refits under A2C"), and the snapshot
+#: summary saved 7 % but lost PaperPendulum at 95 % in another ("The snapshot summary under
+#: A2C").
 DEFAULT_ADAPTATIONS: dict[type[BaseAlgorithm], Adaptation] = {A2C: Adaptation()}
 #: Options the policy gives the GP critic of a kernel named in ``gp_kwargs`` (or of the
 #: default kernel, :func:`default_kernel`) where ``gp_kwargs`` leaves them unset. The Laplacian
