@@ -68,6 +68,18 @@ RARE_DEFAULT = {**LEVEL_DEFAULT, "adapt": replace(DEFAULT_ADAPTATION, summary="f
 SNAPSHOT_DEFAULT = {**LEVEL_DEFAULT, "adapt": DEFAULT_ADAPTATION}
 #: The A2C default's adaptation (a refit every block) with snapshots (an option).
 SNAPSHOT_ADAPT = {"adapt": Adaptation(summary="snapshot")}
+#: The snapshot summary's variants (0.11), on both streams: the PPO default in float64 and
+#: float32, and the A2C default's adaptation with snapshots.
+SNAPSHOT_VARIANTS = (
+    Variant("laplacian rare snapshot n0.1 level", "laplacian", {}, SNAPSHOT_DEFAULT),
+    Variant("geo laplace interp adapt snapshot", "geodesic", {}, SNAPSHOT_ADAPT),
+    Variant(
+        "laplacian rare snapshot n0.1 level float32",
+        "laplacian",
+        {},
+        {**SNAPSHOT_DEFAULT, "dtype": torch.float32},
+    ),
+)
 VARIANTS = {
     "pendulum": (
         Variant("rbf", "rbf"),
@@ -89,14 +101,7 @@ VARIANTS = {
         Variant("laplacian cheap n0.1", "laplacian", {}, CHEAP_DEFAULT),
         Variant("laplacian adapt n0.1 level", "laplacian", {}, LEVEL_DEFAULT),
         Variant("laplacian rare n0.1 level", "laplacian", {}, RARE_DEFAULT),
-        Variant("laplacian rare snapshot n0.1 level", "laplacian", {}, SNAPSHOT_DEFAULT),
-        Variant("geo laplace interp adapt snapshot", "geodesic", {}, SNAPSHOT_ADAPT),
-        Variant(
-            "laplacian rare snapshot n0.1 level float32",
-            "laplacian",
-            {},
-            {**SNAPSHOT_DEFAULT, "dtype": torch.float32},
-        ),
+        *SNAPSHOT_VARIANTS,
     ),
     # A full basis facing a stream that keeps moving away from it (issue 11, defect 2).
     "drift": (
@@ -108,14 +113,7 @@ VARIANTS = {
         Variant("laplacian cheap n0.1", "laplacian", {}, CHEAP_DEFAULT),
         Variant("laplacian adapt n0.1 level", "laplacian", {}, LEVEL_DEFAULT),
         Variant("laplacian rare n0.1 level", "laplacian", {}, RARE_DEFAULT),
-        Variant("laplacian rare snapshot n0.1 level", "laplacian", {}, SNAPSHOT_DEFAULT),
-        Variant("geo laplace interp adapt snapshot", "geodesic", {}, SNAPSHOT_ADAPT),
-        Variant(
-            "laplacian rare snapshot n0.1 level float32",
-            "laplacian",
-            {},
-            {**SNAPSHOT_DEFAULT, "dtype": torch.float32},
-        ),
+        *SNAPSHOT_VARIANTS,
     ),
 }
 STREAMS = {"pendulum": pendulum_stream, "drift": drifting_stream}

@@ -259,6 +259,11 @@ class Adaptation:
         (NaN: targets that do not vary) falls below ``fit_floor`` (never without one)."""
         return self.fit_floor is not None and explained < self.fit_floor
 
+    def refit_due(self, block: int, drift: float, explained: float) -> bool:
+        """Whether the ``block``-th block refits: on its schedule (:meth:`refits`), or for the
+        drift (:meth:`drifted`) or the fit (:meth:`misfitted`) of its scored targets."""
+        return self.refits(block) or self.drifted(drift) or self.misfitted(explained)
+
     def as_dict(self) -> dict[str, Any]:
         """JSON-compatible settings (stored in the GP's state)."""
         return {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(self).items()}

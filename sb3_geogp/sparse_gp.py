@@ -1109,7 +1109,7 @@ class SparseOnlineGP(nn.Module):
         """
         if a.summary != "snapshot" or int(self.block_new) > 0:
             return False
-        return n < a.block or self._refit_due(a, int(self.n_blocks) + 1)
+        return n < a.block or a.refit_due(int(self.n_blocks) + 1, *self._block_fit())
 
     def _snapshot(self) -> None:
         """Make the summary the likelihood the posterior implies
@@ -1154,19 +1154,12 @@ class SparseOnlineGP(nn.Module):
         lam = a.forgetting[int(scores.argmin())] if scored else float(self.block_forgetting)
         scores.zero_()
         drift, explained = self._block_fit()
-        refit = self._refit_due(a, int(self.n_blocks))
         self.block_moments.zero_()
         self.block_errors.zero_()
         self.block_forgetting.fill_(lam)
         self.last_stats.update(forgetting=lam, target_drift=drift, block_fit=explained)
-        if refit:
+        if a.refit_due(int(self.n_blocks), drift, explained):
             self._refit(a, x, y, age_weights(age, lam).to(y), batch)
-
-    def _refit_due(self, a: Adaptation, block: int) -> bool:
-        """Whether the ``block``-th block refits, on its schedule or for the drift or the fit
-        of the targets scored in it so far (:meth:`_block_fit`)."""
-        drift, explained = self._block_fit()
-        return a.refits(block) or a.drifted(drift) or a.misfitted(explained)
 
     def _block_fit(self) -> tuple[float, float]:
         """The open block's drift (mean square of its scored standardised targets; 1 if none
