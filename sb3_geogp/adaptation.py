@@ -79,6 +79,8 @@ from torch import Tensor, nn
 
 #: Ways the summary of :class:`Adaptation` is kept.
 SUMMARIES = ("fold", "snapshot")
+#: Ways the forgetting candidates of :class:`Adaptation` are scored (and forgetting applied).
+FORGETTING_SCORES = ("shrink", "lagged")
 #: Multiplies the signal variance for the first jitter a failed Cholesky factorisation gets.
 _JITTER_START = 1e-6
 _JITTER_TRIES = 12
@@ -158,6 +160,19 @@ class Adaptation:
         pendulum with the PPO default's schedule 1.08-1.12x a batch sparse GP's error at
         50-200 basis vectors, against 1.23x / 1.35x at 100 / 200 with folds
         (docs/results.md).
+    forgetting_score : {"shrink", "lagged"}
+        How the forgetting candidates are scored and what forgetting does.
+        ``"shrink"``: forgetting by ``lambda`` shrinks the posterior towards the prior
+        (``alpha <- sqrt(lambda) alpha``, ``C <- lambda C``), and a candidate is scored by how
+        the posterior shrunk by it predicts the new batch. Shrinking never sharpens what the
+        newest data say, so where the values drift with the policy (PPO) it chooses 1.
+        ``"lagged"``: forgetting multiplies the likelihood of everything absorbed so far by
+        ``lambda`` (every point then counts ``lambda ** age``, as in a refit's rebuild), and a
+        candidate is scored by how the posterior that had forgotten the older data by it
+        *before the previous batch* predicts the new one
+        (:func:`lagged_forgetting_scores`): the evidence of one batch ahead. It costs a few
+        ``(m, m)`` factorisations per batch, made for PPO's large batches, not A2C's small
+        ones.
 
     Raises
     ------
@@ -184,6 +199,7 @@ class Adaptation:
     drift_tol: float | None = None
     fit_floor: float | None = None
     summary: str = "fold"
+    forgetting_score: str = "shrink"
 
     def __post_init__(self) -> None:
         optional = ("interval", "score_points", "fold_points")
@@ -220,6 +236,11 @@ class Adaptation:
             )
         if self.summary not in SUMMARIES:
             raise ValueError(f"Adaptation.summary must be one of {SUMMARIES}, got {self.summary!r}")
+        if self.forgetting_score not in FORGETTING_SCORES:
+            raise ValueError(
+                f"Adaptation.forgetting_score must be one of {FORGETTING_SCORES}, got "
+                f"{self.forgetting_score!r}"
+            )
         candidates = tuple(float(c) for c in self.forgetting)
         if not candidates or not all(0 < c <= 1 for c in candidates):
             raise ValueError(
@@ -575,6 +596,99 @@ class Summary(NamedTuple):
         precision = W[:, :m].T @ W[:, :m] - Q
         precision = 0.5 * (precision + precision.T)
         return Summary(precision, W[:, :m].T @ W[:, m], precision.sum(dim=1), precision @ z)
+
+
+def forget_likelihood(alpha: Tensor, P: Tensor, K: Tensor, lam: float) -> tuple[Tensor, Tensor]:
+    """The posterior whose likelihood (relative to the prior) is ``lam`` times that of the
+    posterior ``alpha : (m,)``, ``P : (m, m)`` in Csató–Opper form, with the prior
+    covariance ``K : (m, m)`` at the inducing points.
+
+    With :meth:`Summary.of_posterior`'s ``Lambda = Q P^-1 Q - Q``, ``eta = Q P^-1 alpha``
+    (``Q = K^-1``), the posterior of ``lam Lambda, lam eta`` is
+
+    .. math::  P' = ((1 - \\lambda) K + \\lambda P^{-1})^{-1}
+                  = L (\\lambda I + (1 - \\lambda) L^T K L)^{-1} L^T, \\qquad
+               \\alpha' = \\lambda P' P^{-1} \\alpha
+                  = \\lambda L (\\lambda I + (1 - \\lambda) L^T K L)^{-1} L^{-1} \\alpha,
+
+    with ``P = L L^T``; the matrix inverted has eigenvalues of at least ``lam``.
+
+    Returns
+    -------
+    alpha, P : Tensor, shapes (m,), (m, m)
+    """
+    m = alpha.shape[0]
+    L, _ = jittered_cholesky(P, float(P.diagonal().abs().mean()))
+    M = lam * torch.eye(m, dtype=P.dtype, device=P.device) + (1 - lam) * (L.T @ K @ L)
+    chol, _ = jittered_cholesky(0.5 * (M + M.T), 1.0)
+    white = torch.linalg.solve_triangular(L, alpha[:, None], upper=False)
+    # L M^-1 [L^T, lam L^-1 alpha]
+    solved = torch.cholesky_solve(torch.cat([L.T, lam * white], dim=1), chol)
+    P_new = L @ solved[:, :m]
+    return L @ solved[:, m], 0.5 * (P_new + P_new.T)
+
+
+def lagged_forgetting_scores(
+    Q: Tensor,
+    current: Summary,
+    previous: Summary,
+    H: Tensor,
+    gamma: Tensor,
+    yn: Tensor,
+    noise: float,
+    count: Tensor,
+    candidates: Tensor,
+) -> Tensor:
+    """Weighted negative log densities of a batch ``yn : (n,)`` under, for each candidate
+    ``lambda``, the posterior that had forgotten the data older than the previous batch by
+    ``lambda`` before absorbing it.
+
+    The current posterior's likelihood ``current`` (:meth:`Summary.of_posterior`) is that of
+    the previous batch, ``previous``, plus that of the older data. At the inducing points the
+    candidate's posterior has precision ``A + lambda B`` and shift
+    ``eta_b + lambda (eta_c - eta_b)``, with ``A = Q + Lambda_b`` and ``B = Lambda_c -
+    Lambda_b``. One simultaneous diagonalisation serves every candidate: with ``A = L L^T``,
+    ``L^-1 B L^-T = U D U^T`` and ``V = L^-T U``, ``(A + lambda B)^-1 = V (I + lambda D)^-1
+    V^T``. ``A + lambda B = (1 - lambda) A + lambda (Q + Lambda_c)`` is positive definite for
+    every ``lambda`` in [0, 1] (``D > -1``), also where ``previous``, estimated from the
+    retained points in today's basis, exceeds what ``current`` holds of them (``D < 0``).
+    Through the rows ``H = K_xz Q`` a point
+    has mean ``H mu`` and variance ``gamma + H Sigma H^T + noise``, ``gamma`` the basis's
+    residual (as the on-line update models it): with ``lambda = 1`` the current posterior's
+    own prediction.
+
+    Parameters
+    ----------
+    Q : Tensor, shape (m, m)
+        Inverse prior covariance at the inducing points.
+    current, previous : Summary
+        Likelihoods at the inducing points (precision (m, m), shift (m,)).
+    H : Tensor, shape (n, m)
+    gamma : Tensor, shape (n,)
+    yn : Tensor, shape (n,)
+    noise : float
+    count : Tensor, shape (n,)
+        Weight of each point's term.
+    candidates : Tensor, shape (k,)
+
+    Returns
+    -------
+    Tensor, shape (k,)
+    """
+    A = Q + previous.precision
+    L, _ = jittered_cholesky(0.5 * (A + A.T), float(A.diagonal().abs().mean()))
+    half = torch.linalg.solve_triangular(L, current.precision - previous.precision, upper=False)
+    B = torch.linalg.solve_triangular(L, half.T, upper=False)
+    d, U = torch.linalg.eigh(0.5 * (B + B.T))
+    V = torch.linalg.solve_triangular(L.T, U, upper=True)
+    G = H @ V
+    base, older = V.T @ previous.shift, V.T @ (current.shift - previous.shift)
+    lam = candidates[:, None]
+    shrink = 1 / (1 + lam * d)  # (k, m)
+    mean = (shrink * (base + lam * older)) @ G.T  # (k, n)
+    var = gamma + shrink @ G.square().T + noise
+    nll = 0.5 * (torch.log(2 * math.pi * var) + (yn - mean).square() / var)
+    return nll @ count
 
 
 def age_weights(age: Tensor, forgetting: float) -> Tensor:

@@ -42,7 +42,9 @@ from sb3_geogp.adaptation import (
     Summary,
     age_weights,
     as_adaptation,
+    forget_likelihood,
     jittered_cholesky,
+    lagged_forgetting_scores,
     linear_moments,
     nlpd,
     sparse_posterior,
@@ -93,6 +95,7 @@ _COUNTERS = (
     "block_new",
     "n_pruned",
     "summary_batch",
+    "last_batch_points",
 )
 
 
@@ -289,6 +292,7 @@ class SparseOnlineGP(nn.Module):
     block_errors: Tensor
     n_pruned: Tensor
     summary_batch: Tensor
+    last_batch_points: Tensor
     novelty_floor: Tensor
     block_forgetting: Tensor
     ls_start: Tensor
@@ -586,6 +590,11 @@ class SparseOnlineGP(nn.Module):
         state_dict.setdefault(prefix + "block_errors", torch.zeros_like(self.block_errors))
         # Saved before snapshots (0.11): the summary holds only points that left the window.
         state_dict.setdefault(prefix + "summary_batch", torch.zeros_like(self.summary_batch))
+        # Saved before lagged forgetting scores (0.12): the previous batch counts as its
+        # points in the window.
+        state_dict.setdefault(
+            prefix + "last_batch_points", torch.zeros_like(self.last_batch_points)
+        )
         # Saved before the linear prior mean (0.8): a constant one.
         for name in ("y_slope", "summary_input", "trend_coef"):
             state_dict.setdefault(prefix + name, torch.zeros_like(getattr(self, name)))
@@ -716,14 +725,24 @@ class SparseOnlineGP(nn.Module):
             self._refresh_Q()
         self.n_seen += n
         self.n_batches += 1
+        self.last_batch_points.fill_(n)
         self._retain(x, y)
         self._check_finite()
 
     def _forget(self, lam: float) -> None:
-        """Age everything absorbed by one batch: ``alpha <- sqrt(lam) alpha``,
-        ``C <- lam C`` (``P <- lam P + (1 - lam) Q``), and the summary's weights times ``lam``."""
-        self.alpha.mul_(math.sqrt(lam))
-        self.P.mul_(lam).add_(self.Q, alpha=1 - lam)
+        """Age everything absorbed by one batch, and the summary's weights times ``lam``:
+        ``alpha <- sqrt(lam) alpha``, ``C <- lam C`` (``P <- lam P + (1 - lam) Q``), or with
+        ``Adaptation(forgetting_score="lagged")`` the posterior's likelihood times ``lam``
+        (:func:`~sb3_geogp.adaptation.forget_likelihood`, in float64)."""
+        if self.adaptation is not None and self.adaptation.forgetting_score == "lagged":
+            m = self.n_basis
+            Kzz = (self._matrices().K + torch.diag(self.nugget[:m])).double()
+            state = (self.alpha[:m].double(), self.P[:m, :m].double())
+            alpha, P = forget_likelihood(*state, Kzz, lam)
+            self.alpha[:m], self.P[:m, :m] = alpha.to(self.alpha), P.to(self.P)
+        else:
+            self.alpha.mul_(math.sqrt(lam))
+            self.P.mul_(lam).add_(self.Q, alpha=1 - lam)
         for buf in (self.summary_prec, self.summary_shift, self.summary_unit, self.summary_input):
             buf.mul_(lam)
         self._matrices().posterior_changed()
@@ -1209,7 +1228,12 @@ class SparseOnlineGP(nn.Module):
         x, y = x[index], y[index]
         mean, var = self._latent(self._scaled(x), return_var=True)
         assert var is not None
-        self._score_forgetting(mean, var, self._standardised(x, y), count.to(y))
+        yn, count = self._standardised(x, y), count.to(y)
+        if self.adaptation.forgetting_score == "lagged":
+            self.forgetting_scores += self._lagged_scores(x, yn, count).to(y)
+        else:
+            self._score_forgetting(mean, var, yn, count)
+        self._count_block(mean, yn, count)
         mean = mean * self.y_scale + self._prior(x)
         var = (var + self.noise_var) * self.y_scale**2
         spread = float(y.var()) if y.shape[0] > 1 else 0.0
@@ -1232,6 +1256,48 @@ class SparseOnlineGP(nn.Module):
         variances = (1 - lam) * self.kernel.variance + lam * var + self.noise_var
         nll = 0.5 * (torch.log(2 * math.pi * variances) + (yn - means).square() / variances)
         self.forgetting_scores += nll @ count
+
+    def _lagged_scores(self, x: Tensor, yn: Tensor, count: Tensor) -> Tensor:
+        """Scores of the forgetting candidates on the batch ``x : (n, d)``, ``yn : (n,)``
+        (:func:`~sb3_geogp.adaptation.lagged_forgetting_scores`), in float64.
+
+        The previous batch's likelihood is estimated from its points in the window (at most
+        ``score_points`` of them, :func:`~sb3_geogp.adaptation.thinned`), scaled up to the
+        batch's size where the window keeps only its tail (PPO's rollouts)."""
+        assert self.adaptation is not None
+        a, m = self.adaptation, self.n_basis
+        candidates = torch.tensor(a.forgetting, dtype=torch.float64, device=yn.device)
+        wx, wy, batch = self.window.data()
+        last = batch == int(self.n_batches) - 1
+        kept = int(last.sum())
+        if kept == 0:  # nothing of the previous batch retained: every candidate scores alike
+            return torch.zeros_like(candidates)
+        index, runs = thinned(kept, a.score_points, yn.device)
+        px, py = wx[last][index].to(yn), wy[last][index].to(yn)
+        weight = runs.to(torch.float64) * max(1.0, int(self.last_batch_points) / kept)
+        Q = self.Q[:m, :m].double()
+        noise, variance = float(self.noise_var), float(self.kernel.variance)
+
+        def projection(points: Tensor) -> tuple[Tensor, Tensor, Tensor, Tensor]:
+            # Rows of each set alone: the geodesic kernel attaches a point given its neighbours.
+            Kzz, rows = (t.double() for t in self._basis_covariances(points))
+            H = rows @ Q
+            return Kzz, rows, H, (variance - (H * rows).sum(dim=1)).clamp_min(0)
+
+        Kzz, rows, _, gamma = projection(px)
+        pyn = self._standardised(px, py).double()
+        previous = Summary.of_data(
+            Kzz, rows, px.double(), pyn, (noise + gamma) / weight, variance, inverse=Q
+        )
+        state = (self.alpha[:m], self.P[:m, :m], self.Q[:m, :m], self.bv_x[:m])
+        current = Summary.of_posterior(*(t.double() for t in state))
+        _, _, H, gamma = projection(x)
+        return lagged_forgetting_scores(
+            Q, current, previous, H, gamma, yn.double(), noise, count.double(), candidates
+        )
+
+    def _count_block(self, mean: Tensor, yn: Tensor, count: Tensor) -> None:
+        """Add a scored batch's targets and out-of-sample errors to the open block's sums."""
         self.block_moments += torch.stack([count.sum(), yn.square() @ count])
         error = yn - mean
         self.block_errors += torch.stack([yn @ count, error @ count, error.square() @ count])

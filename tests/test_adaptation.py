@@ -13,7 +13,9 @@ from sb3_geogp import RBFKernel, SparseOnlineGP
 from sb3_geogp.adaptation import (
     Adaptation,
     Summary,
+    forget_likelihood,
     jittered_cholesky,
+    lagged_forgetting_scores,
     sparse_posterior,
     thinned,
 )
@@ -46,6 +48,7 @@ from tests.test_sparse_gp import assert_same_state, nystrom_posterior, rbf, snap
         dict(fit_floor=1.0),
         dict(fit_floor=float("-inf")),
         dict(summary="snapshots"),
+        dict(forgetting_score="lag"),
     ],
 )
 def test_bad_settings_raise_naming_the_setting(bad: dict) -> None:
@@ -185,6 +188,64 @@ def test_summary_of_a_posterior_is_the_likelihood_it_was_built_from() -> None:
     direct = Summary.of_data(t(Kzz), Kxz, x, y, noise, 1.0)
     for got, want in zip(implied, direct, strict=True):
         torch.testing.assert_close(got, want, rtol=0, atol=1e-8 * float(want.abs().max()))
+
+
+@pytest.mark.parametrize("lam", [1.0, 0.7, 0.1])
+def test_forgetting_the_likelihood_scales_what_the_posterior_implies(lam: float) -> None:
+    """``forget_likelihood`` leaves a posterior whose implied likelihood
+    (:meth:`Summary.of_posterior`) is ``lam`` times the original's, precision and shift."""
+    rng = np.random.default_rng(3)
+    z = rng.uniform(size=(9, 2))
+    Kzz = rbf(z, z, 0.4) + 1e-6 * np.eye(9)
+    t = torch.as_tensor
+    x = rng.uniform(size=(30, 2))
+    noise = t(rng.uniform(0.05, 0.5, size=30))
+    alpha, P = sparse_posterior(t(Kzz), t(rbf(x, z, 0.4)), t(rng.normal(size=30)), noise, 1.0)
+    Q = t(np.linalg.inv(Kzz))
+    before = Summary.of_posterior(alpha, P, Q, t(z))
+    alpha_new, P_new = forget_likelihood(alpha, P, t(Kzz), lam)
+    after = Summary.of_posterior(alpha_new, P_new, Q, t(z))
+    for got, want in zip(after[:2], before[:2], strict=True):
+        torch.testing.assert_close(got, lam * want, rtol=0, atol=1e-8 * float(want.abs().max()))
+    torch.testing.assert_close(P_new, P_new.T, rtol=0, atol=0)
+
+
+def test_lagged_scores_are_those_of_each_candidates_posterior_solved_directly() -> None:
+    """Each candidate's score is the weighted negative log density of the batch under the
+    posterior of the prior, the previous batch and ``lambda`` times the older data, solved
+    for each ``lambda`` by brute force (an (m, m) inverse per candidate); ``lambda = 1`` is
+    the current posterior's own prediction."""
+    rng = np.random.default_rng(4)
+    z = rng.uniform(size=(8, 1))
+    Kzz = rbf(z, z, 0.3) + 1e-6 * np.eye(8)
+    Q = np.linalg.inv(Kzz)
+    t = torch.as_tensor
+
+    def likelihood(n: int, shift: float) -> Summary:
+        x = rng.uniform(size=(n, 1))
+        y = np.sin(4 * x[:, 0]) + shift + 0.1 * rng.normal(size=n)
+        return Summary.of_data(t(Kzz), t(rbf(x, z, 0.3)), t(x), t(y), t(np.full(n, 0.01)), 1.0)
+
+    older, previous = likelihood(40, 0.0), likelihood(20, 1.0)
+    current = Summary(*(a + b for a, b in zip(older, previous, strict=True)))
+    x = rng.uniform(size=(15, 1))
+    yn = np.sin(4 * x[:, 0]) + 1.5
+    rows = rbf(x, z, 0.3)
+    H = rows @ Q
+    gamma = 1.0 - np.sum(H * rows, axis=1)
+    count = rng.integers(1, 4, size=15).astype(float)
+    candidates = np.array([1.0, 0.5, 0.1])
+    got = lagged_forgetting_scores(
+        t(Q), current, previous, t(H), t(gamma), t(yn), 0.01, t(count), t(candidates)
+    )
+    want = []
+    for lam in candidates:
+        cov = np.linalg.inv(Q + previous.precision.numpy() + lam * older.precision.numpy())
+        mu = cov @ (previous.shift.numpy() + lam * older.shift.numpy())
+        var = gamma + np.sum((H @ cov) * H, axis=1) + 0.01
+        want.append(count @ (0.5 * (np.log(2 * np.pi * var) + (yn - H @ mu) ** 2 / var)))
+    np.testing.assert_allclose(got.numpy(), want, rtol=1e-9)
+    assert got.argmin() > 0  # the batch moved on: forgetting the older data predicts it best
 
 
 # -- the adapting GP ----------------------------------------------------------------------------
@@ -498,6 +559,73 @@ def test_summary_keeps_what_the_dropped_points_said(
     assert_weighted_sparse_posterior(gp, x, y, w, rng)
 
 
+@pytest.mark.parametrize("score", ["lagged", "shrink"])
+def test_lagged_forgetting_weights_every_point_by_its_age(score: str) -> None:
+    """With ``forgetting_score="lagged"`` forgetting multiplies the likelihood: with the
+    kernel and the basis fixed and no refit after the first block, the on-line posterior of
+    ten 50-point batches is the exact sparse posterior of all 500 points weighted
+    ``0.7 ** age`` (age in batches), as a refit's rebuild weights them. The inputs lie on
+    the basis, where the on-line update is exact. ``"shrink"`` forgetting is not that
+    weighting (its posterior differs)."""
+    rng = np.random.default_rng(8)
+    adapt = Adaptation(
+        window=150,
+        interval=50,
+        steps=0,
+        targets=False,
+        forgetting=(0.7,),
+        max_gap=1000,
+        settle=False,
+        forgetting_score=score,
+    )
+    gp = SparseOnlineGP(1, RBFKernel(lengthscale=0.2), max_basis=30, adapt=adapt, forgetting=0.7)
+    grid = np.linspace(0.0, 1.0, 6)[:, None]
+    xs = [np.concatenate([grid, grid[rng.integers(6, size=44)]])]
+    xs += [grid[rng.integers(6, size=50)] for _ in range(9)]
+    ys = [np.sin(5 * x[:, 0]) + 0.3 * i + 0.1 * rng.normal(size=50) for i, x in enumerate(xs)]
+    for x, y in zip(xs, ys, strict=True):
+        gp.update(x, y)
+    np.testing.assert_array_equal(gp.basis_inputs.numpy(), grid)
+    x, y = np.concatenate(xs), np.concatenate(ys)
+    w = 0.7 ** np.repeat(np.arange(10)[::-1], 50)
+    if score == "lagged":
+        assert_weighted_sparse_posterior(gp, x, y, w, rng)
+    else:
+        with pytest.raises(AssertionError):
+            assert_weighted_sparse_posterior(gp, x, y, w, rng)
+
+
+@pytest.mark.parametrize("kernel", ["rbf", "geodesic"])
+def test_lagged_score_of_no_forgetting_is_the_batchs_predictive_density(kernel: str) -> None:
+    """The lagged score of ``lambda = 1`` is the negative log density of the scored points
+    (``score_points=10``: each standing for 4 of a 40-point batch) under the GP's own
+    predictive distribution before the batch, in standardised units; a target that has
+    jumped by 3 with each batch is predicted best by the strongest forgetting offered."""
+    rng = np.random.default_rng(9)
+    adapt = Adaptation(
+        window=500,
+        interval=1000,  # one open block: the scores add up
+        steps=0,
+        forgetting=(1.0, 0.5, 0.1),
+        score_points=10,
+        forgetting_score="lagged",
+    )
+    gp = SparseOnlineGP(1, kernel, max_basis=20, adapt=adapt)
+    for i in range(4):
+        x = rng.uniform(size=(40, 1))
+        y = np.sin(4 * x[:, 0]) + 3.0 * i + 0.1 * rng.normal(size=40)
+        mean, latent = (v.numpy() for v in gp.predict(x[1::4]))
+        before = gp.forgetting_scores.clone()
+        gp.update(x, y, np.arange(40) == 0)
+    s, c = float(gp.y_scale), float(gp.y_mean)
+    var = latent / s**2 + float(gp.noise_var)
+    yn, mu = (y[1::4] - c) / s, (mean - c) / s
+    nll = 0.5 * (np.log(2 * np.pi * var) + (yn - mu) ** 2 / var)
+    scores = (gp.forgetting_scores - before).numpy()
+    assert scores[0] == pytest.approx(4 * nll.sum(), rel=1e-7)
+    assert scores.argmin() == 2
+
+
 @pytest.mark.parametrize("fold", [None, 5])
 def test_a_snapshot_folds_only_the_head_of_a_batch_larger_than_the_window(fold: int | None) -> None:
     """Batches of 50 into a 30-point window, one block each (as PPO's rollouts of thousands
@@ -585,11 +713,15 @@ def test_snapshots_only_before_refits_predict_as_snapshots_before_every_block(
     assert taken["lazy"] == (refits - 1 if batch == 60 else 5)
 
 
-@pytest.mark.parametrize("summary", ["fold", "snapshot"])
+@pytest.mark.parametrize(
+    ("summary", "score"), [("fold", "shrink"), ("snapshot", "shrink"), ("snapshot", "lagged")]
+)
 @pytest.mark.parametrize("prior_mean", ["constant", "linear"])
-def test_adaptation_state_round_trips_bit_for_bit(prior_mean: str, summary: str) -> None:
+def test_adaptation_state_round_trips_bit_for_bit(
+    prior_mean: str, summary: str, score: str
+) -> None:
     rng = np.random.default_rng(4)
-    adapt = Adaptation(window=300, interval=150, steps=2, summary=summary)
+    adapt = Adaptation(window=300, interval=150, steps=2, summary=summary, forgetting_score=score)
     batches = [(rng.uniform(size=(100, 2)), rng.normal(size=100)) for _ in range(6)]
     gp = SparseOnlineGP(2, "geodesic", max_basis=40, adapt=adapt, prior_mean=prior_mean)
     for x, y in batches[:3]:
