@@ -88,6 +88,7 @@ SETTING_SUFFIXES: dict[str, tuple[tuple[str, ...], int]] = {
 SETTING_FLAGS: dict[str, dict[str, Any]] = {
     "nosettle": {"settle": False},
     "snapshot": {"summary": "snapshot"},
+    "lagged": {"forgetting_score": "lagged"},
 }
 
 

@@ -598,95 +598,100 @@ class Summary(NamedTuple):
         return Summary(precision, W[:, :m].T @ W[:, m], precision.sum(dim=1), precision @ z)
 
 
-def forget_likelihood(alpha: Tensor, P: Tensor, K: Tensor, lam: float) -> tuple[Tensor, Tensor]:
+def forget_likelihood(alpha: Tensor, L: Tensor, S: Tensor, lam: float) -> tuple[Tensor, Tensor]:
     """The posterior whose likelihood (relative to the prior) is ``lam`` times that of the
-    posterior ``alpha : (m,)``, ``P : (m, m)`` in Csató–Opper form, with the prior
-    covariance ``K : (m, m)`` at the inducing points.
+    posterior ``alpha : (m,)``, ``P = L L^T`` in Csató–Opper form; ``S = L^T K L``, ``K``
+    the prior covariance at the inducing points (:func:`posterior_factor`).
 
     With :meth:`Summary.of_posterior`'s ``Lambda = Q P^-1 Q - Q``, ``eta = Q P^-1 alpha``
     (``Q = K^-1``), the posterior of ``lam Lambda, lam eta`` is
 
     .. math::  P' = ((1 - \\lambda) K + \\lambda P^{-1})^{-1}
-                  = L (\\lambda I + (1 - \\lambda) L^T K L)^{-1} L^T, \\qquad
+                  = L (\\lambda I + (1 - \\lambda) S)^{-1} L^T, \\qquad
                \\alpha' = \\lambda P' P^{-1} \\alpha
-                  = \\lambda L (\\lambda I + (1 - \\lambda) L^T K L)^{-1} L^{-1} \\alpha,
+                  = \\lambda L (\\lambda I + (1 - \\lambda) S)^{-1} L^{-1} \\alpha;
 
-    with ``P = L L^T``; the matrix inverted has eigenvalues of at least ``lam``.
+    the matrix inverted has eigenvalues of at least ``lam``.
 
     Returns
     -------
     alpha, P : Tensor, shapes (m,), (m, m)
     """
     m = alpha.shape[0]
-    L, _ = jittered_cholesky(P, float(P.diagonal().abs().mean()))
-    M = lam * torch.eye(m, dtype=P.dtype, device=P.device) + (1 - lam) * (L.T @ K @ L)
-    chol, _ = jittered_cholesky(0.5 * (M + M.T), 1.0)
+    M = lam * torch.eye(m, dtype=S.dtype, device=S.device) + (1 - lam) * S
+    chol, _ = jittered_cholesky(M, 1.0)
     white = torch.linalg.solve_triangular(L, alpha[:, None], upper=False)
-    # L M^-1 [L^T, lam L^-1 alpha]
     solved = torch.cholesky_solve(torch.cat([L.T, lam * white], dim=1), chol)
-    P_new = L @ solved[:, :m]
-    return L @ solved[:, m], 0.5 * (P_new + P_new.T)
+    P = L @ solved[:, :m]
+    return L @ solved[:, m], 0.5 * (P + P.T)
+
+
+def posterior_factor(P: Tensor, K: Tensor) -> tuple[Tensor, Tensor]:
+    """``L`` with ``P = L L^T`` (jittered if it needs it) and ``S = L^T K L``, both (m, m):
+    the coordinates in which :func:`forget_likelihood` and :func:`lagged_forgetting_scores`
+    work."""
+    L, _ = jittered_cholesky(P, float(P.diagonal().abs().mean()))
+    S = L.T @ K @ L
+    return L, 0.5 * (S + S.T)
 
 
 def lagged_forgetting_scores(
-    Q: Tensor,
-    current: Summary,
-    previous: Summary,
-    H: Tensor,
-    gamma: Tensor,
-    yn: Tensor,
+    L: Tensor,
+    S: Tensor,
+    alpha: Tensor,
+    previous: tuple[Tensor, Tensor, Tensor],
+    batch: tuple[Tensor, Tensor, Tensor, Tensor],
     noise: float,
-    count: Tensor,
     candidates: Tensor,
 ) -> Tensor:
-    """Weighted negative log densities of a batch ``yn : (n,)`` under, for each candidate
-    ``lambda``, the posterior that had forgotten the data older than the previous batch by
-    ``lambda`` before absorbing it.
+    """Weighted negative log densities of a batch under, for each candidate ``lambda``, the
+    posterior that had forgotten the data older than the previous batch by ``lambda`` before
+    absorbing it.
 
-    The current posterior's likelihood ``current`` (:meth:`Summary.of_posterior`) is that of
-    the previous batch, ``previous``, plus that of the older data. At the inducing points the
-    candidate's posterior has precision ``A + lambda B`` and shift
-    ``eta_b + lambda (eta_c - eta_b)``, with ``A = Q + Lambda_b`` and ``B = Lambda_c -
-    Lambda_b``. One simultaneous diagonalisation serves every candidate: with ``A = L L^T``,
-    ``L^-1 B L^-T = U D U^T`` and ``V = L^-T U``, ``(A + lambda B)^-1 = V (I + lambda D)^-1
-    V^T``. ``A + lambda B = (1 - lambda) A + lambda (Q + Lambda_c)`` is positive definite for
-    every ``lambda`` in [0, 1] (``D > -1``), also where ``previous``, estimated from the
-    retained points in today's basis, exceeds what ``current`` holds of them (``D < 0``).
-    Through the rows ``H = K_xz Q`` a point
-    has mean ``H mu`` and variance ``gamma + H Sigma H^T + noise``, ``gamma`` the basis's
-    residual (as the on-line update models it): with ``lambda = 1`` the current posterior's
-    own prediction.
+    At the inducing points the current posterior (``alpha``, ``P = L L^T``) has precision
+    ``C = Q P^-1 Q``, the prior and the previous batch ``A = Q + Lambda_b``
+    (:meth:`Summary.of_data`); the candidate's precision is ``(1 - lambda) A + lambda C``,
+    its shift ``(1 - lambda) eta_b + lambda eta_c``: the older data's likelihood times
+    ``lambda``. In the coordinates ``v`` with ``f = K L v`` (``S = L^T K L``), ``C`` is the
+    identity and ``A`` is ``A' = S + R^T N^-1 R`` with ``R = K_bz L`` the previous batch's
+    rows; one eigendecomposition ``A' = U E U^T`` serves every candidate, whose precision is
+    ``U ((1 - lambda) E + lambda I) U^T`` (positive definite for ``lambda`` in [0, 1]). The
+    shifts are ``R^T N^-1 y_b`` and ``L^-1 alpha``. A point with rows ``k_x`` has
+    ``g = k_x L U`` and mean ``sum_j g_j c_j / ((1 - lambda) e_j + lambda)``, variance
+    ``gamma + sum_j g_j^2 / ((1 - lambda) e_j + lambda) + noise``, ``gamma`` the basis's
+    residual (as the on-line update models it): with ``lambda = 1``, ``k_x alpha`` and
+    ``gamma + k_x P k_x^T + noise``, the GP's own prediction.
 
     Parameters
     ----------
-    Q : Tensor, shape (m, m)
-        Inverse prior covariance at the inducing points.
-    current, previous : Summary
-        Likelihoods at the inducing points (precision (m, m), shift (m,)).
-    H : Tensor, shape (n, m)
-    gamma : Tensor, shape (n,)
-    yn : Tensor, shape (n,)
+    L, S : Tensor, shape (m, m)
+        :func:`posterior_factor` of the current posterior.
+    alpha : Tensor, shape (m,)
+    previous : (Tensor, Tensor, Tensor)
+        The previous batch's rows ``K_bz : (b, m)``, standardised targets ``(b,)`` and noise
+        variances ``(b,)`` (each point's noise divided by the number of points it stands for).
+    batch : (Tensor, Tensor, Tensor, Tensor)
+        The new batch's rows ``K_xz : (n, m)``, residuals ``gamma : (n,)``, standardised
+        targets ``(n,)`` and the weight of each point's term ``(n,)``.
     noise : float
-    count : Tensor, shape (n,)
-        Weight of each point's term.
     candidates : Tensor, shape (k,)
 
     Returns
     -------
     Tensor, shape (k,)
     """
-    A = Q + previous.precision
-    L, _ = jittered_cholesky(0.5 * (A + A.T), float(A.diagonal().abs().mean()))
-    half = torch.linalg.solve_triangular(L, current.precision - previous.precision, upper=False)
-    B = torch.linalg.solve_triangular(L, half.T, upper=False)
-    d, U = torch.linalg.eigh(0.5 * (B + B.T))
-    V = torch.linalg.solve_triangular(L.T, U, upper=True)
-    G = H @ V
-    base, older = V.T @ previous.shift, V.T @ (current.shift - previous.shift)
+    rows_b, y_b, noise_b = previous
+    rows, gamma, yn, count = batch
+    R = rows_b @ L
+    A = S + (R.T / noise_b) @ R
+    e, U = torch.linalg.eigh(0.5 * (A + A.T))
+    g = rows @ (L @ U)
+    base = U.T @ (R.T @ (y_b / noise_b))
+    own = U.T @ torch.linalg.solve_triangular(L, alpha[:, None], upper=False)[:, 0]
     lam = candidates[:, None]
-    shrink = 1 / (1 + lam * d)  # (k, m)
-    mean = (shrink * (base + lam * older)) @ G.T  # (k, n)
-    var = gamma + shrink @ G.square().T + noise
+    shrink = 1 / ((1 - lam) * e + lam)  # (k, m)
+    mean = (shrink * ((1 - lam) * base + lam * own)) @ g.T  # (k, n)
+    var = gamma + shrink @ g.square().T + noise
     nll = 0.5 * (torch.log(2 * math.pi * var) + (yn - mean).square() / var)
     return nll @ count
 

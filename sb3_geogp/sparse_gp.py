@@ -47,6 +47,7 @@ from sb3_geogp.adaptation import (
     lagged_forgetting_scores,
     linear_moments,
     nlpd,
+    posterior_factor,
     sparse_posterior,
     thinned,
     weighted_moments,
@@ -736,9 +737,8 @@ class SparseOnlineGP(nn.Module):
         (:func:`~sb3_geogp.adaptation.forget_likelihood`, in float64)."""
         if self.adaptation is not None and self.adaptation.forgetting_score == "lagged":
             m = self.n_basis
-            Kzz = (self._matrices().K + torch.diag(self.nugget[:m])).double()
-            state = (self.alpha[:m].double(), self.P[:m, :m].double())
-            alpha, P = forget_likelihood(*state, Kzz, lam)
+            L, S = self._matrices().P_factor
+            alpha, P = forget_likelihood(self.alpha[:m].double(), L, S, lam)
             self.alpha[:m], self.P[:m, :m] = alpha.to(self.alpha), P.to(self.P)
         else:
             self.alpha.mul_(math.sqrt(lam))
@@ -1273,27 +1273,24 @@ class SparseOnlineGP(nn.Module):
         if kept == 0:  # nothing of the previous batch retained: every candidate scores alike
             return torch.zeros_like(candidates)
         index, runs = thinned(kept, a.score_points, yn.device)
-        px, py = wx[last][index].to(yn), wy[last][index].to(yn)
+        px, py = wx[last][index].to(self.y_mean), wy[last][index].to(self.y_mean)
         weight = runs.to(torch.float64) * max(1.0, int(self.last_batch_points) / kept)
-        Q = self.Q[:m, :m].double()
-        noise, variance = float(self.noise_var), float(self.kernel.variance)
+        noise = float(self.noise_var)
+        basis = self._matrices()
 
-        def projection(points: Tensor) -> tuple[Tensor, Tensor, Tensor, Tensor]:
+        def projection(points: Tensor) -> tuple[Tensor, Tensor]:
             # Rows of each set alone: the geodesic kernel attaches a point given its neighbours.
-            Kzz, rows = (t.double() for t in self._basis_covariances(points))
-            H = rows @ Q
-            return Kzz, rows, H, (variance - (H * rows).sum(dim=1)).clamp_min(0)
+            rows = self.kernel.rows(self.kernel.scale(points), basis.z)
+            gamma = (self.kernel.variance - rows.kqk(basis)).clamp_min(0)
+            return rows.dense(basis).double(), gamma.double()
 
-        Kzz, rows, _, gamma = projection(px)
-        pyn = self._standardised(px, py).double()
-        previous = Summary.of_data(
-            Kzz, rows, px.double(), pyn, (noise + gamma) / weight, variance, inverse=Q
-        )
-        state = (self.alpha[:m], self.P[:m, :m], self.Q[:m, :m], self.bv_x[:m])
-        current = Summary.of_posterior(*(t.double() for t in state))
-        _, _, H, gamma = projection(x)
+        rows_b, gamma_b = projection(px)
+        previous = (rows_b, self._standardised(px, py).double(), (noise + gamma_b) / weight)
+        rows, gamma = projection(x)
+        L, S = basis.P_factor
+        alpha = self.alpha[:m].double()
         return lagged_forgetting_scores(
-            Q, current, previous, H, gamma, yn.double(), noise, count.double(), candidates
+            L, S, alpha, previous, (rows, gamma, yn.double(), count.double()), noise, candidates
         )
 
     def _count_block(self, mean: Tensor, yn: Tensor, count: Tensor) -> None:
@@ -1679,12 +1676,12 @@ class _PosteriorMatrices:
 
     def posterior_changed(self) -> None:
         """``alpha`` and ``P`` changed."""
-        for name in ("K_alpha", "KPK"):
+        for name in ("K_alpha", "KPK", "P_factor"):
             self._values.pop(name, None)
 
     def Q_changed(self) -> None:
         """``Q`` (or the nuggets) changed."""
-        for name in ("KQK", "least_novelty"):
+        for name in ("KQK", "least_novelty", "P_factor"):
             self._values.pop(name, None)
 
     def basis_grew(self, k: Tensor, variance: Tensor) -> None:
@@ -1738,6 +1735,16 @@ class _PosteriorMatrices:
     @property
     def KPK(self) -> Tensor:
         return self._get("KPK", lambda: self.K @ self.P @ self.K)
+
+    @property
+    def P_factor(self) -> tuple[Tensor, Tensor]:
+        """:func:`~sb3_geogp.adaptation.posterior_factor` of ``P`` and ``K`` with the nuggets,
+        in float64 whatever the state's dtype, shapes (m, m) stacked as (2, m, m)."""
+        K = self.K + torch.diag(self._gp.nugget[: self._m])
+        both = self._get(
+            "P_factor", lambda: torch.stack(posterior_factor(self.P.double(), K.double()))
+        )
+        return both[0], both[1]
 
     @property
     def least_novelty(self) -> Tensor:

@@ -16,6 +16,7 @@ from sb3_geogp.adaptation import (
     forget_likelihood,
     jittered_cholesky,
     lagged_forgetting_scores,
+    posterior_factor,
     sparse_posterior,
     thinned,
 )
@@ -203,7 +204,7 @@ def test_forgetting_the_likelihood_scales_what_the_posterior_implies(lam: float)
     alpha, P = sparse_posterior(t(Kzz), t(rbf(x, z, 0.4)), t(rng.normal(size=30)), noise, 1.0)
     Q = t(np.linalg.inv(Kzz))
     before = Summary.of_posterior(alpha, P, Q, t(z))
-    alpha_new, P_new = forget_likelihood(alpha, P, t(Kzz), lam)
+    alpha_new, P_new = forget_likelihood(alpha, *posterior_factor(P, t(Kzz)), lam)
     after = Summary.of_posterior(alpha_new, P_new, Q, t(z))
     for got, want in zip(after[:2], before[:2], strict=True):
         torch.testing.assert_close(got, lam * want, rtol=0, atol=1e-8 * float(want.abs().max()))
@@ -213,21 +214,30 @@ def test_forgetting_the_likelihood_scales_what_the_posterior_implies(lam: float)
 def test_lagged_scores_are_those_of_each_candidates_posterior_solved_directly() -> None:
     """Each candidate's score is the weighted negative log density of the batch under the
     posterior of the prior, the previous batch and ``lambda`` times the older data, solved
-    for each ``lambda`` by brute force (an (m, m) inverse per candidate); ``lambda = 1`` is
-    the current posterior's own prediction."""
+    for each ``lambda`` by brute force (an (m, m) inverse per candidate from the data's
+    :meth:`Summary.of_data`); ``lambda = 1`` is the current posterior's own prediction."""
     rng = np.random.default_rng(4)
     z = rng.uniform(size=(8, 1))
-    Kzz = rbf(z, z, 0.3) + 1e-6 * np.eye(8)
+    Kzz = rbf(z, z, 0.3) + 1e-3 * np.eye(8)  # well conditioned: P is formed from Q
     Q = np.linalg.inv(Kzz)
     t = torch.as_tensor
 
-    def likelihood(n: int, shift: float) -> Summary:
+    def data(n: int, shift: float) -> tuple[np.ndarray, ...]:
         x = rng.uniform(size=(n, 1))
-        y = np.sin(4 * x[:, 0]) + shift + 0.1 * rng.normal(size=n)
-        return Summary.of_data(t(Kzz), t(rbf(x, z, 0.3)), t(x), t(y), t(np.full(n, 0.01)), 1.0)
+        return rbf(x, z, 0.3), np.sin(4 * x[:, 0]) + shift + 0.1 * rng.normal(size=n), x
 
-    older, previous = likelihood(40, 0.0), likelihood(20, 1.0)
-    current = Summary(*(a + b for a, b in zip(older, previous, strict=True)))
+    def likelihood(rows: np.ndarray, y: np.ndarray, x: np.ndarray, noise: np.ndarray) -> Summary:
+        return Summary.of_data(t(Kzz), t(rows), t(x), t(y), t(noise), 1.0)
+
+    (rows_o, y_o, x_o), (rows_b, y_b, x_b) = data(40, 0.0), data(20, 1.0)
+    noise_b = rng.uniform(0.005, 0.02, size=20)
+    older, previous = (
+        likelihood(rows_o, y_o, x_o, np.full(40, 0.01)),
+        likelihood(rows_b, y_b, x_b, noise_b),
+    )
+    cov = np.linalg.inv(Q + older.precision.numpy() + previous.precision.numpy())
+    alpha = Q @ cov @ (older.shift.numpy() + previous.shift.numpy())
+    P = Q @ cov @ Q  # the current posterior in Csato-Opper form
     x = rng.uniform(size=(15, 1))
     yn = np.sin(4 * x[:, 0]) + 1.5
     rows = rbf(x, z, 0.3)
@@ -236,7 +246,12 @@ def test_lagged_scores_are_those_of_each_candidates_posterior_solved_directly() 
     count = rng.integers(1, 4, size=15).astype(float)
     candidates = np.array([1.0, 0.5, 0.1])
     got = lagged_forgetting_scores(
-        t(Q), current, previous, t(H), t(gamma), t(yn), 0.01, t(count), t(candidates)
+        *posterior_factor(t(P), t(Kzz)),
+        t(alpha),
+        (t(rows_b), t(y_b), t(noise_b)),
+        (t(rows), t(gamma), t(yn), t(count)),
+        0.01,
+        t(candidates),
     )
     want = []
     for lam in candidates:
@@ -244,7 +259,7 @@ def test_lagged_scores_are_those_of_each_candidates_posterior_solved_directly() 
         mu = cov @ (previous.shift.numpy() + lam * older.shift.numpy())
         var = gamma + np.sum((H @ cov) * H, axis=1) + 0.01
         want.append(count @ (0.5 * (np.log(2 * np.pi * var) + (yn - H @ mu) ** 2 / var)))
-    np.testing.assert_allclose(got.numpy(), want, rtol=1e-9)
+    np.testing.assert_allclose(got.numpy(), want, rtol=1e-8)
     assert got.argmin() > 0  # the batch moved on: forgetting the older data predicts it best
 
 

@@ -83,6 +83,8 @@ def test_benchmark_training_setting_suffixes_build_those_settings() -> None:
     assert floor == Adaptation(fit_floor=0.8)
     snap = as_adaptation(bench.gp_kwargs_of(["adapt", "fold256", "snapshot"])["adapt"])
     assert snap == Adaptation(fold_points=256, summary="snapshot")
+    lagged = as_adaptation(bench.gp_kwargs_of(["adapt", "snapshot", "lagged"])["adapt"])
+    assert lagged == Adaptation(summary="snapshot", forgetting_score="lagged")
     assert bench.gp_kwargs_of(["nosettle"]) is None  # a setting needs +adapt or +cheap
 
 

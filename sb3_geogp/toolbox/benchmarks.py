@@ -71,10 +71,11 @@ def _blas_threads(threads: int | None) -> contextlib.AbstractContextManager[Any]
     return threadpool_limits(limits=threads)
 
 
-#: :class:`SparseOnlineGP` methods that only run with adaptation (inside its updates): the
+#: :class:`SparseOnlineGP` methods that run for adaptation (inside its updates): the
 #: out-of-sample statistics and forgetting scores, the summary of points leaving the window,
-#: its snapshots, and the adaptation proper.
-ADAPTATION_STEPS = ("_adapt", "_summarise", "_snapshot", "_out_of_sample")
+#: its snapshots, the adaptation proper, and the forgetting it chooses (``_forget``, which a
+#: GP without adaptation runs only with a fixed ``forgetting < 1``).
+ADAPTATION_STEPS = ("_adapt", "_summarise", "_snapshot", "_out_of_sample", "_forget")
 
 
 class GPClock:
