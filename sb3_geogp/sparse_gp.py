@@ -1221,7 +1221,8 @@ class SparseOnlineGP(nn.Module):
 
     def _out_of_sample(self, x: Tensor, y: Tensor) -> dict[str, float]:
         """NLPD and explained variance of a batch under the posterior before it is absorbed;
-        scores the forgetting candidates on it (:meth:`_score_forgetting`). Both use at most
+        scores the forgetting candidates on it (:meth:`_score_forgetting`, or
+        :meth:`_lagged_scores`) and adds it to the open block's sums. All use at most
         ``Adaptation.score_points`` points of the batch (:func:`~sb3_geogp.adaptation.thinned`)."""
         assert self.adaptation is not None
         index, count = thinned(x.shape[0], self.adaptation.score_points, x.device)
@@ -1740,10 +1741,12 @@ class _PosteriorMatrices:
     def P_factor(self) -> tuple[Tensor, Tensor]:
         """:func:`~sb3_geogp.adaptation.posterior_factor` of ``P`` and ``K`` with the nuggets,
         in float64 whatever the state's dtype, shapes (m, m) stacked as (2, m, m)."""
-        K = self.K + torch.diag(self._gp.nugget[: self._m])
-        both = self._get(
-            "P_factor", lambda: torch.stack(posterior_factor(self.P.double(), K.double()))
-        )
+
+        def factor() -> Tensor:
+            K = self.K + torch.diag(self._gp.nugget[: self._m])
+            return torch.stack(posterior_factor(self.P.double(), K.double()))
+
+        both = self._get("P_factor", factor)
         return both[0], both[1]
 
     @property
