@@ -68,8 +68,15 @@ RARE_DEFAULT = {**LEVEL_DEFAULT, "adapt": replace(DEFAULT_ADAPTATION, summary="f
 SNAPSHOT_DEFAULT = {**LEVEL_DEFAULT, "adapt": DEFAULT_ADAPTATION}
 #: The A2C default's adaptation (a refit every block) with snapshots (an option).
 SNAPSHOT_ADAPT = {"adapt": Adaptation(summary="snapshot")}
+#: The PPO default with the lagged forgetting score (0.12, an option): forgetting in the
+#: likelihood, chosen one batch ahead.
+LAGGED_DEFAULT = {
+    **LEVEL_DEFAULT,
+    "adapt": replace(DEFAULT_ADAPTATION, forgetting_score="lagged"),
+}
 #: The snapshot summary's variants (0.11), on both streams: the PPO default in float64 and
-#: float32, and the A2C default's adaptation with snapshots.
+#: float32, and the A2C default's adaptation with snapshots; and the lagged forgetting score
+#: (0.12) in float64 and float32.
 SNAPSHOT_VARIANTS = (
     Variant("laplacian rare snapshot n0.1 level", "laplacian", {}, SNAPSHOT_DEFAULT),
     Variant("geo laplace interp adapt snapshot", "geodesic", {}, SNAPSHOT_ADAPT),
@@ -78,6 +85,13 @@ SNAPSHOT_VARIANTS = (
         "laplacian",
         {},
         {**SNAPSHOT_DEFAULT, "dtype": torch.float32},
+    ),
+    Variant("laplacian rare snapshot lagged n0.1 level", "laplacian", {}, LAGGED_DEFAULT),
+    Variant(
+        "laplacian rare snapshot lagged n0.1 level float32",
+        "laplacian",
+        {},
+        {**LAGGED_DEFAULT, "dtype": torch.float32},
     ),
 )
 VARIANTS = {
