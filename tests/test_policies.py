@@ -672,6 +672,27 @@ def test_adaptation_is_logged_and_survives_save_load_bit_for_bit(
     assert th.isfinite(loaded.policy.predict_values(obs)).all()
 
 
+def test_lagged_forgetting_survives_save_load_bit_for_bit(tmp_path: Path) -> None:
+    """The PPO default with ``forgetting_score="lagged"`` (0.12's option) through SB3's save
+    and load: the same state and values, the option kept, and training goes on. Its window
+    keeps half of each 128-point rollout, as PPO's keeps part of a larger one."""
+    adapt = dataclasses.replace(DEFAULT_ADAPTATION, window=64, forgetting_score="lagged")
+    model = make_model(PPO, n_envs=2, adapt=adapt)
+    model.learn(768, callback=GPValueCallback())
+    gp = model.policy.gp
+    assert int(gp.last_batch_points) == 128 and "forgetting" in gp.last_stats
+    model.save(tmp_path / "model.zip")
+    loaded = PPO.load(tmp_path / "model.zip", env=make_vec_env("Pendulum-v1", n_envs=2))
+    assert loaded.policy.gp.adaptation == adapt
+    for name, value in model.policy.state_dict().items():
+        other = loaded.policy.state_dict()[name]
+        assert th.equal(other, value) if isinstance(value, th.Tensor) else other == value, name
+    obs = flat_obs(model)
+    assert th.equal(loaded.policy.predict_values(obs), model.policy.predict_values(obs))
+    loaded.learn(256, callback=GPValueCallback(), reset_num_timesteps=False)
+    assert th.isfinite(loaded.policy.predict_values(obs)).all()
+
+
 @pytest.mark.parametrize("option", [dict(prior_mean="linear"), dict(trend="linear")])
 def test_linear_options_survive_save_load_bit_for_bit(option: dict, tmp_path: Path) -> None:
     model = make_model(PPO, n_envs=2, **option)
