@@ -598,38 +598,38 @@ class Summary(NamedTuple):
         return Summary(precision, W[:, :m].T @ W[:, m], precision.sum(dim=1), precision @ z)
 
 
-def forget_likelihood(alpha: Tensor, L: Tensor, S: Tensor, lam: float) -> tuple[Tensor, Tensor]:
+def forget_likelihood(alpha: Tensor, L: Tensor, Q: Tensor, lam: float) -> tuple[Tensor, Tensor]:
     """The posterior whose likelihood (relative to the prior) is ``lam`` times that of the
-    posterior ``alpha : (m,)``, ``P = L L^T`` in Csató–Opper form; ``S = L^T K L``, ``K``
-    the prior covariance at the inducing points (:func:`posterior_factor`).
+    posterior ``alpha : (m,)``, ``P = L L^T`` in Csató–Opper form, whose prior precision at the
+    inducing points is ``Q`` (the GP's ``K^-1``).
 
-    With :meth:`Summary.of_posterior`'s ``Lambda = Q P^-1 Q - Q``, ``eta = Q P^-1 alpha``
-    (``Q = K^-1``), the posterior of ``lam Lambda, lam eta`` is
+    With :meth:`Summary.of_posterior`'s ``Lambda = Q P^-1 Q - Q``, ``eta = Q P^-1 alpha``, the
+    posterior of ``lam Lambda, lam eta`` has precision ``G = (1 - lam) Q + lam Q P^-1 Q``:
 
-    .. math::  P' = ((1 - \\lambda) K + \\lambda P^{-1})^{-1}
-                  = L (\\lambda I + (1 - \\lambda) S)^{-1} L^T, \\qquad
-               \\alpha' = \\lambda P' P^{-1} \\alpha
-                  = \\lambda L (\\lambda I + (1 - \\lambda) S)^{-1} L^{-1} \\alpha;
+    .. math::  P' = Q G^{-1} Q, \\qquad \\alpha' = \\lambda Q G^{-1} Q P^{-1} \\alpha,
 
-    the matrix inverted has eigenvalues of at least ``lam``.
+    through ``W = L^-1 Q`` (``Q P^-1 Q = W^T W``). ``Q`` itself is the prior, as in the
+    shrinking form ``P <- lam P + (1 - lam) Q``: ``lam = 0`` gives ``P' = Q``, ``alpha' = 0``
+    whatever the rounding of ``Q``.
 
     Returns
     -------
     alpha, P : Tensor, shapes (m,), (m, m)
     """
     m = alpha.shape[0]
-    M = lam * torch.eye(m, dtype=S.dtype, device=S.device) + (1 - lam) * S
-    chol, _ = jittered_cholesky(M, 1.0)
+    W = torch.linalg.solve_triangular(L, Q, upper=False)
+    G = (1 - lam) * Q + lam * (W.T @ W)
+    chol, _ = jittered_cholesky(0.5 * (G + G.T), float(G.diagonal().abs().mean()))
     white = torch.linalg.solve_triangular(L, alpha[:, None], upper=False)
-    solved = torch.cholesky_solve(torch.cat([L.T, lam * white], dim=1), chol)
-    P = L @ solved[:, :m]
-    return L @ solved[:, m], 0.5 * (P + P.T)
+    solved = torch.cholesky_solve(torch.cat([Q, lam * (W.T @ white)], dim=1), chol)
+    P = Q @ solved[:, :m]
+    return Q @ solved[:, m], 0.5 * (P + P.T)
 
 
 def posterior_factor(P: Tensor, K: Tensor) -> tuple[Tensor, Tensor]:
     """``L`` with ``P = L L^T`` (jittered if it needs it) and ``S = L^T K L``, both (m, m):
-    the coordinates in which :func:`forget_likelihood` and :func:`lagged_forgetting_scores`
-    work."""
+    the coordinates in which :func:`lagged_forgetting_scores` works (:func:`forget_likelihood`
+    needs ``L`` alone)."""
     L, _ = jittered_cholesky(P, float(P.diagonal().abs().mean()))
     S = L.T @ K @ L
     return L, 0.5 * (S + S.T)

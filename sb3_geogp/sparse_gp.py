@@ -737,8 +737,9 @@ class SparseOnlineGP(nn.Module):
         (:func:`~sb3_geogp.adaptation.forget_likelihood`, in float64)."""
         if self.adaptation is not None and self.adaptation.forgetting_score == "lagged":
             m = self.n_basis
-            L, S = self._matrices().P_factor
-            alpha, P = forget_likelihood(self.alpha[:m].double(), L, S, lam)
+            L, _ = self._matrices().P_factor
+            state = (self.alpha[:m].double(), L, self.Q[:m, :m].double())
+            alpha, P = forget_likelihood(*state, lam)
             self.alpha[:m], self.P[:m, :m] = alpha.to(self.alpha), P.to(self.P)
         else:
             self.alpha.mul_(math.sqrt(lam))
