@@ -6,8 +6,9 @@ Three checks, each printed as it runs:
 
 1. **Engine.** The same data stream (a random walk cut into episodes, targets from a smooth
    function with a step) is fed to a :class:`~sb3_geogp.SparseOnlineGP` on the CPU and one on
-   ``--device``, with adaptation on, for each kernel and each summary of the data a refit
-   leaves behind (``fold``, A2C's default; ``snapshot``, PPO's). Both run in float64, so their
+   ``--device``, with adaptation on, for each kernel and each of :data:`ADAPTATIONS`: the
+   summary of the data a refit leaves behind (``fold``, A2C's default; ``snapshot``, PPO's)
+   and the lagged forgetting score (``lagged``, an option). Both run in float64, so their
    posteriors should agree to round-off: the largest gap in predictive mean and variance is
    printed.
 2. **Training.** PPO (Pendulum-v1, the default Laplacian critic) and A2C (CartPole-v1, the
@@ -38,9 +39,14 @@ from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.env_util import make_vec_env
 
 from sb3_geogp import Adaptation, GPActorCriticPolicy, GPValueCallback, SparseOnlineGP
-from sb3_geogp.adaptation import SUMMARIES
 
 KERNELS = ("rbf", "laplacian", "geodesic")
+#: Adaptations the engine check runs, by name.
+ADAPTATIONS = {
+    "fold": Adaptation(),
+    "snapshot": Adaptation(summary="snapshot"),
+    "lagged": Adaptation(summary="snapshot", forgetting_score="lagged"),
+}
 
 
 def stream(seed: int, batches: int, points: int) -> list[tuple[np.ndarray, ...]]:
@@ -60,14 +66,13 @@ def stream(seed: int, batches: int, points: int) -> list[tuple[np.ndarray, ...]]
 
 
 def engine_gap(
-    kernel: str, summary: str, device: str, batches: int, points: int
+    kernel: str, adapt: Adaptation, device: str, batches: int, points: int
 ) -> dict[str, float]:
     """Largest |mean| and |var| gap between the CPU engine and the one on ``device``."""
     data = stream(0, batches, points)
     query = np.concatenate([x for x, _, _ in data])[:: max(1, batches * points // 500)]
     runs = []
     for where in ("cpu", device):
-        adapt = Adaptation(summary=summary)
         gp = SparseOnlineGP(2, kernel=kernel, max_basis=64, adapt=adapt, device=where)
         for x, y, starts in data:
             gp.update(x, y, starts)
@@ -136,14 +141,12 @@ def main(argv: list[str] | None = None) -> int:
     if args.device.startswith("cuda"):
         report["gpu"] = torch.cuda.get_device_name(args.device)
     failed = []
-    for kernel, summary in itertools.product(KERNELS, SUMMARIES):
-        gap = engine_gap(kernel, summary, args.device, args.batches, args.points)
-        report[f"engine_{kernel}_{summary}"] = gap
-        print(
-            f"engine {kernel:9s} {summary:8s} " + " ".join(f"{k}={v:.3g}" for k, v in gap.items())
-        )
+    for kernel, name in itertools.product(KERNELS, ADAPTATIONS):
+        gap = engine_gap(kernel, ADAPTATIONS[name], args.device, args.batches, args.points)
+        report[f"engine_{kernel}_{name}"] = gap
+        print(f"engine {kernel:9s} {name:8s} " + " ".join(f"{k}={v:.3g}" for k, v in gap.items()))
         if not gap["mean_gap"] <= args.tol or not gap["var_gap"] <= args.tol:
-            failed.append(f"engine {kernel} {summary}: CPU and {args.device} posteriors differ")
+            failed.append(f"engine {kernel} {name}: CPU and {args.device} posteriors differ")
     for algo, where in itertools.product(("ppo", "a2c"), dict.fromkeys(("cpu", args.device))):
         res = training_check(algo, where, args.timesteps)
         report[f"train_{algo}_{where}"] = res

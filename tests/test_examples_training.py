@@ -308,7 +308,7 @@ def test_device_check_on_the_cpu_passes_and_writes_its_figures(tmp_path: Path) -
     assert device_check.main([*argv, "--out", str(out)]) == 0
     report = json.loads(out.read_text())
     assert report["failed"] == []
-    engines = [f"engine_{k}_{s}" for k in device_check.KERNELS for s in device_check.SUMMARIES]
+    engines = [f"engine_{k}_{a}" for k in device_check.KERNELS for a in device_check.ADAPTATIONS]
     assert {report[e]["mean_gap"] for e in engines} == {0.0}
     assert report["train_ppo_cpu"]["finite"] and report["train_a2c_cpu"]["load_gap"] == 0.0
 
