@@ -76,7 +76,7 @@ LAGGED_DEFAULT = {
 }
 #: The snapshot summary's variants (0.11), on both streams: the PPO default in float64 and
 #: float32, and the A2C default's adaptation with snapshots; and the lagged forgetting score
-#: (0.12) in float64 and float32.
+#: (0.12), which refuses float32.
 SNAPSHOT_VARIANTS = (
     Variant("laplacian rare snapshot n0.1 level", "laplacian", {}, SNAPSHOT_DEFAULT),
     Variant("geo laplace interp adapt snapshot", "geodesic", {}, SNAPSHOT_ADAPT),
@@ -87,12 +87,6 @@ SNAPSHOT_VARIANTS = (
         {**SNAPSHOT_DEFAULT, "dtype": torch.float32},
     ),
     Variant("laplacian rare snapshot lagged n0.1 level", "laplacian", {}, LAGGED_DEFAULT),
-    Variant(
-        "laplacian rare snapshot lagged n0.1 level float32",
-        "laplacian",
-        {},
-        {**LAGGED_DEFAULT, "dtype": torch.float32},
-    ),
 )
 VARIANTS = {
     "pendulum": (

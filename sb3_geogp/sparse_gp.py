@@ -113,8 +113,9 @@ def _count(name: str, value: Any) -> int:
     return int(value)
 
 
-def _check_dtype(dtype: Any, kernel: Kernel) -> torch.dtype:
-    """``dtype`` as a torch dtype the engine computes in safely with ``kernel``."""
+def _check_dtype(dtype: Any, kernel: Kernel, adaptation: Adaptation | None) -> torch.dtype:
+    """``dtype`` as a torch dtype the engine computes in safely with ``kernel`` and
+    ``adaptation``."""
     if isinstance(dtype, str):  # a torch name: "float64", "double", "torch.float32", ...
         dtype = getattr(torch, dtype.removeprefix("torch."), dtype)
     if dtype not in (torch.float64, torch.float32):
@@ -128,6 +129,13 @@ def _check_dtype(dtype: Any, kernel: Kernel) -> torch.dtype:
             "float32 (its basis Gram matrix is too ill-conditioned: updates fail or diverge); "
             "use dtype=torch.float64, or a Laplacian "
             "profile (GeodesicKernel(profile='laplacian'), LaplacianKernel) in float32"
+        )
+    if dtype == torch.float32 and adaptation and adaptation.forgetting_score == "lagged":
+        # The 10^6-point pendulum soak left P indefinite after 862k points (docs/benchmarks.md).
+        raise ValueError(
+            "Adaptation(forgetting_score='lagged') is not numerically safe in float32 (its "
+            "forgetting in the likelihood left P indefinite in a long run); use "
+            "dtype=torch.float64, or forgetting_score='shrink' in float32"
         )
     return cast(torch.dtype, dtype)
 
@@ -354,7 +362,7 @@ class SparseOnlineGP(nn.Module):
         self.condition_guard = bool(condition_guard)
         self.kernel = make_kernel(kernel)
         self.adaptation = as_adaptation(adapt)
-        dtype = _check_dtype(dtype, self.kernel)
+        dtype = _check_dtype(dtype, self.kernel, self.adaptation)
         self.novelty_tol = (
             self.kernel.novelty_at(defaults.NOVELTY_RADIUS)
             if novelty_tol is None

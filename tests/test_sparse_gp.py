@@ -21,6 +21,7 @@ from torch import Tensor
 
 from sb3_geogp import (
     CHEAP_ADAPTATION,
+    Adaptation,
     GeodesicKernel,
     Kernel,
     LaplacianKernel,
@@ -1099,6 +1100,17 @@ def test_float32_matches_float64_where_allowed(kernel: Kernel) -> None:
 def test_unsafe_dtypes_are_refused_at_construction(kernel: Kernel, dtype: Any, match: str) -> None:
     with pytest.raises(ValueError, match=match):
         SparseOnlineGP(3, kernel=kernel, dtype=dtype)
+
+
+def test_lagged_forgetting_is_refused_in_float32() -> None:
+    """Its likelihood forgetting left ``P`` indefinite in the float32 soak: refused with the fix
+    named; float64, and the shrinking score in float32, are built."""
+    lagged = Adaptation(forgetting_score="lagged")
+    with pytest.raises(ValueError, match=r"dtype=torch\.float64, or forgetting_score='shrink'"):
+        SparseOnlineGP(3, kernel="laplacian", adapt=lagged, dtype=torch.float32)
+    assert SparseOnlineGP(3, kernel="laplacian", adapt=lagged).P.dtype == torch.float64
+    shrink = SparseOnlineGP(3, kernel="laplacian", adapt=Adaptation(), dtype=torch.float32)
+    assert shrink.P.dtype == torch.float32
 
 
 @pytest.mark.parametrize(
