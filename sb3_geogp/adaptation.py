@@ -692,9 +692,9 @@ def lagged_forgetting_scores(
     base = U.T @ (R.T @ (y_b / noise_b))
     own = U.T @ torch.linalg.solve_triangular(L, alpha[:, None], upper=False)[:, 0]
     lam = candidates[:, None]
-    shrink = 1 / ((1 - lam) * e + lam)  # (k, m)
-    mean = (shrink * ((1 - lam) * base + lam * own)) @ g.T  # (k, n)
-    var = gamma + shrink @ g.square().T + noise
+    inverse = 1 / ((1 - lam) * e + lam)  # (k, m): the precisions inverted, per direction
+    mean = (inverse * ((1 - lam) * base + lam * own)) @ g.T  # (k, n)
+    var = gamma + inverse @ g.square().T + noise
     nll = 0.5 * (torch.log(2 * math.pi * var) + (yn - mean).square() / var)
     return nll @ count
 
