@@ -25,7 +25,7 @@ if TYPE_CHECKING:
     from sb3_geogp import envs
     from sb3_geogp.callbacks import GPValueCallback
     from sb3_geogp.contrib import MaskableGPActorCriticPolicy
-    from sb3_geogp.policies import GPActorCriticPolicy
+    from sb3_geogp.policies import LAGGED_ADAPTATION, GPActorCriticPolicy
 
 __version__ = "0.12.0"
 
@@ -34,6 +34,7 @@ __version__ = "0.12.0"
 _LAZY = {
     "GPActorCriticPolicy": "sb3_geogp.policies",
     "GPValueCallback": "sb3_geogp.callbacks",
+    "LAGGED_ADAPTATION": "sb3_geogp.policies",
     "MaskableGPActorCriticPolicy": "sb3_geogp.contrib",
     "envs": "sb3_geogp.envs",
 }
@@ -52,6 +53,7 @@ def __dir__() -> list[str]:
 
 __all__ = [
     "CHEAP_ADAPTATION",
+    "LAGGED_ADAPTATION",
     "Adaptation",
     "BVGraph",
     "GPActorCriticPolicy",

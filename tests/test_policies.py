@@ -21,6 +21,7 @@ from stable_baselines3.common.env_util import make_vec_env
 from stable_baselines3.common.logger import configure
 from stable_baselines3.common.vec_env import SubprocVecEnv
 
+import sb3_geogp
 from sb3_geogp import (
     CHEAP_ADAPTATION,
     Adaptation,
@@ -31,7 +32,7 @@ from sb3_geogp import (
     RBFKernel,
     SparseOnlineGP,
 )
-from sb3_geogp.policies import DEFAULT_ADAPTATION, SUPPORTED_ALGORITHMS
+from sb3_geogp.policies import DEFAULT_ADAPTATION, LAGGED_ADAPTATION, SUPPORTED_ALGORITHMS
 
 ALGOS = [PPO, A2C]
 KERNELS = ["geodesic", "rbf"]
@@ -672,11 +673,20 @@ def test_adaptation_is_logged_and_survives_save_load_bit_for_bit(
     assert th.isfinite(loaded.policy.predict_values(obs)).all()
 
 
+def test_the_lagged_preset_is_the_pre_registered_candidate() -> None:
+    """``LAGGED_ADAPTATION`` is the setting results/lagged_forgetting/PREREGISTRATION.md tested
+    (its command's ``adapt`` dict), and a policy given it uses it."""
+    tested = {"max_gap": 16, "settle": False, "score_points": 256, "fold_points": 256,
+              "fit_floor": 0.8, "summary": "snapshot", "forgetting_score": "lagged"}  # fmt: skip
+    assert sb3_geogp.LAGGED_ADAPTATION is LAGGED_ADAPTATION == Adaptation(**tested)
+    assert make_model(PPO, adapt=LAGGED_ADAPTATION).policy.gp.adaptation == LAGGED_ADAPTATION
+
+
 def test_lagged_forgetting_survives_save_load_bit_for_bit(tmp_path: Path) -> None:
     """The PPO default with ``forgetting_score="lagged"`` (0.12's option) through SB3's save
     and load: the same state and values, the option kept, and training goes on. Its window
     keeps half of each 128-point rollout, as PPO's keeps part of a larger one."""
-    adapt = dataclasses.replace(DEFAULT_ADAPTATION, window=64, forgetting_score="lagged")
+    adapt = dataclasses.replace(LAGGED_ADAPTATION, window=64)
     model = make_model(PPO, n_envs=2, adapt=adapt)
     model.learn(768, callback=GPValueCallback())
     gp = model.policy.gp
