@@ -1072,9 +1072,11 @@ class SparseOnlineGP(nn.Module):
         yn = self._standardised(x, y)
         with self._transaction(), torch.no_grad():
             self._fit(x, yn, w, n_iter, lr, self.adaptation or Adaptation())
-            self._rebuild(x, yn, w, batch)
+            Kzz, Kxz = self._rebuild(x, yn, w, batch)
+            if Kxz.shape[0] < x.shape[0]:  # the rebuild used only the points after a snapshot
+                Kzz, Kxz = self._basis_covariances(x)
             variance = self.kernel.variance
-            projection = Projection(*self._basis_covariances(x), float(variance))
+            projection = Projection(Kzz, Kxz, float(variance))
             final = projection.negative_bound(yn, self.noise_var / w, variance.expand(len(yn)))
         return {
             "lengthscale": float(self.kernel.lengthscale[0]),
@@ -1385,11 +1387,11 @@ class SparseOnlineGP(nn.Module):
         self.noise_var.copy_(log_noise.detach().exp())
         self._cache = None
 
-    def _rebuild(self, x: Tensor, yn: Tensor, w: Tensor, batch: Tensor) -> None:
+    def _rebuild(self, x: Tensor, yn: Tensor, w: Tensor, batch: Tensor) -> tuple[Tensor, Tensor]:
         """The exact sparse posterior of the points of ``(x, yn)`` that the summary does not
         hold (of batches ``batch``), with noise ``sigma_n^2 / w``, times the summary,
         replaces the current one (:func:`~sb3_geogp.adaptation.sparse_posterior`), after
-        pruning."""
+        pruning. Returns the covariances it used: ``K_zz`` and the rows of those points."""
         self._refresh_Q()
         self._prune_redundant()
         m = self.n_basis
@@ -1400,6 +1402,7 @@ class SparseOnlineGP(nn.Module):
         self.alpha[:m] = alpha
         self.P[:m, :m] = P
         self._matrices().posterior_changed()
+        return Kzz, Kxz
 
     def _prune_redundant(self) -> None:
         """Delete, least novel first, the BVs that new hyperparameters made near-duplicates.
