@@ -51,7 +51,7 @@ import torch
 from tqdm import tqdm
 
 from sb3_geogp import CHEAP_ADAPTATION, Adaptation, SparseOnlineGP
-from sb3_geogp.policies import DEFAULT_ADAPTATION
+from sb3_geogp.policies import DEFAULT_ADAPTATION, LAGGED_ADAPTATION
 from sb3_geogp.toolbox.benchmarks import Variant, torch_threads
 from sb3_geogp.toolbox.provenance import provenance
 from sb3_geogp.toolbox.streams import Rollout, drifting_stream, pendulum_stream
@@ -68,12 +68,10 @@ RARE_DEFAULT = {**LEVEL_DEFAULT, "adapt": replace(DEFAULT_ADAPTATION, summary="f
 SNAPSHOT_DEFAULT = {**LEVEL_DEFAULT, "adapt": DEFAULT_ADAPTATION}
 #: The A2C default's adaptation (a refit every block) with snapshots (an option).
 SNAPSHOT_ADAPT = {"adapt": Adaptation(summary="snapshot")}
-#: The PPO default with the lagged forgetting score (0.12, an option): forgetting in the
-#: likelihood, chosen one batch ahead.
-LAGGED_DEFAULT = {
-    **LEVEL_DEFAULT,
-    "adapt": replace(DEFAULT_ADAPTATION, forgetting_score="lagged"),
-}
+#: The PPO default with the lagged forgetting score (0.12, an option,
+#: :data:`~sb3_geogp.policies.LAGGED_ADAPTATION`): forgetting in the likelihood, chosen one
+#: batch ahead.
+LAGGED_DEFAULT = {**LEVEL_DEFAULT, "adapt": LAGGED_ADAPTATION}
 #: The snapshot summary's variants (0.11), on both streams: the PPO default in float64 and
 #: float32, and the A2C default's adaptation with snapshots; and the lagged forgetting score
 #: (0.12), which refuses float32.

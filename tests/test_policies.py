@@ -66,6 +66,21 @@ def make_model(
     )
 
 
+def assert_round_trip_exact(model: BaseAlgorithm, adapt: Adaptation, tmp_path: Path) -> None:
+    """A PPO ``model`` on 2 Pendulum-v1 envs through SB3's save and load: the adaptation
+    ``adapt`` kept, every state entry and every value the same, and training goes on."""
+    model.save(tmp_path / "model.zip")
+    loaded = PPO.load(tmp_path / "model.zip", env=make_vec_env("Pendulum-v1", n_envs=2))
+    assert loaded.policy.gp.adaptation == adapt
+    for name, value in model.policy.state_dict().items():
+        other = loaded.policy.state_dict()[name]
+        assert th.equal(other, value) if isinstance(value, th.Tensor) else other == value, name
+    obs = flat_obs(model)
+    assert th.equal(loaded.policy.predict_values(obs), model.policy.predict_values(obs))
+    loaded.learn(256, callback=GPValueCallback(), reset_num_timesteps=False)
+    assert th.isfinite(loaded.policy.predict_values(obs)).all()
+
+
 def flat_obs(model: BaseAlgorithm) -> th.Tensor:
     buf = model.rollout_buffer
     return th.as_tensor(buf.observations.reshape(-1, *buf.obs_shape))
@@ -661,16 +676,7 @@ def test_adaptation_is_logged_and_survives_save_load_bit_for_bit(
     assert int(gp.n_blocks) >= 2 and "lengthscale_0" in gp.last_stats
     logged = (tmp_path / "log" / "progress.csv").read_text().splitlines()[0].split(",")
     assert {"gp/nlpd", "gp/lengthscale", "gp/signal_var", "gp/noise_var"} <= set(logged)
-    model.save(tmp_path / "model.zip")
-    loaded = PPO.load(tmp_path / "model.zip", env=make_vec_env("Pendulum-v1", n_envs=2))
-    assert loaded.policy.gp.adaptation == adapt
-    for name, value in model.policy.state_dict().items():
-        other = loaded.policy.state_dict()[name]
-        assert th.equal(other, value) if isinstance(value, th.Tensor) else other == value, name
-    obs = flat_obs(model)
-    assert th.equal(loaded.policy.predict_values(obs), model.policy.predict_values(obs))
-    loaded.learn(256, callback=GPValueCallback(), reset_num_timesteps=False)
-    assert th.isfinite(loaded.policy.predict_values(obs)).all()
+    assert_round_trip_exact(model, adapt, tmp_path)
 
 
 def test_the_lagged_preset_is_the_pre_registered_candidate() -> None:
@@ -691,16 +697,7 @@ def test_lagged_forgetting_survives_save_load_bit_for_bit(tmp_path: Path) -> Non
     model.learn(768, callback=GPValueCallback())
     gp = model.policy.gp
     assert int(gp.last_batch_points) == 128 and "forgetting" in gp.last_stats
-    model.save(tmp_path / "model.zip")
-    loaded = PPO.load(tmp_path / "model.zip", env=make_vec_env("Pendulum-v1", n_envs=2))
-    assert loaded.policy.gp.adaptation == adapt
-    for name, value in model.policy.state_dict().items():
-        other = loaded.policy.state_dict()[name]
-        assert th.equal(other, value) if isinstance(value, th.Tensor) else other == value, name
-    obs = flat_obs(model)
-    assert th.equal(loaded.policy.predict_values(obs), model.policy.predict_values(obs))
-    loaded.learn(256, callback=GPValueCallback(), reset_num_timesteps=False)
-    assert th.isfinite(loaded.policy.predict_values(obs)).all()
+    assert_round_trip_exact(model, adapt, tmp_path)
 
 
 @pytest.mark.parametrize("option", [dict(prior_mean="linear"), dict(trend="linear")])
