@@ -250,6 +250,31 @@ def test_action_gap_scores_every_critic_on_the_same_states(tmp_path: Path) -> No
     assert (tmp_path / "action_gap.png").stat().st_size > 0
 
 
+def test_advantage_error_scores_every_critic_against_the_same_reference(tmp_path: Path) -> None:
+    """A tiny run per actor: the default GP shadow scores exactly as the Laplacian run's own
+    critic (it is fed the same rollouts), a finished run is not run again, and the table and
+    the figure are written."""
+    study = load_script("advantage_error")
+    argv = ["--seeds", "0", "--timesteps", "4096", "--rollouts", "4", "--horizon", "20"]
+    argv += ["--skip", "0", "--out", str(tmp_path)]
+    assert study.main(argv) == 0
+    results = json.loads((tmp_path / "results.json").read_text())["results"]
+    rows = results["laplacian"]["0"]["rows"]
+    assert [r["step"] for r in rows] == [4096]
+    for row in rows:
+        assert row[study.OWN] == row["Laplacian GP (PPO default)"]
+        assert 0 < row["reliability"] <= 1
+        for name in (study.MLP, *study.CRITICS):
+            assert -1 <= row[name]["correlation"] <= 1 and row[name]["value_rmse"] > 0
+    assert set(results["mlp"]["0"]["rows"][0]) == set(rows[0])
+    done = tmp_path / "runs" / "laplacian__s0.json"
+    written = done.stat().st_mtime_ns
+    assert study.main(argv) == 0
+    assert done.stat().st_mtime_ns == written
+    assert f"| laplacian | {study.MLP} |" in (tmp_path / "table.md").read_text()
+    assert (tmp_path / "advantage_error.png").stat().st_size > 0
+
+
 def test_same_policy_separates_a_changed_function_from_a_fixed_one() -> None:
     """On batches of one fixed function, fitting other environments of the same batch first
     predicts the held-out half no better than the past batches did; when the function flips

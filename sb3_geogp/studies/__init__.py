@@ -3,7 +3,9 @@
 * :mod:`~sb3_geogp.studies.pendulum`: the reproduction of the paper's pendulum experiment;
 * :mod:`~sb3_geogp.studies.wall`: geodesic vs Euclidean kernels on a two-room value function;
 * :mod:`~sb3_geogp.studies.action_gap`: whether a critic orders CartPole's two actions as the
-  true action values do (Monte Carlo gaps).
+  true action values do (Monte Carlo gaps);
+* :mod:`~sb3_geogp.studies.advantage_error`: how far a critic's GAE advantages on the paper's
+  pendulum are from those of the policy's true value function (Monte Carlo).
 
 They share :mod:`sb3_geogp.toolbox` with the critic comparison (:mod:`sb3_geogp.comparison`).
 """

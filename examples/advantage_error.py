@@ -1,0 +1,316 @@
+"""Do the GP critics give PPO worse advantages than SB3's MLP critic on the paper's pendulum?
+
+PaperPendulum PPO is the cell in which the default GP critic has been worse than the MLP
+critic in every run since 0.6 (docs/results.md): its agents fall behind between about 12,000
+and 24,000 steps, while its values at fixed probe states are about as accurate as the MLP's.
+The actor learns from advantages, not from values at probe states; this script measures the
+advantages themselves (:mod:`sb3_geogp.studies.advantage_error`):
+
+1. One PPO run per actor and seed, built as the comparison builds its runs (zoo
+   hyperparameters, ``--timesteps`` steps): ``--actors laplacian`` trains with the default GP
+   critic, ``mlp`` with SB3's MLP critic.
+2. Beside it, shadow critics learn from every rollout the run's critic learns from: SB3's MLP
+   critic trained as PPO trains it (:class:`~sb3_geogp.comparison.shadow.MLPShadow`) and GP
+   critics with the settings of ``--critics``.
+3. At every rollout's end, before any critic learns from it: ``V^pi`` of the current policy at
+   every state of the rollout (and the states after its last step and at its truncations), by
+   Monte Carlo (``--rollouts`` rollouts of ``--horizon`` steps from each, the policy's gSDE
+   noise resampled as in training); then each critic's GAE advantages of the rollout (its own
+   values in the TD errors and at the truncations' bootstrap) against those of ``V^pi``:
+   their correlation, and the critic's value RMSE at the rollout's states.
+
+Writes ``OUT/results.json``, ``OUT/table.md`` (per actor and critic the mean over seeds, and
+the paired difference from the MLP shadow with a 95 % t interval) and
+``OUT/advantage_error.png``. A finished actor and seed is kept in ``OUT/runs/``.
+
+    python examples/advantage_error.py --seeds 0 1 2 3 4 --out docs/advantage_error
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch as th
+from stable_baselines3.common.callbacks import BaseCallback, CallbackList
+from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
+from tqdm.auto import tqdm
+
+from sb3_geogp import LAGGED_ADAPTATION, GPActorCriticPolicy, GPValueCallback
+from sb3_geogp.comparison.hyperparams import TIMESTEPS
+from sb3_geogp.comparison.run import build_model, write_json_atomic
+from sb3_geogp.comparison.shadow import Learner, MLPShadow, ShadowFeed, gp_shadow, ppo_spec
+from sb3_geogp.studies.advantage_error import advantage_scores, gae, policy_returns
+from sb3_geogp.toolbox.provenance import provenance
+from sb3_geogp.toolbox.stats import mean_ci
+
+ENV = "sb3_geogp/PaperPendulum-v0"
+#: The run's own critic, and the MLP shadow every critic is compared with.
+OWN, MLP = "run's own critic", "SB3 MLP critic (shadow)"
+#: GP shadow critics by default (settings as :func:`~sb3_geogp.comparison.shadow.ppo_spec`).
+CRITICS: dict[str, dict[str, Any]] = {
+    "Laplacian GP (PPO default)": {"kernel": "laplacian"},
+    "Laplacian GP, lagged forgetting": {"kernel": "laplacian", **LAGGED_ADAPTATION.as_dict()},
+}
+METRICS = ("correlation", "value_rmse")
+
+Value = Callable[[np.ndarray], np.ndarray]
+
+
+class AdvantageCheckpoints(BaseCallback):
+    """At every rollout end, scores every critic's advantages against those of the Monte Carlo
+    ``V^pi``. Pass it before the callbacks that let a critic learn from the rollout."""
+
+    def __init__(self, critics: dict[str, Value], args: argparse.Namespace, seed: int) -> None:
+        super().__init__()
+        self.critics, self.args, self.seed = critics, args, seed
+        self.rows: list[dict[str, Any]] = []
+        self.truncations: list[tuple[int, int, np.ndarray]] = []
+        self.step_in_rollout = 0
+
+    def _on_rollout_start(self) -> None:
+        self.truncations, self.step_in_rollout = [], 0
+
+    def _on_step(self) -> bool:
+        for env, info in enumerate(self.locals["infos"]):
+            if info.get("TimeLimit.truncated") and "terminal_observation" in info:
+                terminal = np.asarray(info["terminal_observation"], dtype=np.float64)
+                self.truncations.append((self.step_in_rollout, env, terminal))
+        self.step_in_rollout += 1
+        return True
+
+    def _act(self, obs: np.ndarray, step: int) -> np.ndarray:
+        """The policy's stochastic torque, its gSDE noise resampled as in training."""
+        model = self.model
+        policy = model.policy
+        resample = step == 0 or (model.sde_sample_freq > 0 and step % model.sde_sample_freq == 0)
+        if model.use_sde and resample:
+            policy.reset_noise(len(obs))
+        with th.no_grad():
+            dist = policy.get_distribution(th.as_tensor(obs, dtype=th.float32, device=model.device))
+            actions = dist.get_actions().cpu().numpy().reshape(len(obs), -1)
+        low, high = model.action_space.low, model.action_space.high  # type: ignore[union-attr]
+        return np.clip(actions, low, high)[:, 0].astype(np.float64)
+
+    def _returns(self, states: np.ndarray) -> np.ndarray:
+        """Monte Carlo returns from ``states``, shape (n, rollouts), the policy's noise drawn
+        from its own generator: the run's random streams and exploration matrices stay as
+        they were."""
+        dist = self.model.policy.action_dist
+        saved = {
+            k: getattr(dist, k, None)
+            for k in ("exploration_mat", "exploration_matrices", "weights_dist")
+        }
+        with th.random.fork_rng(devices=[]):
+            th.manual_seed(self.seed * 1000 + len(self.rows))
+            returns = policy_returns(
+                self._act, states, float(self.model.gamma), self.args.horizon, self.args.rollouts
+            )
+        for k, v in saved.items():
+            setattr(dist, k, v)
+        return returns
+
+    def _on_rollout_end(self) -> None:
+        model = self.model
+        buffer = model.rollout_buffer
+        T, n_envs = buffer.rewards.shape
+        obs = buffer.observations.reshape(T * n_envs, -1).astype(np.float64)
+        last = np.asarray(model._last_obs, dtype=np.float64).reshape(n_envs, -1)  # type: ignore[arg-type]
+        last_dones = np.asarray(model._last_episode_starts, dtype=np.float64)
+        terminal = np.array([t for _, _, t in self.truncations]).reshape(-1, obs.shape[1])
+        at = tuple(np.array([(s, e) for s, e, _ in self.truncations], dtype=int).reshape(-1, 2).T)
+        everything = np.concatenate([obs, last, terminal])
+        gamma, lam = float(model.gamma), float(model.gae_lambda)
+        # SB3 added gamma V_own(terminal) to the rewards at truncations: replace it per critic
+        own = self.critics[OWN](terminal) if len(terminal) else np.zeros(0)
+        raw = buffer.rewards.astype(np.float64).copy()
+        raw[at] -= gamma * own
+
+        def advantages(v: np.ndarray) -> np.ndarray:
+            values, last_v, term_v = np.split(v, [T * n_envs, T * n_envs + n_envs])
+            rewards = raw.copy()
+            rewards[at] += gamma * term_v
+            starts = buffer.episode_starts
+            return gae(rewards, values.reshape(T, n_envs), starts, last_v, last_dones, gamma, lam)
+
+        returns = self._returns(everything)
+        true_v = returns.mean(axis=1)
+        reference = advantages(true_v).ravel()
+        # split-half agreement of the reference (Spearman-Brown to all rollouts): the ceiling
+        # its Monte Carlo noise puts on every critic's correlation alike
+        halves = [advantages(returns[:, k::2].mean(axis=1)).ravel() for k in (0, 1)]
+        half = float(np.corrcoef(*halves)[0, 1])
+        row: dict[str, Any] = dict(step=int(self.num_timesteps), reliability=2 * half / (1 + half))
+        for name, value in self.critics.items():
+            v = value(everything)
+            scores = advantage_scores(
+                reference, advantages(v).ravel(), true_v[: T * n_envs], v[: T * n_envs]
+            )
+            row[name] = {k: None if s != s else s for k, s in scores.items()}
+        self.rows.append(row)
+
+
+def _torch_value(fn: Callable[[th.Tensor], th.Tensor]) -> Value:
+    return lambda s: fn(th.as_tensor(s, dtype=th.float64)).double().cpu().numpy()
+
+
+def _own_value(model: OnPolicyAlgorithm) -> Value:
+    policy = model.policy
+    if isinstance(policy, GPActorCriticPolicy):
+        return _torch_value(lambda x: policy.gp.predict(x, return_var=False)[0])
+    return _torch_value(lambda x: policy.predict_values(x.float())[:, 0].detach())
+
+
+def run(actor: str, seed: int, args: argparse.Namespace) -> dict[str, Any]:
+    """One PPO run with ``actor``'s critic and the shadow critics; every rollout's scores."""
+    th.set_num_threads(1)
+    model = build_model(ppo_spec(ENV, seed, args.timesteps, {"kernel": actor}))
+    mlp = MLPShadow(ENV, seed)
+    gps = {name: gp_shadow(ppo_spec(ENV, seed, 1, s)) for name, s in args.critics.items()}
+    critics: dict[str, Value] = {OWN: _own_value(model), MLP: _torch_value(mlp.predict)}
+    critics.update(
+        {
+            name: _torch_value(lambda x, gp=gp: gp.predict(x, return_var=False)[0])
+            for name, gp in gps.items()
+        }
+    )
+
+    def learn_mlp(x: th.Tensor, y: th.Tensor, _starts: th.Tensor) -> None:
+        mlp.learn(x, y, model.lr_schedule(model._current_progress_remaining))
+
+    learners: list[Learner] = [learn_mlp, *(gp.update for gp in gps.values())]
+    checkpoints = AdvantageCheckpoints(critics, args, seed)
+    own_feed = [GPValueCallback()] if isinstance(model.policy, GPActorCriticPolicy) else []
+    model.learn(
+        args.timesteps, callback=CallbackList([checkpoints, *own_feed, ShadowFeed(learners)])
+    )
+    env = model.get_env()
+    assert env is not None
+    env.close()
+    return dict(actor=actor, seed=seed, rows=checkpoints.rows)
+
+
+def per_seed(runs: list[dict[str, Any]], metric: str, skip: int) -> dict[str, np.ndarray]:
+    """Per critic, ``metric`` averaged over each run's rollouts after the first ``skip``."""
+    names = [k for k, v in runs[0]["rows"][0].items() if isinstance(v, dict)]
+    return {
+        n: np.array(
+            [np.nanmean([r[n][metric] for r in run["rows"][skip:]], dtype=float) for run in runs]
+        )
+        for n in names
+    }
+
+
+def table(results: dict[str, dict[int, Any]], skip: int) -> str:
+    """Markdown: per actor and critic, each metric's mean over seeds and its paired difference
+    from the MLP shadow [95 % t interval]."""
+    head = " | ".join(f"{m} | − MLP shadow [95 % CI]" for m in METRICS)
+    lines = [
+        f"| actor's critic | critic | {head} | seeds |",
+        "|---|---|" + "---:|---|" * len(METRICS) + "---:|",
+    ]
+    for actor, by_seed in results.items():
+        runs = list(by_seed.values())
+        scores = {m: per_seed(runs, m, skip) for m in METRICS}
+        for name in scores[METRICS[0]]:
+            cells = []
+            for m in METRICS:
+                values, diff = scores[m][name], scores[m][name] - scores[m][MLP]
+                mean, half = (float(v) for v in mean_ci(diff, nan_policy="omit"))
+                ci = "–" if name == MLP else f"{mean:+.3f} [{mean - half:+.3f}, {mean + half:+.3f}]"
+                cells.append(f"{np.nanmean(values):.3f} | {ci}")
+            lines.append(f"| {actor} | {name} | {' | '.join(cells)} | {len(runs)} |")
+        ceiling = np.mean([np.sqrt(r["reliability"]) for run in runs for r in run["rows"][skip:]])
+        lines.append(
+            f"| {actor} | ceiling of the correlation (Monte Carlo noise) | {ceiling:.3f} | | | | |"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def plot(results: dict[str, dict[int, Any]], path: Path) -> None:
+    """Per rollout, mean over seeds: advantage correlation (top) and value RMSE (bottom), a
+    column per actor."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(
+        2, len(results), figsize=(5.2 * len(results) + 3.4, 7.0), squeeze=False
+    )
+    for col, (actor, by_seed) in enumerate(results.items()):
+        runs = list(by_seed.values())
+        steps = [r["step"] for r in runs[0]["rows"]]
+        for k, name in enumerate(n for n, v in runs[0]["rows"][0].items() if isinstance(v, dict)):
+            style = dict(lw=4, alpha=0.35) if name == OWN else dict(lw=1.5, ms=3, marker="o")
+            for row, metric in enumerate(METRICS):
+                vals = np.array([[r[name][metric] for r in run["rows"]] for run in runs], float)
+                axes[row][col].plot(
+                    steps, np.nanmean(vals, axis=0), color=f"C{k}", label=name, **style
+                )
+        ceiling = np.mean(
+            [[np.sqrt(r["reliability"]) for r in run["rows"]] for run in runs], axis=0
+        )
+        axes[0][col].plot(steps, ceiling, "k:", lw=1.2, label="ceiling (Monte Carlo noise)")
+        axes[0][col].set(
+            title=f"PPO with the {actor} critic", ylabel="advantage correlation with V^pi's"
+        )
+        axes[1][col].set(
+            xlabel="environment steps (rollout end)", ylabel="value RMSE at the rollout's states"
+        )
+        for ax in axes[:, col]:
+            ax.grid(alpha=0.3)
+    axes[0][-1].legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0))
+    fig.suptitle(
+        "PaperPendulum PPO: each critic's GAE advantages against those of V^pi (Monte Carlo)"
+    )
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--actors", nargs="+", default=["mlp", "laplacian"])
+    parser.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2])
+    parser.add_argument("--timesteps", type=int, default=TIMESTEPS[ENV])
+    parser.add_argument("--rollouts", type=int, default=16, help="Monte Carlo rollouts per state")
+    parser.add_argument("--horizon", type=int, default=80, help="steps per Monte Carlo rollout")
+    parser.add_argument("--skip", type=int, default=1, help="first rollouts left out of the table")
+    parser.add_argument(
+        "--critics",
+        type=json.loads,
+        default=CRITICS,
+        help='JSON {name: setting} of GP shadow critics (e.g. {"RBF GP": {"kernel": "rbf"}})',
+    )
+    parser.add_argument("--out", type=Path, default=Path("runs/advantage_error"))
+    args = parser.parse_args(argv)
+    (args.out / "runs").mkdir(parents=True, exist_ok=True)
+    results: dict[str, dict[int, Any]] = {a: {} for a in args.actors}
+    jobs = [(a, s) for a in args.actors for s in args.seeds]
+    for actor, seed in tqdm(jobs, unit="run", desc="PPO runs"):
+        path = args.out / "runs" / f"{actor}__s{seed}.json"
+        if not path.exists():
+            write_json_atomic(path, run(actor, seed, args))
+        results[actor][seed] = json.loads(path.read_text())
+    text = table(results, args.skip)
+    print(text)
+    (args.out / "table.md").write_text(text)
+    write_json_atomic(
+        args.out / "results.json",
+        {
+            "args": {**vars(args), "out": str(args.out)},
+            "results": results,
+            "provenance": provenance(),
+        },
+    )
+    plot(results, args.out / "advantage_error.png")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,148 @@
+"""How far a critic's advantages are from the advantages of the exact value function.
+
+PPO's actor learns from GAE advantages (Schulman et al. 2016), in which a critic ``V`` enters
+through the TD errors
+
+.. math::  \\delta_t = r_t + \\gamma V(s_{t+1}) (1 - d_{t+1}) - V(s_t), \\qquad
+           A_t = \\delta_t + \\gamma \\lambda (1 - d_{t+1}) A_{t+1},
+
+``d_{t+1} = 1`` where a new episode starts at ``t + 1`` (:func:`gae`, SB3's recursion). A critic
+that fits the returns well on average can still give advantages that order the actions of a
+rollout badly. The reference here is the advantage that the rollout's rewards give with the
+*policy's true value function* ``V^pi`` in place of ``V``, estimated by Monte Carlo
+(:func:`policy_returns`): the paper's pendulum (:mod:`sb3_geogp.envs.pendulum`) has
+deterministic dynamics and its observation is its state, so every rollout state can be
+restarted exactly; only the policy's noise is sampled.
+
+:func:`advantage_scores` compares a critic's advantages with the reference on one rollout:
+the correlation (PPO standardises advantages per minibatch, so their scale does not reach the
+actor), and the root-mean-square error of the critic's values at the rollout's states.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+
+import numpy as np
+
+from sb3_geogp.envs.pendulum import PendulumParams, dynamics_step, reward
+
+#: ``act(obs, step) -> torque``: a stochastic policy for a batch of observations, shapes
+#: (n, 2) -> (n,); ``step`` counts the steps since the rollouts started (for noise that is
+#: resampled every few steps, as gSDE's).
+Policy = Callable[[np.ndarray, int], np.ndarray]
+
+
+def gae(
+    rewards: np.ndarray,
+    values: np.ndarray,
+    episode_starts: np.ndarray,
+    last_values: np.ndarray,
+    last_dones: np.ndarray,
+    gamma: float,
+    gae_lambda: float,
+) -> np.ndarray:
+    """GAE advantages of a rollout, with SB3's recursion
+    (``RolloutBuffer.compute_returns_and_advantage``).
+
+    Parameters
+    ----------
+    rewards, values, episode_starts : ndarray, shape (T, n_envs)
+        Step ``t``'s reward, the critic's value of its state, and whether an episode starts
+        at it.
+    last_values : ndarray, shape (n_envs,)
+        The critic's value of the state after the rollout's last step.
+    last_dones : ndarray, shape (n_envs,)
+        Whether an episode starts at that state.
+    gamma, gae_lambda : float
+
+    Returns
+    -------
+    ndarray, shape (T, n_envs)
+    """
+    rewards, values = np.asarray(rewards, np.float64), np.asarray(values, np.float64)
+    starts = np.asarray(episode_starts, np.float64)
+    advantages = np.zeros_like(values)
+    running = np.zeros(values.shape[1])
+    next_values = np.asarray(last_values, np.float64)
+    next_alive = 1.0 - np.asarray(last_dones, np.float64)
+    for t in reversed(range(values.shape[0])):
+        delta = rewards[t] + gamma * next_values * next_alive - values[t]
+        running = delta + gamma * gae_lambda * next_alive * running
+        advantages[t] = running
+        next_values, next_alive = values[t], 1.0 - starts[t]
+    return advantages
+
+
+def policy_returns(
+    act: Policy,
+    states: np.ndarray,
+    gamma: float,
+    horizon: int,
+    n_rollouts: int,
+    params: PendulumParams | None = None,
+) -> np.ndarray:
+    """Discounted returns of the policy on the paper's pendulum from each state: their mean
+    over the rollouts is ``V^pi`` by Monte Carlo.
+
+    ``n_rollouts`` rollouts of ``horizon`` steps start from each state, all stepped together;
+    no time limit (SB3 bootstraps the value at a truncation, so the critic's target is the
+    untruncated return). The tail left out is at most ``gamma^horizon / (1 - gamma)``.
+
+    Parameters
+    ----------
+    act : callable
+        The policy (:data:`Policy`), called once per step on all rollouts.
+    states : ndarray, shape (n, 2)
+        ``(theta, omega)``.
+    gamma : float
+    horizon : int
+    n_rollouts : int
+        At least 2 (for a standard error, or halves to compare).
+    params : PendulumParams, optional
+
+    Returns
+    -------
+    ndarray, shape (n, n_rollouts)
+    """
+    if n_rollouts < 2:
+        raise ValueError(f"n_rollouts must be >= 2, got {n_rollouts}")
+    params = params or PendulumParams()
+    s = np.repeat(np.asarray(states, dtype=np.float64), n_rollouts, axis=0)
+    theta, omega = s[:, 0], s[:, 1]
+    total, discount = np.zeros(len(s)), 1.0
+    for step in range(horizon):
+        total += discount * reward(theta)
+        obs = np.stack([theta, omega], axis=1)
+        theta, omega = dynamics_step(theta, omega, act(obs, step), params)
+        discount *= gamma
+    return total.reshape(-1, n_rollouts)
+
+
+def advantage_scores(
+    reference: np.ndarray, advantages: np.ndarray, true_values: np.ndarray, values: np.ndarray
+) -> dict[str, float]:
+    """How close a critic's advantages and values are to the reference ones on one rollout.
+
+    Parameters
+    ----------
+    reference, advantages : ndarray, shape (n,)
+        :func:`gae` with ``V^pi`` and with the critic, on the same rollout.
+    true_values, values : ndarray, shape (n,)
+        ``V^pi`` and the critic's values at the rollout's states.
+
+    Returns
+    -------
+    dict
+        ``correlation`` of the advantages (Pearson's; NaN if either is constant: after PPO's
+        standardisation the two differ by ``sqrt(2 (1 - correlation))`` in root mean square)
+        and ``value_rmse``.
+    """
+    reference, advantages = np.asarray(reference, float), np.asarray(advantages, float)
+    constant = reference.std() == 0 or advantages.std() == 0
+    error = np.asarray(values, float) - np.asarray(true_values, float)
+    return dict(
+        correlation=math.nan if constant else float(np.corrcoef(reference, advantages)[0, 1]),
+        value_rmse=float(np.sqrt(np.mean(error**2))),
+    )
