@@ -37,27 +37,23 @@ from __future__ import annotations
 
 import argparse
 import json
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import torch as th
-from stable_baselines3.common.callbacks import BaseCallback, CallbackList
-from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
+from stable_baselines3.common.callbacks import BaseCallback
 from tqdm.auto import tqdm
 
-from sb3_geogp import GPActorCriticPolicy, GPValueCallback
 from sb3_geogp.comparison.hyperparams import TIMESTEPS
 from sb3_geogp.comparison.run import build_model, write_json_atomic
-from sb3_geogp.comparison.shadow import Learner, MLPShadow, ShadowFeed, gp_shadow, ppo_spec
+from sb3_geogp.comparison.shadow import MLP, OWN, NumpyValue, learn_with_shadows, ppo_spec
 from sb3_geogp.studies.action_gap import action_gaps, gap_scores
 from sb3_geogp.toolbox.provenance import provenance
 from sb3_geogp.toolbox.stats import mean_ci
 
 ENV = "CartPole-v1"
-#: The run's own critic, and the MLP shadow every critic is compared with.
-OWN, MLP = "run's own critic", "SB3 MLP critic (shadow)"
 #: GP shadow critics by default (settings as :func:`~sb3_geogp.comparison.shadow.ppo_spec`).
 CRITICS: dict[str, dict[str, Any]] = {
     "geodesic GP (default)": {},
@@ -68,15 +64,13 @@ CRITICS: dict[str, dict[str, Any]] = {
 #: Scores averaged over checkpoints after this share of training.
 LATE = 0.5
 
-Value = Callable[[np.ndarray], np.ndarray]
-
 
 class GapCheckpoints(BaseCallback):
     """At every ``--every``-th rollout end, scores every critic's one-step gaps against Monte
     Carlo gaps on ``--states`` states of the rollout. Pass it before the callbacks that let a
     critic learn from the rollout."""
 
-    def __init__(self, critics: dict[str, Value], args: argparse.Namespace, seed: int) -> None:
+    def __init__(self, critics: dict[str, NumpyValue], args: argparse.Namespace, seed: int) -> None:
         super().__init__()
         self.critics, self.args = critics, args
         self.rng = np.random.default_rng(seed)
@@ -110,45 +104,15 @@ class GapCheckpoints(BaseCallback):
         self.rows.append(row)
 
 
-def _torch_value(fn: Callable[[th.Tensor], th.Tensor]) -> Value:
-    return lambda s: fn(th.as_tensor(s, dtype=th.float64)).double().cpu().numpy()
-
-
 def run(actor: str, seed: int, args: argparse.Namespace) -> dict[str, Any]:
     """One PPO run with ``actor``'s critic and the shadow critics; its checkpoints' scores."""
     th.set_num_threads(1)
-    spec = ppo_spec(ENV, seed, args.timesteps, {"kernel": actor})
-    model = build_model(spec)
-    mlp = MLPShadow(ENV, seed)
-    gps = {name: gp_shadow(ppo_spec(ENV, seed, 1, s)) for name, s in args.critics.items()}
-    critics: dict[str, Value] = {OWN: _own_value(model), MLP: _torch_value(mlp.predict)}
-    critics.update(
-        {
-            name: _torch_value(lambda x, gp=gp: gp.predict(x, return_var=False)[0])
-            for name, gp in gps.items()
-        }
+    model = build_model(ppo_spec(ENV, seed, args.timesteps, {"kernel": actor}))
+    scorer = learn_with_shadows(
+        model, ENV, seed, args.timesteps, args.critics, lambda v: GapCheckpoints(v, args, seed)
     )
-
-    def learn_mlp(x: th.Tensor, y: th.Tensor, _starts: th.Tensor) -> None:
-        mlp.learn(x, y, model.lr_schedule(model._current_progress_remaining))
-
-    learners: list[Learner] = [learn_mlp, *(gp.update for gp in gps.values())]
-    checkpoints = GapCheckpoints(critics, args, seed)
-    own_feed = [GPValueCallback()] if isinstance(model.policy, GPActorCriticPolicy) else []
-    model.learn(
-        args.timesteps, callback=CallbackList([checkpoints, *own_feed, ShadowFeed(learners)])
-    )
-    env = model.get_env()
-    assert env is not None
-    env.close()
-    return dict(actor=actor, seed=seed, rows=checkpoints.rows)
-
-
-def _own_value(model: OnPolicyAlgorithm) -> Value:
-    policy = model.policy
-    if isinstance(policy, GPActorCriticPolicy):
-        return _torch_value(lambda x: policy.gp.predict(x, return_var=False)[0])
-    return _torch_value(lambda x: policy.predict_values(x.float())[:, 0].detach())
+    assert isinstance(scorer, GapCheckpoints)
+    return dict(actor=actor, seed=seed, rows=scorer.rows)
 
 
 def late_scores(result: dict[str, Any], timesteps: int, metric: str) -> dict[str, float]:

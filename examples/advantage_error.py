@@ -30,27 +30,24 @@ from __future__ import annotations
 
 import argparse
 import json
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import torch as th
-from stable_baselines3.common.callbacks import BaseCallback, CallbackList
-from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
+from stable_baselines3.common.callbacks import BaseCallback
 from tqdm.auto import tqdm
 
-from sb3_geogp import LAGGED_ADAPTATION, GPActorCriticPolicy, GPValueCallback
+from sb3_geogp import LAGGED_ADAPTATION
 from sb3_geogp.comparison.hyperparams import TIMESTEPS
 from sb3_geogp.comparison.run import build_model, write_json_atomic
-from sb3_geogp.comparison.shadow import Learner, MLPShadow, ShadowFeed, gp_shadow, ppo_spec
+from sb3_geogp.comparison.shadow import MLP, OWN, NumpyValue, learn_with_shadows, ppo_spec
 from sb3_geogp.studies.advantage_error import advantage_scores, gae, policy_returns
 from sb3_geogp.toolbox.provenance import provenance
 from sb3_geogp.toolbox.stats import mean_ci
 
 ENV = "sb3_geogp/PaperPendulum-v0"
-#: The run's own critic, and the MLP shadow every critic is compared with.
-OWN, MLP = "run's own critic", "SB3 MLP critic (shadow)"
 #: GP shadow critics by default (settings as :func:`~sb3_geogp.comparison.shadow.ppo_spec`).
 CRITICS: dict[str, dict[str, Any]] = {
     "Laplacian GP (PPO default)": {"kernel": "laplacian"},
@@ -58,14 +55,12 @@ CRITICS: dict[str, dict[str, Any]] = {
 }
 METRICS = ("correlation", "value_rmse")
 
-Value = Callable[[np.ndarray], np.ndarray]
-
 
 class AdvantageCheckpoints(BaseCallback):
     """At every rollout end, scores every critic's advantages against those of the Monte Carlo
     ``V^pi``. Pass it before the callbacks that let a critic learn from the rollout."""
 
-    def __init__(self, critics: dict[str, Value], args: argparse.Namespace, seed: int) -> None:
+    def __init__(self, critics: dict[str, NumpyValue], args: argparse.Namespace, seed: int) -> None:
         super().__init__()
         self.critics, self.args, self.seed = critics, args, seed
         self.rows: list[dict[str, Any]] = []
@@ -154,44 +149,20 @@ class AdvantageCheckpoints(BaseCallback):
         self.rows.append(row)
 
 
-def _torch_value(fn: Callable[[th.Tensor], th.Tensor]) -> Value:
-    return lambda s: fn(th.as_tensor(s, dtype=th.float64)).double().cpu().numpy()
-
-
-def _own_value(model: OnPolicyAlgorithm) -> Value:
-    policy = model.policy
-    if isinstance(policy, GPActorCriticPolicy):
-        return _torch_value(lambda x: policy.gp.predict(x, return_var=False)[0])
-    return _torch_value(lambda x: policy.predict_values(x.float())[:, 0].detach())
-
-
 def run(actor: str, seed: int, args: argparse.Namespace) -> dict[str, Any]:
     """One PPO run with ``actor``'s critic and the shadow critics; every rollout's scores."""
     th.set_num_threads(1)
     model = build_model(ppo_spec(ENV, seed, args.timesteps, {"kernel": actor}))
-    mlp = MLPShadow(ENV, seed)
-    gps = {name: gp_shadow(ppo_spec(ENV, seed, 1, s)) for name, s in args.critics.items()}
-    critics: dict[str, Value] = {OWN: _own_value(model), MLP: _torch_value(mlp.predict)}
-    critics.update(
-        {
-            name: _torch_value(lambda x, gp=gp: gp.predict(x, return_var=False)[0])
-            for name, gp in gps.items()
-        }
+    scorer = learn_with_shadows(
+        model,
+        ENV,
+        seed,
+        args.timesteps,
+        args.critics,
+        lambda values: AdvantageCheckpoints(values, args, seed),
     )
-
-    def learn_mlp(x: th.Tensor, y: th.Tensor, _starts: th.Tensor) -> None:
-        mlp.learn(x, y, model.lr_schedule(model._current_progress_remaining))
-
-    learners: list[Learner] = [learn_mlp, *(gp.update for gp in gps.values())]
-    checkpoints = AdvantageCheckpoints(critics, args, seed)
-    own_feed = [GPValueCallback()] if isinstance(model.policy, GPActorCriticPolicy) else []
-    model.learn(
-        args.timesteps, callback=CallbackList([checkpoints, *own_feed, ShadowFeed(learners)])
-    )
-    env = model.get_env()
-    assert env is not None
-    env.close()
-    return dict(actor=actor, seed=seed, rows=checkpoints.rows)
+    assert isinstance(scorer, AdvantageCheckpoints)
+    return dict(actor=actor, seed=seed, rows=scorer.rows)
 
 
 def per_seed(runs: list[dict[str, Any]], metric: str, skip: int) -> dict[str, np.ndarray]:

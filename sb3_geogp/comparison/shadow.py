@@ -8,21 +8,25 @@ that differs) feeds every batch the run's critic learns from to other critics to
 * :func:`gp_shadow`: a fresh GP critic built exactly as that run's policy builds it;
 * :class:`MLPShadow`: SB3's MLP critic of the comparison's ``mlp`` run, trained on the
   batches as PPO trains its critic;
-* :class:`ShadowFeed`: the callback that gives them every rollout of a run.
+* :class:`ShadowFeed`: the callback that gives them every rollout of a run;
+* :func:`learn_with_shadows`: a run trained with an MLP shadow and GP shadows beside it, each
+  critic's values (the run's own too) given to a callback that scores them at rollout ends.
 """
 
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any, cast
 
+import numpy as np
 import torch as th
 from stable_baselines3 import PPO
-from stable_baselines3.common.callbacks import BaseCallback
+from stable_baselines3.common.callbacks import BaseCallback, CallbackList
 from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
 from torch import Tensor
 
+from sb3_geogp.callbacks import GPValueCallback
 from sb3_geogp.comparison.run import build_model
 from sb3_geogp.comparison.specs import RunSpec, SweepConfig
 from sb3_geogp.policies import GPActorCriticPolicy
@@ -31,6 +35,11 @@ from sb3_geogp.targets import per_env
 
 #: A shadow critic's learning step: ``learn(x, y, episode_starts)``, shapes (n, d), (n,), (n,).
 Learner = Callable[[Tensor, Tensor, Tensor], None]
+#: A critic's values of a batch of states, numpy in and out: shapes (n, d) -> (n,), float64.
+NumpyValue = Callable[[np.ndarray], np.ndarray]
+#: The names under which :func:`learn_with_shadows` gives the run's own critic and its MLP
+#: shadow.
+OWN, MLP = "run's own critic", "SB3 MLP critic (shadow)"
 
 
 def ppo_spec(env_id: str, seed: int, timesteps: int, setting: dict[str, Any]) -> RunSpec:
@@ -160,3 +169,62 @@ class ShadowFeed(BaseCallback):
         x, y, starts = per_env(buffer.observations, buffer.returns, buffer.episode_starts)
         for learn in self.learners:
             learn(th.as_tensor(x), th.as_tensor(y), th.as_tensor(starts))
+
+
+def numpy_value(fn: Callable[[Tensor], Tensor]) -> NumpyValue:
+    """``fn`` (values of float64 states) as a function of numpy arrays."""
+    return lambda s: fn(th.as_tensor(s, dtype=th.float64)).double().cpu().numpy()
+
+
+def posterior_mean(gp: SparseOnlineGP) -> NumpyValue:
+    """A GP critic's values: its posterior mean."""
+    return numpy_value(lambda x: gp.predict(x, return_var=False)[0])
+
+
+def own_value(model: OnPolicyAlgorithm) -> NumpyValue:
+    """The values of a model's own critic: its GP's posterior mean, or SB3's value network."""
+    policy = model.policy
+    if isinstance(policy, GPActorCriticPolicy):
+        return posterior_mean(policy.gp)
+    return numpy_value(lambda x: policy.predict_values(x.float())[:, 0].detach())
+
+
+def learn_with_shadows(
+    model: OnPolicyAlgorithm,
+    env_id: str,
+    seed: int,
+    timesteps: int,
+    settings: Mapping[str, dict[str, Any]],
+    checkpoints: Callable[[dict[str, NumpyValue]], BaseCallback],
+) -> BaseCallback:
+    """Train ``model`` (a comparison run of ``env_id`` and ``seed``) for ``timesteps`` with
+    shadow critics learning from its rollouts: :class:`MLPShadow` and a :func:`gp_shadow` per
+    entry of ``settings`` (name -> :func:`ppo_spec` setting).
+
+    ``checkpoints(values)`` builds the callback that scores the critics: ``values`` maps
+    :data:`OWN`, :data:`MLP` and each name of ``settings`` to the critic's values
+    (:data:`NumpyValue`). It runs at each rollout end before any critic learns from the
+    rollout (the run's own GP critic's values of the rollout are placeholders until then, read
+    them through ``values``). The training environments are closed afterwards.
+
+    Returns
+    -------
+    BaseCallback
+        The callback ``checkpoints`` built, after training.
+    """
+    mlp = MLPShadow(env_id, seed)
+    gps = {name: gp_shadow(ppo_spec(env_id, seed, 1, s)) for name, s in settings.items()}
+    values: dict[str, NumpyValue] = {OWN: own_value(model), MLP: numpy_value(mlp.predict)}
+    values.update({name: posterior_mean(gp) for name, gp in gps.items()})
+
+    def learn_mlp(x: Tensor, y: Tensor, _starts: Tensor) -> None:
+        mlp.learn(x, y, model.lr_schedule(model._current_progress_remaining))
+
+    learners: list[Learner] = [learn_mlp, *(gp.update for gp in gps.values())]
+    scorer = checkpoints(values)
+    own_feed = [GPValueCallback()] if isinstance(model.policy, GPActorCriticPolicy) else []
+    model.learn(timesteps, callback=CallbackList([scorer, *own_feed, ShadowFeed(learners)]))
+    env = model.get_env()
+    assert env is not None
+    env.close()
+    return scorer
