@@ -231,7 +231,9 @@ def plot(results: dict[str, dict[int, Any]], path: Path) -> None:
             title=f"PPO with the {actor} critic", ylabel="advantage correlation with V^pi's"
         )
         axes[1][col].set(
-            xlabel="environment steps (rollout end)", ylabel="value RMSE at the rollout's states"
+            xlabel="environment steps (rollout end)",
+            ylabel="value RMSE at the rollout's states",
+            yscale="log",
         )
         for ax in axes[:, col]:
             ax.grid(alpha=0.3)
