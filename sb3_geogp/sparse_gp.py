@@ -73,7 +73,7 @@ _Q_GROWTH = 1e4
 
 
 #: Stored options that may differ on load (they only steer later updates).
-_UPDATE_RULES = ("novelty_tol", "forgetting", "adapt")
+_UPDATE_RULES = ("novelty_tol", "forgetting", "forgetting_points", "adapt")
 #: Prior mean functions of :class:`SparseOnlineGP`.
 _PRIOR_MEANS = ("constant", "linear")
 #: Trends of :class:`SparseOnlineGP`.
@@ -197,7 +197,15 @@ class SparseOnlineGP(nn.Module):
         :data:`sb3_geogp.defaults.NOVELTY_RADIUS`).
     forgetting : float
         ``lambda`` in (0, 1]; before each batch ``alpha <- sqrt(lambda) alpha`` and
-        ``C <- lambda C`` (1 = no forgetting).
+        ``C <- lambda C`` (1 = no forgetting). With adaptation, the forgetting applied until
+        the evidence has chosen one (docs/method.md, section 2.3).
+    forgetting_points : int or None
+        The number of points ``forgetting`` (and the adaptation's forgetting candidates) is
+        per: a batch of ``n`` points is preceded by the factor ``lambda ** (n /
+        forgetting_points)``, so batches of any size forget alike per point (SB3's PPO
+        rollouts are 8 points on MountainCarContinuous, 4,096 on the pendulums). ``None``:
+        per batch, whatever its size. Ages in a refit's rebuild and in the summary count
+        batches of the newest batch's size.
     target_mean, target_scale : float or None
         Prior mean and scale of the targets: the GP models ``(y - target_mean) / target_scale``.
         ``None`` takes the mean and standard deviation of the first batch (kept fixed after).
@@ -315,6 +323,7 @@ class SparseOnlineGP(nn.Module):
         noise_var: float = 0.05,
         novelty_tol: float | None = None,
         forgetting: float = 1.0,
+        forgetting_points: int | None = None,
         target_mean: float | None = None,
         target_scale: float | None = None,
         input_bounds: tuple[ArrayLike, ArrayLike] | None = None,
@@ -334,6 +343,8 @@ class SparseOnlineGP(nn.Module):
             raise ValueError(f"novelty_tol must be in [0, 1), got {novelty_tol}")
         if not (0 < forgetting <= 1):
             raise ValueError(f"forgetting must be in (0, 1], got {forgetting}")
+        if forgetting_points is not None:
+            forgetting_points = _count("forgetting_points", forgetting_points)
         if target_scale is not None and not (target_scale > 0 and math.isfinite(target_scale)):
             raise ValueError(f"target_scale must be positive and finite, got {target_scale}")
         if target_mean is not None and not math.isfinite(target_mean):
@@ -358,6 +369,7 @@ class SparseOnlineGP(nn.Module):
         self.input_dim = int(input_dim)
         self.max_basis = int(max_basis)
         self.forgetting = float(forgetting)
+        self.forgetting_points = forgetting_points
         self.num_threads = num_threads
         self.condition_guard = bool(condition_guard)
         self.kernel = make_kernel(kernel)
@@ -570,6 +582,7 @@ class SparseOnlineGP(nn.Module):
             "max_basis": self.max_basis,
             "novelty_tol": self.novelty_tol,
             "forgetting": self.forgetting,
+            "forgetting_points": self.forgetting_points,
             "window": self.window.size,
             "adapt": None if self.adaptation is None else self.adaptation.as_dict(),
             "prior_mean": self.prior_mean,
@@ -581,7 +594,8 @@ class SparseOnlineGP(nn.Module):
 
     def set_extra_state(self, state: Any) -> None:
         if isinstance(state, dict):
-            state = {"prior_mean": "constant", "trend": "none", **state}  # saved before 0.8
+            # saved before 0.8 (prior_mean, trend) and 0.13 (forgetting_points)
+            state = {"prior_mean": "constant", "trend": "none", "forgetting_points": None, **state}
         check_same_options("SparseOnlineGP", state, self.options(), _UPDATE_RULES)
 
     def _load_from_state_dict(
@@ -690,6 +704,7 @@ class SparseOnlineGP(nn.Module):
             if self._snapshot_due(self.adaptation, x.shape[0]):
                 self._snapshot()
         lam = self.forgetting if self.adaptation is None else float(self.block_forgetting)
+        lam = self._batch_forgetting(lam, x.shape[0])
         if lam < 1 and self.n_basis > 0:
             self._forget(lam)
         n = x.shape[0]
@@ -1068,7 +1083,7 @@ class SparseOnlineGP(nn.Module):
         if x.shape[0] == 0 or self.n_basis == 0:
             raise ValueError("fit_hyperparameters needs retained data; call update first")
         forgetting = float(self.block_forgetting) if self.adaptation else self.forgetting
-        w = age_weights(self._ages(batch), forgetting).to(y)
+        w = self._age_weights(batch, forgetting).to(y)
         yn = self._standardised(x, y)
         with self._transaction(), torch.no_grad():
             self._fit(x, yn, w, n_iter, lr, self.adaptation or Adaptation())
@@ -1119,7 +1134,7 @@ class SparseOnlineGP(nn.Module):
         index, count = thinned(x.shape[0], self.adaptation.fold_points, x.device)
         x, y, batch = x[index], y[index], batch[index]
         Kzz, Kxz = self._basis_covariances(x)
-        w = age_weights(self._ages(batch), float(self.block_forgetting)).to(y) * count.to(y)
+        w = self._age_weights(batch, float(self.block_forgetting)).to(y) * count.to(y)
         yn = self._standardised(x, y)
         variance = float(self.kernel.variance)
         part = Summary.of_data(Kzz, Kxz, x, yn, 1 / w, variance, inverse=self.Q[:m, :m])
@@ -1175,9 +1190,19 @@ class SparseOnlineGP(nn.Module):
         """Age in batches of points that arrived in ``batch : (n,)`` (0: the newest batch)."""
         return self.n_batches - 1 - batch
 
+    def _batch_forgetting(self, lam: float, n: int) -> float:
+        """The factor by which forgetting ``lam`` weighs what came before a batch of ``n``
+        points: ``lam``, or ``lam ** (n / forgetting_points)``."""
+        return lam if self.forgetting_points is None else lam ** (n / self.forgetting_points)
+
+    def _age_weights(self, batch: Tensor, lam: float) -> Tensor:
+        """Weights of points that arrived in ``batch : (n,)`` under forgetting ``lam``, each
+        batch counted as the newest batch's size (:meth:`_batch_forgetting`)."""
+        lam = self._batch_forgetting(lam, int(self.last_batch_points))
+        return age_weights(self._ages(batch), lam)
+
     def _adapt(self, a: Adaptation) -> None:
         x, y, batch = self.window.data()
-        age = self._ages(batch)
         scores = self.forgetting_scores
         # All zero: no batch of this block was scored (the basis was still empty).
         scored = bool((scores != 0).any())
@@ -1189,7 +1214,7 @@ class SparseOnlineGP(nn.Module):
         self.block_forgetting.fill_(lam)
         self.last_stats.update(forgetting=lam, target_drift=drift, block_fit=explained)
         if a.refit_due(int(self.n_blocks), drift, explained):
-            self._refit(a, x, y, age_weights(age, lam).to(y), batch)
+            self._refit(a, x, y, self._age_weights(batch, lam).to(y), batch)
 
     def _block_fit(self) -> tuple[float, float]:
         """The open block's drift (mean square of its scored standardised targets; 1 if none
@@ -1236,7 +1261,8 @@ class SparseOnlineGP(nn.Module):
         :meth:`_lagged_scores`) and adds it to the open block's sums. All use at most
         ``Adaptation.score_points`` points of the batch (:func:`~sb3_geogp.adaptation.thinned`)."""
         assert self.adaptation is not None
-        index, count = thinned(x.shape[0], self.adaptation.score_points, x.device)
+        n = x.shape[0]
+        index, count = thinned(n, self.adaptation.score_points, x.device)
         x, y = x[index], y[index]
         mean, var = self._latent(self._scaled(x), return_var=True)
         assert var is not None
@@ -1244,7 +1270,7 @@ class SparseOnlineGP(nn.Module):
         if self.adaptation.forgetting_score == "lagged":
             self.forgetting_scores += self._lagged_scores(x, yn, count).to(y)
         else:
-            self._score_forgetting(mean, var, yn, count)
+            self._score_forgetting(mean, var, yn, count, n)
         self._count_block(mean, yn, count)
         mean = mean * self.y_scale + self._prior(x)
         var = (var + self.noise_var) * self.y_scale**2
@@ -1252,18 +1278,20 @@ class SparseOnlineGP(nn.Module):
         explained = 1.0 - float((y - mean).var()) / spread if spread > 0 else math.nan
         return {"nlpd": nlpd(mean, var, y), "explained_variance": explained}
 
-    def _score_forgetting(self, mean: Tensor, var: Tensor, yn: Tensor, count: Tensor) -> None:
+    def _score_forgetting(
+        self, mean: Tensor, var: Tensor, yn: Tensor, count: Tensor, points: int
+    ) -> None:
         """Add to each candidate's score the negative log density of the batch ``yn : (n,)``
-        under the posterior forgotten by that candidate first, point ``i`` counted
-        ``count[i]`` times.
+        (thinned from ``points`` points) under the posterior forgotten by that candidate
+        first (:meth:`_batch_forgetting`), point ``i`` counted ``count[i]`` times.
 
         Forgetting by ``lambda`` (:meth:`_forget`) maps the latent mean ``mu`` and variance
         ``v`` of a point to ``sqrt(lambda) mu`` and ``(1 - lambda) sigma_f^2 + lambda v``, so
         the candidates cost nothing beyond the prediction the statistics make anyway.
         """
         assert self.adaptation is not None
-        lam = torch.tensor(self.adaptation.forgetting, dtype=mean.dtype, device=mean.device)
-        lam = lam[:, None]
+        candidates = [self._batch_forgetting(c, points) for c in self.adaptation.forgetting]
+        lam = torch.tensor(candidates, dtype=mean.dtype, device=mean.device)[:, None]
         means = lam.sqrt() * mean
         variances = (1 - lam) * self.kernel.variance + lam * var + self.noise_var
         nll = 0.5 * (torch.log(2 * math.pi * variances) + (yn - means).square() / variances)
@@ -1278,7 +1306,10 @@ class SparseOnlineGP(nn.Module):
         batch's size where the window keeps only its tail (PPO's rollouts)."""
         assert self.adaptation is not None
         a, m = self.adaptation, self.n_basis
-        candidates = torch.tensor(a.forgetting, dtype=torch.float64, device=yn.device)
+        # each candidate as it would have weighed the data before the previous batch
+        previous_points = int(self.last_batch_points)
+        factors = [self._batch_forgetting(c, previous_points) for c in a.forgetting]
+        candidates = torch.tensor(factors, dtype=torch.float64, device=yn.device)
         wx, wy, batch = self.window.data()
         last = batch == int(self.n_batches) - 1
         kept = int(last.sum())

@@ -611,6 +611,108 @@ def test_lagged_forgetting_weights_every_point_by_its_age(score: str) -> None:
             assert_weighted_sparse_posterior(gp, x, y, w, rng)
 
 
+def _age_stream(rng: np.random.Generator) -> tuple[np.ndarray, list[np.ndarray], list[np.ndarray]]:
+    """Ten 50-point batches on a 6-point grid (every grid point in the first)."""
+    grid = np.linspace(0.0, 1.0, 6)[:, None]
+    xs = [np.concatenate([grid, grid[rng.integers(6, size=44)]])]
+    xs += [grid[rng.integers(6, size=50)] for _ in range(9)]
+    ys = [np.sin(5 * x[:, 0]) + 0.3 * i + 0.1 * rng.normal(size=50) for i, x in enumerate(xs)]
+    return grid, xs, ys
+
+
+def test_forgetting_per_points_weights_every_point_by_its_age_in_points() -> None:
+    """With ``forgetting_points=25`` and 50-point batches, forgetting 0.7 weighs a point
+    ``0.7 ** (points that arrived after it / 25)``: on a fixed basis the on-line posterior is
+    the exact sparse posterior of the 500 points with those weights (brute force), from the
+    second batch on, before any evidence (the GP's own ``forgetting``)."""
+    rng = np.random.default_rng(8)
+    adapt = Adaptation(
+        window=150,
+        interval=50,
+        steps=0,
+        targets=False,
+        forgetting=(0.7,),
+        max_gap=1000,
+        settle=False,
+        forgetting_score="lagged",
+    )
+    gp = SparseOnlineGP(
+        1,
+        RBFKernel(lengthscale=0.2),
+        max_basis=30,
+        adapt=adapt,
+        forgetting=0.7,
+        forgetting_points=25,
+    )
+    grid, xs, ys = _age_stream(rng)
+    for x, y in zip(xs, ys, strict=True):
+        gp.update(x, y)
+    np.testing.assert_array_equal(gp.basis_inputs.numpy(), grid)
+    w = 0.7 ** (np.repeat(np.arange(10)[::-1], 50) * 50 / 25)
+    assert_weighted_sparse_posterior(gp, np.concatenate(xs), np.concatenate(ys), w, rng)
+
+
+@pytest.mark.parametrize("score", ["lagged", "shrink"])
+def test_forgetting_per_points_is_forgetting_per_batch_rescaled(score: str) -> None:
+    """Batches of ``n`` points with candidates per ``N`` points choose and apply what
+    candidates ``lambda ** (n / N)`` per batch do: the same posterior, scores, choice and
+    rebuild weights (several candidates, refits on)."""
+    rng = np.random.default_rng(3)
+    candidates, n, N = (1.0, 0.8, 0.3), 40, 160
+    settings = dict(window=120, interval=80, steps=2, max_gap=2, forgetting_score=score)
+    per_points = SparseOnlineGP(
+        2,
+        "rbf",
+        max_basis=40,
+        forgetting=0.5,
+        forgetting_points=N,
+        adapt=Adaptation(forgetting=candidates, **settings),
+    )
+    per_batch = SparseOnlineGP(
+        2,
+        "rbf",
+        max_basis=40,
+        forgetting=0.5 ** (n / N),
+        adapt=Adaptation(forgetting=tuple(c ** (n / N) for c in candidates), **settings),
+    )
+    chosen = set()
+    for i in range(12):
+        x = rng.uniform(size=(n, 2))
+        y = np.sin(4 * x[:, 0]) + (0.5 * i if i % 4 else -0.5 * i) + 0.1 * rng.normal(size=n)
+        for gp in (per_points, per_batch):
+            gp.update(x, y)
+        factor = float(per_points.block_forgetting) ** (n / N)
+        assert factor == pytest.approx(float(per_batch.block_forgetting), rel=1e-12)
+        chosen.add(round(factor, 12))
+    assert len(chosen) > 1  # the evidence chose, not only the initial forgetting
+    probe = torch.as_tensor(rng.uniform(size=(50, 2)))
+    for a, b in zip(per_points.predict(probe), per_batch.predict(probe), strict=True):
+        torch.testing.assert_close(a, b, rtol=1e-9, atol=1e-9)
+
+
+@pytest.mark.parametrize("bad", [0, -3, 2.5, True, "100"])
+def test_forgetting_points_must_be_a_positive_integer(bad: object) -> None:
+    with pytest.raises(ValueError, match="forgetting_points must be"):
+        SparseOnlineGP(2, "rbf", forgetting_points=bad)  # type: ignore[arg-type]
+
+
+def test_a_state_saved_before_forgetting_points_loads() -> None:
+    """0.12's states have no ``forgetting_points``: they load as per-batch forgetting, and a
+    state may be loaded with another ``forgetting_points`` (it steers later updates only)."""
+    rng = np.random.default_rng(0)
+    gp = SparseOnlineGP(2, "rbf", max_basis=20, forgetting_points=64)
+    gp.update(rng.uniform(size=(64, 2)), rng.normal(size=64))
+    state = copy.deepcopy(gp.state_dict())
+    del state["_extra_state"]["forgetting_points"]
+    for points in (None, 64, 8):
+        other = SparseOnlineGP(2, "rbf", max_basis=20, forgetting_points=points)
+        other.load_state_dict(state)
+        tensors = [
+            {k: v for k, v in g.state_dict().items() if k != "_extra_state"} for g in (gp, other)
+        ]
+        assert_same_state(*tensors)
+
+
 @pytest.mark.parametrize("kernel", ["rbf", "geodesic"])
 def test_lagged_score_of_no_forgetting_is_the_batchs_predictive_density(kernel: str) -> None:
     """The lagged score of ``lambda = 1`` is the negative log density of the scored points
