@@ -36,7 +36,6 @@ A finished actor and seed is kept in ``OUT/runs/`` and not run again.
 from __future__ import annotations
 
 import argparse
-import json
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -44,16 +43,24 @@ from typing import Any
 import numpy as np
 import torch as th
 from stable_baselines3.common.callbacks import BaseCallback
-from tqdm.auto import tqdm
 
 from sb3_geogp.comparison.hyperparams import TIMESTEPS
-from sb3_geogp.comparison.run import build_model, write_json_atomic
-from sb3_geogp.comparison.shadow import MLP, OWN, NumpyValue, learn_with_shadows, ppo_spec
+from sb3_geogp.comparison.run import build_model
+from sb3_geogp.comparison.shadow import (
+    MLP,
+    OWN,
+    NumpyValue,
+    learn_with_shadows,
+    ppo_spec,
+    run_study,
+    study_parser,
+)
 from sb3_geogp.studies.action_gap import action_gaps, gap_scores
-from sb3_geogp.toolbox.provenance import provenance
 from sb3_geogp.toolbox.stats import mean_ci
 
 ENV = "CartPole-v1"
+#: The critics that train the agent by default, one PPO run each per seed.
+ACTORS = ("geodesic", "mlp")
 #: GP shadow critics by default (settings as :func:`~sb3_geogp.comparison.shadow.ppo_spec`).
 CRITICS: dict[str, dict[str, Any]] = {
     "geodesic GP (default)": {},
@@ -175,42 +182,15 @@ def plot(results: dict[str, dict[int, Any]], path: Path) -> None:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--actors", nargs="+", default=["geodesic", "mlp"])
-    parser.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2])
-    parser.add_argument("--timesteps", type=int, default=TIMESTEPS[ENV])
+    parser = study_parser(
+        __doc__.split("\n\n")[0], ACTORS, TIMESTEPS[ENV], CRITICS, Path("runs/action_gap")
+    )
     parser.add_argument("--every", type=int, default=12, help="rollouts between checkpoints")
     parser.add_argument("--states", type=int, default=256, help="states per checkpoint")
     parser.add_argument("--rollouts", type=int, default=16, help="Monte Carlo rollouts per action")
     parser.add_argument("--horizon", type=int, default=250, help="steps per rollout")
-    parser.add_argument(
-        "--critics",
-        type=json.loads,
-        default=CRITICS,
-        help='JSON {name: setting} of GP shadow critics (e.g. {"RBF GP": {"kernel": "rbf"}})',
-    )
-    parser.add_argument("--out", type=Path, default=Path("runs/action_gap"))
     args = parser.parse_args(argv)
-    (args.out / "runs").mkdir(parents=True, exist_ok=True)
-    results: dict[str, dict[int, Any]] = {a: {} for a in args.actors}
-    jobs = [(a, s) for a in args.actors for s in args.seeds]
-    for actor, seed in tqdm(jobs, unit="run", desc="PPO runs"):
-        path = args.out / "runs" / f"{actor}__s{seed}.json"
-        if not path.exists():
-            write_json_atomic(path, run(actor, seed, args))
-        results[actor][seed] = json.loads(path.read_text())
-    text = table(results, args.timesteps)
-    print(text)
-    (args.out / "table.md").write_text(text)
-    write_json_atomic(
-        args.out / "results.json",
-        {
-            "args": {**vars(args), "out": str(args.out)},
-            "results": results,
-            "provenance": provenance(),
-        },
-    )
-    plot(results, args.out / "action_gap.png")
+    run_study(args, run, lambda results: table(results, args.timesteps), plot, "action_gap.png")
     return 0
 
 

@@ -29,7 +29,6 @@ the paired difference from the MLP shadow with a 95 % t interval) and
 from __future__ import annotations
 
 import argparse
-import json
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -37,17 +36,26 @@ from typing import Any
 import numpy as np
 import torch as th
 from stable_baselines3.common.callbacks import BaseCallback
-from tqdm.auto import tqdm
 
 from sb3_geogp import LAGGED_ADAPTATION
+from sb3_geogp.callbacks import time_limit_truncations
 from sb3_geogp.comparison.hyperparams import TIMESTEPS
-from sb3_geogp.comparison.run import build_model, write_json_atomic
-from sb3_geogp.comparison.shadow import MLP, OWN, NumpyValue, learn_with_shadows, ppo_spec
+from sb3_geogp.comparison.run import build_model
+from sb3_geogp.comparison.shadow import (
+    MLP,
+    OWN,
+    NumpyValue,
+    learn_with_shadows,
+    ppo_spec,
+    run_study,
+    study_parser,
+)
 from sb3_geogp.studies.advantage_error import advantage_scores, gae, policy_returns
-from sb3_geogp.toolbox.provenance import provenance
 from sb3_geogp.toolbox.stats import mean_ci
 
 ENV = "sb3_geogp/PaperPendulum-v0"
+#: The critics that train the agent by default, one PPO run each per seed.
+ACTORS = ("mlp", "laplacian")
 #: GP shadow critics by default (settings as :func:`~sb3_geogp.comparison.shadow.ppo_spec`).
 CRITICS: dict[str, dict[str, Any]] = {
     "Laplacian GP (PPO default)": {"kernel": "laplacian"},
@@ -65,17 +73,12 @@ class AdvantageCheckpoints(BaseCallback):
         self.critics, self.args, self.seed = critics, args, seed
         self.rows: list[dict[str, Any]] = []
         self.truncations: list[tuple[int, int, np.ndarray]] = []
-        self.step_in_rollout = 0
 
     def _on_rollout_start(self) -> None:
-        self.truncations, self.step_in_rollout = [], 0
+        self.truncations = []
 
     def _on_step(self) -> bool:
-        for env, info in enumerate(self.locals["infos"]):
-            if info.get("TimeLimit.truncated") and "terminal_observation" in info:
-                terminal = np.asarray(info["terminal_observation"], dtype=np.float64)
-                self.truncations.append((self.step_in_rollout, env, terminal))
-        self.step_in_rollout += 1
+        self.truncations += time_limit_truncations(self.model, self.locals)
         return True
 
     def _act(self, obs: np.ndarray, step: int) -> np.ndarray:
@@ -247,41 +250,14 @@ def plot(results: dict[str, dict[int, Any]], path: Path) -> None:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--actors", nargs="+", default=["mlp", "laplacian"])
-    parser.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2])
-    parser.add_argument("--timesteps", type=int, default=TIMESTEPS[ENV])
+    parser = study_parser(
+        __doc__.split("\n\n")[0], ACTORS, TIMESTEPS[ENV], CRITICS, Path("runs/advantage_error")
+    )
     parser.add_argument("--rollouts", type=int, default=16, help="Monte Carlo rollouts per state")
     parser.add_argument("--horizon", type=int, default=80, help="steps per Monte Carlo rollout")
     parser.add_argument("--skip", type=int, default=1, help="first rollouts left out of the table")
-    parser.add_argument(
-        "--critics",
-        type=json.loads,
-        default=CRITICS,
-        help='JSON {name: setting} of GP shadow critics (e.g. {"RBF GP": {"kernel": "rbf"}})',
-    )
-    parser.add_argument("--out", type=Path, default=Path("runs/advantage_error"))
     args = parser.parse_args(argv)
-    (args.out / "runs").mkdir(parents=True, exist_ok=True)
-    results: dict[str, dict[int, Any]] = {a: {} for a in args.actors}
-    jobs = [(a, s) for a in args.actors for s in args.seeds]
-    for actor, seed in tqdm(jobs, unit="run", desc="PPO runs"):
-        path = args.out / "runs" / f"{actor}__s{seed}.json"
-        if not path.exists():
-            write_json_atomic(path, run(actor, seed, args))
-        results[actor][seed] = json.loads(path.read_text())
-    text = table(results, args.skip)
-    print(text)
-    (args.out / "table.md").write_text(text)
-    write_json_atomic(
-        args.out / "results.json",
-        {
-            "args": {**vars(args), "out": str(args.out)},
-            "results": results,
-            "provenance": provenance(),
-        },
-    )
-    plot(results, args.out / "advantage_error.png")
+    run_study(args, run, lambda results: table(results, args.skip), plot, "advantage_error.png")
     return 0
 
 

@@ -12,7 +12,7 @@ per-environment trajectories, takes targets from :mod:`sb3_geogp.targets` and lo
 
 from __future__ import annotations
 
-from typing import Literal, cast
+from typing import Any, Literal, cast
 
 import numpy as np
 import torch as th
@@ -145,14 +145,7 @@ class GPValueCallback(BaseCallback):
 
     def _on_step(self) -> bool:
         if self.recompute_advantages:
-            # SB3 bootstraps these steps right after this hook, at buffer index ``pos``.
-            step = self._algo.rollout_buffer.pos
-            for env, (done, info) in enumerate(
-                zip(self.locals["dones"], self.locals["infos"], strict=True)
-            ):
-                terminal = info.get("terminal_observation")
-                if done and terminal is not None and info.get("TimeLimit.truncated", False):
-                    self._truncations.append((step, env, np.asarray(terminal)))
+            self._truncations += time_limit_truncations(self._algo, self.locals)
         return True
 
     def _on_rollout_end(self) -> None:
@@ -277,6 +270,24 @@ class GPValueCallback(BaseCallback):
             values = policy.predict_values(th.as_tensor(flat_obs, device=policy.device))
         buffer.values[:] = values.cpu().numpy().reshape(n_steps, n_envs)
         buffer.compute_returns_and_advantage(last_values=last_values, dones=dones)
+
+
+def time_limit_truncations(
+    model: OnPolicyAlgorithm, step_locals: dict[str, Any]
+) -> list[tuple[int, int, np.ndarray]]:
+    """The time-limit truncations of the step a callback's ``_on_step`` sees, as
+    ``(buffer index, env, terminal observation)``: the steps SB3 bootstraps right after the
+    hook, with ``gamma * V(terminal observation)`` added to the reward at the rollout
+    buffer's index ``pos``."""
+    step = model.rollout_buffer.pos
+    found = []
+    for env, (done, info) in enumerate(
+        zip(step_locals["dones"], step_locals["infos"], strict=True)
+    ):
+        terminal = info.get("terminal_observation")
+        if done and terminal is not None and info.get("TimeLimit.truncated", False):
+            found.append((step, env, np.asarray(terminal)))
+    return found
 
 
 def _check_rewards(buffer: RolloutBuffer) -> None:

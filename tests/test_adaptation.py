@@ -575,15 +575,18 @@ def test_summary_keeps_what_the_dropped_points_said(
     assert_weighted_sparse_posterior(gp, x, y, w, rng)
 
 
-@pytest.mark.parametrize("score", ["lagged", "shrink"])
-def test_lagged_forgetting_weights_every_point_by_its_age(score: str) -> None:
-    """With ``forgetting_score="lagged"`` forgetting multiplies the likelihood: with the
-    kernel and the basis fixed and no refit after the first block, the on-line posterior of
-    ten 50-point batches is the exact sparse posterior of all 500 points weighted
-    ``0.7 ** age`` (age in batches), as a refit's rebuild weights them. The inputs lie on
-    the basis, where the on-line update is exact. ``"shrink"`` forgetting is not that
-    weighting (its posterior differs)."""
-    rng = np.random.default_rng(8)
+def _age_stream(rng: np.random.Generator) -> tuple[np.ndarray, list[np.ndarray], list[np.ndarray]]:
+    """Ten 50-point batches on a 6-point grid (every grid point in the first)."""
+    grid = np.linspace(0.0, 1.0, 6)[:, None]
+    xs = [np.concatenate([grid, grid[rng.integers(6, size=44)]])]
+    xs += [grid[rng.integers(6, size=50)] for _ in range(9)]
+    ys = [np.sin(5 * x[:, 0]) + 0.3 * i + 0.1 * rng.normal(size=50) for i, x in enumerate(xs)]
+    return grid, xs, ys
+
+
+def _age_gp(score: str, **options: int) -> SparseOnlineGP:
+    """A GP whose kernel and basis stay fixed on :func:`_age_stream` and that never refits
+    after the first block, forgetting 0.7 from the second batch on (scored by ``score``)."""
     adapt = Adaptation(
         window=150,
         interval=50,
@@ -594,11 +597,21 @@ def test_lagged_forgetting_weights_every_point_by_its_age(score: str) -> None:
         settle=False,
         forgetting_score=score,
     )
-    gp = SparseOnlineGP(1, RBFKernel(lengthscale=0.2), max_basis=30, adapt=adapt, forgetting=0.7)
-    grid = np.linspace(0.0, 1.0, 6)[:, None]
-    xs = [np.concatenate([grid, grid[rng.integers(6, size=44)]])]
-    xs += [grid[rng.integers(6, size=50)] for _ in range(9)]
-    ys = [np.sin(5 * x[:, 0]) + 0.3 * i + 0.1 * rng.normal(size=50) for i, x in enumerate(xs)]
+    kernel = RBFKernel(lengthscale=0.2)
+    return SparseOnlineGP(1, kernel, max_basis=30, adapt=adapt, forgetting=0.7, **options)
+
+
+@pytest.mark.parametrize("score", ["lagged", "shrink"])
+def test_lagged_forgetting_weights_every_point_by_its_age(score: str) -> None:
+    """With ``forgetting_score="lagged"`` forgetting multiplies the likelihood: with the
+    kernel and the basis fixed and no refit after the first block, the on-line posterior of
+    ten 50-point batches is the exact sparse posterior of all 500 points weighted
+    ``0.7 ** age`` (age in batches), as a refit's rebuild weights them. The inputs lie on
+    the basis, where the on-line update is exact. ``"shrink"`` forgetting is not that
+    weighting (its posterior differs)."""
+    rng = np.random.default_rng(8)
+    gp = _age_gp(score)
+    grid, xs, ys = _age_stream(rng)
     for x, y in zip(xs, ys, strict=True):
         gp.update(x, y)
     np.testing.assert_array_equal(gp.basis_inputs.numpy(), grid)
@@ -611,39 +624,13 @@ def test_lagged_forgetting_weights_every_point_by_its_age(score: str) -> None:
             assert_weighted_sparse_posterior(gp, x, y, w, rng)
 
 
-def _age_stream(rng: np.random.Generator) -> tuple[np.ndarray, list[np.ndarray], list[np.ndarray]]:
-    """Ten 50-point batches on a 6-point grid (every grid point in the first)."""
-    grid = np.linspace(0.0, 1.0, 6)[:, None]
-    xs = [np.concatenate([grid, grid[rng.integers(6, size=44)]])]
-    xs += [grid[rng.integers(6, size=50)] for _ in range(9)]
-    ys = [np.sin(5 * x[:, 0]) + 0.3 * i + 0.1 * rng.normal(size=50) for i, x in enumerate(xs)]
-    return grid, xs, ys
-
-
 def test_forgetting_per_points_weights_every_point_by_its_age_in_points() -> None:
     """With ``forgetting_points=25`` and 50-point batches, forgetting 0.7 weighs a point
     ``0.7 ** (points that arrived after it / 25)``: on a fixed basis the on-line posterior is
     the exact sparse posterior of the 500 points with those weights (brute force), from the
     second batch on, before any evidence (the GP's own ``forgetting``)."""
     rng = np.random.default_rng(8)
-    adapt = Adaptation(
-        window=150,
-        interval=50,
-        steps=0,
-        targets=False,
-        forgetting=(0.7,),
-        max_gap=1000,
-        settle=False,
-        forgetting_score="lagged",
-    )
-    gp = SparseOnlineGP(
-        1,
-        RBFKernel(lengthscale=0.2),
-        max_basis=30,
-        adapt=adapt,
-        forgetting=0.7,
-        forgetting_points=25,
-    )
+    gp = _age_gp("lagged", forgetting_points=25)
     grid, xs, ys = _age_stream(rng)
     for x, y in zip(xs, ys, strict=True):
         gp.update(x, y)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import copy
 import json
 from pathlib import Path
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
@@ -226,6 +227,17 @@ def test_adaptation_schedule_batch_reference_learns_a_fixed_function() -> None:
         assert min(r["explained_variance"]) > 0.9, (euclidean, r["explained_variance"])
 
 
+def assert_study_resumes(study: Any, argv: list[str], out: Path, actor: str, figure: str) -> None:
+    """A shadow study run again with ``argv`` keeps ``actor``'s finished run (not run again),
+    and its table has the actor's MLP-shadow row and its figure is written."""
+    done = out / "runs" / f"{actor}__s0.json"
+    written = done.stat().st_mtime_ns
+    assert study.main(argv) == 0
+    assert done.stat().st_mtime_ns == written
+    assert f"| {actor} | {study.MLP} |" in (out / "table.md").read_text()
+    assert (out / figure).stat().st_size > 0
+
+
 def test_action_gap_scores_every_critic_on_the_same_states(tmp_path: Path) -> None:
     """A tiny run per actor: the default GP shadow scores exactly as the geodesic run's own
     critic (it is fed the same rollouts), a finished run is not run again, and the table and
@@ -242,12 +254,7 @@ def test_action_gap_scores_every_critic_on_the_same_states(tmp_path: Path) -> No
         for name in (gaps.MLP, *gaps.CRITICS):
             assert 0 <= row[name]["n_decisive"] <= 24
     assert set(results["mlp"]["0"]["rows"][0]) == set(rows[0])
-    done = tmp_path / "runs" / "geodesic__s0.json"
-    written = done.stat().st_mtime_ns
-    assert gaps.main(argv) == 0
-    assert done.stat().st_mtime_ns == written
-    assert f"| geodesic | {gaps.MLP} |" in (tmp_path / "table.md").read_text()
-    assert (tmp_path / "action_gap.png").stat().st_size > 0
+    assert_study_resumes(gaps, argv, tmp_path, "geodesic", "action_gap.png")
 
 
 def test_advantage_error_scores_every_critic_against_the_same_reference(tmp_path: Path) -> None:
@@ -267,12 +274,7 @@ def test_advantage_error_scores_every_critic_against_the_same_reference(tmp_path
         for name in (study.MLP, *study.CRITICS):
             assert -1 <= row[name]["correlation"] <= 1 and row[name]["value_rmse"] > 0
     assert set(results["mlp"]["0"]["rows"][0]) == set(rows[0])
-    done = tmp_path / "runs" / "laplacian__s0.json"
-    written = done.stat().st_mtime_ns
-    assert study.main(argv) == 0
-    assert done.stat().st_mtime_ns == written
-    assert f"| laplacian | {study.MLP} |" in (tmp_path / "table.md").read_text()
-    assert (tmp_path / "advantage_error.png").stat().st_size > 0
+    assert_study_resumes(study, argv, tmp_path, "laplacian", "advantage_error.png")
 
 
 def test_same_policy_separates_a_changed_function_from_a_fixed_one() -> None:

@@ -10,13 +10,18 @@ that differs) feeds every batch the run's critic learns from to other critics to
   batches as PPO trains its critic;
 * :class:`ShadowFeed`: the callback that gives them every rollout of a run;
 * :func:`learn_with_shadows`: a run trained with an MLP shadow and GP shadows beside it, each
-  critic's values (the run's own too) given to a callback that scores them at rollout ends.
+  critic's values (the run's own too) given to a callback that scores them at rollout ends;
+* :func:`study_parser`, :func:`run_study`: the command line and the resumable loop over actors
+  and seeds of a study built on them (``examples/action_gap.py``, ``advantage_error.py``).
 """
 
 from __future__ import annotations
 
+import argparse
 import dataclasses
+import json
 from collections.abc import Callable, Mapping, Sequence
+from pathlib import Path
 from typing import Any, cast
 
 import numpy as np
@@ -25,13 +30,15 @@ from stable_baselines3 import PPO
 from stable_baselines3.common.callbacks import BaseCallback, CallbackList
 from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
 from torch import Tensor
+from tqdm.auto import tqdm
 
 from sb3_geogp.callbacks import GPValueCallback
-from sb3_geogp.comparison.run import build_model
+from sb3_geogp.comparison.run import build_model, write_json_atomic
 from sb3_geogp.comparison.specs import RunSpec, SweepConfig
 from sb3_geogp.policies import GPActorCriticPolicy
 from sb3_geogp.sparse_gp import SparseOnlineGP
 from sb3_geogp.targets import per_env
+from sb3_geogp.toolbox.provenance import provenance
 
 #: A shadow critic's learning step: ``learn(x, y, episode_starts)``, shapes (n, d), (n,), (n,).
 Learner = Callable[[Tensor, Tensor, Tensor], None]
@@ -40,6 +47,8 @@ NumpyValue = Callable[[np.ndarray], np.ndarray]
 #: The names under which :func:`learn_with_shadows` gives the run's own critic and its MLP
 #: shadow.
 OWN, MLP = "run's own critic", "SB3 MLP critic (shadow)"
+#: A study's results: per actor, per seed, what its run returned.
+StudyResults = dict[str, dict[int, Any]]
 
 
 def ppo_spec(env_id: str, seed: int, timesteps: int, setting: dict[str, Any]) -> RunSpec:
@@ -228,3 +237,61 @@ def learn_with_shadows(
     assert env is not None
     env.close()
     return scorer
+
+
+def study_parser(
+    description: str,
+    actors: Sequence[str],
+    timesteps: int,
+    critics: Mapping[str, dict[str, Any]],
+    out: Path,
+) -> argparse.ArgumentParser:
+    """The options every shadow study has: ``--actors`` (the critics that train the agent),
+    ``--seeds``, ``--timesteps``, ``--critics`` (JSON ``{name: setting}`` of GP shadow
+    critics, :func:`ppo_spec` settings) and ``--out``, with these defaults."""
+    parser = argparse.ArgumentParser(description=description)
+    parser.add_argument("--actors", nargs="+", default=list(actors))
+    parser.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2])
+    parser.add_argument("--timesteps", type=int, default=timesteps)
+    parser.add_argument(
+        "--critics",
+        type=json.loads,
+        default=dict(critics),
+        help='JSON {name: setting} of GP shadow critics (e.g. {"RBF GP": {"kernel": "rbf"}})',
+    )
+    parser.add_argument("--out", type=Path, default=out)
+    return parser
+
+
+def run_study(
+    args: argparse.Namespace,
+    run: Callable[[str, int, argparse.Namespace], dict[str, Any]],
+    table: Callable[[StudyResults], str],
+    plot: Callable[[StudyResults, Path], None],
+    figure: str,
+) -> StudyResults:
+    """``run(actor, seed, args)`` for every actor and seed of ``args`` not yet in
+    ``OUT/runs/`` (a finished run is kept there and not run again), then ``table`` printed and
+    written to ``OUT/table.md``, every result with the arguments and provenance to
+    ``OUT/results.json``, and ``plot`` to ``OUT/<figure>``."""
+    (args.out / "runs").mkdir(parents=True, exist_ok=True)
+    results: StudyResults = {a: {} for a in args.actors}
+    jobs = [(a, s) for a in args.actors for s in args.seeds]
+    for actor, seed in tqdm(jobs, unit="run", desc="PPO runs"):
+        path = args.out / "runs" / f"{actor}__s{seed}.json"
+        if not path.exists():
+            write_json_atomic(path, run(actor, seed, args))
+        results[actor][seed] = json.loads(path.read_text())
+    text = table(results)
+    print(text)
+    (args.out / "table.md").write_text(text)
+    write_json_atomic(
+        args.out / "results.json",
+        {
+            "args": {**vars(args), "out": str(args.out)},
+            "results": results,
+            "provenance": provenance(),
+        },
+    )
+    plot(results, args.out / figure)
+    return results
