@@ -569,7 +569,7 @@ class Summary(NamedTuple):
         return Summary(0.5 * (precision + precision.T), shifts[:, 0], shifts[:, 1], shifts[:, 2:])
 
     @staticmethod
-    def of_posterior(alpha: Tensor, P: Tensor, Q: Tensor, z: Tensor) -> Summary:
+    def of_posterior(alpha: Tensor, L: Tensor, Q: Tensor, z: Tensor) -> Summary:
         """The likelihood a posterior in Csató–Opper form implies, relative to its prior.
 
         With the prior ``f ~ N(0, K)`` at the inducing points ``z : (m, d)``, ``Q = K^{-1}``,
@@ -588,13 +588,15 @@ class Summary(NamedTuple):
         Parameters
         ----------
         alpha : Tensor, shape (m,)
-        P, Q : Tensor, shape (m, m)
+        L : Tensor, shape (m, m)
+            Lower Cholesky factor of ``P`` (:func:`posterior_cholesky`), which the GP shares
+            with its other uses of ``P^-1`` (lagged forgetting) in the same state.
+        Q : Tensor, shape (m, m)
             Symmetric positive definite.
         z : Tensor, shape (m, d)
             Inducing inputs, in the units of the prior mean's inputs.
         """
         m = alpha.shape[0]
-        L, _ = jittered_cholesky(P, float(P.diagonal().abs().mean()))
         W = torch.linalg.solve_triangular(L, torch.cat([Q, alpha[:, None]], dim=1), upper=False)
         precision = W[:, :m].T @ W[:, :m] - Q
         precision = 0.5 * (precision + precision.T)
@@ -629,13 +631,23 @@ def forget_likelihood(alpha: Tensor, L: Tensor, Q: Tensor, lam: float) -> tuple[
     return Q @ solved[:, m], 0.5 * (P + P.T)
 
 
-def posterior_factor(P: Tensor, K: Tensor) -> tuple[Tensor, Tensor]:
-    """``L`` with ``P = L L^T`` (jittered if it needs it) and ``S = L^T K L``, both (m, m):
-    the coordinates in which :func:`lagged_forgetting_scores` works (:func:`forget_likelihood`
-    needs ``L`` alone)."""
-    L, _ = jittered_cholesky(P, float(P.diagonal().abs().mean()))
+def posterior_cholesky(P: Tensor) -> Tensor:
+    """``L : (m, m)`` with ``P = L L^T`` (jittered if it needs it): what
+    :func:`forget_likelihood` and :meth:`Summary.of_posterior` work through."""
+    return jittered_cholesky(P, float(P.diagonal().abs().mean()))[0]
+
+
+def whitened_prior(L: Tensor, K: Tensor) -> Tensor:
+    """``S = L^T K L : (m, m)``, symmetric: the prior covariance in the coordinates ``v`` with
+    ``f = K L v`` in which :func:`lagged_forgetting_scores` works."""
     S = L.T @ K @ L
-    return L, 0.5 * (S + S.T)
+    return 0.5 * (S + S.T)
+
+
+def posterior_factor(P: Tensor, K: Tensor) -> tuple[Tensor, Tensor]:
+    """:func:`posterior_cholesky` ``L`` of ``P`` and :func:`whitened_prior` ``S`` of ``K``."""
+    L = posterior_cholesky(P)
+    return L, whitened_prior(L, K)
 
 
 def lagged_forgetting_scores(

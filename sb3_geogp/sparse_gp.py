@@ -47,14 +47,15 @@ from sb3_geogp.adaptation import (
     lagged_forgetting_scores,
     linear_moments,
     nlpd,
-    posterior_factor,
+    posterior_cholesky,
     sparse_posterior,
     thinned,
     weighted_moments,
+    whitened_prior,
 )
 from sb3_geogp.graph import BVGraph
 from sb3_geogp.kernels import Kernel, KernelName, make_kernel
-from sb3_geogp.kernels.base import check_same_options
+from sb3_geogp.kernels.base import BasisMatrices, Rows, check_same_options
 
 ArrayLike = Tensor | np.ndarray | Sequence[Any]
 
@@ -634,10 +635,13 @@ class SparseOnlineGP(nn.Module):
         basis = self._matrices()
         rows = self.kernel.rows(xs, basis.z)
         mean = rows.mean(basis)
-        if not return_var:
-            return mean, None
-        gamma = self.kernel.variance - rows.kqk(basis)
-        return mean, (gamma.clamp_min(0) + rows.kpk(basis)).clamp_min(0)
+        return mean, self._latent_variance(rows, basis)[1] if return_var else None
+
+    def _latent_variance(self, rows: Rows, basis: BasisMatrices) -> tuple[Tensor, Tensor]:
+        """The basis's residual ``gamma = k(x, x) - k_x^T Q k_x`` and the latent variance
+        ``gamma + k_x^T P k_x`` of points with kernel rows ``rows``, shapes (n,), ``>= 0``."""
+        gamma = (self.kernel.variance - rows.kqk(basis)).clamp_min(0)
+        return gamma, (gamma + rows.kpk(basis)).clamp_min(0)
 
     def forward(self, x: Tensor) -> Tensor:
         """Posterior mean at ``x : (n, d)``, shape (n,)."""
@@ -760,7 +764,7 @@ class SparseOnlineGP(nn.Module):
         (:func:`~sb3_geogp.adaptation.forget_likelihood`, in float64)."""
         if self.adaptation is not None and self.adaptation.forgetting_score == "lagged":
             m = self.n_basis
-            L, _ = self._matrices().P_factor
+            L = self._matrices().P_cholesky
             state = (self.alpha[:m].double(), L, self.Q[:m, :m].double())
             alpha, P = forget_likelihood(*state, lam)
             self.alpha[:m], self.P[:m, :m] = alpha.to(self.alpha), P.to(self.P)
@@ -1163,8 +1167,8 @@ class SparseOnlineGP(nn.Module):
         adds only the window's points from this batch on."""
         m = self.n_basis
         # In float64 whatever the state's dtype, as the absorb: Q P^-1 Q - Q cancels.
-        state = (self.alpha[:m], self.P[:m, :m], self.Q[:m, :m], self.bv_x[:m])
-        implied = Summary.of_posterior(*(t.double() for t in state))
+        alpha, Q, z = (t.double() for t in (self.alpha[:m], self.Q[:m, :m], self.bv_x[:m]))
+        implied = Summary.of_posterior(alpha, self._matrices().P_cholesky, Q, z)
         noise = self.noise_var
         self.summary_prec[:m, :m] = implied.precision * noise
         self.summary_shift[:m] = implied.shift * noise
@@ -1264,11 +1268,14 @@ class SparseOnlineGP(nn.Module):
         n = x.shape[0]
         index, count = thinned(n, self.adaptation.score_points, x.device)
         x, y = x[index], y[index]
-        mean, var = self._latent(self._scaled(x), return_var=True)
-        assert var is not None
+        basis = self._matrices()
+        rows = self.kernel.rows(self._scaled(x), basis.z)
+        mean = rows.mean(basis)
+        gamma, var = self._latent_variance(rows, basis)
         yn, count = self._standardised(x, y), count.to(y)
         if self.adaptation.forgetting_score == "lagged":
-            self.forgetting_scores += self._lagged_scores(x, yn, count).to(y)
+            batch = (rows.dense(basis), gamma, yn, count)
+            self.forgetting_scores += self._lagged_scores(*(t.double() for t in batch)).to(y)
         else:
             self._score_forgetting(mean, var, yn, count, n)
         self._count_block(mean, yn, count)
@@ -1297,9 +1304,10 @@ class SparseOnlineGP(nn.Module):
         nll = 0.5 * (torch.log(2 * math.pi * variances) + (yn - means).square() / variances)
         self.forgetting_scores += nll @ count
 
-    def _lagged_scores(self, x: Tensor, yn: Tensor, count: Tensor) -> Tensor:
-        """Scores of the forgetting candidates on the batch ``x : (n, d)``, ``yn : (n,)``
-        (:func:`~sb3_geogp.adaptation.lagged_forgetting_scores`), in float64.
+    def _lagged_scores(self, rows: Tensor, gamma: Tensor, yn: Tensor, count: Tensor) -> Tensor:
+        """Scores of the forgetting candidates on a batch with kernel rows ``rows : (n, m)``,
+        basis residuals ``gamma : (n,)``, standardised targets ``yn : (n,)`` and point weights
+        ``count : (n,)`` (:func:`~sb3_geogp.adaptation.lagged_forgetting_scores`), all float64.
 
         The previous batch's likelihood is estimated from its points in the window (at most
         ``score_points`` of them, :func:`~sb3_geogp.adaptation.thinned`), scaled up to the
@@ -1320,20 +1328,21 @@ class SparseOnlineGP(nn.Module):
         weight = runs.to(torch.float64) * max(1.0, int(self.last_batch_points) / kept)
         noise = float(self.noise_var)
         basis = self._matrices()
-
-        def projection(points: Tensor) -> tuple[Tensor, Tensor]:
-            # Rows of each set alone: the geodesic kernel attaches a point given its neighbours.
-            rows = self.kernel.rows(self.kernel.scale(points), basis.z)
-            gamma = (self.kernel.variance - rows.kqk(basis)).clamp_min(0)
-            return rows.dense(basis).double(), gamma.double()
-
-        rows_b, gamma_b = projection(px)
-        previous = (rows_b, self._standardised(px, py).double(), (noise + gamma_b) / weight)
-        rows, gamma = projection(x)
+        # The previous batch's rows alone: the geodesic kernel attaches a point given its
+        # neighbours, as it did for the new batch's.
+        rows_b = self.kernel.rows(self.kernel.scale(px), basis.z)
+        gamma_b = self._latent_variance(rows_b, basis)[0].double()
+        previous = (rows_b.dense(basis).double(), self._standardised(px, py).double())
         L, S = basis.P_factor
         alpha = self.alpha[:m].double()
         return lagged_forgetting_scores(
-            L, S, alpha, previous, (rows, gamma, yn.double(), count.double()), noise, candidates
+            L,
+            S,
+            alpha,
+            (*previous, (noise + gamma_b) / weight),
+            (rows, gamma, yn, count),
+            noise,
+            candidates,
         )
 
     def _count_block(self, mean: Tensor, yn: Tensor, count: Tensor) -> None:
@@ -1720,12 +1729,12 @@ class _PosteriorMatrices:
 
     def posterior_changed(self) -> None:
         """``alpha`` and ``P`` changed."""
-        for name in ("K_alpha", "KPK", "P_factor"):
+        for name in ("K_alpha", "KPK", "P_cholesky", "S"):
             self._values.pop(name, None)
 
     def Q_changed(self) -> None:
         """``Q`` (or the nuggets) changed."""
-        for name in ("KQK", "least_novelty", "P_factor"):
+        for name in ("KQK", "least_novelty", "S"):
             self._values.pop(name, None)
 
     def basis_grew(self, k: Tensor, variance: Tensor) -> None:
@@ -1781,16 +1790,25 @@ class _PosteriorMatrices:
         return self._get("KPK", lambda: self.K @ self.P @ self.K)
 
     @property
+    def P_cholesky(self) -> Tensor:
+        """:func:`~sb3_geogp.adaptation.posterior_cholesky` of ``P``, in float64 whatever the
+        state's dtype, shape (m, m): one factorisation per state serves the snapshot, the
+        lagged scores and the lagged forgetting of a batch."""
+        # Row-major, as LAPACK's column-major factor is not: the solves then round as they did
+        # before the factor was shared (0.13), and training runs repeat bit for bit.
+        return self._get("P_cholesky", lambda: posterior_cholesky(self.P.double()).contiguous())
+
+    @property
     def P_factor(self) -> tuple[Tensor, Tensor]:
-        """:func:`~sb3_geogp.adaptation.posterior_factor` of ``P`` and ``K`` with the nuggets,
-        in float64 whatever the state's dtype, shapes (m, m) stacked as (2, m, m)."""
+        """:attr:`P_cholesky` ``L`` and ``S = L^T K L`` (:func:`~sb3_geogp.adaptation.
+        whitened_prior`, ``K`` with the nuggets), float64, shapes (m, m)."""
+        L = self.P_cholesky
 
-        def factor() -> Tensor:
+        def whitened() -> Tensor:
             K = self.K + torch.diag(self._gp.nugget[: self._m])
-            return torch.stack(posterior_factor(self.P.double(), K.double()))
+            return whitened_prior(L, K.double())
 
-        both = self._get("P_factor", factor)
-        return both[0], both[1]
+        return L, self._get("S", whitened)
 
     @property
     def least_novelty(self) -> Tensor:

@@ -16,6 +16,7 @@ from sb3_geogp.adaptation import (
     forget_likelihood,
     jittered_cholesky,
     lagged_forgetting_scores,
+    posterior_cholesky,
     posterior_factor,
     sparse_posterior,
     thinned,
@@ -171,7 +172,7 @@ def test_summary_of_a_posterior_is_the_likelihood_it_was_built_from() -> None:
     Kxz, x, y, noise = data(rng.uniform(size=(30, 2)))
     earlier = Summary.of_data(t(Kzz), *data(rng.uniform(size=(12, 2))), 1.0)
     alpha, P = sparse_posterior(t(Kzz), Kxz, y, noise, 1.0, earlier)
-    implied = Summary.of_posterior(alpha, P, t(np.linalg.inv(Kzz)), t(z))
+    implied = Summary.of_posterior(alpha, posterior_cholesky(P), t(np.linalg.inv(Kzz)), t(z))
     both = Summary.of_data(t(Kzz), Kxz, x, y, noise, 1.0)
     scale = float(implied.precision.abs().max())
     for got, want in zip(
@@ -185,7 +186,7 @@ def test_summary_of_a_posterior_is_the_likelihood_it_was_built_from() -> None:
     _, x, y, noise = data(z[at_z])
     Kxz = t(Kzz[at_z])  # with the nugget: rows of K_zz itself
     alpha, P = sparse_posterior(t(Kzz), Kxz, y, noise, 1.0)
-    implied = Summary.of_posterior(alpha, P, t(np.linalg.inv(Kzz)), t(z))
+    implied = Summary.of_posterior(alpha, posterior_cholesky(P), t(np.linalg.inv(Kzz)), t(z))
     direct = Summary.of_data(t(Kzz), Kxz, x, y, noise, 1.0)
     for got, want in zip(implied, direct, strict=True):
         torch.testing.assert_close(got, want, rtol=0, atol=1e-8 * float(want.abs().max()))
@@ -203,10 +204,10 @@ def test_forgetting_the_likelihood_scales_what_the_posterior_implies(lam: float)
     noise = t(rng.uniform(0.05, 0.5, size=30))
     alpha, P = sparse_posterior(t(Kzz), t(rbf(x, z, 0.4)), t(rng.normal(size=30)), noise, 1.0)
     Q = t(np.linalg.inv(Kzz))
-    before = Summary.of_posterior(alpha, P, Q, t(z))
-    L, _ = posterior_factor(P, t(Kzz))
+    L = posterior_cholesky(P)
+    before = Summary.of_posterior(alpha, L, Q, t(z))
     alpha_new, P_new = forget_likelihood(alpha, L, Q, lam)
-    after = Summary.of_posterior(alpha_new, P_new, Q, t(z))
+    after = Summary.of_posterior(alpha_new, posterior_cholesky(P_new), Q, t(z))
     for got, want in zip(after[:2], before[:2], strict=True):
         torch.testing.assert_close(got, lam * want, rtol=0, atol=1e-8 * float(want.abs().max()))
     torch.testing.assert_close(P_new, P_new.T, rtol=0, atol=0)
