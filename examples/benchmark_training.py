@@ -13,10 +13,13 @@ policy's default adaptation for the workload's algorithm,
 :func:`~sb3_geogp.policies.default_adaptation`: the default critic under PPO is
 ``laplacian+adapt``), ``+cheap`` (:data:`~sb3_geogp.CHEAP_ADAPTATION`) and, for the geodesic
 kernel, ``+shared`` (0.3's one lengthscale factor, ``kernel_kwargs=dict(ard=False)``),
-``+notrend`` (no trend: the critic before 0.9, whose PPO default moves a level), and
+``+notrend`` (no trend: the critic before 0.9, whose PPO default moves a level), ``+init01``
+(forgetting 0.1 per 4,096 points until the adaptation first chooses, ``forgetting=0.1,
+forgetting_points=4096``), and
 after ``+adapt`` or ``+cheap`` by other adaptation settings (``+gapN``: ``max_gap=N``;
 ``+thinN``: ``score_points`` and ``fold_points`` N; ``+scoreN``, ``+foldN``: one of them;
-``+stepsN``; ``+floorN``: ``fit_floor=N/100``; ``+nosettle``: ``settle=False``; settings after
+``+stepsN``; ``+floorN``: ``fit_floor=N/100``; ``+nosettle``: ``settle=False``; ``+snapshot``:
+``summary="snapshot"``; ``+lagged``: ``forgetting_score="lagged"``; settings after
 ``+adapt`` start from :class:`~sb3_geogp.Adaptation`'s defaults, so ``laplacian+adapt+gap1``
 is PPO's critic before 0.10, a refit every block, and ``+adapt+score256`` folds every point),
 so that the cost of an option is measured interleaved with the default's.
@@ -71,6 +74,7 @@ SUFFIXES: dict[str, dict[str, Any]] = {
     "cheap": {"adapt": CHEAP_ADAPTATION.as_dict()},
     "shared": {"kernel_kwargs": {"ard": False}},
     "notrend": {"trend": "none"},
+    "init01": {"forgetting": 0.1, "forgetting_points": 4096},
 }
 #: Suffixes with a count (after ``+adapt``): the :class:`~sb3_geogp.adaptation.Adaptation`
 #: settings they give it and what the count is divided by, e.g. ``+gap4`` (``max_gap=4``),
