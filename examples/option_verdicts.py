@@ -12,6 +12,9 @@ returns of every run, sorted, so that stalls (e.g. Acrobot's -500 cap) are seen 
         --variant results/linear_mean/acrobot_s30_linear \\
         --reference results/linear_mean/acrobot_s30 --out results/linear_mean/acrobot_s30.md
 
+``--seeds`` reads only the runs of some seeds, e.g. a sweep of seeds 0-19 against references
+of seeds 0-9 (``--seeds 0 1 2 3 4 5 6 7 8 9``) and, in a second call, of seeds 10-19.
+
 Writes the markdown, the rows as JSON beside it and a figure of the final-return intervals
 (``.png``).
 """
@@ -155,9 +158,21 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--critic", required=True, help="the GP critic (kernel) of both sweeps")
     parser.add_argument("--label", required=True, help="the option, as shown in the tables")
     parser.add_argument("--family-size", type=int, default=PUBLISHED_FAMILY)
+    parser.add_argument(
+        "--seeds",
+        type=int,
+        nargs="+",
+        default=None,
+        help="only the runs of these seeds, on both sides (a sweep of more seeds than the "
+        "references hold)",
+    )
     parser.add_argument("--out", type=Path, required=True, help="markdown file to write")
     args = parser.parse_args(argv)
     variant, reference = load_sweeps(args.variant), load_sweeps(args.reference)
+    if args.seeds is not None:
+        variant, reference = (
+            [r for r in runs if r["spec"]["seed"] in args.seeds] for runs in (variant, reference)
+        )
     rows = verdict_rows(variant, reference, args.critic, args.family_size)
     text = markdown(rows, finals(variant, reference, args.critic), args.label)
     args.out.parent.mkdir(parents=True, exist_ok=True)

@@ -393,3 +393,29 @@ def test_option_verdicts_compares_variant_reference_and_mlp(
     capsys.readouterr()
     with pytest.raises(ValueError, match="runs of laplacian only"):
         script.main([*argv[:1], str(tmp_path / "reference"), *argv[2:]])
+
+
+def test_option_verdicts_reads_only_the_seeds_asked_for(tmp_path: Path) -> None:
+    """A variant sweep of seeds 0-11 whose seeds 6-11 are 100 further ahead, read with
+    ``--seeds 0..5`` against references of seeds 0-5: the differences of those seeds alone
+    (10 against the GP reference), six variant runs."""
+    from tests.test_examples_engine import load_script
+
+    script = load_script("option_verdicts")
+    reference = [_result(c, s, final=float(s % 3), rmse=20.0) for c in ("mlp", "laplacian")
+                 for s in range(6)]  # fmt: skip
+    variant = [
+        _result("laplacian", s, final=10.0 + s % 3 + (100.0 if s >= 6 else 0.0), rmse=20.0)
+        for s in range(12)
+    ]
+    out = tmp_path / "option.md"
+    argv = ["--variant", str(_write_sweep(tmp_path / "variant", variant))]
+    argv += ["--reference", str(_write_sweep(tmp_path / "reference", reference))]
+    argv += ["--critic", "laplacian", "--label", "x", "--out", str(out)]
+    assert script.main([*argv, "--seeds", *map(str, range(6))]) == 0
+    rows = {r["metric"]: r for r in json.loads(out.with_suffix(".json").read_text())}
+    assert rows["final_return"][script.COLUMNS[0]]["diff"] == pytest.approx(10.0)
+    assert "| `E-v0` ppo | variant | 6 | 10, 10, 11, 11, 12, 12 |" in out.read_text()
+    assert script.main(argv) == 0  # all twelve: the later seeds count too
+    rows = {r["metric"]: r for r in json.loads(out.with_suffix(".json").read_text())}
+    assert rows["final_return"][script.COLUMNS[0]]["diff"] == pytest.approx(60.0)
