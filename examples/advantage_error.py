@@ -29,6 +29,7 @@ the paired difference from the MLP shadow with a 95 % t interval) and
 from __future__ import annotations
 
 import argparse
+import dataclasses
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -37,7 +38,6 @@ import numpy as np
 import torch as th
 from stable_baselines3.common.callbacks import BaseCallback
 
-from sb3_geogp import LAGGED_ADAPTATION
 from sb3_geogp.callbacks import time_limit_truncations
 from sb3_geogp.comparison.hyperparams import TIMESTEPS
 from sb3_geogp.comparison.run import build_model
@@ -50,6 +50,7 @@ from sb3_geogp.comparison.shadow import (
     run_study,
     study_parser,
 )
+from sb3_geogp.policies import DEFAULT_ADAPTATION
 from sb3_geogp.studies.advantage_error import advantage_scores, gae, policy_returns
 from sb3_geogp.toolbox.stats import mean_ci
 
@@ -59,7 +60,11 @@ ACTORS = ("mlp", "laplacian")
 #: GP shadow critics by default (settings as :func:`~sb3_geogp.comparison.shadow.ppo_spec`).
 CRITICS: dict[str, dict[str, Any]] = {
     "Laplacian GP (PPO default)": {"kernel": "laplacian"},
-    "Laplacian GP, lagged forgetting": {"kernel": "laplacian", **LAGGED_ADAPTATION.as_dict()},
+    "Laplacian GP, 0.11-0.13's PPO default": {
+        "kernel": "laplacian",
+        **dataclasses.replace(DEFAULT_ADAPTATION, forgetting_score="shrink").as_dict(),
+        "gp_options": {"forgetting": 1.0},
+    },
 }
 METRICS = ("correlation", "value_rmse")
 

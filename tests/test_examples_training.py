@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import copy
+import dataclasses
 import json
 from pathlib import Path
 from typing import Any
@@ -13,6 +14,7 @@ import pytest
 import torch as th
 
 from sb3_geogp.envs.wall_maze import CORNER_LAYOUT, WallMaze
+from sb3_geogp.policies import DEFAULT_ADAPTATION
 from tests.test_examples_engine import load_script
 
 
@@ -168,9 +170,10 @@ def test_adaptation_schedule_replays_the_recorded_stream(tmp_path: Path) -> None
     runs are single points), a second call replays the saved stream, unchanged, to the same
     figures, and the MLP reference is scored on the same batches."""
     schedule = load_script("adaptation_schedule")
+    uncapped = {**DEFAULT_ADAPTATION.as_dict(), "score_points": 10**6, "fold_points": 10**6}
     settings = {
         "default": {},
-        "uncapped": {"score_points": 10**6, "fold_points": 10**6},
+        "uncapped": uncapped,
         "small basis": {"gp_options": {"max_basis": 4}},
     }
     argv = [
@@ -295,7 +298,13 @@ def test_same_policy_separates_a_changed_function_from_a_fixed_one() -> None:
         return x, sign * (th.cos(x[:, 0]) + 0.1 * x[:, 1]), starts
 
     def learner() -> object:
-        spec = schedule.ppo_spec("sb3_geogp/PaperPendulum-v0", 0, 1, {})
+        # 0.13's PPO critic: forgetting per batch (400-point batches that flip sign need more
+        # than the default's 0.03 per 4,096 points, 0.71 per batch), scored by shrinking (the
+        # lagged score rightly keeps batches two back, whose sign is the new batch's).
+        shrink = dataclasses.replace(DEFAULT_ADAPTATION, forgetting_score="shrink").as_dict()
+        spec = schedule.ppo_spec(
+            "sb3_geogp/PaperPendulum-v0", 0, 1, {**shrink, "gp_options": {"forgetting": 1.0}}
+        )
         return schedule._GPLearner(schedule.gp_shadow(spec))
 
     fixed = schedule.same_policy([batch(1.0) for _ in range(5)], learner())

@@ -222,7 +222,10 @@ def test_policy_kwargs_options_reach_the_gp_and_constructor_parameters() -> None
     # Saved with the policy's defaults written out (adapt), so that a later version's defaults
     # do not change a saved model.
     saved = model.policy._get_constructor_parameters()["gp_kwargs"]
-    assert saved == {"adapt": DEFAULT_ADAPTATION.as_dict(), "trend": "level", **gp_kwargs}
+    # float32: the lagged forgetting score is refused in it, so the default scores by shrinking.
+    float32_default = dataclasses.replace(DEFAULT_ADAPTATION, forgetting_score="shrink")
+    assert saved == {"adapt": float32_default.as_dict(), "trend": "level", **gp_kwargs}
+    assert gp.adaptation == float32_default and gp.forgetting_points is None  # forgetting given
 
 
 def test_default_critic_is_the_laplacian_kernel_with_a_dense_basis_except_under_a2c() -> None:
@@ -240,21 +243,34 @@ def test_default_critic_is_the_laplacian_kernel_with_a_dense_basis_except_under_
     default = built()
     assert isinstance(default.gp.kernel, LaplacianKernel) and default.gp.novelty_tol == 0.1
     # Since 0.10 PPO refits on the first block, every 16th and those it predicted badly; since
-    # 0.11 from a snapshot of the posterior.
+    # 0.11 from a snapshot of the posterior; since 0.14 forgetting chosen one batch ahead,
+    # starting from 0.1 per 4,096 points.
     rare = Adaptation(
         max_gap=16, settle=False, score_points=256, fold_points=256, fit_floor=0.8,
-        summary="snapshot",
+        summary="snapshot", forgetting_score="lagged",
     )  # fmt: skip
     assert default.gp.adaptation == rare and built(adapt=True).gp.adaptation == rare
     assert default.gp.trend == "level"
+    assert (default.gp.forgetting, default.gp.forgetting_points) == (0.1, 4096)
     saved = default._get_constructor_parameters()["gp_kwargs"]
     written = {"adapt": rare.as_dict(), "kernel": "laplacian", "trend": "level"}
-    assert saved == {**written, "novelty_tol": 0.1}
+    initial = {"forgetting": 0.1, "forgetting_points": 4096}
+    assert saved == {**written, "novelty_tol": 0.1, **initial}
+    # The pair is set together or not at all, and only where the critic adapts.
+    assert (built(forgetting=0.5).gp.forgetting_points, built(adapt=False).gp.forgetting) == (
+        None,
+        1.0,
+    )
+    assert built(forgetting_points=100).gp.forgetting == 1.0
+    assert built(dtype="float").gp.adaptation == dataclasses.replace(
+        rare, forgetting_score="shrink"
+    )
     assert built(kernel="laplacian", novelty_tol=0.2).gp.novelty_tol == 0.2
     laplacian_engine_default = 1 - np.exp(-0.25) ** 2
     for policy in (built(A2C), built(type("MyA2C", (A2C,), {})), built(kernel="geodesic")):
         assert isinstance(policy.gp.kernel, GeodesicKernel)
         assert policy.gp.novelty_tol == pytest.approx(laplacian_engine_default)  # its profile
+    assert (built(A2C).gp.forgetting, built(A2C).gp.forgetting_points) == (1.0, None)
     assert built(A2C)._get_constructor_parameters()["gp_kwargs"] == {
         "adapt": Adaptation().as_dict(),
         "kernel": "geodesic",
@@ -324,6 +340,31 @@ def test_model_saved_by_0_10_keeps_its_folded_summary(tmp_path: Path) -> None:
     assert th.equal(loaded.policy.predict_values(obs), model.policy.predict_values(obs))
     loaded.learn(128, callback=GPValueCallback(), reset_num_timesteps=False)
     assert int(loaded.policy.gp.summary_batch) == 0  # never a snapshot
+
+
+def test_model_saved_by_0_13_keeps_its_forgetting(tmp_path: Path) -> None:
+    """0.13's PPO critic started from forgetting 1 per batch and scored it by shrinking; a model
+    saved with it and ``gp_kwargs`` that set neither loads with that forgetting and adaptation,
+    not 0.14's defaults, and goes on learning as the original does, bit for bit."""
+    env = make_vec_env("Pendulum-v1", n_envs=2, seed=0)
+    by_0_13 = dict(adapt=dataclasses.replace(DEFAULT_ADAPTATION, forgetting_score="shrink"))
+    trained = dict(gp_kwargs=dict(max_basis=16, forgetting=1.0, **by_0_13), net_arch=[16])
+    model = PPO(GPActorCriticPolicy, env, n_steps=64, batch_size=64, seed=0, policy_kwargs=trained)
+    model.learn(256, callback=GPValueCallback())
+    model.save(tmp_path / "model.zip")
+    as_saved = dict(gp_kwargs=dict(max_basis=16), net_arch=[16])  # what 0.13's user passed
+    loaded = PPO.load(tmp_path / "model.zip", env=env, custom_objects={"policy_kwargs": as_saved})
+    assert isinstance(loaded.policy, GPActorCriticPolicy)
+    gp = loaded.policy.gp
+    assert (gp.forgetting, gp.forgetting_points) == (1.0, None)
+    assert gp.adaptation == by_0_13["adapt"]
+    obs = flat_obs(model)
+    assert th.equal(loaded.policy.predict_values(obs), model.policy.predict_values(obs))
+    original = PPO.load(tmp_path / "model.zip", env=env, custom_objects={"policy_kwargs": trained})
+    for m in (original, loaded):
+        m.set_random_seed(1)
+        m.learn(128, callback=GPValueCallback(), reset_num_timesteps=False)
+    assert th.equal(loaded.policy.predict_values(obs), original.policy.predict_values(obs))
 
 
 def test_model_saved_before_0_9_without_a_trend_loads_with_its_trend_free_critic(

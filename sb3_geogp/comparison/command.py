@@ -32,7 +32,7 @@ from sb3_geogp.comparison.hyperparams import (
 from sb3_geogp.comparison.run import build_model
 from sb3_geogp.comparison.specs import RunSpec, SweepConfig
 from sb3_geogp.comparison.sweep import pending_runs, run_sweep
-from sb3_geogp.policies import build_gp_critic, check_gp_kwargs
+from sb3_geogp.policies import build_gp_critic, check_gp_kwargs, resolved_gp_kwargs
 
 #: First line of ``--help``.
 DESCRIPTION = (
@@ -213,7 +213,7 @@ def _check_gp_options(options: list[tuple[str, Any]]) -> tuple[tuple[str, Any], 
     try:
         checked = check_gp_kwargs(merged)  # the policy's own checks and construction
         for kernel in ("rbf", "geodesic"):
-            build_gp_critic({**checked, "kernel": kernel}, input_dim=1)
+            build_gp_critic(resolved_gp_kwargs({**checked, "kernel": kernel}), input_dim=1)
     except (TypeError, ValueError) as e:
         raise UsageError(f"--gp-option: the GP critic rejects {dict(options)}: {e}") from None
     return tuple(options)
