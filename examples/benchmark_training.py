@@ -13,15 +13,16 @@ policy's default adaptation for the workload's algorithm,
 :func:`~sb3_geogp.policies.default_adaptation`: the default critic under PPO is
 ``laplacian+adapt``), ``+cheap`` (:data:`~sb3_geogp.CHEAP_ADAPTATION`) and, for the geodesic
 kernel, ``+shared`` (0.3's one lengthscale factor, ``kernel_kwargs=dict(ard=False)``),
-``+notrend`` (no trend: the critic before 0.9, whose PPO default moves a level), ``+init01``
-(forgetting 0.1 per 4,096 points until the adaptation first chooses, ``forgetting=0.1,
-forgetting_points=4096``), and
+``+notrend`` (no trend: the critic before 0.9, whose PPO default moves a level), ``+f1``
+(``forgetting=1.0``, per batch: the start before 0.14, whose PPO critic starts from 0.1 per
+4,096 points, :data:`~sb3_geogp.policies.DEFAULT_FORGETTING`, wherever it adapts), and
 after ``+adapt`` or ``+cheap`` by other adaptation settings (``+gapN``: ``max_gap=N``;
 ``+thinN``: ``score_points`` and ``fold_points`` N; ``+scoreN``, ``+foldN``: one of them;
 ``+stepsN``; ``+floorN``: ``fit_floor=N/100``; ``+nosettle``: ``settle=False``; ``+snapshot``:
 ``summary="snapshot"``; ``+lagged``: ``forgetting_score="lagged"``; settings after
-``+adapt`` start from :class:`~sb3_geogp.Adaptation`'s defaults, so ``laplacian+adapt+gap1``
-is PPO's critic before 0.10, a refit every block, and ``+adapt+score256`` folds every point),
+``+adapt`` start from :class:`~sb3_geogp.Adaptation`'s defaults, so ``laplacian+adapt+gap1+f1``
+is PPO's critic before 0.10, a refit every block, ``+adapt+score256`` folds every point, and
+``laplacian+adapt+gap16+nosettle+score256+fold256+floor80+snapshot+f1`` is 0.13's PPO critic),
 so that the cost of an option is measured interleaved with the default's.
 
 ``--threads default`` leaves torch's thread count as a new user has it (the engine then runs
@@ -74,7 +75,7 @@ SUFFIXES: dict[str, dict[str, Any]] = {
     "cheap": {"adapt": CHEAP_ADAPTATION.as_dict()},
     "shared": {"kernel_kwargs": {"ard": False}},
     "notrend": {"trend": "none"},
-    "init01": {"forgetting": 0.1, "forgetting_points": 4096},
+    "f1": {"forgetting": 1.0},
 }
 #: Suffixes with a count (after ``+adapt``): the :class:`~sb3_geogp.adaptation.Adaptation`
 #: settings they give it and what the count is divided by, e.g. ``+gap4`` (``max_gap=4``),

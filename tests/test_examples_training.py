@@ -74,8 +74,7 @@ def test_benchmark_training_setting_suffixes_build_those_settings() -> None:
     assert as_adaptation(options["adapt"]) == expected
     assert bench.gp_kwargs_of(["adapt"]) == {"adapt": True}
     assert bench.gp_kwargs_of(["adapt", "notrend"]) == {"adapt": True, "trend": "none"}
-    initial = {"adapt": True, "forgetting": 0.1, "forgetting_points": 4096}
-    assert bench.gp_kwargs_of(["adapt", "init01"]) == initial
+    assert bench.gp_kwargs_of(["adapt", "f1"]) == {"adapt": True, "forgetting": 1.0}
     # +cheap: the preset, settings on top of it.
     assert as_adaptation(bench.gp_kwargs_of(["cheap"])["adapt"]) == CHEAP_ADAPTATION
     cheap = as_adaptation(bench.gp_kwargs_of(["cheap", "steps2"])["adapt"])
