@@ -84,6 +84,20 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         help="the adaptive on-line GP's trend (the PPO default since 0.9: level)",
     )
     parser.add_argument(
+        "--forgetting",
+        type=float,
+        default=1.0,
+        help="the adaptive on-line GP's forgetting until its adaptation first chooses (the "
+        "PPO default since 0.14: 0.1)",
+    )
+    parser.add_argument(
+        "--forgetting-points",
+        type=int,
+        default=None,
+        help="what that forgetting is per, in points (the PPO default since 0.14: 4096; "
+        "default: per batch)",
+    )
+    parser.add_argument(
         "--kernels",
         nargs="+",
         choices=typing.get_args(KernelName),
@@ -150,6 +164,8 @@ def plot(result: CheckResult, path: Path) -> None:
         else f"{n_seeds} seed(s): no error bars (fewer than {MIN_SAMPLES_FOR_INTERVAL})"
     )
     options = [f"trend={cfg.trend}"] if cfg.trend != "none" else []
+    if (cfg.forgetting, cfg.forgetting_points) != (1.0, None):
+        options += [f"forgetting={cfg.forgetting:g}", f"forgetting_points={cfg.forgetting_points}"]
     engine = Adaptation().as_dict()
     options += [f"{k}={v}" for k, v in cfg.adaptation.as_dict().items() if v != engine[k]]
     listed = textwrap.fill(f"adaptive on-line GP: {', '.join(options)}", 60)
@@ -173,6 +189,7 @@ def main(argv: list[str] | None = None) -> None:
     if args.kernels is not None:
         config = replace(config, kernels=tuple(args.kernels))
     config = replace(config, trend=args.trend)
+    config = replace(config, forgetting=args.forgetting, forgetting_points=args.forgetting_points)
     settings = dict(args.adapt or {})
     if args.prior_sd is not None:
         settings["prior_sd"] = args.prior_sd

@@ -64,9 +64,12 @@ def test_long_run_numerics_quick_passes_all_checks(tmp_path: Path, stream: str) 
 
 def test_fixed_policy_check_quick_checks_only_the_kernels_asked(tmp_path: Path) -> None:
     script = load_script("fixed_policy_check")
-    script.main(["--quick", "--kernels", "geodesic", "--trend", "level", "--out", str(tmp_path)])
+    forgetting = ["--forgetting", "0.1", "--forgetting-points", "4096"]
+    argv = ["--quick", "--kernels", "geodesic", "--trend", "level", *forgetting]
+    script.main([*argv, "--out", str(tmp_path)])
     result = json.loads((tmp_path / "results.json").read_text())
     assert result["config"]["kernels"] == ["geodesic"]
     assert result["config"]["trend"] == "level"
+    assert (result["config"]["forgetting"], result["config"]["forgetting_points"]) == (0.1, 4096)
     assert {row["kernel"] for row in result["rows"]} == {"geodesic"}
     assert (tmp_path / "mse_ratio.png").stat().st_size > 0

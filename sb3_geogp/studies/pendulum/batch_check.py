@@ -243,6 +243,12 @@ class CheckConfig:
     trend : {"none", "level", "constant", "linear"}
         The adaptive on-line GP's ``trend`` (:class:`~sb3_geogp.SparseOnlineGP`; the policy's
         PPO default since 0.9 is ``"level"``); the default on-line GP has none.
+    forgetting : float
+        The adaptive on-line GP's ``forgetting`` before its adaptation first chooses one (the
+        policy's PPO default since 0.14: 0.1); the default on-line GP has none.
+    forgetting_points : int or None
+        What the adaptive on-line GP's forgetting is per (``SparseOnlineGP``'s
+        ``forgetting_points``; the policy's PPO default since 0.14: 4,096 points).
     novelty_tol : float
         Relative novelty of a new basis vector: low, so that ``max_basis`` rather than the
         tolerance limits the basis (the library default, a quarter lengthscale, fills only
@@ -263,6 +269,8 @@ class CheckConfig:
     episodes_per_batch: int = 40
     adaptation: Adaptation = field(default_factory=Adaptation)
     trend: str = "none"
+    forgetting: float = 1.0
+    forgetting_points: int | None = None
     novelty_tol: float = 1e-3
     grid_n: int = 60
     mc_rollouts: int = 100
@@ -401,9 +409,9 @@ def online_gp(
 ) -> SparseOnlineGP:
     """One on-line pass over ``data`` in batches of whole episodes, with their starts.
 
-    The GP has the library's defaults but ``novelty_tol`` (and ``config.adaptation`` and
-    ``config.trend`` where ``adapt``), and knows the observation bounds (as the SB3 critic
-    does), from which it takes its starting lengthscales.
+    The GP has the library's defaults but ``novelty_tol`` (and ``config.adaptation``,
+    ``config.trend`` and ``config``'s forgetting where ``adapt``), and knows the observation
+    bounds (as the SB3 critic does), from which it takes its starting lengthscales.
     """
     high = np.array([math.pi, task.params.max_speed])
     gp = SparseOnlineGP(
@@ -414,6 +422,8 @@ def online_gp(
         input_bounds=(-high, high),
         adapt=config.adaptation if adapt else None,
         trend=config.trend if adapt else "none",
+        forgetting=config.forgetting if adapt else 1.0,
+        forgetting_points=config.forgetting_points if adapt else None,
     )
     for rows in episode_batches(data.episode_starts, config.episodes_per_batch):
         gp.update(data.states[rows], data.returns[rows], episode_starts=data.episode_starts[rows])

@@ -13,8 +13,10 @@ from sb3_geogp.studies.pendulum.batch_check import (
     CheckConfig,
     Hyper,
     batch_sparse_gp,
+    online_gp,
     run_check,
 )
+from sb3_geogp.studies.pendulum.task import Task, policy_episodes
 
 
 def _rbf(lengthscale: float, dim: int, capacity: int) -> RBFKernel:
@@ -119,3 +121,15 @@ def test_quick_check_runs_the_euclidean_laplacian_kernel() -> None:
     for row in result.rows:
         assert row["n_basis"] <= row["max_basis"]
         assert math.isfinite(row["ratio_adaptive"]) and row["mse_batch"] > 0
+
+
+def test_online_gp_starts_from_the_configured_forgetting_only_where_it_adapts() -> None:
+    """The adaptive pass gets ``config``'s starting forgetting (the 0.14 PPO default's 0.1 per
+    4,096 points), the pass without adaptation none."""
+    config = dataclasses.replace(CheckConfig.quick(), forgetting=0.1, forgetting_points=4096)
+    task = Task()
+    data = policy_episodes(task, config.n_episodes, seed=0, stride=config.stride)
+    adaptive = online_gp(task, "laplacian", data, 10, config, adapt=True)
+    plain = online_gp(task, "laplacian", data, 10, config, adapt=False)
+    assert (adaptive.forgetting, adaptive.forgetting_points) == (0.1, 4096)
+    assert (plain.forgetting, plain.forgetting_points) == (1.0, None)
