@@ -574,7 +574,12 @@ class GPActorCriticPolicy(GPCriticMixin, ActorCriticPolicy):
         badly predicted ones, since 0.11 from a snapshot of the posterior; under A2C the
         engine's ``Adaptation()``, a refit every block, which was every algorithm's before
         0.10 and is ``adapt={}``); ``adapt=False`` gives
-        0.2's critic with fixed hyperparameters (``forgetting`` then stays as given);
+        0.2's critic with fixed hyperparameters (``forgetting`` then stays as given). Where the
+        critic adapts and ``gp_kwargs`` sets neither ``forgetting`` nor ``forgetting_points``,
+        they are :func:`default_forgetting`'s (since 0.14 under PPO, TRPO and MaskablePPO 0.1
+        per 4,096 points, :data:`DEFAULT_FORGETTING`; A2C none); since 0.14 the PPO default
+        adaptation chooses the forgetting one batch ahead (``forgetting_score="lagged"``),
+        which a float32 critic replaces by the shrinking score;
         ``adapt=sb3_geogp.CHEAP_ADAPTATION`` is 0.7's cheaper preset, with the losses
         docs/results.md reports ("Cheaper adaptation, 0.7").
     **kwargs
