@@ -56,8 +56,8 @@ points it scored) with an explained variance below ``f`` refits too: the refits 
 model is wrong. ``score_points`` and ``fold_points`` make step 1 and the summary below use an
 evenly spaced subsample of a batch (:func:`thinned`). All of these are off by default;
 :data:`CHEAP_ADAPTATION` combines the cheaper ones, and since 0.10 the GP critic's policy under
-PPO uses all but ``drift_tol``, and since 0.11 the snapshot summary
-(:data:`sb3_geogp.policies.DEFAULT_ADAPTATION`).
+PPO uses all but ``drift_tol``, since 0.11 the snapshot summary and since 0.14 the lagged
+forgetting score below (:data:`sb3_geogp.policies.DEFAULT_ADAPTATION`).
 docs/benchmarks.md measures what they save and what fit they cost, docs/results.md what they
 cost in training.
 
@@ -173,9 +173,10 @@ class Adaptation:
         (:func:`lagged_forgetting_scores`): the evidence of one batch ahead. It costs a few
         ``(m, m)`` factorisations per batch, made for PPO's large batches, not A2C's small
         ones; float64 only (a float32 GP refuses it: its 10^6-point soak left ``P``
-        indefinite). An option: in its pre-registered PPO test it made the pendulums' critics
-        more accurate and changed no cell's return, at 17 % of the GP critic's time
-        (docs/results.md).
+        indefinite). In its first pre-registered PPO test (0.12, an option) it made the
+        pendulums' critics more accurate and changed no cell's return, at 17 % of the GP
+        critic's time; since 0.14 the policy's PPO default uses it, starting from forgetting
+        0.1 per 4,096 points (docs/results.md).
 
     Raises
     ------
