@@ -29,7 +29,6 @@ the paired difference from the MLP shadow with a 95 % t interval) and
 from __future__ import annotations
 
 import argparse
-import dataclasses
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -50,7 +49,6 @@ from sb3_geogp.comparison.shadow import (
     run_study,
     study_parser,
 )
-from sb3_geogp.policies import DEFAULT_ADAPTATION
 from sb3_geogp.studies.advantage_error import advantage_scores, gae, policy_returns
 from sb3_geogp.toolbox.stats import mean_ci
 
@@ -62,7 +60,6 @@ CRITICS: dict[str, dict[str, Any]] = {
     "Laplacian GP (PPO default)": {"kernel": "laplacian"},
     "Laplacian GP, 0.11-0.13's PPO default": {
         "kernel": "laplacian",
-        **dataclasses.replace(DEFAULT_ADAPTATION, forgetting_score="shrink").as_dict(),
         "gp_options": {"forgetting": 1.0},
     },
 }

@@ -51,7 +51,7 @@ import torch
 from tqdm import tqdm
 
 from sb3_geogp import CHEAP_ADAPTATION, Adaptation, SparseOnlineGP
-from sb3_geogp.policies import DEFAULT_ADAPTATION, DEFAULT_FORGETTING
+from sb3_geogp.policies import DEFAULT_ADAPTATION, DEFAULT_FORGETTING, LAGGED_ADAPTATION
 from sb3_geogp.toolbox.benchmarks import Variant, torch_threads
 from sb3_geogp.toolbox.provenance import provenance
 from sb3_geogp.toolbox.streams import Rollout, drifting_stream, pendulum_stream
@@ -63,29 +63,29 @@ CHEAP_DEFAULT = {"adapt": CHEAP_ADAPTATION, "novelty_tol": 0.1}
 LEVEL_DEFAULT = {"adapt": True, "novelty_tol": 0.1, "trend": "level"}
 #: The policy's PPO default critic of 0.10: 0.9's with its rare refits, the summary folded.
 RARE_DEFAULT = {**LEVEL_DEFAULT, "adapt": replace(DEFAULT_ADAPTATION, summary="fold")}
-#: The policy's PPO default critic of 0.11-0.13: the summary from snapshots of the posterior,
-#: forgetting scored by shrinking (the 0.14 default's adaptation in float32).
-SNAPSHOT_DEFAULT = {
-    **LEVEL_DEFAULT,
-    "adapt": replace(DEFAULT_ADAPTATION, forgetting_score="shrink"),
-}
+#: The policy's PPO default critic of 0.11-0.13: the summary from snapshots of the posterior.
+SNAPSHOT_DEFAULT = {**LEVEL_DEFAULT, "adapt": DEFAULT_ADAPTATION}
 #: The A2C default's adaptation (a refit every block) with snapshots (an option).
 SNAPSHOT_ADAPT = {"adapt": Adaptation(summary="snapshot")}
-#: The policy's PPO default critic since 0.14 (:data:`~sb3_geogp.policies.DEFAULT_ADAPTATION`,
-#: :data:`~sb3_geogp.policies.DEFAULT_FORGETTING`): forgetting in the likelihood, chosen one
-#: batch ahead, from 0.1 per 4,096 points.
-LAGGED_DEFAULT = {**LEVEL_DEFAULT, "adapt": DEFAULT_ADAPTATION, **DEFAULT_FORGETTING}
-#: The snapshot summary's variants (0.11), on both streams: 0.11-0.13's PPO default in float64
-#: and float32 (the 0.14 policy's float32 critic), and the A2C default's adaptation with
-#: snapshots; and the 0.14 PPO default, whose lagged forgetting score refuses float32.
+#: The policy's PPO default critic since 0.15: 0.13's starting from forgetting 0.1 per 4,096
+#: points (:data:`~sb3_geogp.policies.DEFAULT_FORGETTING`).
+POINTS_DEFAULT = {**SNAPSHOT_DEFAULT, **DEFAULT_FORGETTING}
+#: The policy's PPO default critic of 0.14 (:data:`~sb3_geogp.policies.LAGGED_ADAPTATION`, an
+#: option since 0.15): forgetting in the likelihood, chosen one batch ahead, from 0.1 per 4,096
+#: points.
+LAGGED_DEFAULT = {**POINTS_DEFAULT, "adapt": LAGGED_ADAPTATION}
+#: The snapshot summary's variants (0.11), on both streams: 0.11-0.13's PPO default, the 0.15
+#: default in float64 and float32, and the A2C default's adaptation with snapshots; and 0.14's
+#: default, whose lagged forgetting score refuses float32.
 SNAPSHOT_VARIANTS = (
     Variant("laplacian rare snapshot n0.1 level", "laplacian", {}, SNAPSHOT_DEFAULT),
     Variant("geo laplace interp adapt snapshot", "geodesic", {}, SNAPSHOT_ADAPT),
+    Variant("laplacian rare snapshot f0.1/4096 n0.1 level", "laplacian", {}, POINTS_DEFAULT),
     Variant(
-        "laplacian rare snapshot n0.1 level float32",
+        "laplacian rare snapshot f0.1/4096 n0.1 level float32",
         "laplacian",
         {},
-        {**SNAPSHOT_DEFAULT, "dtype": torch.float32},
+        {**POINTS_DEFAULT, "dtype": torch.float32},
     ),
     Variant("laplacian rare snapshot lagged f0.1/4096 n0.1 level", "laplacian", {}, LAGGED_DEFAULT),
 )

@@ -56,8 +56,8 @@ points it scored) with an explained variance below ``f`` refits too: the refits 
 model is wrong. ``score_points`` and ``fold_points`` make step 1 and the summary below use an
 evenly spaced subsample of a batch (:func:`thinned`). All of these are off by default;
 :data:`CHEAP_ADAPTATION` combines the cheaper ones, and since 0.10 the GP critic's policy under
-PPO uses all but ``drift_tol``, since 0.11 the snapshot summary and since 0.14 the lagged
-forgetting score below (:data:`sb3_geogp.policies.DEFAULT_ADAPTATION`).
+PPO uses all but ``drift_tol`` and since 0.11 the snapshot summary
+(:data:`sb3_geogp.policies.DEFAULT_ADAPTATION`; 0.14's used the lagged forgetting score below).
 docs/benchmarks.md measures what they save and what fit they cost, docs/results.md what they
 cost in training.
 
@@ -175,8 +175,9 @@ class Adaptation:
         ones; float64 only (a float32 GP refuses it: its 10^6-point soak left ``P``
         indefinite). In its first pre-registered PPO test (0.12, an option) it made the
         pendulums' critics more accurate and changed no cell's return, at 17 % of the GP
-        critic's time; since 0.14 the policy's PPO default uses it, starting from forgetting
-        0.1 per 4,096 points (docs/results.md).
+        critic's time; 0.14's PPO default used it, starting from forgetting 0.1 per 4,096
+        points, and 0.15's went back to the shrinking score at half the cost, after a
+        pre-registered test against it (docs/results.md).
 
     Raises
     ------

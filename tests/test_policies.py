@@ -222,10 +222,8 @@ def test_policy_kwargs_options_reach_the_gp_and_constructor_parameters() -> None
     # Saved with the policy's defaults written out (adapt), so that a later version's defaults
     # do not change a saved model.
     saved = model.policy._get_constructor_parameters()["gp_kwargs"]
-    # float32: the lagged forgetting score is refused in it, so the default scores by shrinking.
-    float32_default = dataclasses.replace(DEFAULT_ADAPTATION, forgetting_score="shrink")
-    assert saved == {"adapt": float32_default.as_dict(), "trend": "level", **gp_kwargs}
-    assert gp.adaptation == float32_default and gp.forgetting_points is None  # forgetting given
+    assert saved == {"adapt": DEFAULT_ADAPTATION.as_dict(), "trend": "level", **gp_kwargs}
+    assert gp.forgetting_points is None  # forgetting given: no default pair
 
 
 def test_default_critic_is_the_laplacian_kernel_with_a_dense_basis_except_under_a2c() -> None:
@@ -243,11 +241,11 @@ def test_default_critic_is_the_laplacian_kernel_with_a_dense_basis_except_under_
     default = built()
     assert isinstance(default.gp.kernel, LaplacianKernel) and default.gp.novelty_tol == 0.1
     # Since 0.10 PPO refits on the first block, every 16th and those it predicted badly; since
-    # 0.11 from a snapshot of the posterior; since 0.14 forgetting chosen one batch ahead,
-    # starting from 0.1 per 4,096 points.
+    # 0.11 from a snapshot of the posterior; since 0.14 its forgetting starts from 0.1 per 4,096
+    # points.
     rare = Adaptation(
         max_gap=16, settle=False, score_points=256, fold_points=256, fit_floor=0.8,
-        summary="snapshot", forgetting_score="lagged",
+        summary="snapshot",
     )  # fmt: skip
     assert default.gp.adaptation == rare and built(adapt=True).gp.adaptation == rare
     assert default.gp.trend == "level"
@@ -262,9 +260,6 @@ def test_default_critic_is_the_laplacian_kernel_with_a_dense_basis_except_under_
         1.0,
     )
     assert built(forgetting_points=100).gp.forgetting == 1.0
-    assert built(dtype="float").gp.adaptation == dataclasses.replace(
-        rare, forgetting_score="shrink"
-    )
     assert built(kernel="laplacian", novelty_tol=0.2).gp.novelty_tol == 0.2
     laplacian_engine_default = 1 - np.exp(-0.25) ** 2
     for policy in (built(A2C), built(type("MyA2C", (A2C,), {})), built(kernel="geodesic")):
@@ -342,22 +337,32 @@ def test_model_saved_by_0_10_keeps_its_folded_summary(tmp_path: Path) -> None:
     assert int(loaded.policy.gp.summary_batch) == 0  # never a snapshot
 
 
-def test_model_saved_by_0_13_keeps_its_forgetting(tmp_path: Path) -> None:
-    """0.13's PPO critic started from forgetting 1 per batch and scored it by shrinking; a model
-    saved with it and ``gp_kwargs`` that set neither loads with that forgetting and adaptation,
-    not 0.14's defaults, and goes on learning as the original does, bit for bit."""
+@pytest.mark.parametrize(
+    ("version", "options", "forgetting"),
+    [
+        ("0.13", dict(forgetting=1.0), (1.0, None)),
+        ("0.14", dict(adapt=LAGGED_ADAPTATION), (0.1, 4096)),
+    ],
+)
+def test_model_saved_by_0_13_or_0_14_keeps_its_forgetting(
+    tmp_path: Path, version: str, options: dict[str, Any], forgetting: tuple[float, int | None]
+) -> None:
+    """0.13's PPO critic started from forgetting 1 per batch, 0.14's from 0.1 per 4,096 points
+    and chose it one batch ahead; a model saved by either with ``gp_kwargs`` that set none of
+    it loads with its own forgetting and adaptation, not today's defaults, and goes on learning
+    as the original does, bit for bit."""
     env = make_vec_env("Pendulum-v1", n_envs=2, seed=0)
-    by_0_13 = dict(adapt=dataclasses.replace(DEFAULT_ADAPTATION, forgetting_score="shrink"))
-    trained = dict(gp_kwargs=dict(max_basis=16, forgetting=1.0, **by_0_13), net_arch=[16])
+    trained = dict(gp_kwargs=dict(max_basis=16, **options), net_arch=[16])
     model = PPO(GPActorCriticPolicy, env, n_steps=64, batch_size=64, seed=0, policy_kwargs=trained)
+    assert isinstance(model.policy, GPActorCriticPolicy)
     model.learn(256, callback=GPValueCallback())
     model.save(tmp_path / "model.zip")
-    as_saved = dict(gp_kwargs=dict(max_basis=16), net_arch=[16])  # what 0.13's user passed
+    as_saved = dict(gp_kwargs=dict(max_basis=16), net_arch=[16])  # what its user passed
     loaded = PPO.load(tmp_path / "model.zip", env=env, custom_objects={"policy_kwargs": as_saved})
     assert isinstance(loaded.policy, GPActorCriticPolicy)
     gp = loaded.policy.gp
-    assert (gp.forgetting, gp.forgetting_points) == (1.0, None)
-    assert gp.adaptation == by_0_13["adapt"]
+    assert (gp.forgetting, gp.forgetting_points) == forgetting, version
+    assert gp.adaptation == model.policy.gp.adaptation
     obs = flat_obs(model)
     assert th.equal(loaded.policy.predict_values(obs), model.policy.predict_values(obs))
     original = PPO.load(tmp_path / "model.zip", env=env, custom_objects={"policy_kwargs": trained})
