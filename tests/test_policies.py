@@ -370,6 +370,11 @@ def test_model_saved_by_0_13_or_0_14_keeps_its_forgetting(
         m.set_random_seed(1)
         m.learn(128, callback=GPValueCallback(), reset_num_timesteps=False)
     assert th.equal(loaded.policy.predict_values(obs), original.policy.predict_values(obs))
+    # Loaded without adaptation: no forgetting is adopted, the critic keeps 1 per batch.
+    fixed = dict(gp_kwargs=dict(max_basis=16, adapt=False), net_arch=[16])
+    unadapted = PPO.load(tmp_path / "model.zip", env=env, custom_objects={"policy_kwargs": fixed})
+    assert isinstance(unadapted.policy, GPActorCriticPolicy)
+    assert (unadapted.policy.gp.forgetting, unadapted.policy.gp.forgetting_points) == (1.0, None)
 
 
 def test_model_saved_before_0_9_without_a_trend_loads_with_its_trend_free_critic(
