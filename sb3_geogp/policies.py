@@ -320,8 +320,8 @@ class GPCriticMixin(_PolicyBase):
         # The forgetting defaults apply where the critic adapts (resolved_gp_kwargs): so does
         # the saved forgetting, which adapt=False given on load would otherwise turn into a
         # fixed factor.
-        unset = adapts and not set(_FORGETTING_OPTIONS) & set(self.gp_kwargs)
-        if isinstance(gp_state, dict) and unset:
+        forgetting_unset = adapts and not set(_FORGETTING_OPTIONS) & set(self.gp_kwargs)
+        if isinstance(gp_state, dict) and forgetting_unset:
             # States saved before 0.13 record no forgetting_points: forgetting per batch.
             forgetting = {"forgetting_points": None} | {
                 k: gp_state[k] for k in _FORGETTING_OPTIONS if k in gp_state
