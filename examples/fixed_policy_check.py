@@ -188,8 +188,12 @@ def main(argv: list[str] | None = None) -> None:
         config = replace(config, max_basis=tuple(args.max_basis))
     if args.kernels is not None:
         config = replace(config, kernels=tuple(args.kernels))
-    config = replace(config, trend=args.trend)
-    config = replace(config, forgetting=args.forgetting, forgetting_points=args.forgetting_points)
+    config = replace(
+        config,
+        trend=args.trend,
+        forgetting=args.forgetting,
+        forgetting_points=args.forgetting_points,
+    )
     settings = dict(args.adapt or {})
     if args.prior_sd is not None:
         settings["prior_sd"] = args.prior_sd

@@ -646,12 +646,6 @@ def whitened_prior(L: Tensor, K: Tensor) -> Tensor:
     return 0.5 * (S + S.T)
 
 
-def posterior_factor(P: Tensor, K: Tensor) -> tuple[Tensor, Tensor]:
-    """:func:`posterior_cholesky` ``L`` of ``P`` and :func:`whitened_prior` ``S`` of ``K``."""
-    L = posterior_cholesky(P)
-    return L, whitened_prior(L, K)
-
-
 def lagged_forgetting_scores(
     L: Tensor,
     S: Tensor,
@@ -682,7 +676,8 @@ def lagged_forgetting_scores(
     Parameters
     ----------
     L, S : Tensor, shape (m, m)
-        :func:`posterior_factor` of the current posterior.
+        :func:`posterior_cholesky` of the current posterior's ``P`` and :func:`whitened_prior`
+        of ``K``.
     alpha : Tensor, shape (m,)
     previous : (Tensor, Tensor, Tensor)
         The previous batch's rows ``K_bz : (b, m)``, standardised targets ``(b,)`` and noise

@@ -17,9 +17,9 @@ from sb3_geogp.adaptation import (
     jittered_cholesky,
     lagged_forgetting_scores,
     posterior_cholesky,
-    posterior_factor,
     sparse_posterior,
     thinned,
+    whitened_prior,
 )
 from tests.test_sparse_gp import assert_same_state, nystrom_posterior, rbf, snapshot
 
@@ -247,8 +247,10 @@ def test_lagged_scores_are_those_of_each_candidates_posterior_solved_directly() 
     gamma = 1.0 - np.sum(H * rows, axis=1)
     count = rng.integers(1, 4, size=15).astype(float)
     candidates = np.array([1.0, 0.5, 0.1])
+    L = posterior_cholesky(t(P))
     got = lagged_forgetting_scores(
-        *posterior_factor(t(P), t(Kzz)),
+        L,
+        whitened_prior(L, t(Kzz)),
         t(alpha),
         (t(rows_b), t(y_b), t(noise_b)),
         (t(rows), t(gamma), t(yn), t(count)),
