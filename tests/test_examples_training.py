@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import argparse
 import copy
 import dataclasses
 import json
@@ -372,4 +373,22 @@ def test_acrobot_stall_height_is_gymnasiums_and_a_tiny_run_writes_its_figures(
         (rows,) = runs.values()
         assert [r["timesteps"] for r in rows] == [4096]
         assert -1 <= rows[0]["corr"] <= 1 and rows[0]["goals"] <= rows[0]["ended"]
+        assert rows[0]["explained"] <= 1
     assert (tmp_path / "acrobot_stall.png").stat().st_size > 0
+
+
+def test_acrobot_stall_gp_option_replaces_the_gp_critics_and_reaches_the_critic(
+    tmp_path: Path,
+) -> None:
+    """``--gp LABEL=JSON`` runs the MLP and that GP critic only, built with those options: a
+    fixed forgetting of 0.5 is the forgetting recorded; a bad option is refused by name."""
+    script = load_script("acrobot_stall")
+    fixed = '{"adapt": false, "forgetting": 0.5}'
+    argv = ["--seeds", "0", "--timesteps", "4096", "--gp", f"fixed={fixed}", "--out", str(tmp_path)]
+    assert script.main(argv) == 0
+    results = json.loads((tmp_path / "acrobot_stall.json").read_text())
+    assert list(results) == ["MLP", "fixed"]
+    assert [r["forgetting"] for r in results["fixed"]["0"]] == [0.5]
+    assert "forgetting" not in results["MLP"]["0"][0]
+    with pytest.raises(argparse.ArgumentTypeError, match="JSON object of GP options"):
+        script.gp_critic("fixed=[0.5]")
