@@ -1,0 +1,74 @@
+"""Issue 13's table pooled over 30 seeds per cell (addendum 1 of PREREGISTRATION.md): the
+default critic (PPO: the 0.15 default, Laplacian; A2C: the geodesic default) against SB3's MLP
+critic, final return, under the published rule (difference of means, 95 % percentile
+bootstrap, family-wise at the published 42 comparisons).
+
+    python results/replication_0_15/pool30.py > results/replication_0_15/pool30.md
+
+PPO: seeds 0-9 (`results/shrink_points/s0_9`, MLP `results/compare`), 10-19
+(`results/replication_0_15/ppo_s10`, MLP `results/replication_s10/ppo`) and 150-159 (the
+pre-registered test of the 0.15 default, `results/shrink_points/s150_*`). A2C: seeds 0-9
+(`results/a2c_adaptation/default_s0_9`, MLP `results/compare`), 10-19
+(`results/replication_0_15/a2c_s10`) and 20-29 (`results/fresh_0_12/a2c_default`, MLP
+`results/replication_s10/a2c`).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from sb3_geogp.comparison.results import comparisons, load_results
+
+#: (folder, algorithm, critic) of every group of runs pooled
+SOURCES = (
+    ("results/shrink_points/s0_9", "ppo", "laplacian"),
+    ("results/compare", "ppo", "mlp"),
+    ("results/replication_0_15/ppo_s10", "ppo", "laplacian"),
+    ("results/replication_s10/ppo", "ppo", "mlp"),
+    ("results/shrink_points/s150_candidate", "ppo", "laplacian"),
+    ("results/shrink_points/s150_reference", "ppo", "mlp"),
+    ("results/a2c_adaptation/default_s0_9", "a2c", "geodesic"),
+    ("results/compare", "a2c", "mlp"),
+    ("results/replication_0_15/a2c_s10", "a2c", "geodesic"),
+    ("results/replication_0_15/a2c_s10", "a2c", "mlp"),
+    ("results/fresh_0_12/a2c_default", "a2c", "geodesic"),
+    ("results/replication_s10/a2c", "a2c", "mlp"),
+)
+PUBLISHED_FAMILY = 42
+
+
+def pooled_runs() -> list[dict[str, Any]]:
+    """The runs of :data:`SOURCES`, each seed of a cell and critic once."""
+    runs: dict[tuple[str, str, str, int], dict[str, Any]] = {}
+    for folder, algo, critic in SOURCES:
+        for r in load_results(folder):
+            s = r["spec"]
+            if (s["algo"], s["critic"]) == (algo, critic):
+                key = (s["env_id"], algo, critic, s["seed"])
+                assert key not in runs, f"seed {key} twice"
+                runs[key] = r
+    return list(runs.values())
+
+
+def main() -> None:
+    rows = [
+        c
+        for c in comparisons(pooled_runs(), family_size=PUBLISHED_FAMILY)
+        if c["metric"] == "final_return" and c["b"] == "mlp"
+    ]
+    print("| env | algo | critic − MLP, final return | seeds | verdict (95 %) | family-wise |")
+    print("|---|---|---|---|---|---|")
+    counts = {"better": 0, "no difference": 0, "worse": 0}
+    fw_counts = dict(counts)
+    for c in sorted(rows, key=lambda c: (c["algo"], c["env"])):
+        diff = f"{c['diff']:+.1f} [{c['low']:+.1f}, {c['high']:+.1f}]"
+        seeds = f"{c['n_a']} / {c['n_b']}"
+        verdicts = f"{c['verdict']} | {c['fw_verdict']}"
+        print(f"| `{c['env']}` | {c['algo']} | {diff} | {seeds} | {verdicts} |")
+        counts[c["verdict"]] += 1
+        fw_counts[c["fw_verdict"]] += 1
+    print(f"\ncounts at 95 %: {counts}; family-wise: {fw_counts}")
+
+
+if __name__ == "__main__":
+    main()
