@@ -9,10 +9,10 @@ mean, no trend: since 0.9 the default moves a level) and the same GP critic with
 today, both GP critics have today's adaptation and starting forgetting, so
 ``docs/acrobot_stall``, made with 0.8, does not repeat): how many episodes of the rollout
 reached the goal (episodes shorter than the 500-step cap), and the correlation, over the
-rollout's states, between the critic's
-values (predicted before it learns from the rollout: those the advantages use) and the height
-of the acrobot's tip, ``-cos(t1) - cos(t1 + t2)``. Reaching the goal means reaching height 1;
-a critic whose values rise with height points the actor there. Also per rollout: the critic's
+rollout's states, between the critic's values (predicted before it learns from the rollout:
+those the advantages use) and the height of the acrobot's tip, ``-cos(t1) - cos(t1 + t2)``.
+Reaching the goal means reaching height 1; a critic whose values rise with height points the
+actor there. Also per rollout: the critic's
 out-of-sample explained variance on it (SB3's ``explained_variance`` of those values against
 the rollout's GAE returns, as ``examples/critic_fit.py`` measures it) and, for a GP critic, the
 forgetting its adaptation chose last (``gp/forgetting``).
