@@ -12,10 +12,10 @@ reached the goal (episodes shorter than the 500-step cap), and the correlation, 
 rollout's states, between the critic's values (predicted before it learns from the rollout:
 those the advantages use) and the height of the acrobot's tip, ``-cos(t1) - cos(t1 + t2)``.
 Reaching the goal means reaching height 1; a critic whose values rise with height points the
-actor there. Also per rollout: the critic's
-out-of-sample explained variance on it (SB3's ``explained_variance`` of those values against
-the rollout's GAE returns, as ``examples/critic_fit.py`` measures it) and, for a GP critic, the
-forgetting its adaptation chose last (``gp/forgetting``).
+actor there. Also per rollout: the critic's out-of-sample explained variance on it (SB3's
+``explained_variance`` of those values against the rollout's GAE returns, as
+``examples/critic_fit.py`` measures it) and, for a GP critic, the forgetting its adaptation
+chose last (``gp/forgetting``).
 
 ``--gp LABEL=JSON`` (repeatable) replaces the GP critics above by the Laplacian GP critic with
 the options of ``JSON`` (the policy's defaults for the rest), e.g. today's default and 0.13's:
