@@ -1384,19 +1384,26 @@ def assert_predicts_trend_plus(gp: SparseOnlineGP, plain: SparseOnlineGP, w: np.
 
 @pytest.mark.parametrize("trend", ["linear", "constant"])
 @pytest.mark.parametrize("kernel", ["laplacian", "geodesic"])
+@pytest.mark.parametrize("ppo", [False, True])
 def test_trend_is_each_batchs_fit_plus_a_gp_of_the_residuals_as_they_came(
-    kernel: str, trend: str
+    kernel: str, trend: str, ppo: bool
 ) -> None:
     """A GP with ``trend="linear"`` (``"constant"``) predicts the latest batch's ridge line
     (mean) plus exactly what a GP without trend predicts after being fed each batch's residuals
-    from its own line (mean)."""
-    gp = SparseOnlineGP(2, kernel, max_basis=30, adapt=True, trend=trend)
-    plain = SparseOnlineGP(2, kernel, max_basis=30, adapt=True)
+    from its own line (mean); also as the PPO critic summarises (a snapshot of the posterior
+    before each refit, here every batch) and forgets (from 0.1 per batch)."""
+    options: dict[str, Any] = {"adapt": True}
+    if ppo:
+        snapshot = Adaptation(interval=400, score_points=256, fold_points=256, summary="snapshot")
+        options = {"adapt": snapshot, "forgetting": 0.1, "forgetting_points": 400}
+    gp = SparseOnlineGP(2, kernel, max_basis=30, trend=trend, **options)
+    plain = SparseOnlineGP(2, kernel, max_basis=30, **options)
     for x, y in trend_batches(13):
         w = ridge_line(x, y, slopes=trend == "linear")
         gp.update(x, y)
         plain.update(x, y - np.column_stack([x, np.ones(400)]) @ w)
         np.testing.assert_allclose(gp.trend_coef.numpy(), w, rtol=1e-10, atol=1e-12)
+    assert int(gp.summary_batch) == (2 if ppo else 0)  # the snapshot path ran
     assert_predicts_trend_plus(gp, plain, w)
 
 
