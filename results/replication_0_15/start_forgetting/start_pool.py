@@ -6,7 +6,9 @@ and each against SB3's MLP critic, on Acrobot-v1 and PaperPendulum-v0.
     python results/replication_0_15/start_forgetting/start_pool.py
 
 Difference of means with a 95 % percentile-bootstrap interval (seed 0, 10,000 resamples),
-runs unpaired as in the comparison.
+runs unpaired as in the comparison. On seeds 0-9 0.13's critic is the 0.11 default's runs
+(`results/snapshot_summary/candidate_s0_9`), which 0.13's critic repeats; on 10-19 the 0.12
+default's (`results/fresh_0_12/ppo_default`), the same critic.
 """
 
 from __future__ import annotations
