@@ -14,8 +14,9 @@ those the advantages use) and the height of the acrobot's tip, ``-cos(t1) - cos(
 Reaching the goal means reaching height 1; a critic whose values rise with height points the
 actor there. Also per rollout: the critic's out-of-sample explained variance on it (SB3's
 ``explained_variance`` of those values against the rollout's GAE returns, as
-``examples/critic_fit.py`` measures it) and, for a GP critic, the forgetting its adaptation
-chose last (``gp/forgetting``).
+``examples/critic_fit.py`` measures it), the correlation of those returns themselves with the
+height (what a critic fitted to them could learn of it) and, for a GP critic, the forgetting
+its adaptation chose last (``gp/forgetting``).
 
 ``--gp LABEL=JSON`` (repeatable) replaces the GP critics above by the Laplacian GP critic with
 the options of ``JSON`` (the policy's defaults for the rest), e.g. today's default and 0.13's:
@@ -78,7 +79,8 @@ def gp_critic(text: str) -> tuple[str, tuple[str, dict[str, Any]]]:
 
 class RolloutRecorder(BaseCallback):
     """Per rollout: episodes ended, episodes that reached the goal, corr(values, height), the
-    values' explained variance of the GAE returns and a GP critic's last chosen forgetting."""
+    values' explained variance of the GAE returns, corr(returns, height) and a GP critic's last
+    chosen forgetting."""
 
     def __init__(self) -> None:
         super().__init__()
@@ -98,7 +100,9 @@ class RolloutRecorder(BaseCallback):
         height = tip_height(buffer.observations.reshape(-1, buffer.obs_shape[0]))
         corr = float(np.corrcoef(values, height)[0, 1]) if values.std() > 0 else 0.0
         row = dict(timesteps=self.num_timesteps, ended=self._ended, goals=self._goals, corr=corr)
-        row["explained"] = float(explained_variance(values, buffer.returns.ravel()))
+        returns = buffer.returns.ravel()
+        row["explained"] = float(explained_variance(values, returns))
+        row["returns_corr"] = float(np.corrcoef(returns, height)[0, 1])
         gp = getattr(self.model.policy, "gp", None)
         if gp is not None:
             row["forgetting"] = float(gp.last_stats.get("forgetting", gp.forgetting))
@@ -188,7 +192,9 @@ def main(argv: Sequence[str] | None = None) -> int:
             goals = " ".join(f"{r['goals']:2d}" for r in rows)
             corr = " ".join(f"{r['corr']:+.2f}" for r in rows)
             explained = " ".join(f"{r['explained']:+.2f}" for r in rows)
+            returns = " ".join(f"{r['returns_corr']:+.2f}" for r in rows)
             print(f"{label:28s} seed {seed}: goals {goals} | corr {corr} | explained {explained}")
+            print(f"{'':28s} {'':{len(seed) + 6}s} corr(returns, height) {returns}")
             if "forgetting" in rows[0]:
                 chosen = " ".join(f"{r['forgetting']:.2f}" for r in rows)
                 print(f"{'':28s} {'':{len(seed) + 6}s} forgetting {chosen}")

@@ -373,7 +373,7 @@ def test_acrobot_stall_height_is_gymnasiums_and_a_tiny_run_writes_its_figures(
         (rows,) = runs.values()
         assert [r["timesteps"] for r in rows] == [4096]
         assert -1 <= rows[0]["corr"] <= 1 and rows[0]["goals"] <= rows[0]["ended"]
-        assert rows[0]["explained"] <= 1
+        assert rows[0]["explained"] <= 1 and -1 <= rows[0]["returns_corr"] <= 1
     assert (tmp_path / "acrobot_stall.png").stat().st_size > 0
 
 
