@@ -26,6 +26,8 @@ def test_gymnasium_check_env_passes() -> None:
         warnings.simplefilter("ignore", UserWarning)  # [-5, 5] action box is the paper's
         check_env(PaperPendulum())
         check_env(gym.make(PAPER_PENDULUM_ID).unwrapped)
+        rendered = gym.make(PAPER_PENDULUM_ID, render_mode="rgb_array")
+        check_env(rendered.unwrapped, skip_render_check=False)
 
 
 def test_sb3_check_env_passes() -> None:
@@ -122,3 +124,42 @@ def test_wrap_angle() -> None:
     assert np.all(w >= -math.pi) and np.all(w < math.pi)
     np.testing.assert_allclose(np.cos(w), np.cos(x))
     np.testing.assert_allclose(np.sin(w), np.sin(x), atol=1e-12)
+
+
+@pytest.mark.parametrize(
+    ("theta", "tip", "empty"),
+    [  # (row, column) offsets from the pivot: the tip, and the opposite end (no rod there)
+        (0.0, (-48, 0), (48, 0)),  # upright: tip above the pivot
+        (math.pi / 2, (0, -48), (0, 48)),  # counter-clockwise a quarter turn: to the left
+        (-math.pi, (48, 0), (-48, 0)),  # hanging
+    ],
+)
+def test_render_draws_the_rod_at_its_angle(
+    theta: float, tip: tuple[int, int], empty: tuple[int, int]
+) -> None:
+    """``render_mode="rgb_array"``: a 128-pixel front view, the pivot at the centre, the bob
+    (red) 48 pixels from it in the direction of ``theta`` (0 up, counter-clockwise positive),
+    nothing on the other side; without a render mode, ``None``."""
+    env = PaperPendulum(render_mode="rgb_array")
+    env.reset(seed=0, options={"state": (theta, 0.0)})
+    img = env.render()
+    assert img is not None and img.shape == (128, 128, 3) and img.dtype == np.uint8
+    centre = 63.5
+    row, col = (round(centre + d) for d in tip)
+    assert tuple(img[row, col]) == (220, 0, 0)
+    row, col = (round(centre + d) for d in empty)
+    assert tuple(img[row, col]) == (255, 255, 255)
+    assert PaperPendulum().render() is None
+    with pytest.raises(ValueError, match="render_mode must be None or 'rgb_array'"):
+        PaperPendulum(render_mode="human")
+
+
+def test_sb3_make_vec_env_builds_it_without_a_render_warning() -> None:
+    """SB3's ``make_vec_env`` asks every environment for ``render_mode="rgb_array"``; the
+    registered PaperPendulum supports it, so gymnasium does not warn."""
+    from stable_baselines3.common.env_util import make_vec_env
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", UserWarning)
+        env = make_vec_env(PAPER_PENDULUM_ID, n_envs=1)
+    env.close()

@@ -134,6 +134,12 @@ def reward(theta: ArrayLike) -> np.ndarray:
     return np.cos(np.asarray(theta, dtype=np.float64))
 
 
+#: Side of :meth:`PaperPendulum.render`'s image, pixels.
+RENDER_SIZE = 128
+#: The rod's length in that image, pixels.
+ROD_PIXELS = 48
+
+
 class PaperPendulum(gym.Env[np.ndarray, np.ndarray]):
     """The paper's pendulum task as a gymnasium environment.
 
@@ -150,8 +156,10 @@ class PaperPendulum(gym.Env[np.ndarray, np.ndarray]):
     start_speed : float
         Reset draws ``theta ~ U[-pi, pi)`` and ``omega ~ U[-start_speed, start_speed]``
         (rad/s), i.e. uniformly over the ground-truth grid's box.
-    render_mode : None
-        Rendering is not implemented.
+    render_mode : {None, "rgb_array"}
+        ``"rgb_array"``: :meth:`render` returns the pendulum seen from the front, uint8,
+        shape (:data:`RENDER_SIZE`, :data:`RENDER_SIZE`, 3): rod black, bob red, the pivot at
+        the centre, upright ``theta = 0`` pointing up. SB3's ``make_vec_env`` asks for it.
 
     Notes
     -----
@@ -159,15 +167,17 @@ class PaperPendulum(gym.Env[np.ndarray, np.ndarray]):
     The state is kept in float64; observations are float32 copies.
     """
 
-    metadata: dict[str, Any] = {"render_modes": []}  # noqa: RUF012
+    metadata: dict[str, Any] = {"render_modes": ["rgb_array"], "render_fps": 20}  # noqa: RUF012
 
     def __init__(
         self,
         params: PendulumParams | None = None,
         start_speed: float = 8.0,
-        render_mode: None = None,
+        render_mode: str | None = None,
     ) -> None:
         super().__init__()
+        if render_mode not in (None, "rgb_array"):
+            raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
         self.params = params or PendulumParams()
         if not 0 <= start_speed <= self.params.max_speed:
             raise ValueError(f"start_speed must be in [0, max_speed], got {start_speed}")
@@ -212,3 +222,22 @@ class PaperPendulum(gym.Env[np.ndarray, np.ndarray]):
         )
         self.state = np.array([th[0], om[0]])
         return self._obs(), r, False, False, {"energy": float(energy(th[0], om[0], self.params))}
+
+    def render(self) -> np.ndarray | None:
+        """Front view as an RGB image (``render_mode="rgb_array"``), else ``None``."""
+        if self.render_mode != "rgb_array":
+            return None
+        n, theta = RENDER_SIZE, float(self.state[0])
+        centre = (n - 1) / 2
+        # Counter-clockwise from upright, image rows growing downwards.
+        tip_row = centre - ROD_PIXELS * math.cos(theta)
+        tip_col = centre - ROD_PIXELS * math.sin(theta)
+        img = np.full((n, n, 3), 255, dtype=np.uint8)
+        t = np.linspace(0.0, 1.0, 2 * ROD_PIXELS)
+        rows = np.rint(centre + t * (tip_row - centre)).astype(int)
+        cols = np.rint(centre + t * (tip_col - centre)).astype(int)
+        img[rows, cols] = 0
+        r, c = np.mgrid[0:n, 0:n]
+        img[np.hypot(r - tip_row, c - tip_col) <= n / 25] = (220, 0, 0)
+        img[np.hypot(r - centre, c - centre) <= n / 64] = (120, 120, 120)
+        return img
