@@ -320,12 +320,11 @@ class GPCriticMixin(_PolicyBase):
         unset = self.gp_kwargs.get("adapt", True) is True
         if unset and isinstance(adapt, dict) and as_adaptation(adapt) != self.gp.adaptation:
             saved["adapt"] = adapt
-        adapts = saved.get("adapt", self.gp_kwargs.get("adapt", True)) not in (False, None)
+        adapt_now = saved.get("adapt", self.gp_kwargs.get("adapt", True))
         # The forgetting defaults apply where the critic adapts (resolved_gp_kwargs): so does
         # the saved forgetting, which adapt=False given on load would otherwise turn into a
         # fixed factor.
-        forgetting_unset = adapts and not set(_FORGETTING_OPTIONS) & set(self.gp_kwargs)
-        if isinstance(gp_state, dict) and forgetting_unset:
+        if isinstance(gp_state, dict) and _takes_default_forgetting(adapt_now, self.gp_kwargs):
             # States saved before 0.13 record no forgetting_points: forgetting per batch.
             forgetting = {"forgetting_points": None} | {
                 k: gp_state[k] for k in _FORGETTING_OPTIONS if k in gp_state
@@ -700,6 +699,12 @@ def default_forgetting(algorithm: type[BaseAlgorithm] | None) -> dict[str, Any]:
     return dict(found)
 
 
+def _takes_default_forgetting(adapt: Any, gp_kwargs: Mapping[str, Any]) -> bool:
+    """Whether a critic with ``adapt`` and ``gp_kwargs`` starts from the policy's forgetting
+    defaults: it adapts and ``gp_kwargs`` sets neither of :data:`_FORGETTING_OPTIONS`."""
+    return adapt not in (False, None) and not set(_FORGETTING_OPTIONS) & set(gp_kwargs)
+
+
 def default_adaptation(algorithm: type[BaseAlgorithm] | None) -> Adaptation:
     """The GP critic's adaptation where ``gp_kwargs`` leaves ``adapt`` unset or ``True``, for
     policies trained by ``algorithm`` (``None``: a policy built outside an algorithm):
@@ -741,7 +746,7 @@ def resolved_gp_kwargs(
     options = {"kernel": kernel, "trend": trend, **gp_kwargs}
     if options.get("adapt", True) is True:
         options["adapt"] = adapt.as_dict()
-    if options["adapt"] not in (False, None) and not set(_FORGETTING_OPTIONS) & set(gp_kwargs):
+    if _takes_default_forgetting(options["adapt"], gp_kwargs):
         options.update(forgetting)
     named = options["kernel"]
     extra = KERNEL_DEFAULTS.get(named, {}) if isinstance(named, str) else {}
