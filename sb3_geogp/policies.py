@@ -118,7 +118,7 @@ DEFAULT_ADAPTATIONS: dict[type[BaseAlgorithm], Adaptation] = {A2C: Adaptation()}
 #: the adaptation's candidates count per 4,096 points too, whatever the rollout's size
 #: (MountainCarContinuous's PPO rollouts are 8 points, Pendulum's 4,096). 1 per batch before.
 #: A trade-off, measured over 50 PPO seeds against 0.13's critic (``forgetting=1.0``): +4.9
-#: [+0.7, +9.3] on PaperPendulum, -49.1 [-120.7, +20.7] on Acrobot (17 runs of 50 at its
+#: [+0.7, +9.3] on PaperPendulum, -49.1 [-119.2, +23.4] on Acrobot (17 runs of 50 at its
 #: -500 cap against 10); family-wise 0.13's critic is behind SB3's MLP critic on PaperPendulum,
 #: this default on neither (docs/results.md, "The 0.15 default on seeds 10-19").
 DEFAULT_FORGETTING: dict[str, Any] = {"forgetting": 0.1, "forgetting_points": 4096}

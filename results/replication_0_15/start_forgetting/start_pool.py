@@ -5,17 +5,20 @@ and each against SB3's MLP critic, on Acrobot-v1 and PaperPendulum-v0.
 
     python results/replication_0_15/start_forgetting/start_pool.py
 
-Difference of means with a 95 % percentile-bootstrap interval (seed 0, 10,000 resamples),
-runs unpaired as in the comparison. On seeds 0-9 0.13's critic is the 0.11 default's runs
-(`results/snapshot_summary/candidate_s0_9`), which 0.13's critic repeats; on 10-19 the 0.12
-default's (`results/fresh_0_12/ppo_default`), the same critic.
+Difference of means with the comparison's percentile-bootstrap interval
+(:func:`~sb3_geogp.toolbox.stats.difference_ci`, runs unpaired), at 95 % per seed set and, for
+the pooled seeds, also at the published family-wise level (42 comparisons). On seeds 0-9
+0.13's critic is the 0.11 default's runs (`results/snapshot_summary/candidate_s0_9`), which
+0.13's critic repeats; on 10-19 the 0.12 default's (`results/fresh_0_12/ppo_default`), the
+same critic.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from sb3_geogp.comparison.results import load_results
+from sb3_geogp.comparison.results import group_runs, load_results
+from sb3_geogp.toolbox.stats import difference_ci
 
 HERE = "results/replication_0_15/start_forgetting"
 #: seeds -> (0.15 default, 0.13's critic, MLP): folders holding their PPO runs
@@ -50,27 +53,24 @@ HEADER = (
 CELLS = ("Acrobot-v1", "sb3_geogp/PaperPendulum-v0")
 #: Acrobot-v1's return at its 500-step cap: a run that never reached the goal
 ACROBOT_CAP = -500.0
+#: Per-comparison level of the published rule's family-wise verdicts (42 comparisons).
+FAMILY_WISE = 1 - 0.05 / 42
 
 
 def finals(folder: str, cell: str, critic: str) -> np.ndarray:
     """Final returns of the PPO runs of ``critic`` on ``cell`` in ``folder``, by seed."""
-    runs = [
-        r for r in load_results(folder)
-        if (r["spec"]["env_id"], r["spec"]["algo"], r["spec"]["critic"]) == (cell, "ppo", critic)
-    ]  # fmt: skip
-    return np.array([r["final_return"] for r in sorted(runs, key=lambda r: r["spec"]["seed"])])
+    runs = group_runs(load_results(folder))[(cell, "ppo", critic)]
+    return np.array([r["final_return"] for r in runs])
 
 
-def interval(a: np.ndarray, b: np.ndarray, rng: np.random.Generator) -> tuple[float, float]:
-    """95 % percentile-bootstrap interval of ``mean(a) - mean(b)``."""
-    diffs = [rng.choice(a, a.size).mean() - rng.choice(b, b.size).mean() for _ in range(10_000)]
-    low, high = np.percentile(diffs, [2.5, 97.5])
-    return float(low), float(high)
+def difference(a: np.ndarray, b: np.ndarray, level: float = 0.95) -> str:
+    """``mean(a) - mean(b) [low, high]`` at ``level``."""
+    d, low, high = (float(x) for x in difference_ci(a, b, level=level))
+    return f"{d:+.1f} [{low:+.1f}, {high:+.1f}]"
 
 
 def main() -> None:
-    rng = np.random.default_rng(0)
-    lines, stall_line = [HEADER], ""
+    lines, family_wise, stall_line = [HEADER], [], ""
     for cell in CELLS:
         sets = {
             seeds: [finals(f, cell, c) for f, c in zip(dirs, CRITICS, strict=True)]
@@ -79,10 +79,12 @@ def main() -> None:
         sets["pooled"] = [np.concatenate(v) for v in zip(*sets.values(), strict=True)]
         for seeds, (new, old, mlp) in sets.items():
             cells = [f"{x.mean():.1f}" for x in (new, old, mlp)]
-            for a, b in ((new, old), (new, mlp), (old, mlp)):
-                low, high = interval(a, b, rng)
-                cells.append(f"{a.mean() - b.mean():+.1f} [{low:+.1f}, {high:+.1f}]")
+            cells += [difference(a, b) for a, b in ((new, old), (new, mlp), (old, mlp))]
             lines.append(f"| {cell} | {seeds} ({new.size}) | " + " | ".join(cells) + " |")
+        new, old, mlp = sets["pooled"]
+        pairs = ((new, old), (new, mlp), (old, mlp))
+        cells = [difference(a, b, FAMILY_WISE) for a, b in pairs]
+        family_wise.append(f"| {cell} | " + " | ".join(cells) + " |")
         if cell == "Acrobot-v1":
             capped = [int((v <= ACROBOT_CAP).sum()) for v in sets["pooled"]]
             stalls = ", ".join(
@@ -91,7 +93,11 @@ def main() -> None:
             stall_line = (
                 f"Acrobot-v1 runs at the -500 cap, pooled: {stalls} (of {sets['pooled'][0].size})"
             )
-    print("\n".join([*lines, "", stall_line]))
+    fw_header = (
+        "Pooled, at the family-wise level:\n\n"
+        "| cell (PPO) | 0.15 − 0.13 | 0.15 − MLP | 0.13 − MLP |\n|---|---|---|---|"
+    )
+    print("\n".join([*lines, "", stall_line, "", fw_header, *family_wise]))
 
 
 if __name__ == "__main__":
