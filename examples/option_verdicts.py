@@ -14,6 +14,9 @@ returns of every run, sorted, so that stalls (e.g. Acrobot's -500 cap) are seen 
 
 ``--seeds`` reads only the runs of some seeds, e.g. a sweep of seeds 0-19 against references
 of seeds 0-9 (``--seeds 0 1 2 3 4 5 6 7 8 9``) and, in a second call, of seeds 10-19.
+``--pool`` reads folders of different seeds of the same cells as one sweep of all their seeds
+(:func:`~sb3_geogp.comparison.results.pool_sweeps`; without it a cell is taken whole from the
+last folder that has it, as a re-run replaces a sweep's cell).
 
 Writes the markdown, the rows as JSON beside it and a figure of the final-return intervals
 (``.png``).
@@ -28,7 +31,13 @@ from pathlib import Path
 from typing import Any
 
 from sb3_geogp.comparison.report import comparison_cell, count_verdicts, plot_difference_panels
-from sb3_geogp.comparison.results import METRICS, comparisons, group_runs, load_sweeps
+from sb3_geogp.comparison.results import (
+    METRICS,
+    comparisons,
+    group_runs,
+    load_sweeps,
+    pool_sweeps,
+)
 from sb3_geogp.toolbox.tables import markdown_table
 
 #: Comparisons per metric of the published sweep: the family the family-wise level corrects for.
@@ -166,9 +175,16 @@ def main(argv: Sequence[str] | None = None) -> int:
         help="only the runs of these seeds, on both sides (a sweep of more seeds than the "
         "references hold)",
     )
+    parser.add_argument(
+        "--pool",
+        action="store_true",
+        help="folders hold different seeds of the same cells: pool them (a run of a seed in "
+        "several folders taken from the last) instead of taking each cell from the last folder",
+    )
     parser.add_argument("--out", type=Path, required=True, help="markdown file to write")
     args = parser.parse_args(argv)
-    variant, reference = load_sweeps(args.variant), load_sweeps(args.reference)
+    load = pool_sweeps if args.pool else load_sweeps
+    variant, reference = load(args.variant), load(args.reference)
     if args.seeds is not None:
         variant, reference = (
             [r for r in runs if r["spec"]["seed"] in args.seeds] for runs in (variant, reference)

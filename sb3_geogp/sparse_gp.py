@@ -78,8 +78,8 @@ _UPDATE_RULES = ("novelty_tol", "forgetting", "forgetting_points", "adapt")
 #: Prior mean functions of :class:`SparseOnlineGP`.
 _PRIOR_MEANS = ("constant", "linear")
 #: Trends of :class:`SparseOnlineGP`.
-_TRENDS = ("none", "constant", "linear", "level")
-#: Ridge of the linear trend, per point, on the raw second moments of ``[x, 1]``.
+_TRENDS = ("none", "constant", "linear", "level", "sloped_level")
+#: Ridge of the trend's lines, per point, on the raw second moments of ``[x, 1]``.
 _TREND_RIDGE = 1e-3
 #: Points retained for :meth:`SparseOnlineGP.fit_hyperparameters` without adaptation.
 _DEFAULT_WINDOW = Adaptation.window
@@ -104,6 +104,29 @@ _COUNTERS = (
 def _with_ones(x: Tensor) -> Tensor:
     """``[x, 1]``: ``x : (n, d)`` with a column of ones, shape (n, d + 1)."""
     return torch.cat([x, torch.ones(x.shape[0], 1, dtype=x.dtype, device=x.device)], dim=1)
+
+
+def _error_step(A: Tensor, error: Tensor) -> Tensor:
+    """The sloped level's step for a batch's errors ``error : (n,)`` at ``A = [x, 1] : (n,
+    d + 1)``, shape (d + 1,): their ridge line where the lines fit on either half of the batch
+    predict the other half's errors better than that half's mean error does, else their mean
+    alone: a line that does not carry over between the halves of its own batch is the batch's
+    noise."""
+    first, second = slice(None, error.shape[0] // 2), slice(error.shape[0] // 2, None)
+    for fit, held in ((first, second), (second, first)):
+        line_sse = (error[held] - A[held] @ _ridge_line(A[fit], error[fit])).square().sum()
+        if line_sse >= (error[held] - error[fit].mean()).square().sum():
+            step = torch.zeros_like(A[0])
+            step[-1] = error.mean()
+            return step
+    return _ridge_line(A, error)
+
+
+def _ridge_line(A: Tensor, y: Tensor) -> Tensor:
+    """Ridge coefficients of ``y : (n,)`` on the columns of ``A : (n, p)``, shape (p,), with
+    the ridge :data:`_TREND_RIDGE` per point on the raw second moments."""
+    ridge = _TREND_RIDGE * y.shape[0] * torch.eye(A.shape[1], dtype=A.dtype, device=A.device)
+    return torch.linalg.solve(A.T @ A + ridge, A.T @ y)
 
 
 def _count(name: str, value: Any) -> int:
@@ -217,13 +240,17 @@ class SparseOnlineGP(nn.Module):
         the constant mean reverts to the targets' average and the linear one follows their
         trend, as a linear model or an MLP would (docs/method.md, section 4). ``"linear"``
         takes no ``target_mean``.
-    trend : {"none", "level", "constant", "linear"}
+    trend : {"none", "level", "sloped_level", "constant", "linear"}
         A trend ``w^T [x, 1]`` under the GP, moved as each batch arrives, before the GP is fed
         what it leaves, ``y - w^T [x, 1]``; predictions are the current trend plus the GP.
         ``"linear"``: the batch's least-squares line (ridge ``1e-3 n`` on the raw second moments
         of ``[x, 1]``); ``"constant"``: its intercept alone (the batch's mean over ``1.001``);
         ``"level"``: an intercept ``b`` moved by the batch's mean error under the model before
-        it absorbs the batch, ``b <- b + mean(y - b - mu(x))`` (the first batch leaves 0).
+        it absorbs the batch, ``b <- b + mean(y - b - mu(x))`` (the first batch leaves 0);
+        ``"sloped_level"``: the level with slopes, the whole line moved by the ridge line of the
+        batch's errors, ``w <- w + ridge(y - w^T [x, 1] - mu(x))``, where the lines fit on
+        either half of the batch predict the other half's errors better than its mean error
+        (else by the mean error alone, as the level).
         Unlike ``prior_mean="linear"``, the GP's data are never re-expressed relative to a new
         trend: each keeps the residual of its own batch. Meant for batches of thousands of
         points (a PPO rollout); the out-of-sample statistics of :attr:`last_stats` are then the
@@ -534,17 +561,20 @@ class SparseOnlineGP(nn.Module):
     def _fit_trend(self, x: Tensor, y: Tensor) -> Tensor:
         """Refit the trend to the batch ``(x, y)``; return what it leaves, ``y - trend(x)``.
         A constant trend is the line with its slopes held at 0 (its last column alone); the
-        level moves by the batch's mean error under the model before it absorbs the batch."""
-        if self.trend == "level":
+        level moves by the batch's mean error under the model before it absorbs the batch, the
+        sloped level by the ridge line of those errors."""
+        if self.trend in ("level", "sloped_level"):
             if self.n_basis > 0:
                 latent = self._latent(self._scaled(x), return_var=False)[0]
-                self.trend_coef[-1] += (y - self._in_units(x, latent)).mean()
+                error = y - self._in_units(x, latent)
+                if self.trend == "level":
+                    self.trend_coef[-1] += error.mean()
+                else:
+                    self.trend_coef += _error_step(_with_ones(x), error)
             return y - self._trend(x)
         fitted = slice(None) if self.trend == "linear" else slice(-1, None)
-        A = _with_ones(x)[:, fitted]
-        ridge = _TREND_RIDGE * y.shape[0] * torch.eye(A.shape[1], dtype=A.dtype, device=A.device)
         self.trend_coef.zero_()
-        self.trend_coef[fitted] = torch.linalg.solve(A.T @ A + ridge, A.T @ y)
+        self.trend_coef[fitted] = _ridge_line(_with_ones(x)[:, fitted], y)
         return y - self._trend(x)
 
     def _prior(self, x: Tensor) -> Tensor:

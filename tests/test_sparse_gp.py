@@ -1407,24 +1407,44 @@ def test_trend_is_each_batchs_fit_plus_a_gp_of_the_residuals_as_they_came(
     assert_predicts_trend_plus(gp, plain, w)
 
 
+@pytest.mark.parametrize("trend", ["level", "sloped_level"])
 @pytest.mark.parametrize("kernel", ["laplacian", "geodesic"])
-def test_level_moves_by_each_batchs_mean_error_before_absorbing(kernel: str) -> None:
+def test_level_moves_by_each_batchs_mean_error_before_absorbing(kernel: str, trend: str) -> None:
     """``trend="level"``: the first batch leaves the level at 0; each later one moves it by
     the batch's mean error under level + GP before the batch is absorbed, and the GP is fed
-    the batch minus the moved level. The reference: a GP without trend fed exactly that, the
-    level kept by hand from the reference's own predictions."""
-    gp = SparseOnlineGP(2, kernel, max_basis=30, adapt=True, trend="level")
+    the batch minus the moved level; ``"sloped_level"`` moves the whole line by the ridge line
+    of those errors. The reference: a GP without trend fed exactly that, the line kept by hand
+    from the reference's own predictions."""
+    gp = SparseOnlineGP(2, kernel, max_basis=30, adapt=True, trend=trend)
     plain = SparseOnlineGP(2, kernel, max_basis=30, adapt=True)
-    level = 0.0
+    w = np.zeros(3)
     for k, (x, y) in enumerate(trend_batches(15)):
+        A = np.column_stack([x, np.ones(len(x))])
         if k > 0:
-            level += float(np.mean(y - level - plain.predict(x)[0].numpy()))
+            error = y - A @ w - plain.predict(x)[0].numpy()
+            w += ridge_line(x, error) if trend == "sloped_level" else [0, 0, error.mean()]
         gp.update(x, y)
-        plain.update(x, y - level)
-        assert float(gp.trend_coef[-1]) == pytest.approx(level, abs=1e-9)
-    assert float(gp.trend_coef[:-1].abs().sum()) == 0
-    assert level > 5  # the batches' mean rose by 5 twice: the level did move
-    assert_predicts_trend_plus(gp, plain, np.array([0.0, 0.0, level]))
+        plain.update(x, y - A @ w)
+        np.testing.assert_allclose(gp.trend_coef.numpy(), w, rtol=1e-9, atol=1e-9)
+    assert w[-1] > 5  # the batches' mean rose by 5 twice: the level did move
+    assert (np.abs(w[:-1]).sum() > 0.1) == (trend == "sloped_level")
+    assert_predicts_trend_plus(gp, plain, w)
+
+
+def test_sloped_level_moves_only_the_level_where_the_error_line_does_not_generalise() -> None:
+    """Where a batch's errors are noise about a shift (no line fit on one half predicts the
+    other half), the sloped level moves by their mean alone, as the level, and its slopes stay;
+    where they are a line plus noise, it takes their ridge line."""
+    rng = np.random.default_rng(3)
+    gp = SparseOnlineGP(2, "laplacian", max_basis=30, adapt=True, trend="sloped_level")
+    x = rng.uniform(size=(400, 2))
+    gp.update(x, np.sin(6 * x[:, 1]))
+    w = gp.trend_coef.numpy().copy()
+    for error in (2.0 + 0.01 * rng.normal(size=400), 3.0 * x[:, 0] + 0.01 * rng.normal(size=400)):
+        shifted = error.std() < 0.1
+        w += [0, 0, error.mean()] if shifted else ridge_line(x, error)
+        gp.update(x, gp.predict(x)[0].numpy() + error)
+        np.testing.assert_allclose(gp.trend_coef.numpy(), w, rtol=1e-9, atol=1e-9)
 
 
 @pytest.mark.parametrize(
@@ -1439,7 +1459,7 @@ def test_bad_trend_raises(kwargs: dict[str, Any], message: str) -> None:
         SparseOnlineGP(2, "rbf", **kwargs)
 
 
-@pytest.mark.parametrize("trend", ["linear", "level"])
+@pytest.mark.parametrize("trend", ["linear", "level", "sloped_level"])
 def test_trend_state_round_trips_and_is_refused_without_trend(trend: str) -> None:
     rng = np.random.default_rng(14)
     gp = SparseOnlineGP(2, "laplacian", max_basis=20, adapt=True, trend=trend)

@@ -97,6 +97,20 @@ def load_sweeps(out_dirs: Sequence[str | Path]) -> list[dict[str, Any]]:
     return [r for runs in cells.values() for r in runs]
 
 
+def pool_sweeps(out_dirs: Sequence[str | Path]) -> list[dict[str, Any]]:
+    """The result files of sweeps of different seeds as one sweep, pooling their seeds.
+
+    Unlike :func:`load_sweeps`, cells add up: a run is keyed by (environment, algorithm,
+    critic, seed), and one found in more than one folder is taken from the last of them.
+    """
+    runs: dict[tuple[str, str, str, int], dict[str, Any]] = {}
+    for out_dir in out_dirs:
+        for r in load_results(out_dir):
+            s = r["spec"]
+            runs[(s["env_id"], s["algo"], s["critic"], s["seed"])] = r
+    return list(runs.values())
+
+
 def group_runs(results: list[dict[str, Any]]) -> dict[Key, list[dict[str, Any]]]:
     """Results by ``(env_id, algo, critic)``, each list sorted by seed."""
     groups: dict[Key, list[dict[str, Any]]] = defaultdict(list)

@@ -26,6 +26,7 @@ from sb3_geogp.comparison.results import (
     group_runs,
     load_results,
     load_sweeps,
+    pool_sweeps,
     rerun_comparisons,
     summary_rows,
     verdict,
@@ -279,6 +280,24 @@ def test_load_sweeps_takes_a_cell_whole_from_the_last_folder(tmp_path: Path) -> 
     assert [r["spec"]["seed"] for r in reverse[("E-v0", "ppo", "geodesic")]] == list(range(6))
 
 
+def test_pool_sweeps_adds_seeds_and_takes_a_repeated_run_from_the_last_folder(
+    tmp_path: Path,
+) -> None:
+    sweep = _write_sweep(tmp_path / "sweep", _results())
+    more = _write_sweep(
+        tmp_path / "more", [_result("geodesic", s, final=-s, rmse=1.0) for s in (5, 6, 7)]
+    )
+    pooled = group_runs(pool_sweeps([sweep, more]))
+    geodesic = pooled[("E-v0", "ppo", "geodesic")]
+    assert [r["spec"]["seed"] for r in geodesic] == list(range(8))
+    before = group_runs(load_results(sweep))[("E-v0", "ppo", "geodesic")]
+    assert geodesic[:5] == before[:5]
+    assert [r["final_return"] for r in geodesic[5:]] == [-5, -6, -7]
+    assert pooled[("E-v0", "ppo", "mlp")] == group_runs(load_results(sweep))[("E-v0", "ppo", "mlp")]
+    reverse = group_runs(pool_sweeps([more, sweep]))[("E-v0", "ppo", "geodesic")]
+    assert reverse[5] == before[5] and [r["spec"]["seed"] for r in reverse] == list(range(8))
+
+
 def test_rerun_verdicts_script_writes_the_before_and_after(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
@@ -419,3 +438,27 @@ def test_option_verdicts_reads_only_the_seeds_asked_for(tmp_path: Path) -> None:
     assert script.main(argv) == 0  # all twelve: the later seeds count too
     rows = {r["metric"]: r for r in json.loads(out.with_suffix(".json").read_text())}
     assert rows["final_return"][script.COLUMNS[0]]["diff"] == pytest.approx(60.0)
+
+
+def test_option_verdicts_pools_folders_of_different_seeds(tmp_path: Path) -> None:
+    """Variant and references split into folders of seeds 0-5 and 6-11, the variant 10 ahead
+    on the first and 30 on the second: ``--pool`` compares all twelve seeds (20 ahead), without
+    it each cell is the last folder's (30)."""
+    from tests.test_examples_engine import load_script
+
+    script = load_script("option_verdicts")
+    variants, references = [], []
+    for part, seeds, ahead in (("a", range(6), 10.0), ("b", range(6, 12), 30.0)):
+        reference = [_result(c, s, final=float(s % 3), rmse=20.0) for c in ("mlp", "laplacian")
+                     for s in seeds]  # fmt: skip
+        variant = [_result("laplacian", s, final=ahead + s % 3, rmse=20.0) for s in seeds]
+        variants.append(str(_write_sweep(tmp_path / f"variant_{part}", variant)))
+        references.append(str(_write_sweep(tmp_path / f"reference_{part}", reference)))
+    out = tmp_path / "option.md"
+    argv = ["--variant", *variants, "--reference", *references, "--critic", "laplacian"]
+    argv += ["--label", "x", "--out", str(out)]
+    for extra, diff, n in (([], 30.0, 6), (["--pool"], 20.0, 12)):
+        assert script.main([*argv, *extra]) == 0
+        final = {r["metric"]: r for r in json.loads(out.with_suffix(".json").read_text())}
+        assert final["final_return"][script.COLUMNS[0]]["diff"] == pytest.approx(diff)
+        assert f"| `E-v0` ppo | variant | {n} |" in out.read_text()
