@@ -30,12 +30,16 @@ difference from the MLP shadow with a 95% t interval) and ``OUT/action_gap.png``
     python examples/action_gap.py --seeds 0 1 2 3 4 5 --out docs/action_gap
     python examples/action_gap.py --actors geodesic --critics '{"RBF GP": {"kernel": "rbf"}}'
 
+``--against NAME`` takes the paired differences from the critic ``NAME`` instead of the MLP
+shadow (e.g. an option's shadow against the default's, on the same data).
+
 A finished actor and seed is kept in ``OUT/runs/`` and not run again.
 """
 
 from __future__ import annotations
 
 import argparse
+import functools
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -130,12 +134,13 @@ def late_scores(result: dict[str, Any], timesteps: int, metric: str) -> dict[str
     return {n: float(np.nanmean(np.array([r[n][metric] for r in rows], float))) for n in names}
 
 
-def table(results: dict[str, dict[int, Any]], timesteps: int) -> str:
+def table(results: dict[str, dict[int, Any]], timesteps: int, against: str = MLP) -> str:
     """Markdown: per actor and critic, late sign accuracy (mean over seeds [lowest, highest])
-    and the paired difference from the MLP shadow [95% t interval]."""
+    and the paired difference from the critic ``against`` (the MLP shadow by default) [95% t
+    interval, over the seeds where both have a score]."""
     lines = [
         f"| actor's critic | critic | sign accuracy, decisive states (last {1 - LATE:.0%}) "
-        f"| weighted by the gap | − {MLP} [95% CI] | seeds |",
+        f"| weighted by the gap | − {against} [95% CI] | seeds |",
         "|---|---|---:|---:|---|---:|",
     ]
     for actor, by_seed in results.items():
@@ -143,9 +148,9 @@ def table(results: dict[str, dict[int, Any]], timesteps: int) -> str:
         weighted = [late_scores(r, timesteps, "weighted_sign_accuracy") for r in by_seed.values()]
         for name in scores[0]:
             values = np.array([s[name] for s in scores])
-            diff = values - np.array([s[MLP] for s in scores])
+            diff = values - np.array([s[against] for s in scores])
             mean, half = (float(v) for v in mean_ci(diff, nan_policy="omit"))
-            ci = "–" if name == MLP else f"{mean:+.3f} [{mean - half:+.3f}, {mean + half:+.3f}]"
+            ci = "–" if name == against else f"{mean:+.3f} [{mean - half:+.3f}, {mean + half:+.3f}]"
             w = np.nanmean([s[name] for s in weighted])
             spread = f"{np.nanmean(values):.3f} [{np.nanmin(values):.2f}, {np.nanmax(values):.2f}]"
             lines.append(f"| {actor} | {name} | {spread} | {w:.3f} | {ci} | {len(values)} |")
@@ -189,8 +194,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--states", type=int, default=256, help="states per checkpoint")
     parser.add_argument("--rollouts", type=int, default=16, help="Monte Carlo rollouts per action")
     parser.add_argument("--horizon", type=int, default=250, help="steps per rollout")
+    parser.add_argument(
+        "--against",
+        default=MLP,
+        help=f"the critic of the paired differences (default: {MLP!r}; or a --critics name)",
+    )
     args = parser.parse_args(argv)
-    run_study(args, run, lambda results: table(results, args.timesteps), plot, "action_gap.png")
+    if args.against not in (OWN, MLP, *args.critics):
+        parser.error(f"--against {args.against!r} is none of {[OWN, MLP, *args.critics]}")
+    tabled = functools.partial(table, timesteps=args.timesteps, against=args.against)
+    run_study(args, run, tabled, plot, "action_gap.png")
     return 0
 
 

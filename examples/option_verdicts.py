@@ -16,7 +16,8 @@ returns of every run, sorted, so that stalls (e.g. Acrobot's -500 cap) are seen 
 of seeds 0-9 (``--seeds 0 1 2 3 4 5 6 7 8 9``) and, in a second call, of seeds 10-19.
 ``--pool`` reads folders of different seeds of the same cells as one sweep of all their seeds
 (:func:`~sb3_geogp.comparison.results.pool_sweeps`; without it a cell is taken whole from the
-last folder that has it, as a re-run replaces a sweep's cell).
+last folder that has it, as a re-run replaces a sweep's cell) and compares each cell on the
+seeds the variant has.
 
 Writes the markdown, the rows as JSON beside it and a figure of the final-return intervals
 (``.png``).
@@ -84,6 +85,17 @@ def verdict_rows(
         )
         for env, algo in _cells(variant)
         for metric in METRICS
+    ]
+
+
+def of_variant_seeds(
+    reference: list[dict[str, Any]], variant: list[dict[str, Any]]
+) -> list[dict[str, Any]]:
+    """The runs of ``reference`` whose cell (environment, algorithm) and seed the variant has
+    a run of: pooled folders hold more seeds of some cells on one side than on the other."""
+    seeds = {(s["env_id"], s["algo"], s["seed"]) for s in (r["spec"] for r in variant)}
+    return [
+        r for r in reference if (r["spec"]["env_id"], r["spec"]["algo"], r["spec"]["seed"]) in seeds
     ]
 
 
@@ -179,12 +191,15 @@ def main(argv: Sequence[str] | None = None) -> int:
         "--pool",
         action="store_true",
         help="folders hold different seeds of the same cells: pool them (a run of a seed in "
-        "several folders taken from the last) instead of taking each cell from the last folder",
+        "several folders taken from the last) instead of taking each cell from the last "
+        "folder, and compare each cell on the seeds the variant has",
     )
     parser.add_argument("--out", type=Path, required=True, help="markdown file to write")
     args = parser.parse_args(argv)
     load = pool_sweeps if args.pool else load_sweeps
     variant, reference = load(args.variant), load(args.reference)
+    if args.pool:
+        reference = of_variant_seeds(reference, variant)
     if args.seeds is not None:
         variant, reference = (
             [r for r in runs if r["spec"]["seed"] in args.seeds] for runs in (variant, reference)

@@ -13,6 +13,7 @@ import gymnasium as gym
 import numpy as np
 import pytest
 import torch as th
+from scipy import stats
 
 from sb3_geogp.envs.wall_maze import CORNER_LAYOUT, WallMaze
 from sb3_geogp.policies import DEFAULT_ADAPTATION
@@ -260,6 +261,33 @@ def test_action_gap_scores_every_critic_on_the_same_states(tmp_path: Path) -> No
             assert 0 <= row[name]["n_decisive"] <= 24
     assert set(results["mlp"]["0"]["rows"][0]) == set(rows[0])
     assert_study_resumes(gaps, argv, tmp_path, "geodesic", "action_gap.png")
+
+
+def test_action_gap_table_pairs_the_differences_with_the_critic_asked_for() -> None:
+    """Three seeds whose late sign accuracies are given: the paired column against ``"A"`` is
+    ``B - A`` with its t interval over the seeds where both scored (a seed without decisive
+    states, None, left out), against the MLP shadow by default; early checkpoints not read."""
+    gaps = load_script("action_gap")
+
+    def run(a: float | None, b: float, mlp: float) -> dict[str, Any]:
+        late = {"A": a, "B": b, gaps.MLP: mlp}
+        rows = [{"step": 10, **{n: {"sign_accuracy": 0.0} for n in late}}]
+        rows.append({"step": 90, **{n: {"sign_accuracy": v} for n, v in late.items()}})
+        for row in rows:
+            for score in row.values():
+                if isinstance(score, dict):
+                    score["weighted_sign_accuracy"] = score["sign_accuracy"]
+        return {"rows": rows}
+
+    results = {"mlp": {0: run(0.5, 0.7, 0.6), 1: run(0.4, 0.5, 0.6), 2: run(None, 0.9, 0.6)}}
+    diffs = np.array([0.2, 0.1])  # B - A on seeds 0 and 1
+    half = stats.t.ppf(0.975, 1) * diffs.std(ddof=1) / np.sqrt(2)
+    text = gaps.table(results, timesteps=100, against="A")
+    assert "| − A [95% CI] |" in text
+    ci = f"+0.150 [{0.15 - half:+.3f}, {0.15 + half:+.3f}]"
+    assert f"| mlp | B | 0.700 [0.50, 0.90] | 0.700 | {ci} | 3 |" in text
+    assert "| mlp | A | 0.450 [0.40, 0.50] | 0.450 | – | 3 |" in text
+    assert f"| − {gaps.MLP} [95% CI] |" in gaps.table(results, timesteps=100)
 
 
 def test_advantage_error_scores_every_critic_against_the_same_reference(tmp_path: Path) -> None:

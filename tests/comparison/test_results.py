@@ -443,7 +443,8 @@ def test_option_verdicts_reads_only_the_seeds_asked_for(tmp_path: Path) -> None:
 def test_option_verdicts_pools_folders_of_different_seeds(tmp_path: Path) -> None:
     """Variant and references split into folders of seeds 0-5 and 6-11, the variant 10 ahead
     on the first and 30 on the second: ``--pool`` compares all twelve seeds (20 ahead), without
-    it each cell is the last folder's (30)."""
+    it each cell is the last folder's (30). References of seeds the variant lacks (12-17, 100
+    further ahead) are left out with ``--pool``."""
     from tests.test_examples_engine import load_script
 
     script = load_script("option_verdicts")
@@ -454,6 +455,9 @@ def test_option_verdicts_pools_folders_of_different_seeds(tmp_path: Path) -> Non
         variant = [_result("laplacian", s, final=ahead + s % 3, rmse=20.0) for s in seeds]
         variants.append(str(_write_sweep(tmp_path / f"variant_{part}", variant)))
         references.append(str(_write_sweep(tmp_path / f"reference_{part}", reference)))
+    extra_seeds = [_result(c, s, final=100.0, rmse=20.0) for c in ("mlp", "laplacian")
+                   for s in range(12, 18)]  # fmt: skip
+    references.insert(0, str(_write_sweep(tmp_path / "reference_more", extra_seeds)))
     out = tmp_path / "option.md"
     argv = ["--variant", *variants, "--reference", *references, "--critic", "laplacian"]
     argv += ["--label", "x", "--out", str(out)]
@@ -462,3 +466,4 @@ def test_option_verdicts_pools_folders_of_different_seeds(tmp_path: Path) -> Non
         final = {r["metric"]: r for r in json.loads(out.with_suffix(".json").read_text())}
         assert final["final_return"][script.COLUMNS[0]]["diff"] == pytest.approx(diff)
         assert f"| `E-v0` ppo | variant | {n} |" in out.read_text()
+        assert f"| `E-v0` ppo | reference | {n} |" in out.read_text()
