@@ -103,13 +103,19 @@ DEFAULT_ADAPTATION = Adaptation(
 #: critic's time against 9 %). Float64 only. Without the starting forgetting (0.12-0.13) it
 #: lost MountainCarContinuous PPO family-wise on fresh seeds: its candidates were per rollout.
 LAGGED_ADAPTATION = dataclasses.replace(DEFAULT_ADAPTATION, forgetting_score="lagged")
-#: Algorithms whose GP critic has another default adaptation. A2C keeps a refit every block
-#: (the engine's :class:`~sb3_geogp.Adaptation` defaults): :data:`DEFAULT_ADAPTATION` under A2C
-#: lost no cell in a pre-registered test but saved only 11 % of the GP critic's time, its fit
-#: floor refitting most blocks (docs/results.md, "Rare refits under A2C"), and the snapshot
-#: summary saved 7 % but lost PaperPendulum at 95 % in another ("The snapshot summary under
-#: A2C").
-DEFAULT_ADAPTATIONS: dict[type[BaseAlgorithm], Adaptation] = {A2C: Adaptation()}
+#: Algorithms whose GP critic has another default adaptation. Under A2C since 0.17 a refit on
+#: the first block and every 16th, without the PPO default's fit floor (every block still
+#: chooses its forgetting): in its pre-registered test on fresh A2C seeds 30-39 its GP critic
+#: took 62 % of the time of 0.16's, which refitted every block (the engine's
+#: :class:`~sb3_geogp.Adaptation` defaults), no cell was worse than 0.16's critic at 95 % nor
+#: than SB3's MLP critic family-wise; on the training benchmark's A2C CartPole-v1 3.2x the MLP's
+#: wall clock against 4.9x (docs/results.md, "Rare refits under A2C without the fit floor").
+#: With the fit floor it saved only 11 % (session 21: the floor refits most A2C blocks), and the
+#: snapshot summary lost PaperPendulum at 95 % ("The snapshot summary under A2C"). 0.16's A2C
+#: critic: ``gp_kwargs=dict(adapt={})``.
+DEFAULT_ADAPTATIONS: dict[type[BaseAlgorithm], Adaptation] = {
+    A2C: Adaptation(max_gap=16, settle=False)
+}
 #: The GP critic's forgetting before its adaptation first chooses one (``forgetting`` and
 #: ``forgetting_points`` of :class:`~sb3_geogp.SparseOnlineGP`) where ``gp_kwargs`` sets
 #: neither and adapts, unless the algorithm training the policy is in
@@ -286,9 +292,10 @@ class GPCriticMixin(_PolicyBase):
 
         A model saved without a kernel, a trend or adaptation settings in ``gp_kwargs`` has
         the defaults of its version (the geodesic kernel before 0.6, no trend before 0.9, a
-        refit every block before 0.10): where this policy's ``gp_kwargs`` do not set them (for
-        the adaptation: unset or ``True``), the critic is rebuilt with the kernel, the trend and
-        the adaptation the state was saved with before it is loaded. A state that is refused
+        refit every block before 0.10, under A2C before 0.17): where this policy's
+        ``gp_kwargs`` do not set them (for the adaptation: unset or ``True``), the critic is
+        rebuilt with the kernel, the trend and the adaptation the state was saved with before
+        it is loaded. A state that is refused
         (e.g. saved with another ``max_basis``) raises and leaves the policy as it was.
         """
         kept = (self.gp_kwargs, self._gp_options, self.value_net)
@@ -576,9 +583,10 @@ class GPActorCriticPolicy(GPCriticMixin, ActorCriticPolicy):
         (:class:`~sb3_geogp.Adaptation`). Unset or ``True``, it takes the policy's settings
         for the algorithm (:func:`default_adaptation`: since 0.10 under PPO, TRPO and
         MaskablePPO :data:`DEFAULT_ADAPTATION`, refits on the first block, every 16th and
-        badly predicted ones, since 0.11 from a snapshot of the posterior; under A2C the
-        engine's ``Adaptation()``, a refit every block, which was every algorithm's before
-        0.10 and is ``adapt={}``); ``adapt=False`` gives
+        badly predicted ones, since 0.11 from a snapshot of the posterior; under A2C since
+        0.17 refits on the first block and every 16th, before that the engine's
+        ``Adaptation()``, a refit every block, which was every algorithm's before 0.10 and is
+        ``adapt={}``); ``adapt=False`` gives
         0.2's critic with fixed hyperparameters (``forgetting`` then stays as given). Where the
         critic adapts and ``gp_kwargs`` sets neither ``forgetting`` nor ``forgetting_points``,
         they are :func:`default_forgetting`'s (since 0.14 under PPO, TRPO and MaskablePPO 0.1

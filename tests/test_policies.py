@@ -266,15 +266,16 @@ def test_default_critic_is_the_laplacian_kernel_with_a_dense_basis_except_under_
         assert isinstance(policy.gp.kernel, GeodesicKernel)
         assert policy.gp.novelty_tol == pytest.approx(laplacian_engine_default)  # its profile
     assert (built(A2C).gp.forgetting, built(A2C).gp.forgetting_points) == (1.0, None)
+    a2c_adaptation = Adaptation(max_gap=16, settle=False)  # since 0.17
     assert built(A2C)._get_constructor_parameters()["gp_kwargs"] == {
-        "adapt": Adaptation().as_dict(),
+        "adapt": a2c_adaptation.as_dict(),
         "kernel": "geodesic",
         "trend": "none",
     }
     assert built(type("MyA2C", (A2C,), {})).gp.trend == "none"
     assert built(A2C, trend="level").gp.trend == "level"
     assert built(trend="none").gp.trend == "none"
-    assert built(A2C).gp.adaptation == Adaptation() == built(A2C, adapt=True).gp.adaptation
+    assert built(A2C).gp.adaptation == a2c_adaptation == built(A2C, adapt=True).gp.adaptation
     assert built(adapt={}).gp.adaptation == Adaptation()  # the engine's: every block refits
     assert built(adapt=False).gp.adaptation is None
     assert built(A2C, kernel="laplacian").gp.novelty_tol == 0.1
@@ -315,6 +316,26 @@ def test_model_saved_before_0_10_loads_with_the_adaptation_it_was_trained_with(
     named = dict(gp_kwargs=dict(max_basis=16, adapt=CHEAP_ADAPTATION.as_dict()), net_arch=[16])
     cheap = PPO.load(tmp_path / "model.zip", env=env, custom_objects={"policy_kwargs": named})
     assert cheap.policy.gp.adaptation == CHEAP_ADAPTATION
+
+
+def test_a2c_model_saved_before_0_17_loads_with_its_every_block_refits(tmp_path: Path) -> None:
+    """Up to 0.16 the A2C critic refitted every block (``Adaptation()``), and its saved
+    ``policy_kwargs`` named no adaptation: loaded by 0.17, whose A2C default refits every 16th
+    block, the model keeps the adaptation it was trained with, and its values."""
+    env = make_vec_env("Pendulum-v1", n_envs=2, seed=0)
+    then = dict(gp_kwargs=dict(max_basis=16, adapt={}), net_arch=[16])
+    model = A2C(GPActorCriticPolicy, env, n_steps=8, seed=0, policy_kwargs=then)
+    model.learn(256, callback=GPValueCallback())
+    model.save(tmp_path / "model.zip")
+    as_saved = dict(gp_kwargs=dict(max_basis=16), net_arch=[16])
+    assert A2C(GPActorCriticPolicy, env, policy_kwargs=as_saved).policy.gp.adaptation == (
+        Adaptation(max_gap=16, settle=False)
+    )
+    loaded = A2C.load(tmp_path / "model.zip", env=env, custom_objects={"policy_kwargs": as_saved})
+    assert isinstance(loaded.policy, GPActorCriticPolicy)
+    assert loaded.policy.gp.adaptation == Adaptation()
+    obs = flat_obs(model)
+    assert th.equal(loaded.policy.predict_values(obs), model.policy.predict_values(obs))
 
 
 def test_model_saved_by_0_10_keeps_its_folded_summary(tmp_path: Path) -> None:
@@ -710,7 +731,7 @@ def test_save_load_is_exact_and_training_continues(
 
 def test_the_policy_gp_adapts_unless_told_not_to() -> None:
     assert make_model(PPO).policy.gp.adaptation == DEFAULT_ADAPTATION
-    assert make_model(A2C).policy.gp.adaptation == Adaptation()
+    assert make_model(A2C).policy.gp.adaptation == Adaptation(max_gap=16, settle=False)
     assert make_model(PPO, adapt=False).policy.gp.adaptation is None
     assert SparseOnlineGP(2).adaptation is None  # the engine's own default stays off
 
