@@ -4,17 +4,22 @@ critic, final return, under the published rule (difference of means, 95 % percen
 bootstrap, family-wise at the published 42 comparisons).
 
     python results/replication_0_15/pool30.py > results/replication_0_15/pool30.md
+    python results/replication_0_15/pool30.py --a2c 0.17 > results/a2c_rare_refits/pool30.md
 
 PPO: seeds 0-9 (`results/shrink_points/s0_9`, MLP `results/compare`), 10-19
 (`results/replication_0_15/ppo_s10`, MLP `results/replication_s10/ppo`) and 150-159 (the
 pre-registered test of the 0.15 default, `results/shrink_points/s150_*`). A2C: seeds 0-9
 (`results/a2c_adaptation/default_s0_9`, MLP `results/compare`), 10-19
 (`results/replication_0_15/a2c_s10`) and 20-29 (`results/fresh_0_12/a2c_default`, MLP
-`results/replication_s10/a2c`).
+`results/replication_s10/a2c`). ``--a2c 0.17`` (session 27) takes the A2C rows from the A2C
+default of 0.17 instead (rare refits): seeds 0-9 and 10-19 (`results/a2c_rare_refits/
+default_0_17_s0`, `..._s10`, MLP as above) and 30-39 (its pre-registered test,
+`results/a2c_rare_refits/candidate_s30`, MLP `mlp_s30`).
 """
 
 from __future__ import annotations
 
+import argparse
 from typing import Any
 
 from sb3_geogp.comparison.results import comparisons, load_results
@@ -27,20 +32,34 @@ SOURCES = (
     ("results/replication_s10/ppo", "ppo", "mlp"),
     ("results/shrink_points/s150_candidate", "ppo", "laplacian"),
     ("results/shrink_points/s150_reference", "ppo", "mlp"),
-    ("results/a2c_adaptation/default_s0_9", "a2c", "geodesic"),
-    ("results/compare", "a2c", "mlp"),
-    ("results/replication_0_15/a2c_s10", "a2c", "geodesic"),
-    ("results/replication_0_15/a2c_s10", "a2c", "mlp"),
-    ("results/fresh_0_12/a2c_default", "a2c", "geodesic"),
-    ("results/replication_s10/a2c", "a2c", "mlp"),
 )
+#: The A2C groups by the default they measure.
+A2C_SOURCES = {
+    "0.16": (
+        ("results/a2c_adaptation/default_s0_9", "a2c", "geodesic"),
+        ("results/compare", "a2c", "mlp"),
+        ("results/replication_0_15/a2c_s10", "a2c", "geodesic"),
+        ("results/replication_0_15/a2c_s10", "a2c", "mlp"),
+        ("results/fresh_0_12/a2c_default", "a2c", "geodesic"),
+        ("results/replication_s10/a2c", "a2c", "mlp"),
+    ),
+    "0.17": (
+        ("results/a2c_rare_refits/default_0_17_s0", "a2c", "geodesic"),
+        ("results/compare", "a2c", "mlp"),
+        ("results/a2c_rare_refits/default_0_17_s10", "a2c", "geodesic"),
+        ("results/replication_0_15/a2c_s10", "a2c", "mlp"),
+        ("results/a2c_rare_refits/candidate_s30", "a2c", "geodesic"),
+        ("results/a2c_rare_refits/mlp_s30", "a2c", "mlp"),
+    ),
+}
 PUBLISHED_FAMILY = 42
 
 
-def pooled_runs() -> list[dict[str, Any]]:
-    """The runs of :data:`SOURCES`, each seed of a cell and critic once."""
+def pooled_runs(a2c: str = "0.16") -> list[dict[str, Any]]:
+    """The runs of :data:`SOURCES` and of the A2C default ``a2c``'s :data:`A2C_SOURCES`, each
+    seed of a cell and critic once."""
     runs: dict[tuple[str, str, str, int], dict[str, Any]] = {}
-    for folder, algo, critic in SOURCES:
+    for folder, algo, critic in (*SOURCES, *A2C_SOURCES[a2c]):
         for r in load_results(folder):
             s = r["spec"]
             if (s["algo"], s["critic"]) == (algo, critic):
@@ -51,9 +70,12 @@ def pooled_runs() -> list[dict[str, Any]]:
 
 
 def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--a2c", choices=sorted(A2C_SOURCES), default="0.16")
+    args = parser.parse_args()
     rows = [
         c
-        for c in comparisons(pooled_runs(), family_size=PUBLISHED_FAMILY)
+        for c in comparisons(pooled_runs(args.a2c), family_size=PUBLISHED_FAMILY)
         if c["metric"] == "final_return" and c["b"] == "mlp"
     ]
     print("| env | algo | critic − MLP, final return | seeds | verdict (95 %) | family-wise |")
