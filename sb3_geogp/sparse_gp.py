@@ -111,14 +111,17 @@ def _error_step(A: Tensor, error: Tensor) -> Tensor:
     d + 1)``, shape (d + 1,): their ridge line where the lines fit on either half of the batch
     predict the other half's errors better than that half's mean error does, else their mean
     alone: a line that does not carry over between the halves of its own batch is the batch's
-    noise."""
-    first, second = slice(None, error.shape[0] // 2), slice(error.shape[0] // 2, None)
+    noise. A batch of one point has no halves: its mean error alone."""
+    level = torch.zeros_like(A[0])
+    level[-1] = error.mean()
+    half = error.shape[0] // 2
+    if half == 0:
+        return level
+    first, second = slice(None, half), slice(half, None)
     for fit, held in ((first, second), (second, first)):
         line_sse = (error[held] - A[held] @ _ridge_line(A[fit], error[fit])).square().sum()
         if line_sse >= (error[held] - error[fit].mean()).square().sum():
-            step = torch.zeros_like(A[0])
-            step[-1] = error.mean()
-            return step
+            return level
     return _ridge_line(A, error)
 
 

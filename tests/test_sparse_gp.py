@@ -1434,7 +1434,8 @@ def test_level_moves_by_each_batchs_mean_error_before_absorbing(kernel: str, tre
 def test_sloped_level_moves_only_the_level_where_the_error_line_does_not_generalise() -> None:
     """Where a batch's errors are noise about a shift (no line fit on one half predicts the
     other half), the sloped level moves by their mean alone, as the level, and its slopes stay;
-    where they are a line plus noise, it takes their ridge line."""
+    where they are a line plus noise, it takes their ridge line; a one-point batch moves the
+    level by its error."""
     rng = np.random.default_rng(3)
     gp = SparseOnlineGP(2, "laplacian", max_basis=30, adapt=True, trend="sloped_level")
     x = rng.uniform(size=(400, 2))
@@ -1445,6 +1446,9 @@ def test_sloped_level_moves_only_the_level_where_the_error_line_does_not_general
         w += [0, 0, error.mean()] if shifted else ridge_line(x, error)
         gp.update(x, gp.predict(x)[0].numpy() + error)
         np.testing.assert_allclose(gp.trend_coef.numpy(), w, rtol=1e-9, atol=1e-9)
+    # A batch of one point has no halves to check a line on: the level moves by its error.
+    gp.update(x[:1], gp.predict(x[:1])[0].numpy() + 0.5)
+    np.testing.assert_allclose(gp.trend_coef.numpy(), w + np.array([0, 0, 0.5]), atol=1e-9)
 
 
 @pytest.mark.parametrize(
