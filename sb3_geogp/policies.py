@@ -298,8 +298,8 @@ class GPCriticMixin(_PolicyBase):
         refit every block before 0.10, under A2C before 0.17): where this policy's
         ``gp_kwargs`` do not set them (for the adaptation: unset or ``True``), the critic is
         rebuilt with the kernel, the trend and the adaptation the state was saved with before
-        it is loaded. A state that is refused
-        (e.g. saved with another ``max_basis``) raises and leaves the policy as it was.
+        it is loaded. A state that is refused (e.g. saved with another ``max_basis``) raises
+        and leaves the policy as it was.
         """
         kept = (self.gp_kwargs, self._gp_options, self.value_net)
         # torch loads module by module: a state refused by the GP would leave the actor loaded.
