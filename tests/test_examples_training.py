@@ -269,15 +269,13 @@ def test_action_gap_table_pairs_the_differences_with_the_critic_asked_for() -> N
     states, None, left out), against the MLP shadow by default; early checkpoints not read."""
     gaps = load_script("action_gap")
 
+    def scored(value: float | None) -> dict[str, float | None]:
+        return {"sign_accuracy": value, "weighted_sign_accuracy": value}
+
     def run(a: float | None, b: float, mlp: float) -> dict[str, Any]:
         late = {"A": a, "B": b, gaps.MLP: mlp}
-        rows = [{"step": 10, **{n: {"sign_accuracy": 0.0} for n in late}}]
-        rows.append({"step": 90, **{n: {"sign_accuracy": v} for n, v in late.items()}})
-        for row in rows:
-            for score in row.values():
-                if isinstance(score, dict):
-                    score["weighted_sign_accuracy"] = score["sign_accuracy"]
-        return {"rows": rows}
+        early = {"step": 10, **{n: scored(0.0) for n in late}}
+        return {"rows": [early, {"step": 90, **{n: scored(v) for n, v in late.items()}}]}
 
     results = {"mlp": {0: run(0.5, 0.7, 0.6), 1: run(0.4, 0.5, 0.6), 2: run(None, 0.9, 0.6)}}
     diffs = np.array([0.2, 0.1])  # B - A on seeds 0 and 1
