@@ -74,7 +74,7 @@ _Q_GROWTH = 1e4
 
 
 #: Stored options that may differ on load (they only steer later updates).
-_UPDATE_RULES = ("novelty_tol", "forgetting", "forgetting_points", "adapt")
+_UPDATE_RULES = ("novelty_tol", "forgetting", "forgetting_points", "adapt", "optimism")
 #: Prior mean functions of :class:`SparseOnlineGP`.
 _PRIOR_MEANS = ("constant", "linear")
 #: Trends of :class:`SparseOnlineGP`.
@@ -259,6 +259,13 @@ class SparseOnlineGP(nn.Module):
         points (a PPO rollout); the out-of-sample statistics of :attr:`last_stats` are then the
         GP's, on the residuals (docs/method.md, section 4). ``"linear"`` not with
         ``prior_mean="linear"``.
+    optimism : float
+        ``beta >= 0``: the model's value (:meth:`forward`, what a policy's value head reads) is
+        the upper confidence bound ``mu(x) + beta sigma(x)`` of the latent value instead of
+        its mean, so that states the model knows little of look better than those it knows
+        (an exploration bonus through the advantages; docs/method.md, section 4).
+        :meth:`predict`, the trend and the adaptation use the mean alone. 0 (the default): the
+        mean.
     input_bounds : (low, high) of array-likes with ``input_dim`` entries each, optional
         Bounds of the inputs where known: unset lengthscales of bounded dimensions then come
         from the bounds rather than from the first batch (:mod:`sb3_geogp.defaults`).
@@ -365,6 +372,7 @@ class SparseOnlineGP(nn.Module):
         adapt: Adaptation | Mapping[str, Any] | bool | None = None,
         prior_mean: str = "constant",
         trend: str = "none",
+        optimism: float = 0.0,
     ) -> None:
         super().__init__()
         input_dim, max_basis = _count("input_dim", input_dim), _count("max_basis", max_basis)
@@ -389,12 +397,15 @@ class SparseOnlineGP(nn.Module):
             )
         if trend not in _TRENDS:
             raise ValueError(f"trend must be one of {_TRENDS}, got {trend!r}")
+        if not (optimism >= 0 and math.isfinite(optimism)):
+            raise ValueError(f"optimism must be a non-negative finite number, got {optimism}")
         if trend == "linear" and prior_mean == "linear":
             raise ValueError(
                 "trend='linear' and prior_mean='linear' are two ways of one line: choose one"
             )
         self.prior_mean = prior_mean
         self.trend = trend
+        self.optimism = float(optimism)
         if num_threads is not None:
             num_threads = _count("num_threads", num_threads)
         self.input_dim = int(input_dim)
@@ -621,6 +632,7 @@ class SparseOnlineGP(nn.Module):
             "adapt": None if self.adaptation is None else self.adaptation.as_dict(),
             "prior_mean": self.prior_mean,
             "trend": self.trend,
+            "optimism": self.optimism,
         }
 
     def get_extra_state(self) -> dict[str, Any]:
@@ -628,8 +640,9 @@ class SparseOnlineGP(nn.Module):
 
     def set_extra_state(self, state: Any) -> None:
         if isinstance(state, dict):
-            # saved before 0.8 (prior_mean, trend) and 0.13 (forgetting_points)
-            state = {"prior_mean": "constant", "trend": "none", "forgetting_points": None, **state}
+            # saved before 0.8 (prior_mean, trend), 0.13 (forgetting_points), 0.18 (optimism)
+            older = {"prior_mean": "constant", "trend": "none", "forgetting_points": None}
+            state = {**older, "optimism": 0.0, **state}
         check_same_options("SparseOnlineGP", state, self.options(), _UPDATE_RULES)
 
     def _load_from_state_dict(
@@ -677,8 +690,14 @@ class SparseOnlineGP(nn.Module):
         return gamma, (gamma + rows.kpk(basis)).clamp_min(0)
 
     def forward(self, x: Tensor) -> Tensor:
-        """Posterior mean at ``x : (n, d)``, shape (n,)."""
-        return self.predict(x, return_var=False)[0]
+        """The value at ``x : (n, d)``, shape (n,): the posterior mean, plus ``optimism``
+        posterior standard deviations of the latent value where ``optimism > 0``,
+        ``mu(x) + beta sigma(x)``."""
+        if not self.optimism:
+            return self.predict(x, return_var=False)[0]
+        mean, var = self.predict(x)
+        assert var is not None
+        return mean + self.optimism * var.sqrt()
 
     # ------------------------------------------------------------------------------------------
     # Learning

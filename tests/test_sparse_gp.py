@@ -198,6 +198,60 @@ def test_full_basis_equals_exact_gp(batch: int) -> None:
     np.testing.assert_allclose(got_var.numpy(), y_scale**2 * var, rtol=0, atol=1e-8)
 
 
+@pytest.mark.parametrize("optimism", [0.0, 1.5])
+def test_value_is_the_exact_upper_confidence_bound(optimism: float) -> None:
+    """The value a policy reads (forward) is the textbook posterior mean plus ``optimism``
+    latent standard deviations; predict, the model's mean, does not move with it."""
+    rng = np.random.default_rng(3)
+    x = separated_points(rng, 30, 0.05)
+    y = 2.0 * smooth(3 * x) + 0.1 * rng.normal(size=30)
+    ls, variance, noise, y_mean, y_scale = 0.15, 0.9, 0.02, 1.0, 2.0
+    gp = SparseOnlineGP(
+        2,
+        RBFKernel(lengthscale=ls, variance=variance),
+        max_basis=30,
+        noise_var=noise,
+        novelty_tol=0.0,
+        target_mean=y_mean,
+        target_scale=y_scale,
+        optimism=optimism,
+    )
+    feed(gp, x, y, None, 10)
+    probe = np.vstack([rng.uniform(-1, 2, size=(40, 2)), x[:5]])
+    mean, var = exact_posterior(
+        rbf(x, x, ls, variance),
+        rbf(probe, x, ls, variance),
+        variance,
+        (y - y_mean) / y_scale,
+        noise,
+    )
+    expected = y_mean + y_scale * (mean + optimism * np.sqrt(np.clip(var, 0, None)))
+    value = gp(torch.as_tensor(probe))
+    np.testing.assert_allclose(value.numpy(), expected, rtol=0, atol=1e-7)
+    np.testing.assert_allclose(gp.predict(probe)[0].numpy(), y_mean + y_scale * mean, atol=1e-8)
+
+
+@pytest.mark.parametrize("optimism", [-0.5, math.inf, math.nan])
+def test_bad_optimism_is_refused(optimism: float) -> None:
+    with pytest.raises(ValueError, match="optimism"):
+        SparseOnlineGP(2, optimism=optimism)
+
+
+def test_optimism_is_free_to_differ_on_load(pendulum) -> None:
+    """A state saved without optimism loads into a model with it: the state is the same, only
+    the value read from it changes."""
+    x, y, starts = pendulum(340, 0)
+    saved = SparseOnlineGP(3, "laplacian", max_basis=32)
+    saved.update(x[:300], y[:300], starts[:300])
+    loaded = SparseOnlineGP(3, "laplacian", max_basis=32, optimism=2.0)
+    loaded.load_state_dict(saved.state_dict())
+    probe = torch.as_tensor(x[300:340])
+    mean, var = saved.predict(probe)
+    assert var is not None
+    np.testing.assert_array_equal(loaded.predict(probe)[0].numpy(), mean.numpy())
+    np.testing.assert_allclose(loaded(probe).numpy(), (mean + 2.0 * var.sqrt()).numpy(), rtol=1e-12)
+
+
 def test_prediction_before_any_update_is_the_prior() -> None:
     gp = SparseOnlineGP(
         2, RBFKernel(lengthscale=0.3, variance=0.8), target_mean=2.0, target_scale=3.0
