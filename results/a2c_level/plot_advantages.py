@@ -37,8 +37,8 @@ def main() -> None:
         runs.update(json.loads((HERE / name).read_text()))
     envs = sorted({key.split()[0] for key in runs})
     fig, axes = plt.subplots(1, len(envs), figsize=(5.2 * len(envs), 3.8))
-    for ax, env in zip(np.atleast_1d(axes), envs):
-        for colour, trend in zip(("C0", "C1", "C2", "C3"), LABELS):
+    for ax, env in zip(np.atleast_1d(axes), envs, strict=True):
+        for colour, trend in zip(("C0", "C1", "C2", "C3"), LABELS, strict=True):
             curves = [smoothed(v) for k, v in runs.items() if k.split()[:2] == [env, trend]]
             for i, curve in enumerate(curves):
                 steps = np.linspace(0, STEPS, len(curve) + WINDOW)[WINDOW:]
