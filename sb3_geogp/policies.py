@@ -166,7 +166,9 @@ _MAX_FRAMES = 8
 
 
 class GPValueHead(nn.Module):
-    """``value_net`` of the policy: the GP's posterior mean as SB3 expects a value head.
+    """``value_net`` of the policy: the GP's value (its posterior mean, or with ``optimism``
+    the upper confidence bound, :meth:`~sb3_geogp.SparseOnlineGP.forward`) as SB3 expects a
+    value head.
 
     Parameters
     ----------
@@ -429,7 +431,8 @@ class GPCriticMixin(_PolicyBase):
         return super().get_distribution(obs, *args, **kwargs)
 
     def predict_values(self, obs: PyTorchObs) -> th.Tensor:
-        """GP posterior mean of the state values.
+        """The GP's values of the states: its posterior mean, plus ``optimism`` posterior
+        standard deviations where ``gp_kwargs`` sets it.
 
         Parameters
         ----------
@@ -438,7 +441,7 @@ class GPCriticMixin(_PolicyBase):
         Returns
         -------
         Tensor, shape (N, 1), float32, on the policy's device
-            Zeros before the GP has been fed.
+            Zeros before the GP has been fed (``optimism`` prior standard deviations with it).
         """
         return super().predict_values(obs)
 
