@@ -167,25 +167,29 @@ def assert_numerically_sound(gp: SparseOnlineGP, probe: np.ndarray) -> None:
 
 
 # -- exactness ----------------------------------------------------------------------------------
-@pytest.mark.parametrize("batch", [60, 7, 1])
-def test_full_basis_equals_exact_gp(batch: int) -> None:
-    """Every point a BV: the on-line posterior is the textbook GP posterior, in user units."""
-    rng = np.random.default_rng(0)
-    x = separated_points(rng, 60, 0.04)
-    y = 3.0 * smooth(4 * x) + 5.0 + 0.1 * rng.normal(size=60)
-    ls, variance, noise, y_mean, y_scale = 0.12, 1.3, 0.01, 4.0, 2.5
+def full_basis_gp(
+    x: np.ndarray,
+    y: np.ndarray,
+    probe: np.ndarray,
+    batch: int,
+    hyper: tuple[float, float, float, float, float],
+    **gp_kwargs: Any,
+) -> tuple[SparseOnlineGP, np.ndarray, np.ndarray]:
+    """An RBF GP with every point of ``(x, y)`` a BV, fed in batches of ``batch``, and the
+    textbook posterior's mean and latent variance at ``probe`` in user units. ``hyper`` is
+    (lengthscale, variance, noise, target mean, target scale)."""
+    ls, variance, noise, y_mean, y_scale = hyper
     gp = SparseOnlineGP(
-        2,
+        x.shape[1],
         RBFKernel(lengthscale=ls, variance=variance),
-        max_basis=60,
+        max_basis=x.shape[0],
         noise_var=noise,
         novelty_tol=0.0,
         target_mean=y_mean,
         target_scale=y_scale,
+        **gp_kwargs,
     )
     feed(gp, x, y, None, batch)
-    assert gp.n_basis == 60 and float(gp.nugget.abs().max()) == 0.0
-    probe = np.vstack([rng.uniform(size=(50, 2)), x[:10]])
     mean, var = exact_posterior(
         rbf(x, x, ls, variance),
         rbf(probe, x, ls, variance),
@@ -193,9 +197,21 @@ def test_full_basis_equals_exact_gp(batch: int) -> None:
         (y - y_mean) / y_scale,
         noise,
     )
+    return gp, y_mean + y_scale * mean, y_scale**2 * var
+
+
+@pytest.mark.parametrize("batch", [60, 7, 1])
+def test_full_basis_equals_exact_gp(batch: int) -> None:
+    """Every point a BV: the on-line posterior is the textbook GP posterior, in user units."""
+    rng = np.random.default_rng(0)
+    x = separated_points(rng, 60, 0.04)
+    y = 3.0 * smooth(4 * x) + 5.0 + 0.1 * rng.normal(size=60)
+    probe = np.vstack([rng.uniform(size=(50, 2)), x[:10]])
+    gp, mean, var = full_basis_gp(x, y, probe, batch, (0.12, 1.3, 0.01, 4.0, 2.5))
+    assert gp.n_basis == 60 and float(gp.nugget.abs().max()) == 0.0
     got_mean, got_var = gp.predict(probe)
-    np.testing.assert_allclose(got_mean.numpy(), y_mean + y_scale * mean, rtol=0, atol=1e-8)
-    np.testing.assert_allclose(got_var.numpy(), y_scale**2 * var, rtol=0, atol=1e-8)
+    np.testing.assert_allclose(got_mean.numpy(), mean, rtol=0, atol=1e-8)
+    np.testing.assert_allclose(got_var.numpy(), var, rtol=0, atol=1e-8)
 
 
 @pytest.mark.parametrize("optimism", [0.0, 1.5])
@@ -205,30 +221,12 @@ def test_value_is_the_exact_upper_confidence_bound(optimism: float) -> None:
     rng = np.random.default_rng(3)
     x = separated_points(rng, 30, 0.05)
     y = 2.0 * smooth(3 * x) + 0.1 * rng.normal(size=30)
-    ls, variance, noise, y_mean, y_scale = 0.15, 0.9, 0.02, 1.0, 2.0
-    gp = SparseOnlineGP(
-        2,
-        RBFKernel(lengthscale=ls, variance=variance),
-        max_basis=30,
-        noise_var=noise,
-        novelty_tol=0.0,
-        target_mean=y_mean,
-        target_scale=y_scale,
-        optimism=optimism,
-    )
-    feed(gp, x, y, None, 10)
     probe = np.vstack([rng.uniform(-1, 2, size=(40, 2)), x[:5]])
-    mean, var = exact_posterior(
-        rbf(x, x, ls, variance),
-        rbf(probe, x, ls, variance),
-        variance,
-        (y - y_mean) / y_scale,
-        noise,
-    )
-    expected = y_mean + y_scale * (mean + optimism * np.sqrt(np.clip(var, 0, None)))
+    gp, mean, var = full_basis_gp(x, y, probe, 10, (0.15, 0.9, 0.02, 1.0, 2.0), optimism=optimism)
+    expected = mean + optimism * np.sqrt(np.clip(var, 0, None))
     value = gp(torch.as_tensor(probe))
     np.testing.assert_allclose(value.numpy(), expected, rtol=0, atol=1e-7)
-    np.testing.assert_allclose(gp.predict(probe)[0].numpy(), y_mean + y_scale * mean, atol=1e-8)
+    np.testing.assert_allclose(gp.predict(probe)[0].numpy(), mean, atol=1e-8)
 
 
 @pytest.mark.parametrize("optimism", [-0.5, math.inf, math.nan])
