@@ -641,8 +641,13 @@ class SparseOnlineGP(nn.Module):
     def set_extra_state(self, state: Any) -> None:
         if isinstance(state, dict):
             # saved before 0.8 (prior_mean, trend), 0.13 (forgetting_points), 0.18 (optimism)
-            older = {"prior_mean": "constant", "trend": "none", "forgetting_points": None}
-            state = {**older, "optimism": 0.0, **state}
+            older = {
+                "prior_mean": "constant",
+                "trend": "none",
+                "forgetting_points": None,
+                "optimism": 0.0,
+            }
+            state = {**older, **state}
         check_same_options("SparseOnlineGP", state, self.options(), _UPDATE_RULES)
 
     def _load_from_state_dict(
