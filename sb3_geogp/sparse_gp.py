@@ -74,7 +74,14 @@ _Q_GROWTH = 1e4
 
 
 #: Stored options that may differ on load (they only steer later updates).
-_UPDATE_RULES = ("novelty_tol", "forgetting", "forgetting_points", "adapt", "optimism")
+_UPDATE_RULES = (
+    "novelty_tol",
+    "forgetting",
+    "forgetting_points",
+    "adapt",
+    "optimism",
+    "optimism_cap",
+)
 #: Prior mean functions of :class:`SparseOnlineGP`.
 _PRIOR_MEANS = ("constant", "linear")
 #: Trends of :class:`SparseOnlineGP`.
@@ -83,6 +90,8 @@ _TRENDS = ("none", "constant", "linear", "level", "sloped_level")
 _TREND_RIDGE = 1e-3
 #: Points retained for :meth:`SparseOnlineGP.fit_hyperparameters` without adaptation.
 _DEFAULT_WINDOW = Adaptation.window
+# Weight of the newest batch in the spreads that cap the optimism bonus (session 29's value).
+_SPREAD_WEIGHT = 0.1
 #: Largest state the constructor allocates (bytes); above it, it refuses with the estimate.
 _MAX_STATE_BYTES = 2**36
 #: Long scalar buffers of the GP.
@@ -130,6 +139,22 @@ def _ridge_line(A: Tensor, y: Tensor) -> Tensor:
     the ridge :data:`_TREND_RIDGE` per point on the raw second moments."""
     ridge = _TREND_RIDGE * y.shape[0] * torch.eye(A.shape[1], dtype=A.dtype, device=A.device)
     return torch.linalg.solve(A.T @ A + ridge, A.T @ y)
+
+
+def _check_cap(cap: float | None, optimism: float, adapt: Any) -> None:
+    """Refuse an ``optimism_cap`` that is not positive and finite, or that has no bonus to cap
+    or no out-of-sample errors to scale it by."""
+    if cap is None:
+        return
+    if not (cap > 0 and math.isfinite(cap)):
+        raise ValueError(f"optimism_cap must be a positive finite number or None, got {cap}")
+    if not optimism:
+        raise ValueError("optimism_cap caps the optimism bonus: set optimism > 0 with it")
+    if adapt is None or adapt is False:
+        raise ValueError(
+            "optimism_cap scales the bonus by the out-of-sample errors the adaptation measures: "
+            "pass adapt=True (or an Adaptation) with it"
+        )
 
 
 def _count(name: str, value: Any) -> int:
@@ -266,6 +291,15 @@ class SparseOnlineGP(nn.Module):
         (an exploration bonus through the advantages; docs/method.md, section 4).
         :meth:`predict`, the trend and the adaptation use the mean alone. 0 (the default): the
         mean.
+    optimism_cap : float or None
+        ``c > 0``: the bonus is scaled down, ``beta s sigma(x)`` with
+        ``s = min(1, c s_err / (beta s_sigma))``, so that its spread over the states is at
+        most ``c`` times that of the model's errors: ``s_sigma`` and ``s_err`` are the standard
+        deviations over each batch's scored points of ``sigma`` and of the out-of-sample errors
+        before the batch is absorbed, each averaged over batches with weight ``0.1`` on the
+        newest (:attr:`bonus_spreads`; ``s = 1`` until the second batch). Needs
+        ``optimism > 0`` and ``adapt``, whose out-of-sample statistics it reads. ``None``
+        (the default): no cap.
     input_bounds : (low, high) of array-likes with ``input_dim`` entries each, optional
         Bounds of the inputs where known: unset lengthscales of bounded dimensions then come
         from the bounds rather than from the first batch (:mod:`sb3_geogp.defaults`).
@@ -309,7 +343,11 @@ class SparseOnlineGP(nn.Module):
         mean squared standardised target, 1 where none was scored, see
         :class:`~sb3_geogp.Adaptation`'s ``drift_tol``),
         after each refit ``lengthscale`` (geometric mean), ``lengthscale_<i>``,
-        ``signal_var``, ``noise_var``, ``target_mean``, ``target_scale``.
+        ``signal_var``, ``noise_var``, ``target_mean``, ``target_scale``; with
+        ``optimism_cap`` ``bonus_scale`` (:meth:`bonus_scale`).
+    bonus_spreads : Tensor, shape (2,)
+        With ``optimism_cap``, the averaged spreads ``(s_sigma, s_err)`` that scale the bonus,
+        in the targets' units (zeros before the second batch).
 
     Notes
     -----
@@ -351,6 +389,7 @@ class SparseOnlineGP(nn.Module):
     novelty_floor: Tensor
     block_forgetting: Tensor
     ls_start: Tensor
+    bonus_spreads: Tensor
     window: RetainedWindow
 
     def __init__(
@@ -373,6 +412,7 @@ class SparseOnlineGP(nn.Module):
         prior_mean: str = "constant",
         trend: str = "none",
         optimism: float = 0.0,
+        optimism_cap: float | None = None,
     ) -> None:
         super().__init__()
         input_dim, max_basis = _count("input_dim", input_dim), _count("max_basis", max_basis)
@@ -399,6 +439,7 @@ class SparseOnlineGP(nn.Module):
             raise ValueError(f"trend must be one of {_TRENDS}, got {trend!r}")
         if not (optimism >= 0 and math.isfinite(optimism)):
             raise ValueError(f"optimism must be a non-negative finite number, got {optimism}")
+        _check_cap(optimism_cap, optimism, adapt)
         if trend == "linear" and prior_mean == "linear":
             raise ValueError(
                 "trend='linear' and prior_mean='linear' are two ways of one line: choose one"
@@ -406,6 +447,7 @@ class SparseOnlineGP(nn.Module):
         self.prior_mean = prior_mean
         self.trend = trend
         self.optimism = float(optimism)
+        self.optimism_cap = None if optimism_cap is None else float(optimism_cap)
         if num_threads is not None:
             num_threads = _count("num_threads", num_threads)
         self.input_dim = int(input_dim)
@@ -464,6 +506,7 @@ class SparseOnlineGP(nn.Module):
         self.register_buffer("block_moments", torch.zeros(2, **kw))
         self.register_buffer("block_errors", torch.zeros(3, **kw))
         self.register_buffer("ls_start", self.kernel.lengthscale.to(**kw).clone())
+        self.register_buffer("bonus_spreads", torch.zeros(2, **kw))
         self.window = RetainedWindow(size, self.input_dim).to(**kw)
         self.last_stats: dict[str, float] = {}
         self._cache: _PosteriorMatrices | None = None
@@ -633,6 +676,7 @@ class SparseOnlineGP(nn.Module):
             "prior_mean": self.prior_mean,
             "trend": self.trend,
             "optimism": self.optimism,
+            "optimism_cap": self.optimism_cap,
         }
 
     def get_extra_state(self) -> dict[str, Any]:
@@ -640,12 +684,14 @@ class SparseOnlineGP(nn.Module):
 
     def set_extra_state(self, state: Any) -> None:
         if isinstance(state, dict):
-            # saved before 0.8 (prior_mean, trend), 0.13 (forgetting_points), 0.18 (optimism)
+            # saved before 0.8 (prior_mean, trend), 0.13 (forgetting_points), 0.18 (optimism),
+            # 0.19 (optimism_cap)
             older = {
                 "prior_mean": "constant",
                 "trend": "none",
                 "forgetting_points": None,
                 "optimism": 0.0,
+                "optimism_cap": None,
             }
             state = {**older, **state}
         check_same_options("SparseOnlineGP", state, self.options(), _UPDATE_RULES)
@@ -670,8 +716,9 @@ class SparseOnlineGP(nn.Module):
         state_dict.setdefault(
             prefix + "last_batch_points", torch.zeros_like(self.last_batch_points)
         )
-        # Saved before the linear prior mean (0.8): a constant one.
-        for name in ("y_slope", "summary_input", "trend_coef"):
+        # Saved before the linear prior mean (0.8): a constant one; before the bonus cap (0.19):
+        # no spreads yet.
+        for name in ("y_slope", "summary_input", "trend_coef", "bonus_spreads"):
             state_dict.setdefault(prefix + name, torch.zeros_like(getattr(self, name)))
         # Check every stored option before loading anything, so a refused state leaves this
         # GP exactly as it was (the kernel's check would otherwise come after the GP's buffers).
@@ -697,12 +744,20 @@ class SparseOnlineGP(nn.Module):
     def forward(self, x: Tensor) -> Tensor:
         """The value at ``x : (n, d)``, shape (n,): the posterior mean, plus ``optimism``
         posterior standard deviations of the latent value where ``optimism > 0``,
-        ``mu(x) + beta sigma(x)``."""
+        ``mu(x) + beta sigma(x)`` (``beta s sigma(x)`` with ``optimism_cap``)."""
         if not self.optimism:
             return self.predict(x, return_var=False)[0]
         mean, var = self.predict(x)
         assert var is not None
-        return mean + self.optimism * var.sqrt()
+        return mean + self.optimism * self.bonus_scale() * var.sqrt()
+
+    def bonus_scale(self) -> float:
+        """``s`` of ``optimism_cap``: ``min(1, c s_err / (beta s_sigma))``; 1 without a cap
+        or before the spreads are known."""
+        sigma_spread, error_spread = self.bonus_spreads.tolist()
+        if self.optimism_cap is None or sigma_spread <= 0:
+            return 1.0
+        return min(1.0, self.optimism_cap * error_spread / (self.optimism * sigma_spread))
 
     # ------------------------------------------------------------------------------------------
     # Learning
@@ -1336,11 +1391,25 @@ class SparseOnlineGP(nn.Module):
         else:
             self._score_forgetting(mean, var, yn, count, n)
         self._count_block(mean, yn, count)
+        stats = {}
+        if self.optimism_cap is not None and y.shape[0] > 1:
+            errors = y - mean * self.y_scale - self._prior(x)
+            self._average_spreads(var.sqrt() * self.y_scale, errors)
+            stats["bonus_scale"] = self.bonus_scale()
         mean = mean * self.y_scale + self._prior(x)
         var = (var + self.noise_var) * self.y_scale**2
         spread = float(y.var()) if y.shape[0] > 1 else 0.0
         explained = 1.0 - float((y - mean).var()) / spread if spread > 0 else math.nan
-        return {"nlpd": nlpd(mean, var, y), "explained_variance": explained}
+        return {"nlpd": nlpd(mean, var, y), "explained_variance": explained, **stats}
+
+    def _average_spreads(self, sigma: Tensor, error: Tensor) -> None:
+        """Average into :attr:`bonus_spreads` the standard deviations of a batch's latent
+        ``sigma : (n,)`` and out-of-sample ``error : (n,)``, in the targets' units: single
+        A2C batches of a few dozen points are too noisy to scale the bonus by alone."""
+        spreads = torch.stack([sigma.std(), error.std()]).to(self.bonus_spreads)
+        if float(self.bonus_spreads[0]) > 0:
+            spreads = (1 - _SPREAD_WEIGHT) * self.bonus_spreads + _SPREAD_WEIGHT * spreads
+        self.bonus_spreads.copy_(spreads)
 
     def _score_forgetting(
         self, mean: Tensor, var: Tensor, yn: Tensor, count: Tensor, points: int

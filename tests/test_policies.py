@@ -196,22 +196,29 @@ def test_values_are_float32_column_on_policy_device(algo: type[BaseAlgorithm]) -
     assert policy.gp.alpha.device.type == "cpu"
 
 
+@pytest.mark.parametrize("cap", [None, 0.01])
 def test_optimistic_critic_gives_the_upper_confidence_bound_and_survives_save_load(
-    tmp_path: Path,
+    tmp_path: Path, cap: float | None
 ) -> None:
     """With ``optimism`` the values SB3 reads (rollout values, bootstrap values) are the GP's
-    mean plus that many standard deviations; SB3's save and load keep it."""
-    model = make_model(A2C, env_id="CartPole-v1", n_envs=2, trend="level", optimism=1.0)
+    mean plus that many standard deviations (scaled by the GP's ``bonus_scale`` with
+    ``optimism_cap``); SB3's save and load keep it."""
+    model = make_model(
+        A2C, env_id="CartPole-v1", n_envs=2, trend="level", optimism=1.0, optimism_cap=cap
+    )
     model.learn(256, callback=GPValueCallback())
     obs = flat_obs(model)
     mean, var = model.policy.gp.predict(obs.double())
     assert var is not None and float(var.min()) >= 0
-    expected = (mean + var.sqrt()).float()[:, None]
+    scale = model.policy.gp.bonus_scale()
+    assert scale == 1.0 if cap is None else 0 < scale < 1
+    expected = (mean + scale * var.sqrt()).float()[:, None]
     assert th.allclose(model.policy.predict_values(obs), expected, rtol=1e-6, atol=1e-5)
     assert not th.allclose(model.policy.predict_values(obs), mean.float()[:, None], atol=1e-3)
     model.save(tmp_path / "model.zip")
     loaded = A2C.load(tmp_path / "model.zip", env=make_vec_env("CartPole-v1", n_envs=2))
-    assert loaded.policy.gp.optimism == 1.0
+    assert loaded.policy.gp.optimism == 1.0 and loaded.policy.gp.optimism_cap == cap
+    assert th.equal(loaded.policy.gp.bonus_spreads, model.policy.gp.bonus_spreads)
     assert th.equal(loaded.policy.predict_values(obs), model.policy.predict_values(obs))
 
 

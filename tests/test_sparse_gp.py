@@ -250,6 +250,74 @@ def test_optimism_is_free_to_differ_on_load(pendulum) -> None:
     np.testing.assert_allclose(loaded(probe).numpy(), (mean + 2.0 * var.sqrt()).numpy(), rtol=1e-12)
 
 
+@pytest.mark.parametrize("cap", [0.05, 100.0])
+def test_capped_bonus_follows_the_averaged_spreads(pendulum, cap: float) -> None:
+    """With ``optimism_cap`` the value is ``mu + beta s sigma``, ``s`` computed by hand from the
+    standard deviations of ``sigma`` and of the errors of each batch under the model before it
+    (a copy of it predicting the batch), averaged over batches with weight 0.1 on the newest."""
+    x, y, starts = pendulum(480, 4)
+    beta, probe = 1.5, torch.as_tensor(x[::7])
+    gp = SparseOnlineGP(3, "laplacian", max_basis=24, adapt=True, optimism=beta, optimism_cap=cap)
+    spreads, scales = None, []
+    for i in range(0, 480, 60):
+        before = copy.deepcopy(gp)
+        gp.update(x[i : i + 60], y[i : i + 60], starts[i : i + 60])
+        if i == 0:
+            assert gp.bonus_scale() == 1.0
+            continue
+        mean, var = before.predict(x[i : i + 60])
+        assert var is not None
+        batch = np.array([var.sqrt().std().item(), (y[i : i + 60] - mean.numpy()).std(ddof=1)])
+        spreads = batch if spreads is None else 0.9 * spreads + 0.1 * batch
+        scales.append(min(1.0, cap * spreads[1] / (beta * spreads[0])))
+        np.testing.assert_allclose(gp.bonus_spreads.numpy(), spreads, rtol=1e-9)
+        mean, var = gp.predict(probe)
+        assert var is not None
+        expected = mean + beta * scales[-1] * var.sqrt()
+        np.testing.assert_allclose(gp(probe).numpy(), expected.numpy(), rtol=1e-9, atol=1e-12)
+        assert gp.last_stats["bonus_scale"] == pytest.approx(scales[-1], rel=1e-9)
+    assert max(scales) < 1.0 if cap < 1 else min(scales) == 1.0
+
+
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
+        (dict(optimism=1.0, adapt=True, optimism_cap=0.0), "positive finite"),
+        (dict(optimism=1.0, adapt=True, optimism_cap=math.nan), "positive finite"),
+        (dict(optimism=1.0, adapt=True, optimism_cap=-0.2), "positive finite"),
+        (dict(adapt=True, optimism_cap=0.2), "set optimism > 0"),
+        (dict(optimism=1.0, optimism_cap=0.2), "pass adapt=True"),
+    ],
+)
+def test_bad_optimism_cap_is_refused(kwargs: dict[str, Any], message: str) -> None:
+    with pytest.raises(ValueError, match=message):
+        SparseOnlineGP(2, **kwargs)
+
+
+def test_capped_bonus_survives_state_dict_and_failed_updates(pendulum) -> None:
+    """The averaged spreads are state: a copy loaded from ``state_dict`` reads the same values,
+    a refused batch leaves them as they were, and a state saved before the cap (no spreads)
+    loads as one with none measured yet."""
+    x, y, starts = pendulum(300, 5)
+    options: dict[str, Any] = dict(max_basis=24, adapt=True, optimism=1.0, optimism_cap=0.1)
+    gp = SparseOnlineGP(3, "laplacian", **options)
+    feed(gp, x[:200], y[:200], starts[:200], 40)
+    assert 0 < gp.bonus_scale() < 1
+    loaded = SparseOnlineGP(3, "laplacian", **options)
+    loaded.load_state_dict(gp.state_dict())
+    probe = torch.as_tensor(x[200:])
+    assert torch.equal(loaded(probe), gp(probe))
+    before = snapshot(gp)
+    with pytest.raises(ValueError, match="y contains NaN"):
+        gp.update(x[240:260], _put(y[240:260], 4, np.nan))
+    assert_same_state(before, snapshot(gp))
+    old = {k: v for k, v in gp.state_dict().items() if k != "bonus_spreads"}
+    old["_extra_state"] = {k: v for k, v in old["_extra_state"].items() if k != "optimism_cap"}
+    loaded.load_state_dict(old)
+    assert loaded.bonus_scale() == 1.0
+    assert torch.equal(loaded.predict(probe)[0], gp.predict(probe)[0])
+
+
 def test_prediction_before_any_update_is_the_prior() -> None:
     gp = SparseOnlineGP(
         2, RBFKernel(lengthscale=0.3, variance=0.8), target_mean=2.0, target_scale=3.0
