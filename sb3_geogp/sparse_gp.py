@@ -90,7 +90,7 @@ _TRENDS = ("none", "constant", "linear", "level", "sloped_level")
 _TREND_RIDGE = 1e-3
 #: Points retained for :meth:`SparseOnlineGP.fit_hyperparameters` without adaptation.
 _DEFAULT_WINDOW = Adaptation.window
-# Weight of the newest batch in the spreads that cap the optimism bonus (session 29's value).
+#: Weight of the newest batch in the spreads that cap the optimism bonus (session 29's value).
 _SPREAD_WEIGHT = 0.1
 #: Largest state the constructor allocates (bytes); above it, it refuses with the estimate.
 _MAX_STATE_BYTES = 2**36
