@@ -141,7 +141,7 @@ def _ridge_line(A: Tensor, y: Tensor) -> Tensor:
     return torch.linalg.solve(A.T @ A + ridge, A.T @ y)
 
 
-def _check_cap(cap: float | None, optimism: float, adapt: Any) -> None:
+def _check_cap(cap: float | None, optimism: float, adaptation: Adaptation | None) -> None:
     """Refuse an ``optimism_cap`` that is not positive and finite, or that has no bonus to cap
     or no out-of-sample errors to scale it by."""
     if cap is None:
@@ -150,7 +150,7 @@ def _check_cap(cap: float | None, optimism: float, adapt: Any) -> None:
         raise ValueError(f"optimism_cap must be a positive finite number or None, got {cap}")
     if not optimism:
         raise ValueError("optimism_cap caps the optimism bonus: set optimism > 0 with it")
-    if adapt is None or adapt is False:
+    if adaptation is None:
         raise ValueError(
             "optimism_cap scales the bonus by the out-of-sample errors the adaptation measures: "
             "pass adapt=True (or an Adaptation) with it"
@@ -439,7 +439,6 @@ class SparseOnlineGP(nn.Module):
             raise ValueError(f"trend must be one of {_TRENDS}, got {trend!r}")
         if not (optimism >= 0 and math.isfinite(optimism)):
             raise ValueError(f"optimism must be a non-negative finite number, got {optimism}")
-        _check_cap(optimism_cap, optimism, adapt)
         if trend == "linear" and prior_mean == "linear":
             raise ValueError(
                 "trend='linear' and prior_mean='linear' are two ways of one line: choose one"
@@ -458,6 +457,7 @@ class SparseOnlineGP(nn.Module):
         self.condition_guard = bool(condition_guard)
         self.kernel = make_kernel(kernel)
         self.adaptation = as_adaptation(adapt)
+        _check_cap(optimism_cap, optimism, self.adaptation)
         dtype = _check_dtype(dtype, self.kernel, self.adaptation)
         self.novelty_tol = (
             self.kernel.novelty_at(defaults.NOVELTY_RADIUS)
@@ -754,8 +754,10 @@ class SparseOnlineGP(nn.Module):
     def bonus_scale(self) -> float:
         """``s`` of ``optimism_cap``: ``min(1, c s_err / (beta s_sigma))``; 1 without a cap
         or before the spreads are known."""
+        if self.optimism_cap is None:
+            return 1.0
         sigma_spread, error_spread = self.bonus_spreads.tolist()
-        if self.optimism_cap is None or sigma_spread <= 0:
+        if sigma_spread <= 0:
             return 1.0
         return min(1.0, self.optimism_cap * error_spread / (self.optimism * sigma_spread))
 
