@@ -17,7 +17,7 @@ with ``callback=GPValueCallback()``, or with SB3's ``"MlpPolicy"``, and writes o
   training passes; timed with forward hooks, the measurements excluded);
 * critic accuracy at checkpoints against Monte Carlo returns (:class:`~sb3_geogp.comparison.
   evaluation.ProbeStates`);
-* provenance: git commit, engine hash and package versions
+* provenance: git commit, engine hash, package versions and the CPU kernels torch used
   (:func:`~sb3_geogp.toolbox.provenance.provenance`);
 * the distinct warnings raised during the run (``"Category: message"``), caught so that a
   sweep can show each once instead of every worker printing it into the progress bar.

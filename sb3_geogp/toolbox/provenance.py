@@ -1,4 +1,5 @@
-"""Which code made a result: the git commit, one hash of the whole engine, package versions.
+"""Which code made a result: the git commit, one hash of the whole engine, package versions,
+and the CPU kernels torch chose (a run is bit-reproducible only where they agree).
 
 The engine hash covers every source file of the GP engine together (:data:`ENGINE_FILES`), so
 a result names the engine it measured in one string; a refactor that moves code between
@@ -93,6 +94,26 @@ def package_versions(*modules: ModuleType) -> dict[str, str]:
     return versions
 
 
+def machine() -> dict[str, Any]:
+    """The facts of this machine that decide a run's last bits.
+
+    The same code and versions draw different runs from one seed on CPUs where torch
+    dispatches to other vector kernels (e.g. AVX2 against AVX512; docs/results.md, "Limits of
+    this comparison"), and its thread count can change the order of a reduction.
+
+    Returns
+    -------
+    dict
+        ``arch`` (``platform.machine()``), ``torch_cpu_capability`` (the kernels torch
+        dispatches to, e.g. ``"AVX512"``) and ``torch_threads``.
+    """
+    return {
+        "arch": platform.machine(),
+        "torch_cpu_capability": torch.backends.cpu.get_cpu_capability(),
+        "torch_threads": torch.get_num_threads(),
+    }
+
+
 def provenance(*modules: ModuleType) -> dict[str, Any]:
     """Everything above as one JSON-compatible record.
 
@@ -104,11 +125,13 @@ def provenance(*modules: ModuleType) -> dict[str, Any]:
     Returns
     -------
     dict
-        ``git_commit`` (str or None), ``engine_sha256``, ``engine_files`` and ``versions``.
+        ``git_commit`` (str or None), ``engine_sha256``, ``engine_files``, ``versions`` and
+        ``machine`` (:func:`machine`).
     """
     return {
         "git_commit": git_commit(),
         "engine_sha256": engine_sha256(),
         "engine_files": engine_files(),
         "versions": package_versions(*modules),
+        "machine": machine(),
     }

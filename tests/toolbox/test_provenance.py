@@ -1,7 +1,9 @@
-"""sb3_geogp.toolbox.provenance: what the engine hash covers."""
+"""sb3_geogp.toolbox.provenance: what the engine hash covers, and the machine it records."""
 
 from __future__ import annotations
 
+import json
+import os
 import subprocess
 import sys
 
@@ -22,3 +24,19 @@ def test_engine_hash_covers_every_module_the_engine_loads() -> None:
     loaded = {path.split("sb3_geogp/", 1)[1] for path in out.stdout.split()}
     assert "sparse_gp.py" in loaded and "adaptation.py" in loaded
     assert loaded - _NOT_NUMERICS <= set(engine_files())
+
+
+def test_the_record_names_the_cpu_kernels_torch_was_made_to_use() -> None:
+    # torch reads ATEN_CPU_CAPABILITY once at start-up, hence a fresh interpreter.
+    code = (
+        "import json\n"
+        "from sb3_geogp.toolbox.provenance import provenance\n"
+        "print(json.dumps(provenance()))\n"
+    )
+    env = {**os.environ, "ATEN_CPU_CAPABILITY": "default", "OMP_NUM_THREADS": "1"}
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True, env=env
+    )
+    record = json.loads(out.stdout)
+    assert record["machine"]["torch_cpu_capability"] == "DEFAULT"
+    assert record["machine"]["torch_threads"] == 1
