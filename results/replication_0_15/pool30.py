@@ -15,6 +15,17 @@ pre-registered test of the 0.15 default, `results/shrink_points/s150_*`). A2C: s
 default of 0.17 instead (rare refits): seeds 0-9 and 10-19 (`results/a2c_rare_refits/
 default_0_17_s0`, `..._s10`, MLP as above) and 30-39 (its pre-registered test,
 `results/a2c_rare_refits/candidate_s30`, MLP `mlp_s30`).
+
+``--add`` pools further seed sets of today's defaults (session 31,
+`results/table40/PREREGISTRATION.md`): ``fresh40`` the pre-registered fresh sets (PPO seeds
+160-169, A2C 70-79), ``a2c_s60`` session 30's A2C seeds 60-69; ``--only-added`` leaves the 30
+seeds out:
+
+    python results/replication_0_15/pool30.py --a2c 0.17 --add fresh40 > results/table40/pool40.md
+    python results/replication_0_15/pool30.py --a2c 0.17 --add fresh40 --only-added \
+        > results/table40/fresh.md
+    python results/replication_0_15/pool30.py --a2c 0.17 --add fresh40 --add a2c_s60 \
+        > results/table40/pool_all.md
 """
 
 from __future__ import annotations
@@ -52,14 +63,32 @@ A2C_SOURCES = {
         ("results/a2c_rare_refits/mlp_s30", "a2c", "mlp"),
     ),
 }
+#: Further seed sets of today's defaults, pooled with ``--add``.
+ADDED_SOURCES = {
+    "fresh40": (
+        ("results/table40/ppo_default_s160", "ppo", "laplacian"),
+        ("results/table40/ppo_mlp_s160", "ppo", "mlp"),
+        ("results/table40/a2c_default_s70", "a2c", "geodesic"),
+        ("results/table40/a2c_mlp_s70", "a2c", "mlp"),
+    ),
+    "a2c_s60": (
+        ("results/a2c_capped_bonus/default_s60", "a2c", "geodesic"),
+        ("results/a2c_capped_bonus/mlp_s60", "a2c", "mlp"),
+    ),
+}
 PUBLISHED_FAMILY = 42
 
 
-def pooled_runs(a2c: str = "0.16") -> list[dict[str, Any]]:
-    """The runs of :data:`SOURCES` and of the A2C default ``a2c``'s :data:`A2C_SOURCES`, each
-    seed of a cell and critic once."""
+def pooled_runs(
+    a2c: str = "0.16", added: tuple[str, ...] = (), only_added: bool = False
+) -> list[dict[str, Any]]:
+    """The runs of :data:`SOURCES` and of the A2C default ``a2c``'s :data:`A2C_SOURCES` (left
+    out with ``only_added``) and of the :data:`ADDED_SOURCES` named in ``added``, each seed of
+    a cell and critic once."""
+    base = () if only_added else (*SOURCES, *A2C_SOURCES[a2c])
+    sources = (*base, *(source for name in added for source in ADDED_SOURCES[name]))
     runs: dict[tuple[str, str, str, int], dict[str, Any]] = {}
-    for folder, algo, critic in (*SOURCES, *A2C_SOURCES[a2c]):
+    for folder, algo, critic in sources:
         for r in load_results(folder):
             s = r["spec"]
             if (s["algo"], s["critic"]) == (algo, critic):
@@ -72,10 +101,13 @@ def pooled_runs(a2c: str = "0.16") -> list[dict[str, Any]]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--a2c", choices=sorted(A2C_SOURCES), default="0.16")
+    parser.add_argument("--add", choices=sorted(ADDED_SOURCES), action="append", default=[])
+    parser.add_argument("--only-added", action="store_true")
     args = parser.parse_args()
+    runs = pooled_runs(args.a2c, tuple(args.add), args.only_added)
     rows = [
         c
-        for c in comparisons(pooled_runs(args.a2c), family_size=PUBLISHED_FAMILY)
+        for c in comparisons(runs, family_size=PUBLISHED_FAMILY)
         if c["metric"] == "final_return" and c["b"] == "mlp"
     ]
     print("| env | algo | critic − MLP, final return | seeds | verdict (95 %) | family-wise |")
