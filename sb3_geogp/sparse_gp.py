@@ -85,7 +85,12 @@ _UPDATE_RULES = (
 #: Prior mean functions of :class:`SparseOnlineGP`.
 _PRIOR_MEANS = ("constant", "linear")
 #: Trends of :class:`SparseOnlineGP`.
-_TRENDS = ("none", "constant", "linear", "level", "sloped_level")
+_TRENDS = ("none", "constant", "linear", "level", "sloped_level", "rising_level")
+#: Standard errors of a batch's mean error by which ``trend="rising_level"`` must exceed 0
+#: to rise: the excess is the step. Two keep noise from ratcheting it up: with bootstrapped
+#: targets each rise lifts the next targets, and a level that rose with every positive mean
+#: ended far above the returns on A2C CartPole (docs/results.md, session 28).
+RISE_THRESHOLD = 2.0
 #: Ridge of the trend's lines, per point, on the raw second moments of ``[x, 1]``.
 _TREND_RIDGE = 1e-3
 #: Points retained for :meth:`SparseOnlineGP.fit_hyperparameters` without adaptation.
@@ -132,6 +137,14 @@ def _error_step(A: Tensor, error: Tensor) -> Tensor:
         if line_sse >= (error[held] - error[fit].mean()).square().sum():
             return level
     return _ridge_line(A, error)
+
+
+def _rise(error: Tensor) -> Tensor:
+    """The rising level's step from a batch's errors ``error : (n,)``: what their mean exceeds
+    :data:`RISE_THRESHOLD` standard errors by, or 0; shape ()."""
+    n = error.numel()
+    se = error.std() / math.sqrt(n) if n > 1 else torch.zeros_like(error[0])
+    return (error.mean() - RISE_THRESHOLD * se).clamp(min=0)
 
 
 def _ridge_line(A: Tensor, y: Tensor) -> Tensor:
@@ -268,7 +281,7 @@ class SparseOnlineGP(nn.Module):
         the constant mean reverts to the targets' average and the linear one follows their
         trend, as a linear model or an MLP would (docs/method.md, section 4). ``"linear"``
         takes no ``target_mean``.
-    trend : {"none", "level", "sloped_level", "constant", "linear"}
+    trend : {"none", "level", "sloped_level", "rising_level", "constant", "linear"}
         A trend ``w^T [x, 1]`` under the GP, moved as each batch arrives, before the GP is fed
         what it leaves, ``y - w^T [x, 1]``; predictions are the current trend plus the GP.
         ``"linear"``: the batch's least-squares line (ridge ``1e-3 n`` on the raw second moments
@@ -278,7 +291,12 @@ class SparseOnlineGP(nn.Module):
         ``"sloped_level"``: the level with slopes, the whole line moved by the ridge line of the
         batch's errors, ``w <- w + ridge(y - w^T [x, 1] - mu(x))``, where the lines fit on
         either half of the batch predict the other half's errors better than its mean error
-        (else by the mean error alone, as the level).
+        (else by the mean error alone, as the level); ``"rising_level"``: a level that only
+        rises, by what the batch's mean error exceeds :data:`RISE_THRESHOLD` standard errors
+        by, ``b <- b + max(0, mean(e) - 2 std(e) / sqrt(n))``, so that a critic left below
+        its (bootstrapped) targets catches up within a batch while one above them, an
+        optimistic one, comes down only as its GP absorbs the data, and noise alone rarely
+        moves it (docs/method.md, section 4).
         Unlike ``prior_mean="linear"``, the GP's data are never re-expressed relative to a new
         trend: each keeps the residual of its own batch. Meant for batches of thousands of
         points (a PPO rollout); the out-of-sample statistics of :attr:`last_stats` are then the
@@ -620,12 +638,14 @@ class SparseOnlineGP(nn.Module):
         A constant trend is the line with its slopes held at 0 (its last column alone); the
         level moves by the batch's mean error under the model before it absorbs the batch, the
         sloped level by the ridge line of those errors."""
-        if self.trend in ("level", "sloped_level"):
+        if self.trend in ("level", "sloped_level", "rising_level"):
             if self.n_basis > 0:
                 latent = self._latent(self._scaled(x), return_var=False)[0]
                 error = y - self._in_units(x, latent)
                 if self.trend == "level":
                     self.trend_coef[-1] += error.mean()
+                elif self.trend == "rising_level":
+                    self.trend_coef[-1] += _rise(error)
                 else:
                     self.trend_coef += _error_step(_with_ones(x), error)
             return y - self._trend(x)

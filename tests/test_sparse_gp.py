@@ -1527,13 +1527,24 @@ def test_trend_is_each_batchs_fit_plus_a_gp_of_the_residuals_as_they_came(
     assert_predicts_trend_plus(gp, plain, w)
 
 
-@pytest.mark.parametrize("trend", ["level", "sloped_level"])
+def level_step(trend: str, x: np.ndarray, error: np.ndarray) -> np.ndarray:
+    """How ``trend`` moves ``w`` for a batch with these errors, computed apart from the engine."""
+    if trend == "sloped_level":
+        return ridge_line(x, error)
+    if trend == "rising_level":
+        excess = error.mean() - 2.0 * error.std(ddof=1) / np.sqrt(len(error))
+        return np.array([0, 0, max(excess, 0.0)])
+    return np.array([0, 0, error.mean()])
+
+
+@pytest.mark.parametrize("trend", ["level", "sloped_level", "rising_level"])
 @pytest.mark.parametrize("kernel", ["laplacian", "geodesic"])
 def test_level_moves_by_each_batchs_mean_error_before_absorbing(kernel: str, trend: str) -> None:
     """``trend="level"``: the first batch leaves the level at 0; each later one moves it by
     the batch's mean error under level + GP before the batch is absorbed, and the GP is fed
     the batch minus the moved level; ``"sloped_level"`` moves the whole line by the ridge line
-    of those errors. The reference: a GP without trend fed exactly that, the line kept by hand
+    of those errors, ``"rising_level"`` the level by what their mean exceeds two standard
+    errors by. The reference: a GP without trend fed exactly that, the line kept by hand
     from the reference's own predictions."""
     gp = SparseOnlineGP(2, kernel, max_basis=30, adapt=True, trend=trend)
     plain = SparseOnlineGP(2, kernel, max_basis=30, adapt=True)
@@ -1542,13 +1553,31 @@ def test_level_moves_by_each_batchs_mean_error_before_absorbing(kernel: str, tre
         A = np.column_stack([x, np.ones(len(x))])
         if k > 0:
             error = y - A @ w - plain.predict(x)[0].numpy()
-            w += ridge_line(x, error) if trend == "sloped_level" else [0, 0, error.mean()]
+            w += level_step(trend, x, error)
         gp.update(x, y)
         plain.update(x, y - A @ w)
         np.testing.assert_allclose(gp.trend_coef.numpy(), w, rtol=1e-9, atol=1e-9)
     assert w[-1] > 5  # the batches' mean rose by 5 twice: the level did move
     assert (np.abs(w[:-1]).sum() > 0.1) == (trend == "sloped_level")
     assert_predicts_trend_plus(gp, plain, w)
+
+
+def test_rising_level_rises_by_the_excess_over_two_standard_errors_and_never_falls() -> None:
+    """Errors of mean -1 (the critic above its targets), and of mean +0.5 within two standard
+    errors, leave the rising level where it is; errors of mean +3 with standard error 0.5
+    raise it by 3 - 2 * 0.5 exactly (the errors are made with that mean and spread)."""
+    rng = np.random.default_rng(4)
+    gp = SparseOnlineGP(2, "laplacian", max_basis=30, adapt=True, trend="rising_level")
+    x = rng.uniform(size=(100, 2))
+    gp.update(x, np.sin(6 * x[:, 1]))
+    noise = rng.normal(size=100)
+    noise = (noise - noise.mean()) / noise.std(ddof=1)  # mean 0, sample sd 1 exactly
+    level = float(gp.trend_coef[-1])
+    for mean, sd, rise in ((-1.0, 1.0, 0.0), (0.5, 5.0, 0.0), (3.0, 5.0, 2.0)):
+        gp.update(x, gp.predict(x)[0].numpy() + mean + sd * noise)
+        level += rise
+        assert float(gp.trend_coef[-1]) == pytest.approx(level, abs=1e-9)
+    assert not gp.trend_coef[:-1].any()
 
 
 def test_sloped_level_moves_only_the_level_where_the_error_line_does_not_generalise() -> None:
@@ -1583,7 +1612,7 @@ def test_bad_trend_raises(kwargs: dict[str, Any], message: str) -> None:
         SparseOnlineGP(2, "rbf", **kwargs)
 
 
-@pytest.mark.parametrize("trend", ["linear", "level", "sloped_level"])
+@pytest.mark.parametrize("trend", ["linear", "level", "sloped_level", "rising_level"])
 def test_trend_state_round_trips_and_is_refused_without_trend(trend: str) -> None:
     rng = np.random.default_rng(14)
     gp = SparseOnlineGP(2, "laplacian", max_basis=20, adapt=True, trend=trend)
