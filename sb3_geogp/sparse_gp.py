@@ -637,7 +637,7 @@ class SparseOnlineGP(nn.Module):
         """Refit the trend to the batch ``(x, y)``; return what it leaves, ``y - trend(x)``.
         A constant trend is the line with its slopes held at 0 (its last column alone); the
         level moves by the batch's mean error under the model before it absorbs the batch, the
-        sloped level by the ridge line of those errors."""
+        sloped level by the ridge line of those errors, the rising level by :func:`_rise`."""
         if self.trend in ("level", "sloped_level", "rising_level"):
             if self.n_basis > 0:
                 latent = self._latent(self._scaled(x), return_var=False)[0]

@@ -19,13 +19,14 @@ default_0_17_s0`, `..._s10`, MLP as above) and 30-39 (its pre-registered test,
 ``--add`` pools further seed sets of today's defaults (session 31,
 `results/table40/PREREGISTRATION.md`): ``fresh40`` the pre-registered fresh sets (PPO seeds
 160-169, A2C 70-79), ``a2c_s60`` session 30's A2C seeds 60-69; ``--only-added`` leaves the 30
-seeds out:
+seeds out. Session 31's PPO arms did not finish, so its files keep the A2C rows (a heading line
+added by hand):
 
-    python results/replication_0_15/pool30.py --a2c 0.17 --add fresh40 > results/table40/pool40.md
+    python results/replication_0_15/pool30.py --a2c 0.17 --add fresh40 \
+        | grep -e '| env' -e '|---' -e ' a2c ' > results/table40/pool40_a2c.md
     python results/replication_0_15/pool30.py --a2c 0.17 --add fresh40 --only-added \
-        > results/table40/fresh.md
-    python results/replication_0_15/pool30.py --a2c 0.17 --add fresh40 --add a2c_s60 \
-        > results/table40/pool_all.md
+        | grep -e '| env' -e '|---' -e ' a2c ' > results/table40/fresh_a2c.md
+    python results/replication_0_15/pool30.py --a2c 0.17 --add fresh40 --add a2c_s60  # 50 A2C seeds
 """
 
 from __future__ import annotations
