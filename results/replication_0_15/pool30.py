@@ -19,13 +19,13 @@ default_0_17_s0`, `..._s10`, MLP as above) and 30-39 (its pre-registered test,
 ``--add`` pools further seed sets of today's defaults (session 31,
 `results/table40/PREREGISTRATION.md`): ``fresh40`` the pre-registered fresh sets (PPO seeds
 160-169, A2C 70-79), ``a2c_s60`` session 30's A2C seeds 60-69; ``--only-added`` leaves the 30
-seeds out. Session 31's PPO arms did not finish, so its files keep the A2C rows (a heading line
-added by hand):
+seeds out; ``--plot`` also draws each cell on the 30 seeds, on the added ones alone and pooled.
+The files of `results/table40` (session 32, when its PPO arms had finished):
 
     python results/replication_0_15/pool30.py --a2c 0.17 --add fresh40 \
-        | grep -e '| env' -e '|---' -e ' a2c ' > results/table40/pool40_a2c.md
+        --plot results/table40/pool40.png > results/table40/pool40.md
     python results/replication_0_15/pool30.py --a2c 0.17 --add fresh40 --only-added \
-        | grep -e '| env' -e '|---' -e ' a2c ' > results/table40/fresh_a2c.md
+        > results/table40/fresh.md
     python results/replication_0_15/pool30.py --a2c 0.17 --add fresh40 --add a2c_s60  # 50 A2C seeds
 """
 
@@ -34,6 +34,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
+from sb3_geogp.comparison.report import plot_difference_panels
 from sb3_geogp.comparison.results import comparisons, load_results
 
 #: (folder, algorithm, critic) of every group of runs pooled
@@ -99,23 +100,46 @@ def pooled_runs(
     return list(runs.values())
 
 
+def final_return_rows(runs: list[dict[str, Any]]) -> dict[tuple[str, str], dict[str, Any]]:
+    """Default critic − MLP on final return, by (env, algo), at the published family size."""
+    return {
+        (c["env"], c["algo"]): c
+        for c in comparisons(runs, family_size=PUBLISHED_FAMILY)
+        if c["metric"] == "final_return" and c["b"] == "mlp"
+    }
+
+
+def plot(a2c: str, added: tuple[str, ...], path: str) -> None:
+    """Each cell's difference on the 30 seeds, on the added seeds alone and pooled."""
+    sets = {
+        "30 seeds": final_return_rows(pooled_runs(a2c)),
+        "added": final_return_rows(pooled_runs(a2c, added, only_added=True)),
+        "pooled": final_return_rows(pooled_runs(a2c, added)),
+    }
+    cells = sorted(sets["30 seeds"], key=lambda k: (k[1], k[0]))
+    rows = [
+        {"env": env, "algo": algo, **{name: rows.get((env, algo)) for name, rows in sets.items()}}
+        for env, algo in cells
+    ]
+    title = f"default GP critic − SB3's MLP critic, final return (+ {', '.join(added)})"
+    plot_difference_panels(rows, list(sets), path, title, n_cols=7, panel_size=(2.2, 2.2))
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--a2c", choices=sorted(A2C_SOURCES), default="0.16")
     parser.add_argument("--add", choices=sorted(ADDED_SOURCES), action="append", default=[])
     parser.add_argument("--only-added", action="store_true")
+    parser.add_argument("--plot", metavar="PNG", help="also draw the 30 seeds, added, pooled")
     args = parser.parse_args()
-    runs = pooled_runs(args.a2c, tuple(args.add), args.only_added)
-    rows = [
-        c
-        for c in comparisons(runs, family_size=PUBLISHED_FAMILY)
-        if c["metric"] == "final_return" and c["b"] == "mlp"
-    ]
+    if args.plot and not args.add:
+        parser.error("--plot draws the added seeds beside the 30: name them with --add")
+    rows = final_return_rows(pooled_runs(args.a2c, tuple(args.add), args.only_added))
     print("| env | algo | critic − MLP, final return | seeds | verdict (95 %) | family-wise |")
     print("|---|---|---|---|---|---|")
     counts = {"better": 0, "no difference": 0, "worse": 0}
     fw_counts = dict(counts)
-    for c in sorted(rows, key=lambda c: (c["algo"], c["env"])):
+    for c in sorted(rows.values(), key=lambda c: (c["algo"], c["env"])):
         diff = f"{c['diff']:+.1f} [{c['low']:+.1f}, {c['high']:+.1f}]"
         seeds = f"{c['n_a']} / {c['n_b']}"
         verdicts = f"{c['verdict']} | {c['fw_verdict']}"
@@ -123,6 +147,8 @@ def main() -> None:
         counts[c["verdict"]] += 1
         fw_counts[c["fw_verdict"]] += 1
     print(f"\ncounts at 95 %: {counts}; family-wise: {fw_counts}")
+    if args.plot:
+        plot(args.a2c, tuple(args.add), args.plot)
 
 
 if __name__ == "__main__":
