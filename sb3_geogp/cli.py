@@ -91,7 +91,8 @@ def build_parser() -> argparse.ArgumentParser:
         type=float,
         default=None,
         help="GP forgetting factor in (0, 1]: fixed with --no-adapt, else the starting value "
-        "(default: 0.9 with a2c, 1.0 with ppo; see docs/results.md)",
+        "(default: the policy's, as in the drop-in; with --no-adapt 0.9 with a2c, 1.0 with "
+        "ppo; see docs/usage.md)",
     )
     train.add_argument(
         "--adapt",
@@ -191,8 +192,8 @@ def train(args: argparse.Namespace) -> Path:
         gp_kwargs = dict(
             kernel=args.critic,
             max_basis=args.max_basis,
-            forgetting=_forgetting(args),
             adapt=args.adapt,
+            **_forgetting(args),
         )
         model = ALGOS[args.algo](
             GPActorCriticPolicy,
@@ -493,10 +494,16 @@ def _progress_bar_available() -> bool:
     return all(importlib.util.find_spec(name) is not None for name in ("tqdm", "rich"))
 
 
-def _forgetting(args: argparse.Namespace) -> float:
+def _forgetting(args: argparse.Namespace) -> dict[str, float]:
+    """The GP's forgetting options: ``--forgetting`` where given; else, for an adaptive critic,
+    none, so that it starts from the policy's defaults as the drop-in does; for a fixed one
+    0.9 with A2C (which without adaptation needs forgetting: docs/results.md, "Control: A2C
+    with GP forgetting 0.9") and 1.0 with PPO."""
     if args.forgetting is not None:
-        return float(args.forgetting)
-    return 0.9 if args.algo == "a2c" else 1.0  # measured: docs/results.md, A2C control
+        return {"forgetting": float(args.forgetting)}
+    if args.adapt:
+        return {}
+    return {"forgetting": 0.9 if args.algo == "a2c" else 1.0}
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -37,7 +37,9 @@ def test_train_no_adapt_gives_the_fixed_critic(tmp_path: Path) -> None:
     argv = ["train", "--algo", "a2c", "--env", "CartPole-v1", "--critic", "rbf", "--no-adapt"]
     argv += ["--timesteps", "64", "--out", str(out), "--n-envs", "2", "--no-progress"]
     assert main(argv) == 0
-    assert A2C.load(out / "model.zip").policy.gp.adaptation is None
+    gp = A2C.load(out / "model.zip").policy.gp
+    assert gp.adaptation is None
+    assert gp.forgetting == 0.9  # A2C without adaptation needs forgetting (docs/results.md)
 
 
 @pytest.mark.parametrize(
@@ -59,8 +61,15 @@ def test_train_writes_model_logs_and_curve(
     model = {"ppo": PPO, "a2c": A2C}[algo].load(out / "model.zip")
     gp = critic != "mlp"
     assert isinstance(model.policy, GPActorCriticPolicy) == gp
-    if gp:  # default forgetting: 0.9 with A2C (docs/results.md), 1.0 with PPO; adaptive
-        assert model.policy.gp.forgetting == (0.9 if algo == "a2c" else 1.0)
+    if gp:  # the options the drop-in resolves for the same algorithm, kernel and capacity
+        kernel_option = {} if critic is None else {"kernel": critic}
+        gp_kwargs = dict(max_basis=32, **kernel_option)
+        drop_in = type(model)(
+            GPActorCriticPolicy, "CartPole-v1", policy_kwargs=dict(gp_kwargs=gp_kwargs)
+        )
+        # With the defaults written out, as SB3's save stores them.
+        saved_options = model.policy._get_constructor_parameters()["gp_kwargs"]
+        assert saved_options == drop_in.policy._get_constructor_parameters()["gp_kwargs"]
         adaptation = {"ppo": DEFAULT_ADAPTATION, "a2c": Adaptation(max_gap=16, settle=False)}[algo]
         assert model.policy.gp.adaptation == adaptation
     if critic is None:  # the policy's default kernel for the algorithm

@@ -45,13 +45,14 @@ def test_zoo_train_with_gp_critic(algo: str, n_timesteps: int, tmp_path: Path) -
     model = {"ppo": PPO, "a2c": A2C}[algo].load(saved[0], device="cpu")
     policy = model.policy
     assert isinstance(policy, GPActorCriticPolicy)
-    # As the config gives them (model.save keeps the algorithm's policy_kwargs); the default
-    # kernel under PPO is the Laplacian one, the A2C config names the geodesic one.
+    # As the config gives them (model.save keeps the algorithm's policy_kwargs): no forgetting,
+    # so the critic starts from the policy's default; the default kernel under PPO is the
+    # Laplacian one, the A2C config names the geodesic one (A2C's default).
     expected: dict[str, Any] = {"max_basis": 256}
     if algo == "a2c":
-        expected.update(kernel="geodesic", forgetting=0.9)
+        expected.update(kernel="geodesic")
     assert policy.gp_kwargs == expected
     kernel = {"ppo": LaplacianKernel, "a2c": GeodesicKernel}[algo]
     assert isinstance(policy.gp.kernel, kernel)
-    assert "forgetting=1.0" not in proc.stderr  # the config follows the A2C recommendation
+    assert "forgetting=1.0" not in proc.stderr  # no warning that A2C's GP forgets nothing
     assert policy.gp.n_basis > 0  # GPValueCallback fed the critic
