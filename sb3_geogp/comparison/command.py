@@ -143,6 +143,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
         help="option of both GP critics, e.g. forgetting=0.9 (repeatable)",
     )
     parser.add_argument(
+        "--target",
+        choices=("returns", "monte_carlo"),
+        default="returns",
+        help="value targets GPValueCallback feeds the GP critics (default: returns, SB3's "
+        "TD(lambda) returns, which the MLP critic learns too)",
+    )
+    parser.add_argument(
         "--baseline",
         type=Path,
         nargs="+",
@@ -289,6 +296,7 @@ def config_from_args(args: argparse.Namespace) -> SweepConfig:
         changes["thresholds"] = tuple(zip(envs, args.threshold, strict=True))
     if args.gp_option:
         changes["gp_options"] = _check_gp_options(args.gp_option)
+    changes["target"] = args.target
     config = dataclasses.replace(config, **changes)
     try:
         for env_id in envs:

@@ -7,6 +7,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
+from sb3_geogp.callbacks import Target
 from sb3_geogp.comparison.hyperparams import (
     ALGOS,
     CRITICS,
@@ -46,6 +47,9 @@ class RunSpec:
         Monte Carlo rollouts of the stochastic policy per probe state.
     gp_kwargs : tuple of (key, value)
         Options of the GP critic (ignored for ``mlp``), as sorted items.
+    target : {"returns", "monte_carlo"}
+        The value targets :class:`~sb3_geogp.GPValueCallback` feeds the GP critic (ignored
+        for ``mlp``, which learns SB3's returns).
     hyperparams : dict
         The algorithm's hyperparameters, an entry in rl-baselines3-zoo's format
         (:func:`~sb3_geogp.comparison.hyperparams.algo_kwargs`).
@@ -68,6 +72,7 @@ class RunSpec:
     gp_kwargs: tuple[tuple[str, Any], ...] = field(
         default_factory=lambda: tuple(sorted(GP_KWARGS.items()))
     )
+    target: Target = "returns"
     hyperparams: dict[str, Any] = field(kw_only=True, hash=False)
     hyperparams_source: str = field(kw_only=True)
     threshold: float = field(kw_only=True)
@@ -83,10 +88,13 @@ class RunSpec:
         """JSON-compatible view of the run settings (``gp_kwargs`` as a dict).
 
         Without ``hyperparams``, ``hyperparams_source`` and ``threshold``: a result file
-        records them beside the spec (``hyperparams``, ``threshold``).
+        records them beside the spec (``hyperparams``, ``threshold``). ``target`` only where it
+        is not ``"returns"``, so that the files of runs made before it existed still match.
         """
         d = dataclasses.asdict(self)
         d["gp_kwargs"] = dict(self.gp_kwargs)
+        if self.target == "returns":
+            del d["target"]
         for recorded_beside in ("hyperparams", "hyperparams_source", "threshold"):
             del d[recorded_beside]
         return d
@@ -117,6 +125,8 @@ class SweepConfig:
     gp_options : tuple of (key, value)
         Options of the GP critic on top of :data:`GP_KWARGS` (e.g. ``(("forgetting", 0.9),)``),
         the same for ``rbf`` and ``geodesic``.
+    target : {"returns", "monte_carlo"}
+        As :class:`RunSpec`.
     """
 
     algos: tuple[str, ...] = tuple(ALGOS)
@@ -130,6 +140,7 @@ class SweepConfig:
     n_probe_states: int = 32
     n_mc_rollouts: int = 4
     gp_options: tuple[tuple[str, Any], ...] = ()
+    target: Target = "returns"
     timesteps: int | None = None
     thresholds: tuple[tuple[str, float], ...] = ()
     hyperparams_files: tuple[tuple[str, HyperparamsFile], ...] = ()
@@ -184,6 +195,7 @@ class SweepConfig:
                                 n_probe_states=self.n_probe_states,
                                 n_mc_rollouts=self.n_mc_rollouts,
                                 gp_kwargs=gp_kwargs,
+                                target=self.target,
                                 hyperparams=hp.values,
                                 hyperparams_source=hp.source,
                                 threshold=level,

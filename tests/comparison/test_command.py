@@ -66,6 +66,17 @@ def test_cli_arguments() -> None:
     assert config_from_args(_parse("--quick", "--first-seed", "7")).seeds == (7, 8)
 
 
+def test_target_reaches_every_run_and_keeps_the_run_ids() -> None:
+    specs = config_from_args(_parse("--algos", "a2c", "--target", "monte_carlo")).specs()
+    default = config_from_args(_parse("--algos", "a2c")).specs()
+    assert {s.target for s in specs} == {"monte_carlo"} and {s.target for s in default} == {
+        "returns"
+    }
+    assert [s.run_id for s in specs] == [s.run_id for s in default]
+    with pytest.raises(SystemExit):
+        _parse("--target", "td0")
+
+
 def test_gp_options_reach_every_gp_run_and_bad_ones_fail_early() -> None:
     specs = config_from_args(_parse("--algos", "a2c", "--gp-option", "forgetting=0.9")).specs()
     for spec in specs:

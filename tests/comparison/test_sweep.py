@@ -15,6 +15,7 @@ import pytest
 import torch
 
 from sb3_geogp.cli import main
+from sb3_geogp.comparison import run as run_module
 from sb3_geogp.comparison.evaluation import mc_horizon
 from sb3_geogp.comparison.hyperparams import TIMESTEPS, HyperparamsFile
 from sb3_geogp.comparison.report import write_report
@@ -197,6 +198,31 @@ def test_measurements_do_not_change_training(tmp_path: Path) -> None:
     assert set(b["critic_accuracy"]["mc_stderr"]) == {None}
     assert json.loads(next((tmp_path / "b" / "runs").glob("*.json")).read_text())["eval"]
     assert a["gp_n_basis"] == b["gp_n_basis"]
+
+
+def test_monte_carlo_targets_reach_the_gp_critic_and_its_result(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``target="monte_carlo"`` is the callback's target in the run, is recorded in the result
+    (and so refuses to mix with runs of the other target), and changes what the critic learns;
+    the default's spec stays as files made before the option recorded it."""
+    targets: list[str] = []
+
+    class Recording(run_module.TimedGPValueCallback):
+        def _on_training_start(self) -> None:
+            targets.append(self.target)
+            super()._on_training_start()
+
+    monkeypatch.setattr(run_module, "TimedGPValueCallback", Recording)
+    spec = TINY.specs()[2]  # a2c, geodesic, CartPole, seed 0
+    returns = run_one(spec, tmp_path)
+    mc_spec = dataclasses.replace(spec, target="monte_carlo")
+    mc = run_one(mc_spec, tmp_path / "mc")
+    assert targets == ["returns", "monte_carlo"]
+    assert "target" not in returns["spec"] and mc["spec"]["target"] == "monte_carlo"
+    assert mc["critic_accuracy"]["rmse"] != returns["critic_accuracy"]["rmse"]
+    with pytest.raises(ValueError, match="other settings"):
+        pending_runs([mc_spec], tmp_path)
 
 
 def test_every_critic_starts_from_the_same_actor() -> None:
