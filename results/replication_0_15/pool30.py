@@ -118,7 +118,7 @@ def plot(a2c: str, added: tuple[str, ...], path: str) -> None:
     }
     cells = sorted(sets["30 seeds"], key=lambda k: (k[1], k[0]))
     rows = [
-        {"env": env, "algo": algo, **{name: rows.get((env, algo)) for name, rows in sets.items()}}
+        {"env": env, "algo": algo, **{name: table.get((env, algo)) for name, table in sets.items()}}
         for env, algo in cells
     ]
     title = f"default GP critic − SB3's MLP critic, final return (+ {', '.join(added)})"
