@@ -22,7 +22,14 @@ from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
 
 from sb3_geogp.policies import GPCriticMixin, _contrib_algorithms, check_algorithm
-from sb3_geogp.targets import discounted_returns, env_major, per_env, split_completed
+from sb3_geogp.targets import (
+    discounted_returns,
+    env_major,
+    horizon_bootstraps,
+    horizon_returns,
+    per_env,
+    split_completed,
+)
 from sb3_geogp.user_warnings import warn_user
 
 Target = Literal["returns", "monte_carlo"]
@@ -43,6 +50,12 @@ class GPValueCallback(BaseCallback):
         a time-limit truncation is bootstrapped with the critic's value of the terminal
         observation (SB3 adds ``gamma * V(terminal_observation)`` to that step's reward),
         a termination is not. Steps of unfinished episodes wait for a later rollout.
+    horizon : int, optional
+        With ``target="monte_carlo"``: cut each return after ``horizon`` steps with the
+        critic's value of the state reached then (predicted when the step is fed), so that a
+        step waits at most ``horizon`` steps instead of until its episode ends. Under A2C
+        with ``gae_lambda=1`` SB3's returns cut at the rollout's end instead. ``None``
+        (default): no cut. An option, not yet measured in training.
     recompute_advantages : bool
         Recompute the rollout's values, returns and advantages with the updated GP before
         ``train`` (including the time-limit bootstraps). ``False`` (default) keeps SB3's
@@ -83,6 +96,7 @@ class GPValueCallback(BaseCallback):
     def __init__(
         self,
         target: Target = "returns",
+        horizon: int | None = None,
         recompute_advantages: bool = False,
         deferred_values: bool = True,
         verbose: int = 0,
@@ -91,6 +105,14 @@ class GPValueCallback(BaseCallback):
         if target not in ("returns", "monte_carlo"):
             raise ValueError(f"target must be 'returns' or 'monte_carlo', got {target!r}")
         self.target: Target = target
+        if horizon is not None and (
+            target != "monte_carlo" or int(horizon) != horizon or horizon < 1
+        ):
+            raise ValueError(
+                f"horizon must be None or a positive integer, with target='monte_carlo'; got "
+                f"horizon={horizon!r} with target={target!r}"
+            )
+        self.horizon = horizon
         self.recompute_advantages = bool(recompute_advantages)
         self.deferred_values = bool(deferred_values)
         #: Wall-clock seconds spent in GP updates so far (all rollouts of this callback).
@@ -199,7 +221,8 @@ class GPValueCallback(BaseCallback):
     def _completed_episodes(
         self, buffer: RolloutBuffer, dones: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Monte-Carlo targets of the episodes completed by this rollout, env by env."""
+        """Monte-Carlo targets of the episodes completed by this rollout, env by env (with a
+        ``horizon``: also of the steps whose ``horizon`` successors have arrived)."""
         gamma = float(self._algo.gamma)
         parts: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
         for env in range(buffer.n_envs):
@@ -207,18 +230,15 @@ class GPValueCallback(BaseCallback):
             obs = np.concatenate([old_obs, buffer.observations[:, env]])
             rew = np.concatenate([old_rew, buffer.rewards[:, env].astype(np.float64)])
             starts = np.concatenate([old_starts, buffer.episode_starts[:, env].astype(bool)])
-            ends, n_done = split_completed(starts, bool(dones[env]))
-            self._pending[env] = (obs[n_done:], rew[n_done:], starts[n_done:])
-            if n_done:
-                chunk_starts = starts[:n_done].copy()
+            ends, n_ready = split_completed(starts, bool(dones[env]))
+            if self.horizon is not None:
+                n_ready = max(n_ready, len(obs) - self.horizon)
+            self._pending[env] = (obs[n_ready:], rew[n_ready:], starts[n_ready:])
+            if n_ready:
+                chunk_starts = starts[:n_ready].copy()
                 chunk_starts[0] = True
-                parts.append(
-                    (
-                        obs[:n_done],
-                        discounted_returns(rew[:n_done], ends[:n_done], gamma),
-                        chunk_starts,
-                    )
-                )
+                targets = self._returns(obs, rew, ends, n_ready, gamma)
+                parts.append((obs[:n_ready], targets, chunk_starts))
         if not parts:
             return (
                 np.empty((0, *buffer.obs_shape), dtype=buffer.observations.dtype),
@@ -227,6 +247,22 @@ class GPValueCallback(BaseCallback):
             )
         obs_all, y_all, s_all = zip(*parts, strict=True)
         return np.concatenate(obs_all), np.concatenate(y_all), np.concatenate(s_all)
+
+    def _returns(
+        self, obs: np.ndarray, rewards: np.ndarray, ends: np.ndarray, n_ready: int, gamma: float
+    ) -> np.ndarray:
+        """Targets of the first ``n_ready`` steps of one env's stitched trajectory."""
+        if self.horizon is None:
+            return discounted_returns(rewards[:n_ready], ends[:n_ready], gamma)
+        bootstraps = horizon_bootstraps(ends, self.horizon, n_ready)
+        values = np.zeros(n_ready)
+        cut = bootstraps >= 0
+        if cut.any():
+            policy = self._policy
+            with th.no_grad():
+                states = th.as_tensor(obs[bootstraps[cut]], device=policy.device)
+                values[cut] = policy.predict_values(states).cpu().numpy()[:, 0]
+        return horizon_returns(rewards, ends, gamma, bootstraps, values)
 
     def _bootstrap_values(self, policy: GPCriticMixin) -> np.ndarray:
         """Critic values of this rollout's truncated terminal observations, shape (k,)."""

@@ -44,6 +44,74 @@ def discounted_returns(rewards: np.ndarray, episode_ends: np.ndarray, gamma: flo
     return out
 
 
+def horizon_bootstraps(episode_ends: np.ndarray, horizon: int, n_steps: int) -> np.ndarray:
+    """Where the ``horizon``-step return of each of the first ``n_steps`` steps bootstraps.
+
+    Parameters
+    ----------
+    episode_ends : ndarray of bool, shape (n,)
+        ``True`` on the last step of each episode.
+    horizon : int
+        ``H >= 1``.
+    n_steps : int
+        The steps asked for, the first ones; each must have its ``H`` successors in the data or
+        its episode's end within ``H`` steps.
+
+    Returns
+    -------
+    ndarray of int, shape (n_steps,)
+        ``t + H`` where step ``t``'s episode goes on past ``t + H - 1``, else -1 (the return is
+        the discounted rest of the episode).
+    """
+    ends = np.asarray(episode_ends, dtype=bool)
+    # Ends at or after each step: the first one within H steps decides.
+    end_after = np.full(len(ends) + 1, np.iinfo(np.int64).max)
+    for t in range(len(ends) - 1, -1, -1):
+        end_after[t] = t if ends[t] else end_after[t + 1]
+    steps = np.arange(n_steps)
+    out = np.where(end_after[:n_steps] - steps < horizon, -1, steps + horizon)
+    if np.any(out >= len(ends)):
+        raise ValueError(f"the {horizon}-step returns of the first {n_steps} steps need more data")
+    return out
+
+
+def horizon_returns(
+    rewards: np.ndarray,
+    episode_ends: np.ndarray,
+    gamma: float,
+    bootstraps: np.ndarray,
+    values: np.ndarray,
+) -> np.ndarray:
+    """``H``-step returns: ``sum_{k<H} gamma^k r_{t+k} + gamma^H V(s_{t+H})``, or the
+    discounted rest of the episode where it ends within ``H`` steps.
+
+    Parameters
+    ----------
+    rewards : ndarray, shape (n,)
+        As :func:`discounted_returns`.
+    episode_ends : ndarray of bool, shape (n,)
+    gamma : float
+    bootstraps : ndarray of int, shape (m,)
+        :func:`horizon_bootstraps` of the first ``m`` steps.
+    values : ndarray, shape (m,)
+        The critic's value of the state at ``bootstraps[t]`` (ignored where it is -1).
+
+    Returns
+    -------
+    ndarray, shape (m,), float64
+    """
+    rewards = np.asarray(rewards, dtype=np.float64)
+    ends = np.asarray(episode_ends, dtype=bool)
+    out = np.empty(len(bootstraps))
+    for t, stop in enumerate(bootstraps):
+        last = stop - 1 if stop >= 0 else t + int(np.argmax(ends[t:]))
+        discounts = gamma ** np.arange(last - t + 1)
+        out[t] = discounts @ rewards[t : last + 1]
+        if stop >= 0:
+            out[t] += gamma ** (stop - t) * float(values[t])
+    return out
+
+
 def split_completed(episode_starts: np.ndarray, last_done: bool) -> tuple[np.ndarray, int]:
     """Episode ends of one environment's trajectory and the length of its completed part.
 

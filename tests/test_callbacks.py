@@ -20,7 +20,13 @@ from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
 
 from sb3_geogp import GPActorCriticPolicy, GPValueCallback
 from sb3_geogp.policies import SUPPORTED_ALGORITHMS
-from sb3_geogp.targets import discounted_returns, per_env, split_completed
+from sb3_geogp.targets import (
+    discounted_returns,
+    horizon_bootstraps,
+    horizon_returns,
+    per_env,
+    split_completed,
+)
 
 GAMMA = 0.9
 PRIOR = 10.0  # target_mean: what the (unfed) GP predicts everywhere
@@ -137,6 +143,42 @@ def test_discounted_returns_restart_after_episode_ends() -> None:
     np.testing.assert_allclose(discounted_returns(rewards, ends, 0.5), expected)
 
 
+@pytest.mark.parametrize("horizon", [1, 2, 3, 50])
+def test_horizon_returns_against_a_loop_over_the_window(horizon: int) -> None:
+    """Brute force: walk ``H`` steps from ``t``, stop at an episode end, else add
+    ``gamma^H V``; with a horizon longer than every episode they are the Monte Carlo returns."""
+    rng = np.random.default_rng(horizon)
+    n, gamma = 40, 0.9
+    rewards = rng.normal(size=n)
+    ends = rng.random(n) < 0.15
+    ends[-1] = True
+    value_of = rng.normal(size=n)  # V of each state
+    boots = horizon_bootstraps(ends, horizon, n)
+    got = horizon_returns(rewards, ends, gamma, boots, value_of[np.maximum(boots, 0)])
+    for t in range(n):
+        expected, k = 0.0, 0
+        while True:
+            expected += gamma**k * rewards[t + k]
+            if ends[t + k]:
+                assert boots[t] == -1
+                break
+            k += 1
+            if k == horizon:
+                assert boots[t] == t + horizon
+                expected += gamma**horizon * value_of[t + horizon]
+                break
+        assert got[t] == pytest.approx(expected, rel=1e-12), t
+    if horizon == 50:
+        np.testing.assert_allclose(got, discounted_returns(rewards, ends, gamma), rtol=1e-12)
+
+
+def test_horizon_bootstraps_refuse_steps_without_their_window() -> None:
+    ends = np.array([False, False, False])
+    np.testing.assert_array_equal(horizon_bootstraps(ends, 2, 1), [2])
+    with pytest.raises(ValueError, match="more data"):
+        horizon_bootstraps(ends, 2, 2)
+
+
 def test_split_completed() -> None:
     starts = np.array([True, False, True, False, False])
     ends, n = split_completed(starts, last_done=False)
@@ -185,6 +227,47 @@ def test_monte_carlo_targets_match_hand_computed_returns(algo: type[BaseAlgorith
         for _episode, t, y, start in rows:
             assert y == pytest.approx(expected_monte_carlo(env_id, t), rel=1e-6)
             assert start == (t == 0)
+
+
+def expected_horizon(env_id: int, t: int, horizon: int) -> float:
+    """Hand-computed ``horizon``-step target of step ``t`` (the empty GP's value is PRIOR)."""
+    length = 3 if env_id == 0 else 5
+    rewards = [1.0 + k for k in range(length)]
+    if env_id == 1:
+        rewards[-1] += GAMMA * PRIOR  # SB3's time-limit bootstrap
+    if t + horizon <= length - 1:
+        window = sum(GAMMA**k * rewards[t + k] for k in range(horizon))
+        return window + GAMMA**horizon * PRIOR
+    return sum(GAMMA ** (k - t) * rewards[k] for k in range(t, length))
+
+
+@pytest.mark.parametrize("horizon", [1, 2, 4])
+def test_horizon_targets_match_hand_computed_returns(horizon: int) -> None:
+    """Every step once, env by env in time order, as soon as its window has arrived (episodes
+    span rollouts: n_steps=4 < 5); the window stops at a termination or truncation."""
+    model = make_scripted(A2C, n_steps=4)
+    recorder = FeedRecorder(model.policy, keep_empty=True)  # V stays PRIOR
+    model.learn(4 * 8, callback=GPValueCallback(target="monte_carlo", horizon=horizon))
+    fed: dict[int, list[tuple[int, int, float]]] = {0: [], 1: []}
+    for obs, targets, _ in recorder.batches:
+        for (env_id, episode, t), y in zip(obs, targets, strict=True):
+            fed[int(env_id)].append((int(episode), int(t), float(y)))
+    for env_id, length in ((0, 3), (1, 5)):
+        steps = [(e, t) for e in range(16 // length + 1) for t in range(length)][:16]
+        rows = fed[env_id]
+        # All but the last steps whose window is still open, in time order.
+        n_open = 0 if 16 % length == 0 else min(horizon, 16 % length)
+        assert [(e, t) for e, t, _ in rows] == steps[: 16 - n_open]
+        for _episode, t, y in rows:
+            assert y == pytest.approx(expected_horizon(env_id, t, horizon), rel=1e-6)
+
+
+def test_horizon_needs_monte_carlo_and_a_positive_integer() -> None:
+    for bad in (0, -1, 2.5):
+        with pytest.raises(ValueError, match="horizon"):
+            GPValueCallback(target="monte_carlo", horizon=bad)  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match="horizon"):
+        GPValueCallback(horizon=5)
 
 
 def test_monte_carlo_feeds_nothing_until_an_episode_completes() -> None:

@@ -150,6 +150,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
         "TD(lambda) returns, which the MLP critic learns too)",
     )
     parser.add_argument(
+        "--horizon",
+        type=int,
+        default=None,
+        metavar="N",
+        help="with --target monte_carlo: cut each return after N steps with the critic's value "
+        "(GPValueCallback's horizon; default: no cut)",
+    )
+    parser.add_argument(
         "--baseline",
         type=Path,
         nargs="+",
@@ -297,6 +305,11 @@ def config_from_args(args: argparse.Namespace) -> SweepConfig:
     if args.gp_option:
         changes["gp_options"] = _check_gp_options(args.gp_option)
     changes["target"] = args.target
+    if args.horizon is not None and (args.target != "monte_carlo" or args.horizon < 1):
+        raise UsageError(
+            f"--horizon {args.horizon}: give a positive number of steps, with --target monte_carlo"
+        )
+    changes["horizon"] = args.horizon
     config = dataclasses.replace(config, **changes)
     try:
         for env_id in envs:

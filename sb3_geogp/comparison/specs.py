@@ -50,6 +50,8 @@ class RunSpec:
     target : {"returns", "monte_carlo"}
         The value targets :class:`~sb3_geogp.GPValueCallback` feeds the GP critic (ignored
         for ``mlp``, which learns SB3's returns).
+    horizon : int, optional
+        ``GPValueCallback``'s ``horizon`` (with ``target="monte_carlo"``).
     hyperparams : dict
         The algorithm's hyperparameters, an entry in rl-baselines3-zoo's format
         (:func:`~sb3_geogp.comparison.hyperparams.algo_kwargs`).
@@ -73,6 +75,7 @@ class RunSpec:
         default_factory=lambda: tuple(sorted(GP_KWARGS.items()))
     )
     target: Target = "returns"
+    horizon: int | None = None
     hyperparams: dict[str, Any] = field(kw_only=True, hash=False)
     hyperparams_source: str = field(kw_only=True)
     threshold: float = field(kw_only=True)
@@ -89,12 +92,15 @@ class RunSpec:
 
         Without ``hyperparams``, ``hyperparams_source`` and ``threshold``: a result file
         records them beside the spec (``hyperparams``, ``threshold``). ``target`` only where it
-        is not ``"returns"``, so that the files of runs made before it existed still match.
+        is not ``"returns"`` and ``horizon`` only where set, so that the files of runs made
+        before they existed still match.
         """
         d = dataclasses.asdict(self)
         d["gp_kwargs"] = dict(self.gp_kwargs)
         if self.target == "returns":
             del d["target"]
+        if self.horizon is None:
+            del d["horizon"]
         for recorded_beside in ("hyperparams", "hyperparams_source", "threshold"):
             del d[recorded_beside]
         return d
@@ -127,6 +133,8 @@ class SweepConfig:
         the same for ``rbf`` and ``geodesic``.
     target : {"returns", "monte_carlo"}
         As :class:`RunSpec`.
+    horizon : int, optional
+        As :class:`RunSpec`.
     """
 
     algos: tuple[str, ...] = tuple(ALGOS)
@@ -141,6 +149,7 @@ class SweepConfig:
     n_mc_rollouts: int = 4
     gp_options: tuple[tuple[str, Any], ...] = ()
     target: Target = "returns"
+    horizon: int | None = None
     timesteps: int | None = None
     thresholds: tuple[tuple[str, float], ...] = ()
     hyperparams_files: tuple[tuple[str, HyperparamsFile], ...] = ()
@@ -196,6 +205,7 @@ class SweepConfig:
                                 n_mc_rollouts=self.n_mc_rollouts,
                                 gp_kwargs=gp_kwargs,
                                 target=self.target,
+                                horizon=self.horizon,
                                 hyperparams=hp.values,
                                 hyperparams_source=hp.source,
                                 threshold=level,

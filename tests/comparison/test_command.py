@@ -75,6 +75,11 @@ def test_target_reaches_every_run_and_keeps_the_run_ids() -> None:
     assert [s.run_id for s in specs] == [s.run_id for s in default]
     with pytest.raises(SystemExit):
         _parse("--target", "td0")
+    cut = config_from_args(_parse("--target", "monte_carlo", "--horizon", "50")).specs()
+    assert {s.horizon for s in cut} == {50} and {s.horizon for s in default} == {None}
+    for bad in (["--horizon", "50"], ["--target", "monte_carlo", "--horizon", "0"]):
+        with pytest.raises(UsageError, match="--horizon"):
+            config_from_args(_parse(*bad))
 
 
 def test_gp_options_reach_every_gp_run_and_bad_ones_fail_early() -> None:

@@ -203,14 +203,14 @@ def test_measurements_do_not_change_training(tmp_path: Path) -> None:
 def test_monte_carlo_targets_reach_the_gp_critic_and_its_result(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    """``target="monte_carlo"`` is the callback's target in the run, is recorded in the result
-    (and so refuses to mix with runs of the other target), and changes what the critic learns;
-    the default's spec stays as files made before the option recorded it."""
-    targets: list[str] = []
+    """``target="monte_carlo"`` (and a ``horizon``) is the callback's in the run, is recorded in
+    the result (and so refuses to mix with runs of other targets), and changes what the critic
+    learns; the default's spec stays as files made before the option recorded it."""
+    targets: list[tuple[str, int | None]] = []
 
     class Recording(run_module.TimedGPValueCallback):
         def _on_training_start(self) -> None:
-            targets.append(self.target)
+            targets.append((self.target, self.horizon))
             super()._on_training_start()
 
     monkeypatch.setattr(run_module, "TimedGPValueCallback", Recording)
@@ -218,11 +218,17 @@ def test_monte_carlo_targets_reach_the_gp_critic_and_its_result(
     returns = run_one(spec, tmp_path)
     mc_spec = dataclasses.replace(spec, target="monte_carlo")
     mc = run_one(mc_spec, tmp_path / "mc")
-    assert targets == ["returns", "monte_carlo"]
+    cut_spec = dataclasses.replace(mc_spec, horizon=3)
+    cut = run_one(cut_spec, tmp_path / "cut")
+    assert targets == [("returns", None), ("monte_carlo", None), ("monte_carlo", 3)]
     assert "target" not in returns["spec"] and mc["spec"]["target"] == "monte_carlo"
+    assert "horizon" not in mc["spec"] and cut["spec"]["horizon"] == 3
     assert mc["critic_accuracy"]["rmse"] != returns["critic_accuracy"]["rmse"]
+    assert cut["critic_accuracy"]["rmse"] != mc["critic_accuracy"]["rmse"]
     with pytest.raises(ValueError, match="other settings"):
         pending_runs([mc_spec], tmp_path)
+    with pytest.raises(ValueError, match="other settings"):
+        pending_runs([cut_spec], tmp_path / "mc")
 
 
 def test_every_critic_starts_from_the_same_actor() -> None:
