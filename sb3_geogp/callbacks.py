@@ -112,7 +112,7 @@ class GPValueCallback(BaseCallback):
                 f"horizon must be None or a positive integer, with target='monte_carlo'; got "
                 f"horizon={horizon!r} with target={target!r}"
             )
-        self.horizon = horizon
+        self.horizon = None if horizon is None else int(horizon)
         self.recompute_advantages = bool(recompute_advantages)
         self.deferred_values = bool(deferred_values)
         #: Wall-clock seconds spent in GP updates so far (all rollouts of this callback).

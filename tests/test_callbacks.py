@@ -268,6 +268,7 @@ def test_horizon_needs_monte_carlo_and_a_positive_integer() -> None:
             GPValueCallback(target="monte_carlo", horizon=bad)  # type: ignore[arg-type]
     with pytest.raises(ValueError, match="horizon"):
         GPValueCallback(horizon=5)
+    assert GPValueCallback(target="monte_carlo", horizon=5.0).horizon == 5  # type: ignore[arg-type]
 
 
 def test_monte_carlo_feeds_nothing_until_an_episode_completes() -> None:
