@@ -224,7 +224,9 @@ class GPValueCallback(BaseCallback):
         """Monte-Carlo targets of the episodes completed by this rollout, env by env (with a
         ``horizon``: also of the steps whose ``horizon`` successors have arrived)."""
         gamma = float(self._algo.gamma)
-        parts: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+        # Per env with steps to feed: stitched observations, rewards, episode ends, trajectory
+        # starts of the steps fed, and how many are fed (the first ones).
+        parts: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int]] = []
         for env in range(buffer.n_envs):
             old_obs, old_rew, old_starts = self._pending[env]
             obs = np.concatenate([old_obs, buffer.observations[:, env]])
@@ -237,41 +239,45 @@ class GPValueCallback(BaseCallback):
             if n_ready:
                 chunk_starts = starts[:n_ready].copy()
                 chunk_starts[0] = True
-                targets = self._returns(obs, rew, ends, n_ready, gamma)
-                parts.append((obs[:n_ready], targets, chunk_starts))
+                parts.append((obs, rew, ends, chunk_starts, n_ready))
         if not parts:
             return (
                 np.empty((0, *buffer.obs_shape), dtype=buffer.observations.dtype),
                 np.empty(0),
                 np.empty(0, dtype=bool),
             )
-        obs_all, y_all, s_all = zip(*parts, strict=True)
-        return np.concatenate(obs_all), np.concatenate(y_all), np.concatenate(s_all)
+        obs_all = [obs[:n] for obs, _, _, _, n in parts]
+        return (
+            np.concatenate(obs_all),
+            np.concatenate(self._returns(parts, gamma)),
+            np.concatenate([s for _, _, _, s, _ in parts]),
+        )
 
     def _returns(
-        self, obs: np.ndarray, rewards: np.ndarray, ends: np.ndarray, n_ready: int, gamma: float
-    ) -> np.ndarray:
-        """Targets of the first ``n_ready`` steps of one env's stitched trajectory."""
+        self, parts: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int]], gamma: float
+    ) -> list[np.ndarray]:
+        """Targets of the steps fed from each env's stitched trajectory; with a ``horizon``,
+        the values that close the cut returns come from one prediction for all envs."""
         if self.horizon is None:
-            return discounted_returns(rewards[:n_ready], ends[:n_ready], gamma)
-        bootstraps = horizon_bootstraps(ends, self.horizon, n_ready)
-        values = np.zeros(n_ready)
-        cut = bootstraps >= 0
-        if cut.any():
-            policy = self._policy
-            with th.no_grad():
-                states = th.as_tensor(obs[bootstraps[cut]], device=policy.device)
-                values[cut] = policy.predict_values(states).cpu().numpy()[:, 0]
-        return horizon_returns(rewards, ends, gamma, bootstraps, values)
+            return [discounted_returns(rew[:n], ends[:n], gamma) for _, rew, ends, _, n in parts]
+        bootstraps = [horizon_bootstraps(ends, self.horizon, n) for _, _, ends, _, n in parts]
+        cut_states = [obs[b[b >= 0]] for (obs, *_), b in zip(parts, bootstraps, strict=True)]
+        values = _predict(self._policy, np.concatenate(cut_states))
+        sections = np.cumsum([len(s) for s in cut_states])[:-1]
+        out = []
+        for (_, rew, ends, _, n), b, v in zip(
+            parts, bootstraps, np.split(values, sections), strict=True
+        ):
+            at_cut = np.zeros(n)
+            at_cut[b >= 0] = v
+            out.append(horizon_returns(rew, ends, gamma, b, at_cut))
+        return out
 
     def _bootstrap_values(self, policy: GPCriticMixin) -> np.ndarray:
         """Critic values of this rollout's truncated terminal observations, shape (k,)."""
         if not self._truncations:
             return np.empty(0, dtype=np.float32)
-        terminal = np.stack([t[2] for t in self._truncations])
-        with th.no_grad():
-            values = policy.predict_values(th.as_tensor(terminal, device=policy.device))
-        return values.cpu().numpy()[:, 0]
+        return _predict(policy, np.stack([t[2] for t in self._truncations]))
 
     def _recompute(
         self,
@@ -325,6 +331,15 @@ def time_limit_truncations(
         if done and terminal is not None and info.get("TimeLimit.truncated", False):
             found.append((step, env, np.asarray(terminal)))
     return found
+
+
+def _predict(policy: GPCriticMixin, states: np.ndarray) -> np.ndarray:
+    """The critic's values of ``states`` (shape (k, *obs_shape)) as an array, shape (k,)."""
+    if not len(states):
+        return np.empty(0, dtype=np.float32)
+    with th.no_grad():
+        values = policy.predict_values(th.as_tensor(states, device=policy.device))
+    return values.cpu().numpy()[:, 0]
 
 
 def _check_rewards(buffer: RolloutBuffer) -> None:

@@ -63,14 +63,12 @@ def horizon_bootstraps(episode_ends: np.ndarray, horizon: int, n_steps: int) -> 
         ``t + H`` where step ``t``'s episode goes on past ``t + H - 1``, else -1 (the return is
         the discounted rest of the episode).
     """
-    ends = np.asarray(episode_ends, dtype=bool)
-    # Ends at or after each step: the first one within H steps decides.
-    end_after = np.full(len(ends) + 1, np.iinfo(np.int64).max)
-    for t in range(len(ends) - 1, -1, -1):
-        end_after[t] = t if ends[t] else end_after[t + 1]
+    end_steps = np.flatnonzero(np.asarray(episode_ends, dtype=bool))
     steps = np.arange(n_steps)
-    out = np.where(end_after[:n_steps] - steps < horizon, -1, steps + horizon)
-    if np.any(out >= len(ends)):
+    # The first episode end at or after each step (none: beyond any horizon).
+    next_end = np.append(end_steps, np.iinfo(np.int64).max)[np.searchsorted(end_steps, steps)]
+    out = np.where(next_end - steps < horizon, -1, steps + horizon)
+    if np.any(out >= len(episode_ends)):
         raise ValueError(f"the {horizon}-step returns of the first {n_steps} steps need more data")
     return out
 
@@ -100,15 +98,14 @@ def horizon_returns(
     -------
     ndarray, shape (m,), float64
     """
-    rewards = np.asarray(rewards, dtype=np.float64)
-    ends = np.asarray(episode_ends, dtype=bool)
-    out = np.empty(len(bootstraps))
-    for t, stop in enumerate(bootstraps):
-        last = stop - 1 if stop >= 0 else t + int(np.argmax(ends[t:]))
-        discounts = gamma ** np.arange(last - t + 1)
-        out[t] = discounts @ rewards[t : last + 1]
-        if stop >= 0:
-            out[t] += gamma ** (stop - t) * float(values[t])
+    # Within an episode G_t = sum_{k<H} gamma^k r_{t+k} + gamma^H G_{t+H} (also where the data
+    # stop before its end: both sums run to the same last step), so swapping G_{t+H} for V
+    # gives the cut return.
+    returns = discounted_returns(rewards, episode_ends, gamma)
+    out = returns[: len(bootstraps)].copy()
+    (cut,) = np.nonzero(bootstraps >= 0)
+    stops = bootstraps[cut]
+    out[cut] += gamma ** (stops - cut) * (np.asarray(values)[cut] - returns[stops])
     return out
 
 

@@ -20,6 +20,7 @@ from typing import Any
 import gymnasium as gym
 from gymnasium.envs.registration import EnvSpec
 
+from sb3_geogp.callbacks import GPValueCallback
 from sb3_geogp.comparison.evaluation import env_spec, max_episode_steps
 from sb3_geogp.comparison.hyperparams import (
     ALGOS,
@@ -305,10 +306,10 @@ def config_from_args(args: argparse.Namespace) -> SweepConfig:
     if args.gp_option:
         changes["gp_options"] = _check_gp_options(args.gp_option)
     changes["target"] = args.target
-    if args.horizon is not None and (args.target != "monte_carlo" or args.horizon < 1):
-        raise UsageError(
-            f"--horizon {args.horizon}: give a positive number of steps, with --target monte_carlo"
-        )
+    try:  # the callback's own check, before any run starts
+        GPValueCallback(target=args.target, horizon=args.horizon)
+    except ValueError as err:
+        raise UsageError(f"--target {args.target} --horizon {args.horizon}: {err}") from None
     changes["horizon"] = args.horizon
     config = dataclasses.replace(config, **changes)
     try:
