@@ -102,7 +102,19 @@ def build_parser() -> argparse.ArgumentParser:
         "(--no-adapt: fixed, as in 0.2)",
     )
     train.add_argument(
-        "--target", choices=("returns", "monte_carlo"), default="returns", help="GP targets"
+        "--target",
+        choices=("returns", "monte_carlo"),
+        default="returns",
+        help="value targets GPValueCallback feeds the GP critic (returns: SB3's TD(lambda) "
+        "returns, which the MLP critic learns too)",
+    )
+    train.add_argument(
+        "--horizon",
+        type=int,
+        default=None,
+        metavar="N",
+        help="with --target monte_carlo: cut each return after N steps with the critic's value "
+        "(GPValueCallback's horizon; default: no cut)",
     )
     train.add_argument(
         "--threads", type=int, default=1, help="torch CPU threads (1 is fastest for small nets)"
@@ -138,6 +150,7 @@ def check_train_args(args: argparse.Namespace, out: Path) -> None:
             raise UsageError(f"--{name.replace('_', '-')} must be at least 1, got {value}")
     if args.forgetting is not None and not 0 < args.forgetting <= 1:
         raise UsageError(f"--forgetting must be in (0, 1], got {args.forgetting}")
+    check_targets(args)
     check_env(args.env)
     check_device(args.device)
     saved = out / _SETTINGS
@@ -146,6 +159,19 @@ def check_train_args(args: argparse.Namespace, out: Path) -> None:
             f"{out} holds a run made with other settings ({saved}); pass another --out or "
             "delete that directory"
         )
+
+
+def check_targets(args: argparse.Namespace) -> None:
+    """Raise :class:`UsageError` unless ``--target`` and ``--horizon`` can reach the critic."""
+    if args.critic == "mlp" and (args.target != "returns" or args.horizon is not None):
+        raise UsageError(
+            "--target and --horizon choose what the GP critic learns; SB3's MLP critic learns "
+            "SB3's returns. Drop them, or pass a GP --critic"
+        )
+    try:  # the callback's own check, before any work
+        GPValueCallback(target=args.target, horizon=args.horizon)
+    except ValueError as err:
+        raise UsageError(f"--target {args.target} --horizon {args.horizon}: {err}") from None
 
 
 def check_device(name: str) -> None:
@@ -163,7 +189,13 @@ _SETTINGS = "train_settings.json"
 
 
 def _settings(args: argparse.Namespace) -> dict[str, Any]:
-    return {k: v for k, v in vars(args).items() if k not in ("command", "out", "no_progress")}
+    settings = {k: v for k, v in vars(args).items() if k not in ("command", "out", "no_progress")}
+    # Unset, an option added after 0.20 is left out, so that older run directories still match.
+    return {k: v for k, v in settings.items() if not (k in _ADDED and v is None)}
+
+
+#: ``train`` options added after 0.20, recorded only when set.
+_ADDED = ("horizon",)
 
 
 def train(args: argparse.Namespace) -> Path:
@@ -203,7 +235,7 @@ def train(args: argparse.Namespace) -> Path:
             device=args.device,
             **algo_kwargs,
         )
-        callback = GPValueCallback(target=args.target)
+        callback = GPValueCallback(target=args.target, horizon=args.horizon)
     formats = ["stdout", "csv"]
     if importlib.util.find_spec("tensorboard") is not None:
         formats.append("tensorboard")

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import json
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
@@ -11,7 +13,13 @@ import pytest
 import torch as th
 from stable_baselines3 import A2C, PPO
 
-from sb3_geogp import Adaptation, GeodesicKernel, GPActorCriticPolicy, LaplacianKernel
+from sb3_geogp import (
+    Adaptation,
+    GeodesicKernel,
+    GPActorCriticPolicy,
+    GPValueCallback,
+    LaplacianKernel,
+)
 from sb3_geogp.cli import (
     CriticLog,
     build_parser,
@@ -159,6 +167,10 @@ def test_version(capsys: pytest.CaptureFixture[str]) -> None:
         (["--timesteps", "0"], "--timesteps must be at least 1"),
         (["--forgetting", "1.5"], "--forgetting must be in (0, 1]"),
         (["--device", "gpu0"], "--device 'gpu0' is not a torch device"),
+        (["--horizon", "5"], "with target='monte_carlo'; got horizon=5 with target='returns'"),
+        (["--target", "monte_carlo", "--horizon", "0"], "horizon=0 with target='monte_carlo'"),
+        (["--critic", "mlp", "--target", "monte_carlo"], "SB3's MLP critic learns SB3's returns"),
+        (["--critic", "mlp", "--horizon", "5"], "Drop them, or pass a GP --critic"),
         pytest.param(
             ["--device", "cuda"],
             "torch sees no CUDA device here; use --device cpu",
@@ -174,6 +186,39 @@ def test_user_errors_are_one_line_with_exit_status_2(
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and message in err
     assert not (tmp_path / "run").exists()  # refused before any work
+
+
+def test_train_feeds_the_cut_monte_carlo_targets(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import sb3_geogp.cli as cli
+
+    made: list[GPValueCallback] = []
+
+    class Recorded(GPValueCallback):
+        def __init__(self, **kwargs: Any) -> None:
+            super().__init__(**kwargs)
+            made.append(self)
+
+    monkeypatch.setattr(cli, "GPValueCallback", Recorded)
+    out = tmp_path / "run"
+    argv = ["train", "--algo", "a2c", "--env", "CartPole-v1", "--target", "monte_carlo"]
+    argv += ["--horizon", "7", "--timesteps", "64", "--out", str(out), "--no-progress"]
+    assert main(argv) == 0
+    fed = [c for c in made if c.num_timesteps > 0]  # the check's own instance never trains
+    assert [(c.target, c.horizon) for c in fed] == [("monte_carlo", 7)]
+    settings = json.loads((out / "train_settings.json").read_text())
+    assert (settings["target"], settings["horizon"]) == ("monte_carlo", 7)
+
+
+def test_unset_horizon_keeps_older_run_directories_valid(tmp_path: Path) -> None:
+    out = tmp_path / "run"
+    argv = ["train", "--algo", "a2c", "--env", "CartPole-v1", "--timesteps", "64"]
+    argv += ["--out", str(out), "--no-progress"]
+    assert main(argv) == 0
+    settings = json.loads((out / "train_settings.json").read_text())
+    assert "horizon" not in settings  # as 0.20 wrote it, so re-running there is accepted
+    assert main(argv) == 0
 
 
 def test_existing_out_with_other_settings_is_refused(
