@@ -37,7 +37,9 @@ from sb3_geogp.comparison.command import (
     EPILOG,
     UsageError,
     add_arguments,
+    add_target_arguments,
     check_env,
+    check_target_arguments,
     run_from_args,
 )
 from sb3_geogp.comparison.hyperparams import ALGOS, ALL_CRITICS
@@ -101,21 +103,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="the GP learns hyperparameters, target scale and forgetting from the data "
         "(--no-adapt: fixed, as in 0.2)",
     )
-    train.add_argument(
-        "--target",
-        choices=("returns", "monte_carlo"),
-        default="returns",
-        help="value targets GPValueCallback feeds the GP critic (returns: SB3's TD(lambda) "
-        "returns, which the MLP critic learns too)",
-    )
-    train.add_argument(
-        "--horizon",
-        type=int,
-        default=None,
-        metavar="N",
-        help="with --target monte_carlo: cut each return after N steps with the critic's value "
-        "(GPValueCallback's horizon; default: no cut)",
-    )
+    add_target_arguments(train)
     train.add_argument(
         "--threads", type=int, default=1, help="torch CPU threads (1 is fastest for small nets)"
     )
@@ -168,10 +156,7 @@ def check_targets(args: argparse.Namespace) -> None:
             "--target and --horizon choose what the GP critic learns; SB3's MLP critic learns "
             "SB3's returns. Drop them, or pass a GP --critic"
         )
-    try:  # the callback's own check, before any work
-        GPValueCallback(target=args.target, horizon=args.horizon)
-    except ValueError as err:
-        raise UsageError(f"--target {args.target} --horizon {args.horizon}: {err}") from None
+    check_target_arguments(args)
 
 
 def check_device(name: str) -> None:

@@ -143,21 +143,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
         type=parse_gp_option,
         help="option of both GP critics, e.g. forgetting=0.9 (repeatable)",
     )
-    parser.add_argument(
-        "--target",
-        choices=("returns", "monte_carlo"),
-        default="returns",
-        help="value targets GPValueCallback feeds the GP critics (default: returns, SB3's "
-        "TD(lambda) returns, which the MLP critic learns too)",
-    )
-    parser.add_argument(
-        "--horizon",
-        type=int,
-        default=None,
-        metavar="N",
-        help="with --target monte_carlo: cut each return after N steps with the critic's value "
-        "(GPValueCallback's horizon; default: no cut)",
-    )
+    add_target_arguments(parser)
     parser.add_argument(
         "--baseline",
         type=Path,
@@ -254,6 +240,35 @@ def _hyperparams_files(items: list[str]) -> tuple[tuple[str, HyperparamsFile], .
     return tuple(files.items())
 
 
+def add_target_arguments(parser: argparse.ArgumentParser) -> None:
+    """Add ``--target`` and ``--horizon``, what :class:`GPValueCallback` feeds the GP critics
+    (shared by ``sb3-geogp compare`` and ``sb3-geogp train``)."""
+    parser.add_argument(
+        "--target",
+        choices=("returns", "monte_carlo"),
+        default="returns",
+        help="value targets GPValueCallback feeds the GP critics (returns, the default: SB3's "
+        "TD(lambda) returns, which the MLP critic learns too)",
+    )
+    parser.add_argument(
+        "--horizon",
+        type=int,
+        default=None,
+        metavar="N",
+        help="with --target monte_carlo: cut each return after N steps with the critic's value "
+        "(GPValueCallback's horizon; default: no cut)",
+    )
+
+
+def check_target_arguments(args: argparse.Namespace) -> None:
+    """Raise :class:`UsageError` unless :class:`GPValueCallback` takes ``--target`` and
+    ``--horizon`` (its own check, before any work)."""
+    try:
+        GPValueCallback(target=args.target, horizon=args.horizon)
+    except ValueError as err:
+        raise UsageError(f"--target {args.target} --horizon {args.horizon}: {err}") from None
+
+
 def config_from_args(args: argparse.Namespace) -> SweepConfig:
     """The :class:`SweepConfig` described by parsed :func:`add_arguments` options.
 
@@ -306,10 +321,7 @@ def config_from_args(args: argparse.Namespace) -> SweepConfig:
     if args.gp_option:
         changes["gp_options"] = _check_gp_options(args.gp_option)
     changes["target"] = args.target
-    try:  # the callback's own check, before any run starts
-        GPValueCallback(target=args.target, horizon=args.horizon)
-    except ValueError as err:
-        raise UsageError(f"--target {args.target} --horizon {args.horizon}: {err}") from None
+    check_target_arguments(args)
     changes["horizon"] = args.horizon
     config = dataclasses.replace(config, **changes)
     try:
