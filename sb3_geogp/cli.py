@@ -52,6 +52,15 @@ if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
 
+class _DefaultsHelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
+    """Append ``(default: ...)`` to an option's help unless the help already says its default."""
+
+    def _get_help_string(self, action: argparse.Action) -> str | None:
+        if "default" in (action.help or ""):
+            return action.help
+        return super()._get_help_string(action)
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The ``sb3-geogp`` argument parser (sub-commands ``train`` and ``compare``)."""
     parser = argparse.ArgumentParser(
@@ -71,7 +80,7 @@ def build_parser() -> argparse.ArgumentParser:
     train = commands.add_parser(
         "train",
         help="train PPO or A2C with a GP or MLP critic",
-        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+        formatter_class=_DefaultsHelpFormatter,
     )
     train.add_argument("--algo", choices=sorted(ALGOS), default="ppo")
     train.add_argument("--env", default="Pendulum-v1", help="gymnasium environment id")

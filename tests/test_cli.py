@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -231,7 +232,16 @@ def test_existing_out_with_other_settings_is_refused(
     assert "holds a run made with other settings" in capsys.readouterr().err
 
 
-def test_help_shows_defaults(capsys: pytest.CaptureFixture[str]) -> None:
+@pytest.mark.parametrize("command", ["train", "compare"])
+def test_help_shows_each_default_once(command: str, capsys: pytest.CaptureFixture[str]) -> None:
     with pytest.raises(SystemExit):
-        main(["train", "--help"])
-    assert "(default: 256)" in capsys.readouterr().out
+        main([command, "--help", "--no-progress"] if command == "train" else [command, "--help"])
+    text = capsys.readouterr().out
+    if command == "train":
+        assert "(default: 256)" in text
+    # One entry per option: from a line that starts with "  -" to the next such line; the
+    # options end at the first blank line (the epilog follows).
+    options = text.split("options:", 1)[1].split("\n\n", 1)[0]
+    entries = re.split(r"\n(?=  -)", options)
+    twice = [e.split()[0] for e in entries if e.count("default:") > 1]
+    assert twice == [], f"options whose help shows the default twice: {twice}"
