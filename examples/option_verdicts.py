@@ -12,6 +12,10 @@ returns of every run, sorted, so that stalls (e.g. Acrobot's -500 cap) are seen 
         --variant results/linear_mean/acrobot_s30_linear \\
         --reference results/linear_mean/acrobot_s30 --out results/linear_mean/acrobot_s30.md
 
+``--variant-critic`` names the variant's critic where the option is another kernel (e.g. the
+variant ``rbf`` against the reference ``geodesic``): its runs are then compared as if they were
+runs of ``--critic``.
+
 ``--seeds`` reads only the runs of some seeds, e.g. a sweep of seeds 0-19 against references
 of seeds 0-9 (``--seeds 0 1 2 3 4 5 6 7 8 9``) and, in a second call, of seeds 10-19.
 ``--pool`` reads folders of different seeds of the same cells as one sweep of all their seeds
@@ -85,6 +89,14 @@ def verdict_rows(
         )
         for env, algo in _cells(variant)
         for metric in METRICS
+    ]
+
+
+def as_critic(runs: list[dict[str, Any]], found: str, critic: str) -> list[dict[str, Any]]:
+    """``runs`` of the critic ``found`` relabelled as runs of ``critic`` (copies; other critics'
+    runs are left out), so that a kernel can be read as an option of another."""
+    return [
+        {**r, "spec": {**r["spec"], "critic": critic}} for r in runs if r["spec"]["critic"] == found
     ]
 
 
@@ -177,6 +189,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         "--reference", type=Path, nargs="+", required=True, help="the default GP and MLP runs"
     )
     parser.add_argument("--critic", required=True, help="the GP critic (kernel) of both sweeps")
+    parser.add_argument(
+        "--variant-critic",
+        default=None,
+        help="the variant's GP critic where it differs from --critic (a kernel read as an option)",
+    )
     parser.add_argument("--label", required=True, help="the option, as shown in the tables")
     parser.add_argument("--family-size", type=int, default=PUBLISHED_FAMILY)
     parser.add_argument(
@@ -198,6 +215,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     load = pool_sweeps if args.pool else load_sweeps
     variant, reference = load(args.variant), load(args.reference)
+    if args.variant_critic is not None:
+        variant = as_critic(variant, args.variant_critic, args.critic)
     if args.pool:
         reference = of_variant_seeds(reference, variant)
     if args.seeds is not None:

@@ -414,6 +414,28 @@ def test_option_verdicts_compares_variant_reference_and_mlp(
         script.main([*argv[:1], str(tmp_path / "reference"), *argv[2:]])
 
 
+def test_option_verdicts_reads_another_kernel_as_an_option(tmp_path: Path) -> None:
+    """A variant sweep of ``rbf`` 10 ahead of the reference ``geodesic`` critic run for run:
+    ``--variant-critic rbf`` compares it as the geodesic critic's option (differences 10, 10,
+    0); without it the sweep is refused as one of another critic."""
+    from tests.test_examples_engine import load_script
+
+    script = load_script("option_verdicts")
+    reference = [_result(c, s, final=float(s % 3), rmse=20.0) for c in ("mlp", "geodesic")
+                 for s in range(6)]  # fmt: skip
+    variant = [_result("rbf", s, final=10.0 + s % 3, rmse=20.0) for s in range(6)]
+    out = tmp_path / "option.md"
+    argv = ["--variant", str(_write_sweep(tmp_path / "variant", variant))]
+    argv += ["--reference", str(_write_sweep(tmp_path / "reference", reference))]
+    argv += ["--critic", "geodesic", "--label", "kernel=rbf", "--out", str(out)]
+    assert script.main([*argv, "--variant-critic", "rbf"]) == 0
+    rows = {r["metric"]: r for r in json.loads(out.with_suffix(".json").read_text())}
+    diffs = [rows["final_return"][c]["diff"] for c in script.COLUMNS]
+    assert diffs == pytest.approx([10.0, 10.0, 0.0])
+    with pytest.raises(ValueError, match="runs of geodesic only"):
+        script.main(argv)
+
+
 def test_option_verdicts_reads_only_the_seeds_asked_for(tmp_path: Path) -> None:
     """A variant sweep of seeds 0-11 whose seeds 6-11 are 100 further ahead, read with
     ``--seeds 0..5`` against references of seeds 0-5: the differences of those seeds alone
