@@ -1,8 +1,9 @@
 """What each A2C critic gives the actor, rollout by rollout (session 35, diagnostic).
 
 A2C on one environment as in the comparison (zoo hyperparameters, 30,000 steps), the critic
-being SB3's MLP critic (``mlp``), the A2C default GP critic (``default``) or the default with
-``gp_kwargs=dict(kernel="rbf")`` (``rbf``). After each rollout it records the mean and
+being SB3's MLP critic (``mlp``), the A2C default GP critic (``default``: the geodesic
+kernel), the default with ``gp_kwargs=dict(kernel="rbf")`` (``rbf``) or with the geodesic
+kernel's Gaussian profile (``gaussian``, the paper's). After each rollout it records the mean and
 standard deviation of the advantages A2C will use (A2C does not normalise them), the mean
 value target and value, the policy's mean entropy on the rollout's states and the mean return
 of the last 20 training episodes. Writes ``<out>.json`` and a figure ``<out>.png``.
@@ -27,7 +28,14 @@ from sb3_geogp import GPActorCriticPolicy, GPValueCallback
 from sb3_geogp.comparison.hyperparams import algo_kwargs, hyperparams
 from sb3_geogp.comparison.report import pyplot
 
-CRITICS = {"mlp": None, "default": {}, "rbf": {"kernel": "rbf"}}
+#: ``gp_kwargs`` of each critic (``None``: SB3's MLP critic). ``gaussian`` changes only the
+#: default's profile (the graph distance kept), ``rbf`` the distance too.
+CRITICS = {
+    "mlp": None,
+    "default": {},
+    "rbf": {"kernel": "rbf"},
+    "gaussian": {"kernel_kwargs": {"profile": "gaussian"}},
+}
 
 
 class RolloutStats(BaseCallback):
@@ -104,7 +112,9 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--env", default="CartPole-v1")
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2, 3, 4])
-    parser.add_argument("--critics", nargs="+", choices=list(CRITICS), default=list(CRITICS))
+    parser.add_argument(
+        "--critics", nargs="+", choices=list(CRITICS), default=["mlp", "default", "rbf"]
+    )
     parser.add_argument("--timesteps", type=int, default=30_000)
     parser.add_argument("--out", required=True, help="path without suffix")
     args = parser.parse_args()
