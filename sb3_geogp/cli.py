@@ -89,7 +89,7 @@ def build_parser() -> argparse.ArgumentParser:
         choices=ALL_CRITICS,
         default=None,
         help="mlp (SB3's) or the GP critic's kernel (default: GPActorCriticPolicy's for --algo, "
-        "laplacian with ppo, geodesic with a2c)",
+        "laplacian with ppo, rbf with a2c)",
     )
     train.add_argument("--timesteps", type=int, default=100_000)
     train.add_argument("--seed", type=int, default=0)

@@ -192,8 +192,9 @@ def _check_dtype(dtype: Any, kernel: Kernel, adaptation: Adaptation | None) -> t
         raise ValueError(
             f"{type(kernel).__name__}({kernel.extra_repr()}) is not numerically safe in "
             "float32 (its basis Gram matrix is too ill-conditioned: updates fail or diverge); "
-            "use dtype=torch.float64, or a Laplacian "
-            "profile (GeodesicKernel(profile='laplacian'), LaplacianKernel) in float32"
+            "use dtype=torch.float64, or a kernel with a Laplacian profile in float32 "
+            "(GeodesicKernel(profile='laplacian'), LaplacianKernel; by name in "
+            "GPActorCriticPolicy's gp_kwargs, kernel='geodesic' or kernel='laplacian')"
         )
     if dtype == torch.float32 and adaptation and adaptation.forgetting_score == "lagged":
         # The 10^6-point pendulum soak left P indefinite after 862k points (docs/benchmarks.md).

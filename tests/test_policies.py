@@ -253,9 +253,9 @@ def test_policy_kwargs_options_reach_the_gp_and_constructor_parameters() -> None
 
 
 def test_default_critic_is_the_laplacian_kernel_with_a_dense_basis_except_under_a2c() -> None:
-    """Without a kernel: Laplacian with novelty 0.1 (PPO, or no algorithm), geodesic under A2C
-    and its subclasses; a kernel named otherwise, or given as an object, gets the engine's
-    default novelty, 1 - rho(r)^2 at r = 0.25 lengthscales."""
+    """Without a kernel: Laplacian with novelty 0.1 (PPO, or no algorithm), RBF under A2C and
+    its subclasses (since 0.22); a kernel named otherwise, or given as an object, gets the
+    engine's default novelty, 1 - rho(r)^2 at r = 0.25 lengthscales."""
     env = make_vec_env("Pendulum-v1", n_envs=1, seed=0)
 
     def built(algo: type[BaseAlgorithm] = PPO, **gp_kwargs: Any) -> GPActorCriticPolicy:
@@ -288,14 +288,18 @@ def test_default_critic_is_the_laplacian_kernel_with_a_dense_basis_except_under_
     assert built(forgetting_points=100).gp.forgetting == 1.0
     assert built(kernel="laplacian", novelty_tol=0.2).gp.novelty_tol == 0.2
     laplacian_engine_default = 1 - np.exp(-0.25) ** 2
-    for policy in (built(A2C), built(type("MyA2C", (A2C,), {})), built(kernel="geodesic")):
-        assert isinstance(policy.gp.kernel, GeodesicKernel)
-        assert policy.gp.novelty_tol == pytest.approx(laplacian_engine_default)  # its profile
+    geodesic = built(kernel="geodesic").gp
+    assert isinstance(geodesic.kernel, GeodesicKernel)
+    assert geodesic.novelty_tol == pytest.approx(laplacian_engine_default)  # its profile
+    rbf_engine_default = 1 - np.exp(-0.5 * 0.25**2) ** 2
+    for policy in (built(A2C), built(type("MyA2C", (A2C,), {})), built(kernel="rbf")):
+        assert isinstance(policy.gp.kernel, RBFKernel)
+        assert policy.gp.novelty_tol == pytest.approx(rbf_engine_default)
     assert (built(A2C).gp.forgetting, built(A2C).gp.forgetting_points) == (1.0, None)
     a2c_adaptation = Adaptation(max_gap=16, settle=False)  # since 0.17
     assert built(A2C)._get_constructor_parameters()["gp_kwargs"] == {
         "adapt": a2c_adaptation.as_dict(),
-        "kernel": "geodesic",
+        "kernel": "rbf",
         "trend": "none",
     }
     assert built(type("MyA2C", (A2C,), {})).gp.trend == "none"
@@ -307,8 +311,6 @@ def test_default_critic_is_the_laplacian_kernel_with_a_dense_basis_except_under_
     assert built(A2C, kernel="laplacian").gp.novelty_tol == 0.1
     assert built(adapt=CHEAP_ADAPTATION).gp.adaptation == CHEAP_ADAPTATION  # the preset
     assert built(kernel=LaplacianKernel()).gp.novelty_tol == pytest.approx(laplacian_engine_default)
-    rbf = built(kernel="rbf").gp.novelty_tol
-    assert rbf == pytest.approx(1 - np.exp(-0.5 * 0.25**2) ** 2)
     alone = GPActorCriticPolicy(env.observation_space, env.action_space, lambda _: 3e-4)
     assert isinstance(alone.gp.kernel, LaplacianKernel)  # built outside an algorithm
     assert alone.gp.trend == "level" and alone.gp.adaptation == rare
@@ -490,6 +492,33 @@ def test_model_saved_before_0_6_without_a_kernel_loads_with_its_geodesic_critic(
             th.equal(value, before[name]) if isinstance(value, th.Tensor) else value == before[name]
         )
         assert ok, name
+
+
+def test_a2c_model_saved_before_0_22_without_a_kernel_loads_with_its_geodesic_critic(
+    tmp_path: Path,
+) -> None:
+    """From 0.6 to 0.21 A2C's default kernel was the geodesic one, and a model whose
+    ``gp_kwargs`` named none was saved without it: it loads with its geodesic critic, values
+    bit for bit, and trains on; a new A2C model without a kernel gets the RBF one."""
+    env = make_vec_env("Pendulum-v1", n_envs=2, seed=0)
+    old_kwargs = dict(gp_kwargs=dict(max_basis=16), net_arch=[16])
+    geodesic = dict(old_kwargs, gp_kwargs=dict(kernel="geodesic", max_basis=16))
+    model = A2C(GPActorCriticPolicy, env, n_steps=8, seed=0, policy_kwargs=geodesic)
+    model.learn(64, callback=GPValueCallback())
+    model.save(tmp_path / "model.zip")
+    # as 0.21 saved it: A2C's own policy_kwargs (its RMSprop) and gp_kwargs without a kernel
+    saved = dict(model.policy_kwargs, gp_kwargs=dict(max_basis=16))
+    loaded = A2C.load(tmp_path / "model.zip", env=env, custom_objects={"policy_kwargs": saved})
+    assert isinstance(loaded.policy, GPActorCriticPolicy)
+    assert isinstance(loaded.policy.gp.kernel, GeodesicKernel)
+    obs = flat_obs(model)
+    assert th.equal(loaded.policy.predict_values(obs), model.policy.predict_values(obs))
+    seen = int(loaded.policy.gp.n_seen)
+    loaded.learn(32, callback=GPValueCallback(), reset_num_timesteps=False)
+    assert int(loaded.policy.gp.n_seen) == seen + 32
+    fresh = A2C(GPActorCriticPolicy, env, n_steps=8, seed=0, policy_kwargs=old_kwargs)
+    assert isinstance(fresh.policy, GPActorCriticPolicy)
+    assert isinstance(fresh.policy.gp.kernel, RBFKernel)
 
 
 def test_separate_critic_features_extractor() -> None:
@@ -681,6 +710,21 @@ def test_unsupported_spaces_raise(
 ) -> None:
     with pytest.raises(ValueError, match=match):
         GPActorCriticPolicy(obs_space, action_space, lambda _: 1e-3)
+
+
+def test_float32_under_a2c_needs_a_laplacian_profile_kernel() -> None:
+    """A2C's default kernel (RBF since 0.22) is refused in float32, by an error that names
+    the kernels that take it; named, the geodesic kernel runs in float32."""
+    env = make_vec_env("Pendulum-v1", n_envs=1, seed=0)
+    with pytest.raises(ValueError, match="kernel='geodesic' or kernel='laplacian'"):
+        A2C(GPActorCriticPolicy, env, policy_kwargs=dict(gp_kwargs=dict(dtype="float32")))
+    model = A2C(
+        GPActorCriticPolicy,
+        env,
+        policy_kwargs=dict(gp_kwargs=dict(dtype="float32", kernel="geodesic")),
+    )
+    assert isinstance(model.policy, GPActorCriticPolicy)
+    assert model.policy.gp.alpha.dtype == th.float32
 
 
 @pytest.mark.parametrize(

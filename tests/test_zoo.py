@@ -14,7 +14,7 @@ from typing import Any
 import pytest
 from stable_baselines3 import A2C, PPO
 
-from sb3_geogp import GeodesicKernel, GPActorCriticPolicy, LaplacianKernel
+from sb3_geogp import GPActorCriticPolicy, LaplacianKernel, RBFKernel
 
 pytest.importorskip("rl_zoo3")
 
@@ -47,12 +47,12 @@ def test_zoo_train_with_gp_critic(algo: str, n_timesteps: int, tmp_path: Path) -
     assert isinstance(policy, GPActorCriticPolicy)
     # As the config gives them (model.save keeps the algorithm's policy_kwargs): no forgetting,
     # so the critic starts from the policy's default; the default kernel under PPO is the
-    # Laplacian one, the A2C config names the geodesic one (A2C's default).
+    # Laplacian one, the A2C config names the RBF one (A2C's default since 0.22).
     expected: dict[str, Any] = {"max_basis": 256}
     if algo == "a2c":
-        expected.update(kernel="geodesic")
+        expected.update(kernel="rbf")
     assert policy.gp_kwargs == expected
-    kernel = {"ppo": LaplacianKernel, "a2c": GeodesicKernel}[algo]
+    kernel = {"ppo": LaplacianKernel, "a2c": RBFKernel}[algo]
     assert isinstance(policy.gp.kernel, kernel)
     assert "forgetting=1.0" not in proc.stderr  # no warning that A2C's GP forgets nothing
     assert policy.gp.n_basis > 0  # GPValueCallback fed the critic

@@ -49,8 +49,8 @@ with the zoo's keys, e.g. n_envs, n_timesteps, n_steps, gamma, learning_rate, po
       --threshold 200 --timesteps 50000 --seeds 5 --out results/my_env
 
 'my_pkg.envs:' makes gymnasium import my_pkg.envs (which registers MyEnv-v0) in every worker.
-The default GP critic is laplacian under PPO and geodesic under A2C; the default --critics
-(the published sweep's) leave laplacian out.
+The default GP critic is laplacian under PPO and rbf under A2C (geodesic up to 0.21); the
+default --critics (the published sweep's) leave laplacian out.
 See docs/usage.md, "Comparing critics on your environment".
 """
 
