@@ -16,10 +16,10 @@ from stable_baselines3 import A2C, PPO
 
 from sb3_geogp import (
     Adaptation,
-    GeodesicKernel,
     GPActorCriticPolicy,
     GPValueCallback,
     LaplacianKernel,
+    RBFKernel,
 )
 from sb3_geogp.cli import (
     CriticLog,
@@ -82,7 +82,7 @@ def test_train_writes_model_logs_and_curve(
         adaptation = {"ppo": DEFAULT_ADAPTATION, "a2c": Adaptation(max_gap=16, settle=False)}[algo]
         assert model.policy.gp.adaptation == adaptation
     if critic is None:  # the policy's default kernel for the algorithm
-        kernel = {"ppo": LaplacianKernel, "a2c": GeodesicKernel}[algo]
+        kernel = {"ppo": LaplacianKernel, "a2c": RBFKernel}[algo]
         assert isinstance(model.policy.gp.kernel, kernel)
 
     # Every rollout (256 steps of 2 x 64) is in progress.csv; the terminal keeps SB3's pace.
