@@ -382,6 +382,19 @@ def test_replication_verdicts_script_pools_and_refuses_shared_runs(
     assert "expected ALGO=CRITIC" in capsys.readouterr().err
 
 
+def _option_sweeps(tmp_path: Path, variant_critic: str, reference_critic: str) -> list[str]:
+    """``--variant`` and ``--reference`` of two written sweeps, seeds 0-5: the variant
+    (``variant_critic``) 10 ahead, run for run, of the reference GP critic, which is level with
+    the MLP."""
+    reference = [_result(c, s, final=float(s % 3), rmse=20.0) for c in ("mlp", reference_critic)
+                 for s in range(6)]  # fmt: skip
+    variant = [_result(variant_critic, s, final=10.0 + s % 3, rmse=20.0) for s in range(6)]
+    return [
+        "--variant", str(_write_sweep(tmp_path / "variant", variant)),
+        "--reference", str(_write_sweep(tmp_path / "reference", reference)),
+    ]  # fmt: skip
+
+
 def test_option_verdicts_compares_variant_reference_and_mlp(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
@@ -391,12 +404,8 @@ def test_option_verdicts_compares_variant_reference_and_mlp(
     from tests.test_examples_engine import load_script
 
     script = load_script("option_verdicts")
-    reference = [_result(c, s, final=float(s % 3), rmse=20.0) for c in ("mlp", "laplacian")
-                 for s in range(6)]  # fmt: skip
-    variant = [_result("laplacian", s, final=10.0 + s % 3, rmse=20.0) for s in range(6)]
     out = tmp_path / "option.md"
-    argv = ["--variant", str(_write_sweep(tmp_path / "variant", variant))]
-    argv += ["--reference", str(_write_sweep(tmp_path / "reference", reference))]
+    argv = _option_sweeps(tmp_path, "laplacian", "laplacian")
     argv += ["--critic", "laplacian", "--label", "prior_mean=linear", "--out", str(out)]
     assert script.main(argv) == 0
     rows = {r["metric"]: r for r in json.loads(out.with_suffix(".json").read_text())}
@@ -421,12 +430,8 @@ def test_option_verdicts_reads_another_kernel_as_an_option(tmp_path: Path) -> No
     from tests.test_examples_engine import load_script
 
     script = load_script("option_verdicts")
-    reference = [_result(c, s, final=float(s % 3), rmse=20.0) for c in ("mlp", "geodesic")
-                 for s in range(6)]  # fmt: skip
-    variant = [_result("rbf", s, final=10.0 + s % 3, rmse=20.0) for s in range(6)]
     out = tmp_path / "option.md"
-    argv = ["--variant", str(_write_sweep(tmp_path / "variant", variant))]
-    argv += ["--reference", str(_write_sweep(tmp_path / "reference", reference))]
+    argv = _option_sweeps(tmp_path, "rbf", "geodesic")
     argv += ["--critic", "geodesic", "--label", "kernel=rbf", "--out", str(out)]
     assert script.main([*argv, "--variant-critic", "rbf"]) == 0
     rows = {r["metric"]: r for r in json.loads(out.with_suffix(".json").read_text())}
