@@ -27,6 +27,10 @@ The files of `results/table40` (session 32, when its PPO arms had finished):
     python results/replication_0_15/pool30.py --a2c 0.17 --add fresh40 --only-added \
         > results/table40/fresh.md
     python results/replication_0_15/pool30.py --a2c 0.17 --add fresh40 --add a2c_s60  # 50 A2C seeds
+
+``--a2c 0.22`` (session 36, `results/table40_rbf`) takes the A2C rows from 0.22's default (the
+RBF kernel) on the 40-seed table's A2C seeds 0-19, 30-39 and 70-79; ``--add ppo160`` adds the
+PPO seeds 160-169 alone. `results/table40_rbf/table.py` reads that table.
 """
 
 from __future__ import annotations
@@ -64,6 +68,17 @@ A2C_SOURCES = {
         ("results/a2c_rare_refits/candidate_s30", "a2c", "geodesic"),
         ("results/a2c_rare_refits/mlp_s30", "a2c", "mlp"),
     ),
+    # 0.22's RBF default on the 40-seed table's A2C seeds (results/table40_rbf)
+    "0.22": (
+        ("results/a2c_rbf/rbf_s0", "a2c", "rbf"),
+        ("results/compare", "a2c", "mlp"),
+        ("results/table40_rbf/rbf_s10", "a2c", "rbf"),
+        ("results/replication_0_15/a2c_s10", "a2c", "mlp"),
+        ("results/table40_rbf/rbf_s30", "a2c", "rbf"),
+        ("results/a2c_rare_refits/mlp_s30", "a2c", "mlp"),
+        ("results/table40_rbf/rbf_s70", "a2c", "rbf"),
+        ("results/table40/a2c_mlp_s70", "a2c", "mlp"),
+    ),
 }
 #: Further seed sets of today's defaults, pooled with ``--add``.
 ADDED_SOURCES = {
@@ -72,6 +87,10 @@ ADDED_SOURCES = {
         ("results/table40/ppo_mlp_s160", "ppo", "mlp"),
         ("results/table40/a2c_default_s70", "a2c", "geodesic"),
         ("results/table40/a2c_mlp_s70", "a2c", "mlp"),
+    ),
+    "ppo160": (
+        ("results/table40/ppo_default_s160", "ppo", "laplacian"),
+        ("results/table40/ppo_mlp_s160", "ppo", "mlp"),
     ),
     "a2c_s60": (
         ("results/a2c_capped_bonus/default_s60", "a2c", "geodesic"),
@@ -125,16 +144,8 @@ def plot(a2c: str, added: tuple[str, ...], path: str) -> None:
     plot_difference_panels(rows, list(sets), path, title, n_cols=7, panel_size=(2.2, 2.2))
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--a2c", choices=sorted(A2C_SOURCES), default="0.16")
-    parser.add_argument("--add", choices=sorted(ADDED_SOURCES), action="append", default=[])
-    parser.add_argument("--only-added", action="store_true")
-    parser.add_argument("--plot", metavar="PNG", help="also draw the 30 seeds, added, pooled")
-    args = parser.parse_args()
-    if args.plot and not args.add:
-        parser.error("--plot draws the added seeds beside the 30: name them with --add")
-    rows = final_return_rows(pooled_runs(args.a2c, tuple(args.add), args.only_added))
+def print_table(rows: dict[tuple[str, str], dict[str, Any]]) -> None:
+    """The rows of :func:`final_return_rows` as a markdown table, then the verdicts' counts."""
     print("| env | algo | critic − MLP, final return | seeds | verdict (95 %) | family-wise |")
     print("|---|---|---|---|---|---|")
     counts = {"better": 0, "no difference": 0, "worse": 0}
@@ -144,9 +155,21 @@ def main() -> None:
         seeds = f"{c['n_a']} / {c['n_b']}"
         verdicts = f"{c['verdict']} | {c['fw_verdict']}"
         print(f"| `{c['env']}` | {c['algo']} | {diff} | {seeds} | {verdicts} |")
-        counts[c["verdict"]] += 1
-        fw_counts[c["fw_verdict"]] += 1
+        counts[c["verdict"]] = counts.get(c["verdict"], 0) + 1
+        fw_counts[c["fw_verdict"]] = fw_counts.get(c["fw_verdict"], 0) + 1
     print(f"\ncounts at 95 %: {counts}; family-wise: {fw_counts}")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--a2c", choices=sorted(A2C_SOURCES), default="0.16")
+    parser.add_argument("--add", choices=sorted(ADDED_SOURCES), action="append", default=[])
+    parser.add_argument("--only-added", action="store_true")
+    parser.add_argument("--plot", metavar="PNG", help="also draw the 30 seeds, added, pooled")
+    args = parser.parse_args()
+    if args.plot and not args.add:
+        parser.error("--plot draws the added seeds beside the 30: name them with --add")
+    print_table(final_return_rows(pooled_runs(args.a2c, tuple(args.add), args.only_added)))
     if args.plot:
         plot(args.a2c, tuple(args.add), args.plot)
 
