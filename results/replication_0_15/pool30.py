@@ -144,9 +144,10 @@ def plot(a2c: str, added: tuple[str, ...], path: str) -> None:
     plot_difference_panels(rows, list(sets), path, title, n_cols=7, panel_size=(2.2, 2.2))
 
 
-def print_table(rows: dict[tuple[str, str], dict[str, Any]]) -> None:
-    """The rows of :func:`final_return_rows` as a markdown table, then the verdicts' counts."""
-    print("| env | algo | critic − MLP, final return | seeds | verdict (95 %) | family-wise |")
+def print_table(rows: dict[tuple[str, str], dict[str, Any]], metric: str = "final return") -> None:
+    """Rows like :func:`final_return_rows`'s (on ``metric``) as a markdown table, then the
+    verdicts' counts."""
+    print(f"| env | algo | critic − MLP, {metric} | seeds | verdict (95 %) | family-wise |")
     print("|---|---|---|---|---|---|")
     counts = {"better": 0, "no difference": 0, "worse": 0}
     fw_counts = dict(counts)

@@ -102,7 +102,8 @@ def main() -> None:
     )
     parser.add_argument("--plot", metavar="PNG", help="draw the A2C rows of 0.21 and 0.22")
     args = parser.parse_args()
-    print_table(rows(table_runs(args.a2c, args.without_screen), args.metric))
+    label = {"final_return": "final return", "mean_return": "area under the curve"}[args.metric]
+    print_table(rows(table_runs(args.a2c, args.without_screen), args.metric), label)
     if args.plot:
         plot(args.metric, args.plot)
 
