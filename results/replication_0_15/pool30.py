@@ -119,21 +119,23 @@ def pooled_runs(
     return list(runs.values())
 
 
-def final_return_rows(runs: list[dict[str, Any]]) -> dict[tuple[str, str], dict[str, Any]]:
-    """Default critic − MLP on final return, by (env, algo), at the published family size."""
+def mlp_rows(
+    runs: list[dict[str, Any]], metric: str = "final_return"
+) -> dict[tuple[str, str], dict[str, Any]]:
+    """Default critic − MLP on ``metric`` by (env, algo), at the published family size."""
     return {
         (c["env"], c["algo"]): c
         for c in comparisons(runs, family_size=PUBLISHED_FAMILY)
-        if c["metric"] == "final_return" and c["b"] == "mlp"
+        if c["metric"] == metric and c["b"] == "mlp"
     }
 
 
 def plot(a2c: str, added: tuple[str, ...], path: str) -> None:
     """Each cell's difference on the 30 seeds, on the added seeds alone and pooled."""
     sets = {
-        "30 seeds": final_return_rows(pooled_runs(a2c)),
-        "added": final_return_rows(pooled_runs(a2c, added, only_added=True)),
-        "pooled": final_return_rows(pooled_runs(a2c, added)),
+        "30 seeds": mlp_rows(pooled_runs(a2c)),
+        "added": mlp_rows(pooled_runs(a2c, added, only_added=True)),
+        "pooled": mlp_rows(pooled_runs(a2c, added)),
     }
     cells = sorted(sets["30 seeds"], key=lambda k: (k[1], k[0]))
     rows = [
@@ -145,7 +147,7 @@ def plot(a2c: str, added: tuple[str, ...], path: str) -> None:
 
 
 def print_table(rows: dict[tuple[str, str], dict[str, Any]], metric: str = "final return") -> None:
-    """Rows like :func:`final_return_rows`'s (on ``metric``) as a markdown table, then the
+    """Rows like :func:`mlp_rows`'s (on ``metric``) as a markdown table, then the
     verdicts' counts."""
     print(f"| env | algo | critic − MLP, {metric} | seeds | verdict (95 %) | family-wise |")
     print("|---|---|---|---|---|---|")
@@ -170,7 +172,7 @@ def main() -> None:
     args = parser.parse_args()
     if args.plot and not args.add:
         parser.error("--plot draws the added seeds beside the 30: name them with --add")
-    print_table(final_return_rows(pooled_runs(args.a2c, tuple(args.add), args.only_added)))
+    print_table(mlp_rows(pooled_runs(args.a2c, tuple(args.add), args.only_added)))
     if args.plot:
         plot(args.a2c, tuple(args.add), args.plot)
 

@@ -19,10 +19,10 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "replication_0_15"))
-from pool30 import PUBLISHED_FAMILY, pooled_runs
+from pool30 import mlp_rows, pooled_runs
 
 from sb3_geogp.comparison.report import pyplot
-from sb3_geogp.comparison.results import comparisons, group_runs, stack_curves
+from sb3_geogp.comparison.results import group_runs, stack_curves
 from sb3_geogp.toolbox.stats import difference_ci
 
 DEFAULT_CRITIC = {"ppo": "laplacian", "a2c": "geodesic"}
@@ -66,11 +66,7 @@ def main() -> None:
     parser.add_argument("--plot", metavar="PNG", help="draw the differences per checkpoint")
     args = parser.parse_args()
     runs = pooled_runs("0.17", ("fresh40",))
-    auc = {
-        (c["env"], c["algo"]): c
-        for c in comparisons(runs, family_size=PUBLISHED_FAMILY)
-        if c["metric"] == "mean_return" and c["b"] == "mlp"
-    }
+    auc = mlp_rows(runs, "mean_return")
     curves = cell_curves(runs)
     print(
         "| algo | env | GP − MLP, area under the curve [95 % CI] | verdict (95 % / family-wise) "

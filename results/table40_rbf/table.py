@@ -21,10 +21,9 @@ from pathlib import Path
 from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "replication_0_15"))
-from pool30 import PUBLISHED_FAMILY, pooled_runs, print_table
+from pool30 import mlp_rows, pooled_runs, print_table
 
 from sb3_geogp.comparison.report import plot_difference_panels
-from sb3_geogp.comparison.results import comparisons
 
 #: The seed sets pooled with each A2C default's runs: the PPO seeds 160-169, and for 0.17 its
 #: A2C seeds 70-79 (0.22's are among its own sources).
@@ -57,20 +56,11 @@ def table_runs(a2c: str, without_screen: bool) -> list[dict[str, Any]]:
     return paired(runs)
 
 
-def rows(runs: list[dict[str, Any]], metric: str) -> dict[tuple[str, str], dict[str, Any]]:
-    """Default critic − MLP on ``metric`` by (env, algo), at the published family size."""
-    return {
-        (c["env"], c["algo"]): c
-        for c in comparisons(runs, family_size=PUBLISHED_FAMILY)
-        if c["metric"] == metric and c["b"] == "mlp"
-    }
-
-
 def plot(metric: str, path: str) -> None:
     """Each A2C cell: 0.21's default (geodesic) and 0.22's (RBF) against the MLP critic."""
     sets = {
-        "0.21 geodesic": rows(table_runs("0.17", False), metric),
-        "0.22 RBF": rows(table_runs("0.22", False), metric),
+        "0.21 geodesic": mlp_rows(table_runs("0.17", False), metric),
+        "0.22 RBF": mlp_rows(table_runs("0.22", False), metric),
     }
     cells = sorted(cell for cell in sets["0.22 RBF"] if cell[1] == "a2c")
     panels = [
@@ -103,7 +93,7 @@ def main() -> None:
     parser.add_argument("--plot", metavar="PNG", help="draw the A2C rows of 0.21 and 0.22")
     args = parser.parse_args()
     label = {"final_return": "final return", "mean_return": "area under the curve"}[args.metric]
-    print_table(rows(table_runs(args.a2c, args.without_screen), args.metric), label)
+    print_table(mlp_rows(table_runs(args.a2c, args.without_screen), args.metric), label)
     if args.plot:
         plot(args.metric, args.plot)
 
