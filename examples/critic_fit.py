@@ -39,6 +39,7 @@ from sb3_geogp.comparison.report import COLORS
 from sb3_geogp.comparison.run import build_model, write_json_atomic
 from sb3_geogp.comparison.specs import RunSpec, SweepConfig
 from sb3_geogp.toolbox.provenance import provenance
+from sb3_geogp.toolbox.stats import mean_ci
 
 ENVS = ("Pendulum-v1", "CartPole-v1", "Acrobot-v1")
 GOAL = 0.9
@@ -158,7 +159,34 @@ def summary(results: list[dict[str, Any]], critics: Sequence[str], last: float) 
                 f"{np.mean(tails):.3f} [{min(tails):.2f}, {max(tails):.2f}], {reached}/{len(tails)}"
             )
         lines.append(f"| `{env_id}` | " + " | ".join(cells) + " |")
-    return "\n".join(lines) + "\n"
+    return "\n".join(lines + paired_differences(results, critics)) + "\n"
+
+
+def paired_differences(results: list[dict[str, Any]], critics: Sequence[str]) -> list[str]:
+    """Markdown lines: each critic's tail explained variance minus the first critic's, paired
+    by seed over the seeds both have, with a 95 % t interval (none with one critic)."""
+    if len(critics) < 2:
+        return []
+    first = critics[0]
+    lines = [
+        "",
+        f"Paired by seed, minus `{first}`: mean difference [95 % t interval] (seeds):",
+        "",
+        "| env | " + " | ".join(f"{c} − {first}" for c in critics[1:]) + " |",
+        "|---|" + "---:|" * (len(critics) - 1),
+    ]
+    tails = {(r["env_id"], r["critic"], r["seed"]): r["tail_mean"] for r in results}
+    for env_id in dict.fromkeys(r["env_id"] for r in results):
+        cells = []
+        for critic in critics[1:]:
+            diff = np.array(
+                [t - tails[env_id, first, seed] for (e, c, seed), t in tails.items()
+                 if (e, c) == (env_id, critic) and (env_id, first, seed) in tails]
+            )  # fmt: skip
+            mean, half = (float(v) for v in mean_ci(diff, nan_policy="propagate"))
+            cells.append(f"{mean:+.3f} [{mean - half:+.3f}, {mean + half:+.3f}] ({len(diff)})")
+        lines.append(f"| `{env_id}` | " + " | ".join(cells) + " |")
+    return lines
 
 
 def plot(results: list[dict[str, Any]], path: Path) -> None:

@@ -139,6 +139,23 @@ def test_critic_fit_tiny_run_writes_table_and_figure(tmp_path: Path) -> None:
         critic_fit.main([*argv, "--out", str(tmp_path), "--gp-option", "forgetting=0.9"])
 
 
+def test_critic_fit_pairs_differences_by_seed() -> None:
+    """Each critic minus the first, over the seeds both have, with the t interval scipy gives."""
+    import scipy.stats as sps
+
+    critic_fit = load_script("critic_fit")
+    tails = {("mlp", 0): 0.5, ("mlp", 1): 0.7, ("rbf", 0): 0.6, ("rbf", 1): 1.0, ("rbf", 2): 0.0}
+    results = [
+        {"env_id": "CartPole-v1", "critic": c, "seed": s, "tail_mean": t}
+        for (c, s), t in tails.items()
+    ]
+    row = critic_fit.paired_differences(results, ["mlp", "rbf"])[-1]
+    diffs = np.array([0.1, 0.3])  # seed 2 has no MLP run
+    half = sps.t.ppf(0.975, 1) * diffs.std(ddof=1) / np.sqrt(2)
+    assert row == f"| `CartPole-v1` | +0.200 [{0.2 - half:+.3f}, {0.2 + half:+.3f}] (2) |"
+    assert critic_fit.paired_differences(results, ["mlp"]) == []
+
+
 class _PushUpLeft:
     """A stand-in policy: always the action (-1, 1)."""
 
