@@ -31,6 +31,7 @@ import os
 import tempfile
 import time
 import warnings
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -84,7 +85,9 @@ def _finite_or_none(x: float) -> float | None:
     return float(x) if math.isfinite(x) else None
 
 
-def run_one(spec: RunSpec, out_dir: str | Path) -> dict[str, Any]:
+def run_one(
+    spec: RunSpec, out_dir: str | Path, recorders: Sequence[BaseCallback] = ()
+) -> dict[str, Any]:
     """Train one model, measure it, write its result file atomically; return the result.
 
     Parameters
@@ -92,6 +95,9 @@ def run_one(spec: RunSpec, out_dir: str | Path) -> dict[str, Any]:
     spec : RunSpec
     out_dir : str or Path
         Sweep folder; the result goes to :func:`result_path`.
+    recorders : sequence of BaseCallback
+        Callbacks that watch the run without changing it (e.g. per-rollout diagnostics of a
+        published run, re-run exactly): they come after the GP callback and the measurements.
 
     Returns
     -------
@@ -105,7 +111,7 @@ def run_one(spec: RunSpec, out_dir: str | Path) -> dict[str, Any]:
             # The zoo's PPO settings for MountainCarContinuous-v0 (batch_size 256 > n_steps 8)
             # make SB3 warn about a truncated mini-batch at every construction; expected here.
             warnings.filterwarnings("ignore", message=".*mini-batch size.*", category=UserWarning)
-            result = _train_and_measure(spec)
+            result = _train_and_measure(spec, recorders)
     finally:
         th.set_num_threads(threads)
     result["warnings"] = list(dict.fromkeys(f"{w.category.__name__}: {w.message}" for w in caught))
@@ -139,7 +145,7 @@ def build_model(spec: RunSpec) -> OnPolicyAlgorithm:
     )
 
 
-def _train_and_measure(spec: RunSpec) -> dict[str, Any]:
+def _train_and_measure(spec: RunSpec, recorders: Sequence[BaseCallback]) -> dict[str, Any]:
     eval_envs = [gym.make(spec.env_id) for _ in range(spec.n_eval_episodes)]
     probes = ProbeStates.build(spec.env_id, spec.n_probe_states)
     model = build_model(spec)  # last: it seeds the global random streams training uses
@@ -154,6 +160,7 @@ def _train_and_measure(spec: RunSpec) -> dict[str, Any]:
     callbacks: list[BaseCallback] = [checkpoints] if gp_callback is None else [gp_callback]
     if gp_callback is not None:
         callbacks.append(checkpoints)
+    callbacks.extend(recorders)
     start, cpu_start = time.perf_counter(), time.process_time()
     model.learn(spec.total_timesteps, callback=CallbackList(callbacks))
     learn_seconds = time.perf_counter() - start
