@@ -26,6 +26,7 @@ from stable_baselines3.common.env_util import make_vec_env
 
 from sb3_geogp import GPActorCriticPolicy, GPValueCallback
 from sb3_geogp.comparison.hyperparams import algo_kwargs, hyperparams
+from sb3_geogp.comparison.measurement import RolloutRecorder
 from sb3_geogp.comparison.report import pyplot
 
 #: ``gp_kwargs`` of each critic (``None``: SB3's MLP critic). ``gaussian`` changes only the
@@ -38,32 +39,23 @@ CRITICS = {
 }
 
 
-class RolloutStats(BaseCallback):
+class RolloutStats(RolloutRecorder):
     """Per rollout: advantages, targets, values, entropy, recent episode returns."""
 
-    def __init__(self) -> None:
-        super().__init__()
-        self.rows: list[dict[str, Any]] = []
-
-    def _on_step(self) -> bool:
-        return True
-
-    def _on_rollout_end(self) -> None:
+    def row(self) -> dict[str, Any]:
         buffer = self.model.rollout_buffer
         obs = th.as_tensor(buffer.observations.reshape(buffer.buffer_size * buffer.n_envs, -1))
         with th.no_grad():
             entropy = self.model.policy.get_distribution(obs.to(self.model.device)).entropy()
         episodes = [e["r"] for e in self.model.ep_info_buffer][-20:]
-        self.rows.append(
-            dict(
-                t=self.num_timesteps,
-                advantage=float(buffer.advantages.mean()),
-                advantage_sd=float(buffer.advantages.std()),
-                target=float(buffer.returns.mean()),
-                value=float(buffer.values.mean()),
-                entropy=float(entropy.mean()),
-                episode_return=float(np.mean(episodes)) if episodes else None,
-            )
+        return dict(
+            t=self.num_timesteps,
+            advantage=float(buffer.advantages.mean()),
+            advantage_sd=float(buffer.advantages.std()),
+            target=float(buffer.returns.mean()),
+            value=float(buffer.values.mean()),
+            entropy=float(entropy.mean()),
+            episode_return=float(np.mean(episodes)) if episodes else None,
         )
 
 

@@ -22,8 +22,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from stable_baselines3.common.callbacks import BaseCallback
-
+from sb3_geogp.comparison.measurement import RolloutRecorder
 from sb3_geogp.comparison.run import run_one
 from sb3_geogp.comparison.specs import SweepConfig
 
@@ -31,17 +30,10 @@ HERE = Path(__file__).parent
 CRITICS = ("mlp", "laplacian")
 
 
-class RolloutRecord(BaseCallback):
-    """One row per rollout, read after the GP critic's callback has filled its values."""
+class RolloutRecord(RolloutRecorder):
+    """Episode lengths, the returns' spread, the critic's fit and what the GP critic logged."""
 
-    def __init__(self) -> None:
-        super().__init__()
-        self.rows: list[dict[str, Any]] = []
-
-    def _on_step(self) -> bool:
-        return True
-
-    def _on_rollout_end(self) -> None:
+    def row(self) -> dict[str, Any]:
         buffer = self.model.rollout_buffer
         returns, values = buffer.returns.ravel(), buffer.values.ravel()
         spread = float(np.var(returns))
@@ -54,7 +46,7 @@ class RolloutRecord(BaseCallback):
         )
         logged = self.model.logger.name_to_value
         row.update({k: float(v) for k, v in logged.items() if k.startswith("gp/")})
-        self.rows.append(row)
+        return row
 
 
 def rerun(critic: str, seed: int) -> dict[str, Any]:

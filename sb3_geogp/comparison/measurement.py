@@ -1,4 +1,5 @@
-"""Callbacks that measure a run inside ``learn``: time in the critic, checkpoints."""
+"""Callbacks that measure a run inside ``learn``: time in the critic, checkpoints, per-rollout
+records."""
 
 from __future__ import annotations
 
@@ -19,6 +20,29 @@ from sb3_geogp.comparison.evaluation import (
     max_episode_steps,
 )
 from sb3_geogp.comparison.specs import RunSpec
+
+
+class RolloutRecorder(BaseCallback):
+    """One row per rollout: the dict :meth:`row` returns at each rollout's end.
+
+    Put it after :class:`~sb3_geogp.GPValueCallback` (``run_one``'s ``recorders`` are) to read
+    the rollout buffer once the GP critic's values, returns and advantages are final, and what
+    the GP logged for the rollout (``self.model.logger.name_to_value``).
+    """
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.rows: list[dict[str, Any]] = []
+
+    def _on_step(self) -> bool:
+        return True
+
+    def _on_rollout_end(self) -> None:
+        self.rows.append(self.row())
+
+    def row(self) -> dict[str, Any]:
+        """What to keep of the rollout that just ended."""
+        raise NotImplementedError
 
 
 class ForwardTimer:

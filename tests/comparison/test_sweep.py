@@ -13,12 +13,12 @@ from typing import Any
 import numpy as np
 import pytest
 import torch
-from stable_baselines3.common.callbacks import BaseCallback
 
 from sb3_geogp.cli import main
 from sb3_geogp.comparison import run as run_module
 from sb3_geogp.comparison.evaluation import mc_horizon
 from sb3_geogp.comparison.hyperparams import TIMESTEPS, HyperparamsFile
+from sb3_geogp.comparison.measurement import RolloutRecorder
 from sb3_geogp.comparison.report import write_report
 from sb3_geogp.comparison.results import (
     comparisons,
@@ -194,20 +194,20 @@ def test_measurements_do_not_change_training(tmp_path: Path) -> None:
     a = run_one(spec, tmp_path / "a")
     b = run_one(dataclasses.replace(spec, n_mc_rollouts=1, n_probe_states=5), tmp_path / "b")
     assert a["eval"]["returns"] == b["eval"]["returns"]
+
     # Nor does a recorder that reads what the GP critic logged at each rollout's end.
-    logged: list[dict[str, float]] = []
+    class Logged(RolloutRecorder):
+        def row(self) -> dict[str, Any]:
+            return dict(self.model.logger.name_to_value, t=self.num_timesteps)
 
-    class Recorder(BaseCallback):
-        def _on_step(self) -> bool:
-            return True
-
-        def _on_rollout_end(self) -> None:
-            logged.append(dict(self.model.logger.name_to_value))
-
-    c = run_one(spec, tmp_path / "c", recorders=[Recorder()])
+    recorder = Logged()
+    c = run_one(spec, tmp_path / "c", recorders=[recorder])
     assert c["eval"]["returns"] == a["eval"]["returns"]
     assert c["critic_accuracy"] == a["critic_accuracy"]
-    assert logged and all("gp/n_basis" in values for values in logged)
+    # One row per rollout (A2C: n_envs * n_steps steps each), each with what the GP logged.
+    steps = [row["t"] for row in recorder.rows]
+    assert steps == list(range(steps[0], c["num_timesteps"] + 1, steps[0]))
+    assert all("gp/n_basis" in row for row in recorder.rows)
     # One Monte Carlo rollout per state: no standard error, and the result file is still valid.
     assert all(np.isfinite(a["critic_accuracy"]["mc_stderr"]))
     assert set(b["critic_accuracy"]["mc_stderr"]) == {None}
