@@ -1,9 +1,11 @@
 """How often a PPO CartPole-v1 run falls after reaching the threshold, per critic (session 37).
 
 A fall: the evaluation curve reaches 475 at some checkpoint and the run ends below 300. Counted
-on the 100,000-step runs of ``s170`` and on the 40 seeds per critic of issue 13's table at
-30,000 steps (the pool of ``results/replication_0_15/pool30.py --add ppo160``), with Fisher's
-exact test of the two critics' fall rates among the runs that reached 475.
+on the 100,000-step runs of ``s170``, on the 40 seeds per critic of issue 13's table at
+30,000 steps (the pool of ``results/replication_0_15/pool30.py --add ppo160``) and on the
+pre-registered fresh seeds 180-199 (``falls_s180``, ``FALLS_PREREGISTRATION.md``: one-sided,
+the GP critic's rate higher), with Fisher's exact test of the two critics' fall rates among
+the runs that reached 475.
 
     python results/budget100k/falls.py > results/budget100k/falls.md
 """
@@ -36,7 +38,7 @@ def counts(runs: list[dict[str, Any]], critic: str) -> tuple[int, int, list[int]
     return len(mine), len(reached), fell
 
 
-def table(name: str, runs: list[dict[str, Any]]) -> list[str]:
+def table(name: str, runs: list[dict[str, Any]], alternative: str = "two-sided") -> list[str]:
     cartpole = [
         r for r in runs if (r["spec"]["env_id"], r["spec"]["algo"]) == ("CartPole-v1", "ppo")
     ]
@@ -45,8 +47,8 @@ def table(name: str, runs: list[dict[str, Any]]) -> list[str]:
              for c, (n, k, f) in rows.items()]  # fmt: skip
     (_, k_mlp, f_mlp), (_, k_gp, f_gp) = rows["mlp"], rows["laplacian"]
     table_2x2 = [[len(f_gp), k_gp - len(f_gp)], [len(f_mlp), k_mlp - len(f_mlp)]]
-    p = sps.fisher_exact(table_2x2).pvalue
-    return [*lines, f"| {name} | GP vs MLP, Fisher's exact p | | | {p:.2f} | |"]
+    p = sps.fisher_exact(table_2x2, alternative=alternative).pvalue
+    return [*lines, f"| {name} | GP vs MLP, Fisher's exact p ({alternative}) | | | {p:.3f} | |"]
 
 
 def main() -> None:
@@ -60,6 +62,11 @@ def main() -> None:
         print(line)
     for line in table("30,000 steps, issue 13's 40 seeds", pooled_runs("0.22", ("ppo160",))):
         print(line)
+    # The pre-registered test (FALLS_PREREGISTRATION.md): fresh seeds, one-sided.
+    fresh = HERE / "falls_s180"
+    if (fresh / "runs").is_dir():
+        for line in table("100,000 steps, seeds 180-199", load_results(fresh), "greater"):
+            print(line)
 
 
 if __name__ == "__main__":
