@@ -22,7 +22,9 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+
 from sb3_geogp.comparison.measurement import RolloutRecorder
+from sb3_geogp.comparison.report import pyplot
 from sb3_geogp.comparison.run import run_one
 from sb3_geogp.comparison.specs import SweepConfig
 
@@ -64,11 +66,7 @@ def rerun(critic: str, seed: int) -> dict[str, Any]:
 
 
 def plot(runs: dict[tuple[str, int], dict[str, Any]], seeds: Sequence[int], path: Path) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    plt = pyplot()
     colors = {"mlp": "0.4", "laplacian": "tab:green"}
     fig, axes = plt.subplots(2, len(seeds), figsize=(4.6 * len(seeds), 6.2), squeeze=False)
     for col, seed in enumerate(seeds):
