@@ -35,6 +35,7 @@ from tqdm.auto import tqdm
 from sb3_geogp import GPActorCriticPolicy, GPValueCallback
 from sb3_geogp.comparison.command import parse_gp_option
 from sb3_geogp.comparison.hyperparams import ALL_CRITICS, CRITICS
+from sb3_geogp.comparison.measurement import RolloutRecorder, rollout_explained_variance
 from sb3_geogp.comparison.report import COLORS
 from sb3_geogp.comparison.run import build_model, write_json_atomic
 from sb3_geogp.comparison.specs import RunSpec, SweepConfig
@@ -45,25 +46,21 @@ ENVS = ("Pendulum-v1", "CartPole-v1", "Acrobot-v1")
 GOAL = 0.9
 
 
-class ExplainedVariance(BaseCallback):
+class ExplainedVariance(RolloutRecorder):
     """The rollout's explained variance once its returns (and a GP critic's values) are final:
     put it after :class:`~sb3_geogp.GPValueCallback`, which fills the GP's values."""
 
-    def __init__(self) -> None:
-        super().__init__()
-        self.timesteps: list[int] = []
-        self.explained: list[float] = []
+    def row(self) -> dict[str, Any]:
+        explained = rollout_explained_variance(self.model.rollout_buffer)
+        return dict(timesteps=int(self.num_timesteps), explained=explained)
 
-    def _on_step(self) -> bool:
-        return True
+    @property
+    def timesteps(self) -> list[int]:
+        return [r["timesteps"] for r in self.rows]
 
-    def _on_rollout_end(self) -> None:
-        buffer = self.locals["rollout_buffer"]
-        returns, values = buffer.returns.ravel(), buffer.values.ravel()
-        spread = float(np.var(returns))
-        explained = 1.0 - float(np.var(returns - values)) / spread if spread > 0 else np.nan
-        self.timesteps.append(int(self.num_timesteps))
-        self.explained.append(explained)
+    @property
+    def explained(self) -> list[float]:
+        return [r["explained"] for r in self.rows]
 
 
 def run_one(spec: RunSpec, last: float) -> dict[str, Any]:

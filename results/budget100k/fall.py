@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from sb3_geogp.comparison.measurement import RolloutRecorder
+from sb3_geogp.comparison.measurement import RolloutRecorder, rollout_explained_variance
 from sb3_geogp.comparison.report import pyplot
 from sb3_geogp.comparison.run import run_one
 from sb3_geogp.comparison.specs import SweepConfig
@@ -37,14 +37,13 @@ class RolloutRecord(RolloutRecorder):
 
     def row(self) -> dict[str, Any]:
         buffer = self.model.rollout_buffer
-        returns, values = buffer.returns.ravel(), buffer.values.ravel()
-        spread = float(np.var(returns))
+        explained = rollout_explained_variance(buffer)
         episodes = self.model.ep_info_buffer
         row = dict(
             timesteps=int(self.num_timesteps),
             episode_length=float(np.mean([e["l"] for e in episodes])) if episodes else None,
-            return_std=float(np.sqrt(spread)),
-            explained_variance=1 - float(np.var(returns - values)) / spread if spread else None,
+            return_std=float(np.sqrt(np.var(buffer.returns.ravel()))),
+            explained_variance=None if np.isnan(explained) else explained,
         )
         logged = self.model.logger.name_to_value
         row.update({k: float(v) for k, v in logged.items() if k.startswith("gp/")})

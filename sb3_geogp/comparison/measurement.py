@@ -22,6 +22,23 @@ from sb3_geogp.comparison.evaluation import (
 from sb3_geogp.comparison.specs import RunSpec
 
 
+def rollout_explained_variance(buffer: Any) -> float:
+    """``1 - Var(R - V) / Var(R)`` of a rollout buffer's returns ``R`` and values ``V``.
+
+    The formula of SB3's ``explained_variance``, with the division in float64 (SB3's divides
+    the float32 variances as float32; the published per-rollout records were written with this
+    one). NaN where the returns do not vary.
+
+    Parameters
+    ----------
+    buffer : RolloutBuffer
+        ``returns`` and ``values``, each shape (n_steps, n_envs).
+    """
+    returns, values = buffer.returns.ravel(), buffer.values.ravel()
+    spread = float(np.var(returns))
+    return 1.0 - float(np.var(returns - values)) / spread if spread > 0 else float("nan")
+
+
 class RolloutRecorder(BaseCallback):
     """One row per rollout: the dict :meth:`row` returns at each rollout's end.
 

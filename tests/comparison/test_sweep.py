@@ -8,17 +8,19 @@ import json
 import sys
 from collections.abc import Callable
 from pathlib import Path
+from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
 import pytest
 import torch
+from stable_baselines3.common.utils import explained_variance
 
 from sb3_geogp.cli import main
 from sb3_geogp.comparison import run as run_module
 from sb3_geogp.comparison.evaluation import mc_horizon
 from sb3_geogp.comparison.hyperparams import TIMESTEPS, HyperparamsFile
-from sb3_geogp.comparison.measurement import RolloutRecorder
+from sb3_geogp.comparison.measurement import RolloutRecorder, rollout_explained_variance
 from sb3_geogp.comparison.report import write_report
 from sb3_geogp.comparison.results import (
     comparisons,
@@ -213,6 +215,18 @@ def test_measurements_do_not_change_training(tmp_path: Path) -> None:
     assert set(b["critic_accuracy"]["mc_stderr"]) == {None}
     assert json.loads(next((tmp_path / "b" / "runs").glob("*.json")).read_text())["eval"]
     assert a["gp_n_basis"] == b["gp_n_basis"]
+
+
+def test_rollout_explained_variance_is_sb3s_formula() -> None:
+    rng = np.random.default_rng(0)
+    returns = rng.normal(3.0, 2.0, (64, 4)).astype(np.float32)
+    values = (returns + rng.normal(0.0, 1.0, (64, 4))).astype(np.float32)
+    buffer = SimpleNamespace(returns=returns, values=values)
+    expected = explained_variance(values.ravel(), returns.ravel())  # SB3's, in float32
+    assert rollout_explained_variance(buffer) == pytest.approx(expected, rel=1e-6)
+    # Returns that do not vary explain nothing: NaN, as SB3 says, not a division by zero.
+    flat = SimpleNamespace(returns=np.full((8, 2), 5.0, np.float32), values=values[:8, :2])
+    assert np.isnan(rollout_explained_variance(flat))
 
 
 def test_monte_carlo_targets_reach_the_gp_critic_and_its_result(
