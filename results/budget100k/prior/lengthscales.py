@@ -1,0 +1,92 @@
+"""What the hyperprior does inside training: the fitted lengthscales of the default GP critic
+(A′, its runs on this machine) and of the critic with ``prior_sd=0.1`` (B) along PPO
+CartPole-v1 runs whose default run fell (exploratory, session 38; read after ``read.md``).
+
+Each run is re-run exactly (``../fall.py``'s ``rerun``, which checks the evaluations against the
+published run) with a per-rollout record of what the GP critic logged. Writes
+``lengthscales/<arm>_s<seed>.json`` and ``lengthscales/lengthscales.png``.
+
+    python results/budget100k/prior/lengthscales.py --seeds 187 189 197
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from sb3_geogp.comparison.report import pyplot
+
+HERE = Path(__file__).parent
+sys.path.insert(0, str(HERE.parent))
+from fall import rerun  # noqa: E402
+
+#: The options of arm B, as its pre-registered command gave them.
+PRIOR = {"max_gap": 16, "settle": False, "score_points": 256, "fold_points": 256,
+         "fit_floor": 0.8, "summary": "snapshot", "prior_sd": 0.1}  # fmt: skip
+#: Each arm: where its published runs are, and its GP options.
+ARMS: dict[str, tuple[Path, tuple[tuple[str, Any], ...]]] = {
+    "default": (HERE / "default_today_s180", ()),
+    "prior_sd=0.1": (HERE / "gp_prior", (("adapt", PRIOR),)),
+}
+#: CartPole's observation: cart position, cart velocity, pole angle, pole angular velocity.
+DIMENSIONS = ("cart position", "cart velocity", "pole angle", "pole angular velocity")
+
+
+def record(arm: str, seed: int, out: Path) -> dict[str, Any]:
+    path = out / f"{arm.replace('=', '')}_s{seed}.json"
+    if not path.exists():
+        published_in, options = ARMS[arm]
+        path.write_text(json.dumps(rerun("laplacian", seed, published_in, options)))
+    return json.loads(path.read_text())
+
+
+def plot(runs: dict[tuple[str, int], dict[str, Any]], seeds: Sequence[int], path: Path) -> None:
+    """Per seed: the evaluation curves of both arms, then each arm's lengthscales (log)."""
+    plt = pyplot()
+    fig, axes = plt.subplots(3, len(seeds), figsize=(4.6 * len(seeds), 8.4), squeeze=False)
+    colors = {"default": "tab:green", "prior_sd=0.1": "tab:purple"}
+    for col, seed in enumerate(seeds):
+        for row, arm in enumerate(ARMS, start=1):
+            run = runs[arm, seed]
+            axes[0][col].plot(run["eval"]["timesteps"], run["eval"]["mean_return"],
+                              color=colors[arm], marker="o", ms=3, label=arm)  # fmt: skip
+            fitted = [r for r in run["rollouts"] if "gp/lengthscale_0" in r]
+            t = [r["timesteps"] for r in fitted]
+            for i, name in enumerate(DIMENSIONS):
+                axes[row][col].plot(t, [r[f"gp/lengthscale_{i}"] for r in fitted], label=name)
+            axes[row][col].set(yscale="log", ylabel=f"{arm}: fitted lengthscale")
+            axes[row][col].sharey(axes[1][0])
+        axes[0][col].set(title=f"PPO CartPole-v1, seed {seed}", ylabel="evaluation return")
+        axes[-1][col].set(xlabel="timesteps")
+        for ax in axes[:, col]:
+            ax.grid(alpha=0.3)
+    axes[0][0].legend(fontsize=8, loc="lower right")
+    axes[1][0].legend(fontsize=7, loc="upper left")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def main(argv: Sequence[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--seeds", nargs="+", type=int, default=[187, 189, 197])
+    args = parser.parse_args(argv)
+    out = HERE / "lengthscales"
+    out.mkdir(exist_ok=True)
+    runs = {(arm, seed): record(arm, seed, out) for seed in args.seeds for arm in ARMS}
+    for (arm, seed), run in runs.items():
+        last = next(r for r in reversed(run["rollouts"]) if "gp/lengthscale_0" in r)
+        first = next(r for r in run["rollouts"] if "gp/lengthscale_0" in r)
+        first_ls, last_ls = ([round(r[f"gp/lengthscale_{i}"], 2) for i in range(len(DIMENSIONS))]
+                             for r in (first, last))  # fmt: skip
+        print(f"{arm}, seed {seed}: final return {run['eval']['mean_return'][-1]:g}; fitted "
+              f"lengthscales first {first_ls}, last {last_ls}")  # fmt: skip
+    plot(runs, args.seeds, out / "lengthscales.png")
+
+
+if __name__ == "__main__":
+    main()
