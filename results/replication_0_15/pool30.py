@@ -146,10 +146,14 @@ def plot(a2c: str, added: tuple[str, ...], path: str) -> None:
     plot_difference_panels(rows, list(sets), path, title, n_cols=7, panel_size=(2.2, 2.2))
 
 
-def print_table(rows: dict[tuple[str, str], dict[str, Any]], metric: str = "final return") -> None:
-    """Rows like :func:`mlp_rows`'s (on ``metric``) as a markdown table, then the
-    verdicts' counts."""
-    print(f"| env | algo | critic − MLP, {metric} | seeds | verdict (95 %) | family-wise |")
+def print_table(
+    rows: dict[tuple[str, str], dict[str, Any]],
+    metric: str = "final return",
+    difference: str = "critic − MLP",
+) -> None:
+    """Rows like :func:`mlp_rows`'s (on ``metric``, of ``difference``) as a markdown table,
+    then the verdicts' counts."""
+    print(f"| env | algo | {difference}, {metric} | seeds | verdict (95 %) | family-wise |")
     print("|---|---|---|---|---|---|")
     counts = {"better": 0, "no difference": 0, "worse": 0}
     fw_counts = dict(counts)

@@ -1,0 +1,85 @@
+"""Issue 13's 30k table, PPO rows, with ``Adaptation(prior_sd=0.1)`` added to PPO's default
+adaptation, read as ``PREREGISTRATION.md`` fixes (session 38).
+
+B: the candidate's runs (``s0``, ``s10``, ``s150``, ``s160`` here). A: the default's runs of
+the 40-seed table, and SB3's MLP critic's (``results/replication_0_15/pool30.py --add
+ppo160``'s PPO sources). Final return (or ``--metric mean_return``, the area under the curve),
+difference of means, 95 % percentile bootstrap, family-wise at the published 42 comparisons.
+Only seeds that B, A and the MLP all have are compared, so a partial sweep reads on its
+finished seeds (the pre-registration reads all 280 runs only).
+
+    python results/table40_prior/table.py --plot results/table40_prior/table.png \
+        > results/table40_prior/table.md
+    python results/table40_prior/table.py --metric mean_return > results/table40_prior/auc.md
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+from typing import Any
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE.parent / "replication_0_15"))
+from pool30 import mlp_rows, pooled_runs, print_table  # noqa: E402
+
+from sb3_geogp.comparison.report import plot_difference_panels  # noqa: E402
+from sb3_geogp.comparison.results import comparisons, pool_sweeps  # noqa: E402
+
+FIRST_SEEDS = (0, 10, 150, 160)
+
+
+def arms() -> tuple[list[dict[str, Any]], list[dict[str, Any]], list[dict[str, Any]]]:
+    """B, A and the MLP critic's PPO runs, each on the seeds all three have per cell."""
+    table = [r for r in pooled_runs("0.22", ("ppo160",)) if r["spec"]["algo"] == "ppo"]
+    prior = pool_sweeps([HERE / f"s{f}" for f in FIRST_SEEDS if (HERE / f"s{f}").is_dir()])
+    default = [r for r in table if r["spec"]["critic"] == "laplacian"]
+    mlp = [r for r in table if r["spec"]["critic"] == "mlp"]
+
+    def cell_seeds(runs: list[dict[str, Any]]) -> set[tuple[str, int]]:
+        return {(r["spec"]["env_id"], r["spec"]["seed"]) for r in runs}
+
+    common = cell_seeds(prior) & cell_seeds(default) & cell_seeds(mlp)
+
+    def keep(runs: list[dict[str, Any]]) -> list[dict[str, Any]]:
+        return [r for r in runs if (r["spec"]["env_id"], r["spec"]["seed"]) in common]
+
+    return keep(prior), keep(default), keep(mlp)
+
+
+def against_default(
+    prior: list[dict[str, Any]], default: list[dict[str, Any]], metric: str
+) -> dict[tuple[str, str], dict[str, Any]]:
+    """B − A by (env, algo): the same critic, the default's runs as the baseline (the rule
+    reads its 95 % verdict; the family-wise one is over these seven cells)."""
+    rows = comparisons(prior, baseline=default, family_size=7)
+    return {(c["env"], c["algo"]): c for c in rows if c["metric"] == metric}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--metric", choices=("final_return", "mean_return"), default="final_return")
+    parser.add_argument("--plot", metavar="PNG", help="draw each cell: A − MLP, B − MLP, B − A")
+    args = parser.parse_args()
+    label = {"final_return": "final return", "mean_return": "area under the curve"}[args.metric]
+    prior, default, mlp = arms()
+    sets = {
+        "B − MLP": mlp_rows(prior + mlp, args.metric),
+        "A − MLP": mlp_rows(default + mlp, args.metric),
+        "B − A": against_default(prior, default, args.metric),
+    }
+    for name, rows in sets.items():
+        print(f"\n### {name} (B: `prior_sd=0.1`; A: the default)\n")
+        print_table(rows, label, name)
+    if args.plot:
+        cells = sorted(sets["B − MLP"])
+        panels = [{"env": e, "algo": a, **{k: t.get((e, a)) for k, t in sets.items()}}
+                  for e, a in cells]  # fmt: skip
+        title = f"PPO, issue 13's 40-seed table: the hyperprior (B) and the default (A), {label}"
+        plot_difference_panels(panels, list(sets), args.plot, title, n_cols=7,
+                               panel_size=(2.2, 2.4))  # fmt: skip
+
+
+if __name__ == "__main__":
+    main()
