@@ -76,7 +76,10 @@ def main() -> None:
         cells = sorted(sets["B − MLP"])
         panels = [{"env": e, "algo": a, **{k: t.get((e, a)) for k, t in sets.items()}}
                   for e, a in cells]  # fmt: skip
-        title = f"PPO, issue 13's 40-seed table: the hyperprior (B) and the default (A), {label}"
+        seeds = min(c["n_a"] for c in sets["B − MLP"].values())
+        title = (
+            f"PPO, issue 13's table ({seeds} seeds a cell): hyperprior (B), default (A), {label}"
+        )
         plot_difference_panels(panels, list(sets), args.plot, title, n_cols=7,
                                panel_size=(2.2, 2.4))  # fmt: skip
 
