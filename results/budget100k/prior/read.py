@@ -105,9 +105,9 @@ def plot(runs: dict[str, dict[int, dict[str, Any]]], path: str) -> None:
     for ax, (name, by_seed) in zip(axes, runs.items(), strict=True):
         curves = np.array([r["eval"]["mean_return"] for r in by_seed.values()])
         t = next(iter(by_seed.values()))["eval"]["timesteps"]
-        for curve in curves:
-            fell = curve.max() >= THRESHOLD and curve[-1] < FALLEN
-            ax.plot(t, curve, color="tab:red" if fell else "0.6", lw=0.7, alpha=0.8)
+        _, fell = fall_counts(by_seed)
+        for seed, curve in zip(by_seed, curves, strict=True):
+            ax.plot(t, curve, color="tab:red" if seed in fell else "0.6", lw=0.7, alpha=0.8)
         ax.plot(t, curves.mean(axis=0), color="k", lw=2, label="mean")
         ax.set(title=f"{name} ({len(by_seed)} seeds)", xlabel="timesteps")
         ax.grid(alpha=0.3)
