@@ -18,11 +18,13 @@ kernel, ``+shared`` (0.3's one lengthscale factor, ``kernel_kwargs=dict(ard=Fals
 4,096 points, :data:`~sb3_geogp.policies.DEFAULT_FORGETTING`, wherever it adapts), and
 after ``+adapt`` or ``+cheap`` by other adaptation settings (``+gapN``: ``max_gap=N``;
 ``+thinN``: ``score_points`` and ``fold_points`` N; ``+scoreN``, ``+foldN``: one of them;
-``+stepsN``; ``+floorN``: ``fit_floor=N/100``; ``+nosettle``: ``settle=False``; ``+snapshot``:
-``summary="snapshot"``; ``+lagged``: ``forgetting_score="lagged"``; settings after
-``+adapt`` start from :class:`~sb3_geogp.Adaptation`'s defaults, so ``laplacian+adapt+gap1+f1``
-is PPO's critic before 0.10, a refit every block, ``+adapt+score256`` folds every point, and
-``laplacian+adapt+gap16+nosettle+score256+fold256+floor80+snapshot+f1`` is 0.13's PPO critic),
+``+stepsN``; ``+floorN``: ``fit_floor=N/100``; ``+priorN``: ``prior_sd=N/100``; ``+nosettle``:
+``settle=False``; ``+snapshot``: ``summary="snapshot"``; ``+lagged``:
+``forgetting_score="lagged"``; settings after ``+adapt`` start from
+:class:`~sb3_geogp.Adaptation`'s defaults, so ``laplacian+adapt+gap1+f1`` is PPO's critic
+before 0.10, a refit every block, ``+adapt+score256`` folds every point, and
+``laplacian+adapt+gap16+nosettle+score256+fold256+floor80+snapshot+f1`` is 0.13's PPO critic,
+without ``+f1`` 0.22's, with ``+prior10`` instead 0.23's),
 so that the cost of an option is measured interleaved with the default's.
 
 ``--threads default`` leaves torch's thread count as a new user has it (the engine then runs
@@ -80,7 +82,7 @@ SUFFIXES: dict[str, dict[str, Any]] = {
 #: Suffixes with a count (after ``+adapt``): the :class:`~sb3_geogp.adaptation.Adaptation`
 #: settings they give it and what the count is divided by, e.g. ``+gap4`` (``max_gap=4``),
 #: ``+thin512`` (``score_points`` and ``fold_points`` 512), ``+fold1024``, ``+steps2``, ``+floor80``
-#: (``fit_floor=0.8``).
+#: (``fit_floor=0.8``), ``+prior10`` (``prior_sd=0.1``).
 SETTING_SUFFIXES: dict[str, tuple[tuple[str, ...], int]] = {
     "gap": (("max_gap",), 1),
     "thin": (("score_points", "fold_points"), 1),
@@ -88,6 +90,7 @@ SETTING_SUFFIXES: dict[str, tuple[tuple[str, ...], int]] = {
     "fold": (("fold_points",), 1),
     "steps": (("steps",), 1),
     "floor": (("fit_floor",), 100),
+    "prior": (("prior_sd",), 100),
 }
 #: Suffixes without a count (after ``+adapt``) and the settings they give it.
 SETTING_FLAGS: dict[str, dict[str, Any]] = {

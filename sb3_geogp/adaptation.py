@@ -57,7 +57,8 @@ model is wrong. ``score_points`` and ``fold_points`` make step 1 and the summary
 evenly spaced subsample of a batch (:func:`thinned`). All of these are off by default;
 :data:`CHEAP_ADAPTATION` combines the cheaper ones, and since 0.10 the GP critic's policy under
 PPO uses all but ``drift_tol`` and since 0.11 the snapshot summary
-(:data:`sb3_geogp.policies.DEFAULT_ADAPTATION`; 0.14's used the lagged forgetting score below).
+(:data:`sb3_geogp.policies.DEFAULT_ADAPTATION`; 0.14's used the lagged forgetting score below;
+since 0.23 it adds the hyperprior ``prior_sd=0.1``).
 docs/benchmarks.md measures what they save and what fit they cost, docs/results.md what they
 cost in training.
 

@@ -68,6 +68,7 @@ def test_benchmark_training_setting_suffixes_build_those_settings() -> None:
     import dataclasses
 
     from sb3_geogp.adaptation import CHEAP_ADAPTATION, Adaptation, as_adaptation
+    from sb3_geogp.policies import DEFAULT_ADAPTATION
 
     bench = load_script("benchmark_training")
     options = bench.gp_kwargs_of(["adapt", "thin512", "gap4", "shared"])
@@ -91,6 +92,18 @@ def test_benchmark_training_setting_suffixes_build_those_settings() -> None:
     assert snap == Adaptation(fold_points=256, summary="snapshot")
     lagged = as_adaptation(bench.gp_kwargs_of(["adapt", "snapshot", "lagged"])["adapt"])
     assert lagged == Adaptation(summary="snapshot", forgetting_score="lagged")
+    # PPO's default since 0.23, spelled out
+    spelled = [
+        "adapt",
+        "gap16",
+        "nosettle",
+        "score256",
+        "fold256",
+        "floor80",
+        "snapshot",
+        "prior10",
+    ]
+    assert as_adaptation(bench.gp_kwargs_of(spelled)["adapt"]) == DEFAULT_ADAPTATION
     assert bench.gp_kwargs_of(["nosettle"]) is None  # a setting needs +adapt or +cheap
 
 

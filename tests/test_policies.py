@@ -268,10 +268,10 @@ def test_default_critic_is_the_laplacian_kernel_with_a_dense_basis_except_under_
     assert isinstance(default.gp.kernel, LaplacianKernel) and default.gp.novelty_tol == 0.1
     # Since 0.10 PPO refits on the first block, every 16th and those it predicted badly; since
     # 0.11 from a snapshot of the posterior; since 0.14 its forgetting starts from 0.1 per 4,096
-    # points.
+    # points; since 0.23 a hyperprior holds its lengthscales near their start.
     rare = Adaptation(
         max_gap=16, settle=False, score_points=256, fold_points=256, fit_floor=0.8,
-        summary="snapshot",
+        summary="snapshot", prior_sd=0.1,
     )  # fmt: skip
     assert default.gp.adaptation == rare and built(adapt=True).gp.adaptation == rare
     assert default.gp.trend == "level"
@@ -371,7 +371,8 @@ def test_model_saved_by_0_10_keeps_its_folded_summary(tmp_path: Path) -> None:
     model loads with the folded summary it was trained with (values and further learning
     included), not 0.11's snapshots."""
     env = make_vec_env("Pendulum-v1", n_envs=2, seed=0)
-    saved_by_0_10 = {k: v for k, v in DEFAULT_ADAPTATION.as_dict().items() if k != "summary"}
+    then = dataclasses.replace(DEFAULT_ADAPTATION, prior_sd=None)  # no hyperprior before 0.23
+    saved_by_0_10 = {k: v for k, v in then.as_dict().items() if k != "summary"}
     kwargs = dict(gp_kwargs=dict(max_basis=16, adapt=saved_by_0_10), net_arch=[16])
     model = PPO(GPActorCriticPolicy, env, n_steps=64, batch_size=64, seed=0, policy_kwargs=kwargs)
     assert isinstance(model.policy, GPActorCriticPolicy)
@@ -379,11 +380,35 @@ def test_model_saved_by_0_10_keeps_its_folded_summary(tmp_path: Path) -> None:
     model.save(tmp_path / "model.zip")
     loaded = PPO.load(tmp_path / "model.zip", env=env, custom_objects={"policy_kwargs": kwargs})
     assert isinstance(loaded.policy, GPActorCriticPolicy)
-    assert loaded.policy.gp.adaptation == dataclasses.replace(DEFAULT_ADAPTATION, summary="fold")
+    assert loaded.policy.gp.adaptation == dataclasses.replace(then, summary="fold")
     obs = flat_obs(model)
     assert th.equal(loaded.policy.predict_values(obs), model.policy.predict_values(obs))
     loaded.learn(128, callback=GPValueCallback(), reset_num_timesteps=False)
     assert int(loaded.policy.gp.summary_batch) == 0  # never a snapshot
+
+
+def test_ppo_model_saved_before_0_23_loads_without_the_hyperprior(tmp_path: Path) -> None:
+    """Up to 0.22 the PPO critic's default adaptation had no hyperprior, and its saved
+    ``policy_kwargs`` named no adaptation: loaded by 0.23, whose default has ``prior_sd=0.1``,
+    the model keeps the adaptation it was trained with, and its values."""
+    env = make_vec_env("Pendulum-v1", n_envs=2, seed=0)
+    then = dataclasses.replace(DEFAULT_ADAPTATION, prior_sd=None)
+    trained = dict(gp_kwargs=dict(max_basis=16, adapt=then.as_dict()), net_arch=[16])
+    model = PPO(GPActorCriticPolicy, env, n_steps=64, batch_size=64, seed=0, policy_kwargs=trained)
+    model.learn(256, callback=GPValueCallback())
+    model.save(tmp_path / "model.zip")
+    as_saved = dict(gp_kwargs=dict(max_basis=16), net_arch=[16])
+    assert PPO(GPActorCriticPolicy, env, policy_kwargs=as_saved).policy.gp.adaptation == (
+        DEFAULT_ADAPTATION
+    )
+    loaded = PPO.load(tmp_path / "model.zip", env=env, custom_objects={"policy_kwargs": as_saved})
+    assert isinstance(loaded.policy, GPActorCriticPolicy)
+    assert loaded.policy.gp.adaptation == then
+    obs = flat_obs(model)
+    assert th.equal(loaded.policy.predict_values(obs), model.policy.predict_values(obs))
+    seen = int(loaded.policy.gp.n_seen)
+    loaded.learn(128, callback=GPValueCallback(), reset_num_timesteps=False)
+    assert int(loaded.policy.gp.n_seen) == seen + 128 and loaded.policy.gp.adaptation == then
 
 
 @pytest.mark.parametrize(

@@ -11,11 +11,20 @@ finished seeds (the pre-registration reads all 280 runs only).
     python results/table40_prior/table.py --plot results/table40_prior/table.png \
         > results/table40_prior/table.md
     python results/table40_prior/table.py --metric mean_return > results/table40_prior/auc.md
+
+``--verdict`` (session 39, after adoption as 0.23's PPO default) prints issue 13's verdict
+table of today's defaults: these PPO rows (B − MLP) beside the A2C rows of 0.22's default
+(``results/table40_rbf/table.py``'s runs), each cell against SB3's MLP critic:
+
+    python results/table40_prior/table.py --verdict > results/table40_prior/verdict.md
+    python results/table40_prior/table.py --verdict --metric mean_return \
+        > results/table40_prior/verdict_auc.md
 """
 
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import sys
 from pathlib import Path
 from typing import Any
@@ -48,6 +57,18 @@ def arms() -> tuple[list[dict[str, Any]], list[dict[str, Any]], list[dict[str, A
     return keep(prior), keep(default), keep(mlp)
 
 
+def a2c_runs() -> list[dict[str, Any]]:
+    """The A2C runs of the table with 0.22's default, paired as ``table40_rbf/table.py`` pairs
+    them (that script's module, loaded by path: both scripts are named ``table.py``)."""
+    spec = importlib.util.spec_from_file_location(
+        "table40_rbf", HERE.parent / "table40_rbf" / "table.py"
+    )
+    assert spec is not None and spec.loader is not None
+    rbf = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(rbf)
+    return [r for r in rbf.table_runs("0.22", False) if r["spec"]["algo"] == "a2c"]
+
+
 def against_default(
     prior: list[dict[str, Any]], default: list[dict[str, Any]], metric: str
 ) -> dict[tuple[str, str], dict[str, Any]]:
@@ -61,9 +82,15 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--metric", choices=("final_return", "mean_return"), default="final_return")
     parser.add_argument("--plot", metavar="PNG", help="draw each cell: A − MLP, B − MLP, B − A")
+    parser.add_argument(
+        "--verdict", action="store_true", help="today's defaults, PPO (B) and A2C, against the MLP"
+    )
     args = parser.parse_args()
     label = {"final_return": "final return", "mean_return": "area under the curve"}[args.metric]
     prior, default, mlp = arms()
+    if args.verdict:
+        print_table(mlp_rows(prior + mlp + a2c_runs(), args.metric), label)
+        return
     sets = {
         "B − MLP": mlp_rows(prior + mlp, args.metric),
         "A − MLP": mlp_rows(default + mlp, args.metric),
