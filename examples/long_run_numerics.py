@@ -61,22 +61,26 @@ from sb3_geogp.toolbox.tables import format_table
 CHEAP_DEFAULT = {"adapt": CHEAP_ADAPTATION, "novelty_tol": 0.1}
 #: The policy's PPO default critic since 0.9: the 0.6 one with a moving level.
 LEVEL_DEFAULT = {"adapt": True, "novelty_tol": 0.1, "trend": "level"}
+#: The policy's PPO adaptation of 0.11-0.22, before 0.23's hyperprior.
+WITHOUT_PRIOR = replace(DEFAULT_ADAPTATION, prior_sd=None)
 #: The policy's PPO default critic of 0.10: 0.9's with its rare refits, the summary folded.
-RARE_DEFAULT = {**LEVEL_DEFAULT, "adapt": replace(DEFAULT_ADAPTATION, summary="fold")}
+RARE_DEFAULT = {**LEVEL_DEFAULT, "adapt": replace(WITHOUT_PRIOR, summary="fold")}
 #: The policy's PPO default critic of 0.11-0.13: the summary from snapshots of the posterior.
-SNAPSHOT_DEFAULT = {**LEVEL_DEFAULT, "adapt": DEFAULT_ADAPTATION}
+SNAPSHOT_DEFAULT = {**LEVEL_DEFAULT, "adapt": WITHOUT_PRIOR}
 #: The A2C default's adaptation (a refit every block) with snapshots (an option).
 SNAPSHOT_ADAPT = {"adapt": Adaptation(summary="snapshot")}
-#: The policy's PPO default critic since 0.15: 0.13's starting from forgetting 0.1 per 4,096
+#: The policy's PPO default critic of 0.15-0.22: 0.13's starting from forgetting 0.1 per 4,096
 #: points (:data:`~sb3_geogp.policies.DEFAULT_FORGETTING`).
 POINTS_DEFAULT = {**SNAPSHOT_DEFAULT, **DEFAULT_FORGETTING}
+#: The policy's PPO default critic since 0.23: 0.15's with the lengthscale hyperprior.
+PRIOR_DEFAULT = {**POINTS_DEFAULT, "adapt": DEFAULT_ADAPTATION}
 #: The policy's PPO default critic of 0.14 (:data:`~sb3_geogp.policies.LAGGED_ADAPTATION`, an
 #: option since 0.15): forgetting in the likelihood, chosen one batch ahead, from 0.1 per 4,096
 #: points.
 LAGGED_DEFAULT = {**POINTS_DEFAULT, "adapt": LAGGED_ADAPTATION}
 #: The snapshot summary's variants (0.11), on both streams: 0.11-0.13's PPO default, the 0.15
-#: default in float64 and float32, and the A2C default's adaptation with snapshots; and 0.14's
-#: default, whose lagged forgetting score refuses float32.
+#: and 0.23 defaults in float64 and float32, and the A2C default's adaptation with snapshots;
+#: and 0.14's default, whose lagged forgetting score refuses float32.
 SNAPSHOT_VARIANTS = (
     Variant("laplacian rare snapshot n0.1 level", "laplacian", {}, SNAPSHOT_DEFAULT),
     Variant("geo laplace interp adapt snapshot", "geodesic", {}, SNAPSHOT_ADAPT),
@@ -88,6 +92,15 @@ SNAPSHOT_VARIANTS = (
         {**POINTS_DEFAULT, "dtype": torch.float32},
     ),
     Variant("laplacian rare snapshot lagged f0.1/4096 n0.1 level", "laplacian", {}, LAGGED_DEFAULT),
+    Variant(
+        "laplacian rare snapshot prior0.1 f0.1/4096 n0.1 level", "laplacian", {}, PRIOR_DEFAULT
+    ),
+    Variant(
+        "laplacian rare snapshot prior0.1 f0.1/4096 n0.1 level float32",
+        "laplacian",
+        {},
+        {**PRIOR_DEFAULT, "dtype": torch.float32},
+    ),
 )
 VARIANTS = {
     "pendulum": (
