@@ -615,7 +615,8 @@ class GPActorCriticPolicy(GPCriticMixin, ActorCriticPolicy):
         (:class:`~sb3_geogp.Adaptation`). Unset or ``True``, it takes the policy's settings
         for the algorithm (:func:`default_adaptation`: since 0.10 under PPO, TRPO and
         MaskablePPO :data:`DEFAULT_ADAPTATION`, refits on the first block, every 16th and
-        badly predicted ones, since 0.11 from a snapshot of the posterior; under A2C since
+        badly predicted ones, since 0.11 from a snapshot of the posterior, since 0.23 with a
+        hyperprior on the lengthscales; under A2C since
         0.17 refits on the first block and every 16th, before that the engine's
         ``Adaptation()``, a refit every block, which was every algorithm's before 0.10 and is
         ``adapt={}``); ``adapt=False`` gives
