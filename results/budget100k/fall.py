@@ -53,20 +53,23 @@ class RolloutRecord(RolloutRecorder):
 def rerun(
     critic: str,
     seed: int,
-    published_in: Path = HERE / "s170",
+    published_in: Path | None = HERE / "s170",
     gp_options: tuple[tuple[str, Any], ...] = (),
+    algo: str = "ppo",
 ) -> dict[str, Any]:
-    """Re-run the run of ``critic`` and ``seed`` published in ``published_in`` (made with
-    ``gp_options``) with a :class:`RolloutRecord`; raises if its evaluations differ."""
-    config = SweepConfig(algos=("ppo",), critics=(critic,), envs=("CartPole-v1",),
+    """Re-run the ``algo`` run of ``critic`` and ``seed`` published in ``published_in`` (made
+    with ``gp_options``) with a :class:`RolloutRecord`; raises if its evaluations differ.
+    ``published_in=None``: a run that no folder holds (nothing to compare)."""
+    config = SweepConfig(algos=(algo,), critics=(critic,), envs=("CartPole-v1",),
                          seeds=(seed,), timesteps=100_000, gp_options=gp_options)  # fmt: skip
     (spec,) = config.specs()
     record = RolloutRecord()
     with tempfile.TemporaryDirectory() as scratch:
         result = run_one(spec, scratch, recorders=[record])
-    published = json.loads((published_in / "runs" / f"{spec.run_id}.json").read_text())
-    if result["eval"]["returns"] != published["eval"]["returns"]:
-        raise RuntimeError(f"{spec.run_id}: the re-run's evaluations differ from the published run")
+    if published_in is not None:
+        published = json.loads((published_in / "runs" / f"{spec.run_id}.json").read_text())
+        if result["eval"]["returns"] != published["eval"]["returns"]:
+            raise RuntimeError(f"{spec.run_id}: the re-run's evaluations differ from the published")
     return dict(run_id=spec.run_id, eval=result["eval"], rollouts=record.rows)
 
 
