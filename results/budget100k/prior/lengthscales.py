@@ -51,11 +51,29 @@ OUT = {"ppo": HERE / "lengthscales", "a2c": HERE.parents[1] / "budget100k_a2c" /
 DIMENSIONS = ("cart position", "cart velocity", "pole angle", "pole angular velocity")
 
 
+def segment_ends(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """The rows with fitted lengthscales that start or end a stretch of equal lengthscales: the
+    curves drawn from them are those of every row (A2C's 100,000 steps are 2,500 rollouts and
+    about six refits)."""
+    fitted = [r for r in rows if "gp/lengthscale_0" in r]
+
+    def key(r: dict[str, Any]) -> list[float]:
+        return [r[f"gp/lengthscale_{i}"] for i in range(len(DIMENSIONS))]
+
+    keys = [key(r) for r in fitted]
+
+    def bounds_a_stretch(i: int) -> bool:
+        return i in (0, len(fitted) - 1) or keys[i] != keys[i - 1] or keys[i] != keys[i + 1]
+
+    return [r for i, r in enumerate(fitted) if bounds_a_stretch(i)]
+
+
 def record(algo: str, arm: str, seed: int) -> dict[str, Any]:
     path = OUT[algo] / f"{arm.replace('=', '')}_s{seed}.json"
     if not path.exists():
         published_in, options = ARMS[algo][arm]
-        path.write_text(json.dumps(rerun(CRITIC[algo], seed, published_in, options, algo)))
+        run = rerun(CRITIC[algo], seed, published_in, options, algo)
+        path.write_text(json.dumps({**run, "rollouts": segment_ends(run["rollouts"])}))
     return json.loads(path.read_text())
 
 
