@@ -4,6 +4,10 @@ For every rollout the critic is scored on that rollout's targets *before* it lea
 SB3's ``explained_variance`` of the values the critic predicted during the rollout against the
 GAE returns computed afterwards, ``1 - Var(R - V) / Var(R)``, the same formula for the MLP and
 the GP critics. The goal is at least 0.9 averaged over the last 20% of training's rollouts.
+Since session 39 each run also records the explained variance of those rollouts pooled, the
+same formula over all their points at once (``tail_pooled``): a rollout whose returns hardly
+vary (a CartPole policy that rarely fails) weighs in it by its points, not as one rollout's
+score that a small ``Var(R)`` can send far below 0.
 The runs are the comparison's (:class:`~sb3_geogp.comparison.specs.SweepConfig`: zoo
 hyperparameters and budgets, the same seeds, the GP critics with the comparison's options),
 without its evaluations.
@@ -51,8 +55,13 @@ class ExplainedVariance(RolloutRecorder):
     put it after :class:`~sb3_geogp.GPValueCallback`, which fills the GP's values."""
 
     def row(self) -> dict[str, Any]:
-        explained = rollout_explained_variance(self.model.rollout_buffer)
-        return dict(timesteps=int(self.num_timesteps), explained=explained)
+        buffer = self.model.rollout_buffer
+        returns, residuals = buffer.returns.ravel(), buffer.returns.ravel() - buffer.values.ravel()
+        return dict(
+            timesteps=int(self.num_timesteps),
+            explained=rollout_explained_variance(buffer),
+            moments=moments(returns, residuals),
+        )
 
     @property
     def timesteps(self) -> list[int]:
@@ -61,6 +70,21 @@ class ExplainedVariance(RolloutRecorder):
     @property
     def explained(self) -> list[float]:
         return [r["explained"] for r in self.rows]
+
+
+def moments(returns: np.ndarray, residuals: np.ndarray) -> list[float]:
+    """``[n, sum R, sum R^2, sum e, sum e^2]`` in float64 of a rollout's returns ``R`` and
+    residuals ``e = R - V``, each shape (n,): what :func:`pooled_explained_variance` sums."""
+    r, e = returns.astype(np.float64), residuals.astype(np.float64)
+    return [float(len(r)), float(r.sum()), float(r @ r), float(e.sum()), float(e @ e)]
+
+
+def pooled_explained_variance(rows: Sequence[Sequence[float]]) -> float:
+    """``1 - Var(e) / Var(R)`` over all points of the rollouts whose :func:`moments` are
+    ``rows``, shape (rollouts, 5); NaN where the returns do not vary."""
+    n, r, r2, e, e2 = np.asarray(rows, dtype=np.float64).sum(axis=0)
+    spread = r2 / n - (r / n) ** 2
+    return 1.0 - (e2 / n - (e / n) ** 2) / spread if spread > 0 else float("nan")
 
 
 def run_one(spec: RunSpec, last: float) -> dict[str, Any]:
@@ -76,7 +100,8 @@ def run_one(spec: RunSpec, last: float) -> dict[str, Any]:
     assert env is not None
     env.close()
     explained = np.array(recorder.explained)
-    tail = explained[int(np.floor((1 - last) * len(explained))) :]
+    start = int(np.floor((1 - last) * len(explained)))
+    tail = explained[start:]
     return dict(
         env_id=spec.env_id,
         critic=spec.critic,
@@ -87,6 +112,7 @@ def run_one(spec: RunSpec, last: float) -> dict[str, Any]:
         explained_variance=recorder.explained,
         tail_rollouts=len(tail),
         tail_mean=float(np.nanmean(tail)),
+        tail_pooled=pooled_explained_variance([r["moments"] for r in recorder.rows[start:]]),
         provenance=provenance(),
     )
 
@@ -133,21 +159,31 @@ def run_all(specs: list[RunSpec], last: float, out: Path, workers: int) -> list[
 
 
 def summary(results: list[dict[str, Any]], critics: Sequence[str], last: float) -> str:
-    """Markdown table: mean over seeds of the tail explained variance, its range and how many
-    seeds reach the goal."""
-    lines = [
-        f"Out-of-sample explained variance averaged over the last {last:.0%} of each run's "
-        f"rollouts; mean over seeds [min, max], seeds reaching {GOAL}:",
-        "",
-        "| env | " + " | ".join(critics) + " |",
-        "|---|" + "---:|" * len(critics),
-    ]
+    """Markdown: per environment and critic, the tail explained variance over seeds (mean of the
+    rollouts' scores, then pooled where every run recorded it), each with the paired
+    differences from the first critic."""
+    reach = f"mean over seeds [min, max], seeds reaching {GOAL}:"
+    heading = f"Out-of-sample explained variance averaged over the last {last:.0%} of each run's"
+    lines = seed_table(results, critics, "tail_mean", f"{heading} rollouts; {reach}")
+    lines += paired_differences(results, critics, "tail_mean")
+    if all("tail_pooled" in r for r in results):
+        heading = (
+            f"The same rollouts pooled (one explained variance over all their points); {reach}"
+        )
+        lines += ["", *seed_table(results, critics, "tail_pooled", heading)]
+        lines += paired_differences(results, critics, "tail_pooled")
+    return "\n".join(lines) + "\n"
+
+
+def seed_table(
+    results: list[dict[str, Any]], critics: Sequence[str], key: str, heading: str
+) -> list[str]:
+    """Markdown lines: mean over seeds of ``key``, its range and how many seeds reach the goal."""
+    lines = [heading, "", "| env | " + " | ".join(critics) + " |", "|---|" + "---:|" * len(critics)]
     for env_id in dict.fromkeys(r["env_id"] for r in results):
         cells = []
         for critic in critics:
-            tails = [
-                r["tail_mean"] for r in results if (r["env_id"], r["critic"]) == (env_id, critic)
-            ]
+            tails = [r[key] for r in results if (r["env_id"], r["critic"]) == (env_id, critic)]
             if not tails:
                 cells.append("–")
                 continue
@@ -156,12 +192,14 @@ def summary(results: list[dict[str, Any]], critics: Sequence[str], last: float) 
                 f"{np.mean(tails):.3f} [{min(tails):.2f}, {max(tails):.2f}], {reached}/{len(tails)}"
             )
         lines.append(f"| `{env_id}` | " + " | ".join(cells) + " |")
-    return "\n".join(lines + paired_differences(results, critics)) + "\n"
+    return lines
 
 
-def paired_differences(results: list[dict[str, Any]], critics: Sequence[str]) -> list[str]:
-    """Markdown lines: each critic's tail explained variance minus the first critic's, paired
-    by seed over the seeds both have, with a 95 % t interval (none with one critic)."""
+def paired_differences(
+    results: list[dict[str, Any]], critics: Sequence[str], key: str = "tail_mean"
+) -> list[str]:
+    """Markdown lines: each critic's ``key`` minus the first critic's, paired by seed over the
+    seeds both have, with a 95 % t interval (none with one critic)."""
     if len(critics) < 2:
         return []
     first = critics[0]
@@ -172,7 +210,7 @@ def paired_differences(results: list[dict[str, Any]], critics: Sequence[str]) ->
         "| env | " + " | ".join(f"{c} − {first}" for c in critics[1:]) + " |",
         "|---|" + "---:|" * (len(critics) - 1),
     ]
-    tails = {(r["env_id"], r["critic"], r["seed"]): r["tail_mean"] for r in results}
+    tails = {(r["env_id"], r["critic"], r["seed"]): r[key] for r in results}
     for env_id in dict.fromkeys(r["env_id"] for r in results):
         cells = []
         for critic in critics[1:]:

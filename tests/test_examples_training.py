@@ -169,6 +169,26 @@ def test_critic_fit_pairs_differences_by_seed() -> None:
     assert critic_fit.paired_differences(results, ["mlp"]) == []
 
 
+def test_critic_fit_pooled_explained_variance_is_sb3s_formula_on_the_concatenated_rollouts() -> (
+    None
+):
+    """The moments summed over rollouts give SB3's ``explained_variance`` of all their points at
+    once (brute force on the concatenation), NaN where the returns do not vary."""
+    from stable_baselines3.common.utils import explained_variance
+
+    critic_fit = load_script("critic_fit")
+    rng = np.random.default_rng(0)
+    rollouts = [(rng.normal(m, s, n), rng.normal(0, 1, n)) for m, s, n in
+                ((0.0, 1.0, 64), (5.0, 0.01, 32), (-2.0, 3.0, 128))]  # fmt: skip
+    returns = [r for r, _ in rollouts]
+    values = [r + noise * 0.5 for r, noise in rollouts]
+    rows = [critic_fit.moments(r, r - v) for r, v in zip(returns, values, strict=True)]
+    expected = explained_variance(np.concatenate(values), np.concatenate(returns))
+    assert critic_fit.pooled_explained_variance(rows) == pytest.approx(expected, rel=1e-12)
+    flat = critic_fit.moments(np.full(8, 3.0), np.zeros(8))
+    assert np.isnan(critic_fit.pooled_explained_variance([flat]))
+
+
 class _PushUpLeft:
     """A stand-in policy: always the action (-1, 1)."""
 
