@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from sb3_geogp.comparison.report import pyplot
-from sb3_geogp.comparison.results import comparisons, pool_sweeps
+from sb3_geogp.comparison.results import METRICS, comparisons, pool_sweeps
 from sb3_geogp.toolbox.stats import mean_ci
 
 HERE = Path(__file__).resolve().parent
@@ -61,20 +61,11 @@ def whole_blocks() -> tuple[Runs, list[int]]:
     return runs, done
 
 
-def final_return(run: dict[str, Any]) -> float:
-    return float(run["eval"]["mean_return"][-1])
-
-
-def area(run: dict[str, Any]) -> float:
-    """The mean over checkpoints: the comparison's normalised area under the curve."""
-    return float(np.mean(run["eval"]["mean_return"]))
-
-
 def paired(runs: Runs, a: str, b: str, env: str) -> str:
     """``a − b`` in ``env``, paired by seed: final return and area, 95 % t intervals."""
     seeds = sorted(s for e, s in runs[a] if e == env)
     cells = [f"| {a} − {b} | `{env}` | {len(seeds)}"]
-    for metric in (final_return, area):
+    for metric in (METRICS["final_return"].of_run, METRICS["mean_return"].of_run):
         d = np.array([metric(runs[a][env, s]) - metric(runs[b][env, s]) for s in seeds])
         mean, half = mean_ci(d, nan_policy="propagate")
         cells.append(f"{mean:+.1f} [{mean - half:+.1f}, {mean + half:+.1f}]")
@@ -91,7 +82,7 @@ def arm_row(runs: Runs, arm: str) -> str:
     """Per arm: CartPole falls, Acrobot runs ending at -500, median steps to each threshold."""
     cartpole = [r for (e, _), r in runs[arm].items() if e == "CartPole-v1"]
     _, reached, fell = counts(cartpole, SOURCES[arm][1])
-    capped = sum(final_return(r) <= -500 for (e, _), r in runs[arm].items() if e == "Acrobot-v1")
+    capped = sum(r["final_return"] <= -500 for (e, _), r in runs[arm].items() if e == "Acrobot-v1")
     cells = [f"| {arm} | {len(fell)} of {reached} ({', '.join(map(str, fell)) or '–'})",
              f"{capped}"]  # fmt: skip
     for env in ENVS:

@@ -21,7 +21,7 @@ import numpy as np
 import scipy.stats as sps
 
 from sb3_geogp.comparison.report import pyplot
-from sb3_geogp.comparison.results import pool_sweeps
+from sb3_geogp.comparison.results import METRICS, pool_sweeps
 from sb3_geogp.toolbox.stats import mean_ci, steps_to_threshold
 
 HERE = Path(__file__).parent
@@ -70,21 +70,12 @@ def fall_row(name: str, runs: dict[int, dict[str, Any]]) -> tuple[str, int, int]
     return name, reached, len(fell)
 
 
-def final_return(run: dict[str, Any]) -> float:
-    return float(run["eval"]["mean_return"][-1])
-
-
-def area(run: dict[str, Any]) -> float:
-    """The mean over checkpoints: the comparison's normalised area under the curve."""
-    return float(np.mean(run["eval"]["mean_return"]))
-
-
 def paired(name: str, a: dict[int, dict[str, Any]], b: dict[int, dict[str, Any]]) -> None:
     """``a - b`` per seed both have: final return and area under the curve (the mean over
     checkpoints), 95 % t intervals."""
     seeds = sorted(set(a) & set(b))
     cells = []
-    for metric in (final_return, area):
+    for metric in (METRICS["final_return"].of_run, METRICS["mean_return"].of_run):
         d = np.array([metric(a[s]) - metric(b[s]) for s in seeds])
         mean, half = mean_ci(d, nan_policy="propagate")
         cells.append(f"{mean:+.1f} [{mean - half:+.1f}, {mean + half:+.1f}]")
