@@ -37,12 +37,19 @@ from stable_baselines3.common.callbacks import BaseCallback, CallbackList
 from tqdm.auto import tqdm
 
 from sb3_geogp import GPActorCriticPolicy, GPValueCallback
+from sb3_geogp.callbacks import time_limit_truncations
 from sb3_geogp.comparison.command import parse_gp_option
 from sb3_geogp.comparison.hyperparams import ALL_CRITICS, CRITICS
-from sb3_geogp.comparison.measurement import RolloutRecorder, rollout_explained_variance
+from sb3_geogp.comparison.measurement import (
+    RolloutRecorder,
+    moments,
+    pooled_explained_variance,
+    rollout_explained_variance,
+)
 from sb3_geogp.comparison.report import COLORS
 from sb3_geogp.comparison.run import build_model, write_json_atomic
 from sb3_geogp.comparison.specs import RunSpec, SweepConfig
+from sb3_geogp.studies.value_ceiling import TASKS, Rollout, ceiling, horizon, policy_returns
 from sb3_geogp.toolbox.provenance import provenance
 from sb3_geogp.toolbox.stats import mean_ci
 
@@ -72,26 +79,93 @@ class ExplainedVariance(RolloutRecorder):
         return [r["explained"] for r in self.rows]
 
 
-def moments(returns: np.ndarray, residuals: np.ndarray) -> list[float]:
-    """``[n, sum R, sum R^2, sum e, sum e^2]`` in float64 of a rollout's returns ``R`` and
-    residuals ``e = R - V``, each shape (n,): what :func:`pooled_explained_variance` sums."""
-    r, e = returns.astype(np.float64), residuals.astype(np.float64)
-    return [float(len(r)), float(r.sum()), float(r @ r), float(e.sum()), float(e @ e)]
+class WithCeiling(ExplainedVariance):
+    """:class:`ExplainedVariance` plus, from the ``first``-th rollout (counted from 0) on, the
+    rollout's ceiling: the score of the policy's ``V^pi``, by Monte Carlo with ``n_rollouts``
+    rollouts per state cut where at most ``tail`` of a return is left
+    (:mod:`sb3_geogp.studies.value_ceiling`), and how far the critic's values are from it.
+
+    The Monte Carlo rollouts draw the policy's actions inside a forked torch random stream
+    seeded by the run's seed and the rollout's index: training's random streams are untouched,
+    so the run's own scores are those of a run without the ceiling."""
+
+    def __init__(self, env_id: str, first: int, n_rollouts: int, tail: float, seed: int) -> None:
+        super().__init__()
+        if env_id not in TASKS:
+            raise ValueError(f"--ceiling supports {sorted(TASKS)}, not {env_id}")
+        self.task, self.first, self.n_rollouts, self.tail = TASKS[env_id], first, n_rollouts, tail
+        self.seed = seed
+        self.rewards: list[np.ndarray] = []
+        self.truncations: list[tuple[int, int, np.ndarray]] = []
+
+    def _on_rollout_start(self) -> None:
+        self.rewards, self.truncations = [], []
+
+    def _on_step(self) -> bool:
+        # before SB3 adds its bootstrap to the rewards at truncations, after this hook
+        self.rewards.append(np.array(self.locals["rewards"], dtype=np.float64))
+        self.truncations += time_limit_truncations(self.model, self.locals)
+        return True
+
+    def row(self) -> dict[str, Any]:
+        row = super().row()
+        if len(self.rows) >= self.first:
+            row["ceiling"] = self.ceiling()
+        return row
+
+    def _act(self, obs: np.ndarray) -> np.ndarray:
+        policy = self.model.policy
+        with th.no_grad():
+            dist = policy.get_distribution(
+                th.as_tensor(obs, dtype=th.float32, device=policy.device)
+            )
+            return dist.get_actions().cpu().numpy().reshape(len(obs))
+
+    def rollout(self) -> Rollout:
+        """The rollout that just ended, as :func:`~sb3_geogp.studies.value_ceiling.ceiling`
+        reads it."""
+        model, buffer = self.model, self.model.rollout_buffer
+        return Rollout(
+            obs=buffer.observations,
+            rewards=np.stack(self.rewards),
+            episode_starts=buffer.episode_starts,
+            last_obs=np.asarray(model._last_obs),
+            last_dones=np.asarray(model._last_episode_starts, dtype=np.float64),
+            truncations=self.truncations,
+        )
+
+    def ceiling(self) -> dict[str, Any]:
+        model, buffer, rollout = self.model, self.model.rollout_buffer, self.rollout()
+        gamma, lam = float(model.gamma), float(model.gae_lambda)
+        states = rollout.states()
+        with th.random.fork_rng(devices=[]):
+            th.manual_seed(self.seed * 1000 + len(self.rows))
+            mc = policy_returns(
+                self._act, self.task, states, gamma, horizon(gamma, self.tail), self.n_rollouts
+            )
+        scores = ceiling(rollout, mc, gamma, lam)
+        truth, values = mc.mean(axis=1)[: buffer.values.size], buffer.values.ravel()
+        scores["value_rmse"] = float(np.sqrt(np.mean((values - truth) ** 2)))
+        scores["value_bias"] = float(np.mean(values - truth))
+        scores["truth_sd"] = float(truth.std())
+        return scores
 
 
-def pooled_explained_variance(rows: Sequence[Sequence[float]]) -> float:
-    """``1 - Var(e) / Var(R)`` over all points of the rollouts whose :func:`moments` are
-    ``rows``, shape (rollouts, 5); NaN where the returns do not vary."""
-    n, r, r2, e, e2 = np.asarray(rows, dtype=np.float64).sum(axis=0)
-    spread = r2 / n - (r / n) ** 2
-    return 1.0 - (e2 / n - (e / n) ** 2) / spread if spread > 0 else float("nan")
-
-
-def run_one(spec: RunSpec, last: float) -> dict[str, Any]:
-    """Train ``spec``'s model and return its per-rollout explained variance."""
+def run_one(
+    spec: RunSpec, last: float, ceiling_rollouts: int = 0, tail: float = 0.1
+) -> dict[str, Any]:
+    """Train ``spec``'s model and return its per-rollout explained variance (and with
+    ``ceiling_rollouts`` Monte Carlo rollouts per state, the ceilings of the scored ones)."""
     th.set_num_threads(1)
     model = build_model(spec)
-    recorder = ExplainedVariance()
+    per_rollout = model.n_steps * model.n_envs
+    n_rollouts = -(-spec.total_timesteps // per_rollout)
+    first = int(np.floor((1 - last) * n_rollouts))
+    recorder = (
+        WithCeiling(spec.env_id, first, ceiling_rollouts, tail, spec.seed)
+        if ceiling_rollouts
+        else ExplainedVariance()
+    )
     callbacks: list[BaseCallback] = [recorder]
     if isinstance(model.policy, GPActorCriticPolicy):
         callbacks.insert(0, GPValueCallback())
@@ -100,9 +174,10 @@ def run_one(spec: RunSpec, last: float) -> dict[str, Any]:
     assert env is not None
     env.close()
     explained = np.array(recorder.explained)
-    start = int(np.floor((1 - last) * len(explained)))
-    tail = explained[start:]
-    return dict(
+    if len(explained) != n_rollouts:
+        raise RuntimeError(f"expected {n_rollouts} rollouts, SB3 collected {len(explained)}")
+    scored = explained[first:]
+    result = dict(
         env_id=spec.env_id,
         critic=spec.critic,
         seed=spec.seed,
@@ -110,24 +185,44 @@ def run_one(spec: RunSpec, last: float) -> dict[str, Any]:
         gp_kwargs=dict(spec.gp_kwargs),
         timesteps=recorder.timesteps,
         explained_variance=recorder.explained,
-        tail_rollouts=len(tail),
-        tail_mean=float(np.nanmean(tail)),
-        tail_pooled=pooled_explained_variance([r["moments"] for r in recorder.rows[start:]]),
+        tail_rollouts=len(scored),
+        tail_mean=float(np.nanmean(scored)),
+        tail_pooled=pooled_explained_variance([r["moments"] for r in recorder.rows[first:]]),
         provenance=provenance(),
     )
+    if ceiling_rollouts:
+        ceilings = [r["ceiling"] for r in recorder.rows[first:]]
+        result["ceiling"] = dict(
+            n_rollouts=ceiling_rollouts,
+            tail=tail,
+            rollouts=ceilings,
+            tail_mean=float(np.nanmean([c["explained"] for c in ceilings])),
+            tail_halves=float(np.nanmean([c["halves"] for c in ceilings])),
+            tail_pooled=pooled_explained_variance([c["moments"] for c in ceilings]),
+        )
+    return result
 
 
 def _run_file(out: Path, spec: RunSpec) -> Path:
     return out / "runs" / f"{spec.critic}__{spec.env_id.replace('/', '-')}__s{spec.seed}.json"
 
 
-def _run_and_save(spec: RunSpec, last: float, out: Path) -> dict[str, Any]:
-    result = run_one(spec, last)
+def _run_and_save(
+    spec: RunSpec, last: float, out: Path, ceiling_rollouts: int, tail: float
+) -> dict[str, Any]:
+    result = run_one(spec, last, ceiling_rollouts, tail)
     write_json_atomic(_run_file(out, spec), result)
     return result
 
 
-def run_all(specs: list[RunSpec], last: float, out: Path, workers: int) -> list[dict[str, Any]]:
+def run_all(
+    specs: list[RunSpec],
+    last: float,
+    out: Path,
+    workers: int,
+    ceiling_rollouts: int = 0,
+    tail: float = 0.1,
+) -> list[dict[str, Any]]:
     """Every run of ``specs`` not already in ``out`` (resumable), with a progress bar."""
     (out / "runs").mkdir(parents=True, exist_ok=True)
     existing = [s for s in specs if _run_file(out, s).exists()]
@@ -137,6 +232,12 @@ def run_all(specs: list[RunSpec], last: float, out: Path, workers: int) -> list[
             raise ValueError(
                 f"{_run_file(out, spec)} ran with GP options {result['gp_kwargs']}, not "
                 f"{dict(spec.gp_kwargs)}: pass another --out"
+            )
+        recorded = result.get("ceiling", {})
+        if (recorded.get("n_rollouts", 0), recorded.get("tail", tail)) != (ceiling_rollouts, tail):
+            raise ValueError(
+                f"{_run_file(out, spec)} ran with another --ceiling or --ceiling-tail: "
+                "pass another --out"
             )
     todo = [s for s in specs if s not in existing]
     bar = tqdm(total=len(specs), initial=len(done), unit="run", desc="runs")
@@ -148,11 +249,14 @@ def run_all(specs: list[RunSpec], last: float, out: Path, workers: int) -> list[
 
     if workers <= 1:
         for spec in todo:
-            finished(_run_and_save(spec, last, out))
+            finished(_run_and_save(spec, last, out, ceiling_rollouts, tail))
     else:
         # Spawned, not forked: a fork after autograd has run on a GPU cannot backpropagate.
         with cf.ProcessPoolExecutor(workers, mp_context=mp.get_context("spawn")) as pool:
-            for future in cf.as_completed([pool.submit(_run_and_save, s, last, out) for s in todo]):
+            futures = [
+                pool.submit(_run_and_save, s, last, out, ceiling_rollouts, tail) for s in todo
+            ]
+            for future in cf.as_completed(futures):
                 finished(future.result())
     bar.close()
     return done
@@ -266,6 +370,20 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--workers", type=int, default=1)
     parser.add_argument("--out", type=Path, default=Path("critic_fit"))
     parser.add_argument(
+        "--ceiling",
+        type=int,
+        default=0,
+        metavar="N",
+        help="also score V^pi on the scored rollouts, by Monte Carlo with N rollouts per state "
+        f"(0: off; {', '.join(TASKS)} only)",
+    )
+    parser.add_argument(
+        "--ceiling-tail",
+        type=float,
+        default=0.1,
+        help="the Monte Carlo rollouts stop where at most this much of a return is left",
+    )
+    parser.add_argument(
         "--gp-option",
         action="append",
         default=[],
@@ -282,7 +400,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         timesteps_scale=args.scale,
         gp_options=tuple(args.gp_option),
     )
-    results = run_all(config.specs(), args.last, args.out, args.workers)
+    if args.ceiling == 1 or args.ceiling < 0:
+        parser.error("--ceiling needs at least 2 Monte Carlo rollouts per state (0: off)")
+    results = run_all(
+        config.specs(), args.last, args.out, args.workers, args.ceiling, args.ceiling_tail
+    )
     text = summary(results, args.critics, args.last)
     (args.out / "critic_fit.md").write_text(text)
     plot(results, args.out / "critic_fit.png")

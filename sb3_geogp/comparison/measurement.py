@@ -4,6 +4,7 @@ records."""
 from __future__ import annotations
 
 import time
+from collections.abc import Sequence
 from typing import Any
 
 import gymnasium as gym
@@ -37,6 +38,21 @@ def rollout_explained_variance(buffer: Any) -> float:
     returns, values = buffer.returns.ravel(), buffer.values.ravel()
     spread = float(np.var(returns))
     return 1.0 - float(np.var(returns - values)) / spread if spread > 0 else float("nan")
+
+
+def moments(returns: np.ndarray, residuals: np.ndarray) -> list[float]:
+    """``[n, sum R, sum R^2, sum e, sum e^2]`` in float64 of a rollout's returns ``R`` and
+    residuals ``e = R - V``, each shape (n,): what :func:`pooled_explained_variance` sums."""
+    r, e = returns.astype(np.float64), residuals.astype(np.float64)
+    return [float(len(r)), float(r.sum()), float(r @ r), float(e.sum()), float(e @ e)]
+
+
+def pooled_explained_variance(rows: Sequence[Sequence[float]]) -> float:
+    """``1 - Var(e) / Var(R)`` over all points of the rollouts whose :func:`moments` are
+    ``rows``, shape (rollouts, 5); NaN where the returns do not vary."""
+    n, r, r2, e, e2 = np.asarray(rows, dtype=np.float64).sum(axis=0)
+    spread = r2 / n - (r / n) ** 2
+    return 1.0 - (e2 / n - (e / n) ** 2) / spread if spread > 0 else float("nan")
 
 
 class RolloutRecorder(BaseCallback):

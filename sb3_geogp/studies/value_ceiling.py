@@ -1,0 +1,311 @@
+"""The highest critic-fit score any critic could reach on a rollout: that of ``V^pi``.
+
+Issue 13's critic-fit score of a critic ``V`` on a rollout is SB3's explained variance of its
+values against the GAE returns computed with it,
+
+.. math::  \\mathrm{EV}(V) = 1 - \\frac{\\mathrm{Var}(R_V - V)}{\\mathrm{Var}(R_V)}, \\qquad
+           R_V = A_V + V,
+
+with ``A_V`` the GAE advantages (:func:`~sb3_geogp.studies.advantage_error.gae`; SB3 adds
+``gamma V(terminal observation)`` to the reward at a time-limit truncation). The return from a
+state is random (the policy samples its actions), and no function of the state predicts it
+better than its mean, the policy's value function ``V^pi``. The *ceiling* of a rollout is the
+score of ``V^pi`` itself, its own GAE returns against its values: how much of the targets'
+variance is predictable at all. A ceiling below the goal's 0.9 says that no critic can meet
+the goal on that rollout; the gap between a critic's score and the ceiling is what a better
+critic could still gain.
+
+``V^pi`` is estimated at every state of the rollout by Monte Carlo (:func:`policy_returns`):
+CartPole-v1 and Acrobot-v1 have deterministic dynamics and observations that are their states
+(Acrobot's angles through their cosines and sines), so every state is restarted exactly, up to
+the float32 rounding of the observation; only the policy's draws are sampled. The rollouts
+run without a time limit, as the bootstrapped targets assume, and are cut after
+:func:`horizon`'s steps, which leaves out at most ``tail`` of the return (rewards are at most 1
+in size). The batch dynamics are the gymnasium equations in vectorised numpy
+(:func:`acrobot_step`; CartPole's :func:`~sb3_geogp.studies.action_gap.cartpole_step`).
+Monte Carlo noise in ``V^pi`` lowers the estimated ceiling; :func:`ceiling` also scores each
+half of the rollouts, whose difference from the whole measures that bias (it shrinks as
+``1 / n_rollouts``).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from types import SimpleNamespace
+from typing import Any
+
+import numpy as np
+
+from sb3_geogp.comparison.measurement import moments, rollout_explained_variance
+from sb3_geogp.studies.action_gap import cartpole_step
+from sb3_geogp.studies.advantage_error import gae
+
+#: ``act(obs) -> actions``: a stochastic policy's draws for a batch of observations,
+#: shape (n, obs_dim) -> (n,).
+Act = Callable[[np.ndarray], np.ndarray]
+
+#: Acrobot-v1's constants (gymnasium ``AcrobotEnv``, its default "book" dynamics).
+ACROBOT_DT = 0.2
+ACROBOT_MAX_VEL = (4 * math.pi, 9 * math.pi)
+ACROBOT_TORQUES = np.array([-1.0, 0.0, 1.0])
+_M1 = _M2 = _L1 = _I1 = _I2 = 1.0
+_LC1 = _LC2 = 0.5
+_G = 9.8
+
+
+def _acrobot_derivatives(s: np.ndarray, torque: np.ndarray) -> np.ndarray:
+    """Time derivative of Acrobot states (gymnasium's ``_dsdt``, "book" dynamics), shape (n, 4)."""
+    theta1, theta2, dtheta1, dtheta2 = s.T
+    d1 = _M1 * _LC1**2 + _M2 * (_L1**2 + _LC2**2 + 2 * _L1 * _LC2 * np.cos(theta2)) + _I1 + _I2
+    d2 = _M2 * (_LC2**2 + _L1 * _LC2 * np.cos(theta2)) + _I2
+    phi2 = _M2 * _LC2 * _G * np.cos(theta1 + theta2 - math.pi / 2.0)
+    phi1 = (
+        -_M2 * _L1 * _LC2 * dtheta2**2 * np.sin(theta2)
+        - 2 * _M2 * _L1 * _LC2 * dtheta2 * dtheta1 * np.sin(theta2)
+        + (_M1 * _LC1 + _M2 * _L1) * _G * np.cos(theta1 - math.pi / 2)
+        + phi2
+    )
+    ddtheta2 = (torque + d2 / d1 * phi1 - _M2 * _L1 * _LC2 * dtheta1**2 * np.sin(theta2) - phi2) / (
+        _M2 * _LC2**2 + _I2 - d2**2 / d1
+    )
+    ddtheta1 = -(d2 * ddtheta2 + phi1) / d1
+    return np.stack([dtheta1, dtheta2, ddtheta1, ddtheta2], axis=1)
+
+
+def _wrap(x: np.ndarray) -> np.ndarray:
+    """gymnasium's ``wrap(x, -pi, pi)``: whole turns added or taken away until in range."""
+    x = x.copy()
+    while (high := x > math.pi).any():
+        x[high] -= 2 * math.pi
+    while (low := x < -math.pi).any():
+        x[low] += 2 * math.pi
+    return x
+
+
+def acrobot_step(state: np.ndarray, action: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """One Acrobot-v1 step (one RK4 step of ``dt`` = 0.2, as gymnasium) for a batch of states.
+
+    Parameters
+    ----------
+    state : ndarray, shape (n, 4)
+        ``(theta1, theta2, dtheta1, dtheta2)``.
+    action : ndarray of int, shape (n,)
+        Torque -1, 0 or +1 on the joint.
+
+    Returns
+    -------
+    next_state : ndarray, shape (n, 4), float64
+        Angles wrapped to ``[-pi, pi]``, velocities clipped to 4 pi and 9 pi.
+    terminated : ndarray of bool, shape (n,)
+        The tip is more than one link's length above the pivot.
+    """
+    s = np.asarray(state, dtype=np.float64)
+    torque = ACROBOT_TORQUES[np.asarray(action, dtype=np.int64)]
+    h = ACROBOT_DT
+    k1 = _acrobot_derivatives(s, torque)
+    k2 = _acrobot_derivatives(s + h / 2 * k1, torque)
+    k3 = _acrobot_derivatives(s + h / 2 * k2, torque)
+    k4 = _acrobot_derivatives(s + h * k3, torque)
+    nxt = s + h / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4)
+    nxt[:, 0], nxt[:, 1] = _wrap(nxt[:, 0]), _wrap(nxt[:, 1])
+    for i, limit in enumerate(ACROBOT_MAX_VEL):
+        nxt[:, 2 + i] = np.clip(nxt[:, 2 + i], -limit, limit)
+    terminated = -np.cos(nxt[:, 0]) - np.cos(nxt[:, 1] + nxt[:, 0]) > 1.0
+    return nxt, terminated
+
+
+@dataclass(frozen=True)
+class RestartableTask:
+    """A task whose every state can be restarted from its observation.
+
+    Attributes
+    ----------
+    state : callable
+        Observations, shape (n, obs_dim), to states, shape (n, state_dim).
+    observe : callable
+        States to observations.
+    step : callable
+        ``(states, actions) -> (next states, terminated)``.
+    reward : callable
+        ``terminated -> reward`` of the step, shape (n,) -> (n,).
+    """
+
+    state: Callable[[np.ndarray], np.ndarray]
+    observe: Callable[[np.ndarray], np.ndarray]
+    step: Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]
+    reward: Callable[[np.ndarray], np.ndarray]
+
+
+def _acrobot_state(obs: np.ndarray) -> np.ndarray:
+    o = np.asarray(obs, dtype=np.float64)
+    return np.stack(
+        [np.arctan2(o[:, 1], o[:, 0]), np.arctan2(o[:, 3], o[:, 2]), o[:, 4], o[:, 5]], 1
+    )
+
+
+def _acrobot_observe(s: np.ndarray) -> np.ndarray:
+    return np.stack(
+        [np.cos(s[:, 0]), np.sin(s[:, 0]), np.cos(s[:, 1]), np.sin(s[:, 1]), s[:, 2], s[:, 3]], 1
+    )
+
+
+def _identity(x: np.ndarray) -> np.ndarray:
+    return np.asarray(x, dtype=np.float64)
+
+
+#: The tasks :func:`policy_returns` can restart, by gymnasium id.
+TASKS: dict[str, RestartableTask] = {
+    # reward 1 for every step, the one that ends the episode included
+    "CartPole-v1": RestartableTask(_identity, _identity, cartpole_step, np.ones_like),
+    # reward -1 for every step but the one that reaches the goal
+    "Acrobot-v1": RestartableTask(
+        _acrobot_state, _acrobot_observe, acrobot_step, lambda done: np.where(done, 0.0, -1.0)
+    ),
+}
+
+
+def horizon(gamma: float, tail: float) -> int:
+    """Steps after which a return of rewards at most 1 in size has at most ``tail`` left:
+    the smallest ``H`` with ``gamma^H / (1 - gamma) <= tail``."""
+    if not (0 < gamma < 1) or tail <= 0:
+        raise ValueError(f"need 0 < gamma < 1 and tail > 0, got gamma={gamma}, tail={tail}")
+    return max(0, math.ceil(math.log(tail * (1 - gamma)) / math.log(gamma)))
+
+
+def policy_returns(
+    act: Act,
+    task: RestartableTask,
+    obs: np.ndarray,
+    gamma: float,
+    steps: int,
+    n_rollouts: int,
+) -> np.ndarray:
+    """Discounted returns of the policy from each observation's state, without a time limit,
+    cut after ``steps`` steps: their mean over the rollouts is ``V^pi`` by Monte Carlo.
+
+    Parameters
+    ----------
+    act : callable
+        The policy (:data:`Act`), called once per step on the rollouts still running.
+    task : RestartableTask
+    obs : ndarray, shape (n, obs_dim)
+    gamma : float
+    steps : int
+    n_rollouts : int
+        At least 2, so that :func:`ceiling` can score halves.
+
+    Returns
+    -------
+    ndarray, shape (n, n_rollouts)
+    """
+    if n_rollouts < 2:
+        raise ValueError(f"n_rollouts must be >= 2, got {n_rollouts}")
+    state = np.repeat(task.state(obs), n_rollouts, axis=0)
+    total = np.zeros(len(state))
+    running = np.arange(len(state))
+    discount = 1.0
+    for _ in range(steps):
+        if not len(running):
+            break
+        state, done = task.step(state, act(task.observe(state)))
+        total[running] += discount * task.reward(done)
+        discount *= gamma
+        state, running = state[~done], running[~done]
+    return total.reshape(-1, n_rollouts)
+
+
+@dataclass(frozen=True)
+class Rollout:
+    """What :func:`ceiling` needs of a PPO/A2C rollout of ``T`` steps in ``n_envs`` envs.
+
+    Attributes
+    ----------
+    obs : ndarray, shape (T, n_envs, obs_dim)
+        The observation each step starts from.
+    rewards : ndarray, shape (T, n_envs)
+        The environment's rewards, before SB3 adds a bootstrap at truncations.
+    episode_starts : ndarray, shape (T, n_envs)
+    last_obs : ndarray, shape (n_envs, obs_dim)
+    last_dones : ndarray, shape (n_envs,)
+    truncations : list of (int, int, ndarray)
+        ``(step, env, terminal observation)`` of the time-limit truncations
+        (:func:`~sb3_geogp.callbacks.time_limit_truncations`).
+    """
+
+    obs: np.ndarray
+    rewards: np.ndarray
+    episode_starts: np.ndarray
+    last_obs: np.ndarray
+    last_dones: np.ndarray
+    truncations: list[tuple[int, int, np.ndarray]]
+
+    def states(self) -> np.ndarray:
+        """Every observation whose value enters the GAE returns, shape (T n_envs + n_envs + k,
+        obs_dim): the steps', the last ones, then the truncations' terminal ones."""
+        dim = self.obs.shape[-1]
+        terminal = [np.reshape(t, (1, dim)) for _, _, t in self.truncations]
+        parts = [self.obs.reshape(-1, dim), self.last_obs.reshape(-1, dim), *terminal]
+        return np.concatenate(parts).astype(np.float64)
+
+    def returns(self, values: np.ndarray, gamma: float, gae_lambda: float) -> np.ndarray:
+        """GAE returns ``R_V`` with ``values`` at :meth:`states` (shape (m,)), SB3's bootstrap
+        ``gamma V(terminal)`` added at truncations; shape (T, n_envs)."""
+        T, n_envs = self.rewards.shape
+        own, last, terminal = np.split(
+            np.asarray(values, np.float64), [T * n_envs, T * n_envs + n_envs]
+        )
+        own = own.reshape(T, n_envs)
+        rewards = self.rewards.astype(np.float64).copy()
+        for (step, env, _), v in zip(self.truncations, terminal, strict=True):
+            rewards[step, env] += gamma * v
+        advantages = gae(
+            rewards, own, self.episode_starts, last, self.last_dones, gamma, gae_lambda
+        )
+        return advantages + own
+
+
+def explained_variance(returns: np.ndarray, values: np.ndarray) -> float:
+    """Issue 13's score, the same formula as the critic-fit runs
+    (:func:`~sb3_geogp.comparison.measurement.rollout_explained_variance`)."""
+    return rollout_explained_variance(SimpleNamespace(returns=returns, values=values))
+
+
+def ceiling(
+    rollout: Rollout, mc_returns: np.ndarray, gamma: float, gae_lambda: float
+) -> dict[str, Any]:
+    """The score of ``V^pi`` on the rollout, with ``V^pi`` the Monte Carlo mean.
+
+    Parameters
+    ----------
+    rollout : Rollout
+    mc_returns : ndarray, shape (m, n_rollouts)
+        :func:`policy_returns` from :meth:`Rollout.states`.
+    gamma, gae_lambda : float
+
+    Returns
+    -------
+    dict
+        ``explained``: the ceiling; ``halves``: the mean of the two halves' ceilings (each
+        from every other Monte Carlo rollout); ``mc_se``: the root-mean-square standard
+        error of ``V^pi`` at the rollout's states; ``moments``: those of ``V^pi``'s returns
+        and residuals (:func:`~sb3_geogp.comparison.measurement.moments`), to pool rollouts.
+    """
+    n = rollout.rewards.size
+
+    def returns(values: np.ndarray) -> np.ndarray:
+        return rollout.returns(values, gamma, gae_lambda).ravel()
+
+    def score(values: np.ndarray) -> float:
+        return explained_variance(returns(values), values[:n])
+
+    values = mc_returns.mean(axis=1)
+    halves = [score(mc_returns[:, k::2].mean(axis=1)) for k in (0, 1)]
+    se = mc_returns[:n].std(axis=1, ddof=1) / math.sqrt(mc_returns.shape[1])
+    return dict(
+        explained=score(values),
+        halves=float(np.mean(halves)),
+        mc_se=float(np.sqrt(np.mean(se**2))),
+        moments=moments(returns(values), returns(values) - values[:n]),
+    )

@@ -1,0 +1,183 @@
+"""The value ceiling: batch dynamics and Monte Carlo returns against gymnasium's own envs, GAE
+returns against SB3's buffer, and the ceiling of a policy whose returns are certain."""
+
+from __future__ import annotations
+
+import math
+
+import gymnasium as gym
+import numpy as np
+import pytest
+import torch as th
+from stable_baselines3.common.env_util import make_vec_env
+
+from sb3_geogp.studies.value_ceiling import (
+    TASKS,
+    Rollout,
+    acrobot_step,
+    ceiling,
+    horizon,
+    policy_returns,
+)
+
+
+def _random_acrobot_states(n: int, rng: np.random.Generator) -> np.ndarray:
+    return np.column_stack(
+        [
+            rng.uniform(-math.pi, math.pi, (n, 2)),
+            rng.uniform(-4 * math.pi, 4 * math.pi, n),
+            rng.uniform(-9 * math.pi, 9 * math.pi, n),
+        ]
+    )
+
+
+def test_acrobot_step_is_gymnasiums() -> None:
+    """Reference: gymnasium's ``AcrobotEnv.step`` from the same state, one state at a time;
+    the states include fast ones that wrap and reach the goal."""
+    rng = np.random.default_rng(0)
+    states, actions = _random_acrobot_states(400, rng), rng.integers(0, 3, 400)
+    nxt, terminated = acrobot_step(states, actions)
+    env = gym.make("Acrobot-v1").unwrapped
+    env.reset(seed=0)
+    for s, a, want, done in zip(states, actions, nxt, terminated, strict=True):
+        env.state = s.copy()
+        obs, reward, gym_done, _, _ = env.step(int(a))
+        np.testing.assert_allclose(env.state, want, rtol=0, atol=1e-12)
+        assert gym_done == done and reward == TASKS["Acrobot-v1"].reward(np.array([done]))[0]
+        np.testing.assert_allclose(TASKS["Acrobot-v1"].observe(want[None])[0], obs, atol=1e-6)
+    assert 0 < terminated.sum() < len(terminated)
+
+
+def test_acrobot_state_is_recovered_from_its_observation() -> None:
+    rng = np.random.default_rng(1)
+    states = _random_acrobot_states(100, rng)
+    task = TASKS["Acrobot-v1"]
+    np.testing.assert_allclose(task.state(task.observe(states)), states, atol=1e-12)
+
+
+def test_horizon_leaves_at_most_the_tail() -> None:
+    for gamma, tail in ((0.99, 0.1), (0.98, 0.1), (0.9, 1e-3)):
+        steps = horizon(gamma, tail)
+        assert gamma**steps / (1 - gamma) <= tail < gamma ** (steps - 1) / (1 - gamma)
+    with pytest.raises(ValueError, match="gamma"):
+        horizon(1.0, 0.1)
+
+
+def _gym_return(env_id: str, obs: np.ndarray, policy: int, gamma: float, steps: int) -> float:
+    """Brute force: gymnasium's env restarted from the observation's state, one action always,
+    no time limit."""
+    env = gym.make(env_id).unwrapped
+    env.reset(seed=0)
+    env.state = TASKS[env_id].state(obs[None])[0]
+    total = 0.0
+    for t in range(steps):
+        _, reward, terminated, _, _ = env.step(policy)
+        total += gamma**t * reward
+        if terminated:
+            break
+    return total
+
+
+@pytest.mark.parametrize("env_id", sorted(TASKS))
+def test_policy_returns_match_gymnasium_for_a_fixed_action(env_id: str) -> None:
+    """A policy that always takes one action has one return per state: every Monte Carlo
+    rollout equals gymnasium's own episode from that state, cut at the same step."""
+    gamma, steps = 0.99, 300
+    env = gym.make(env_id)
+    obs = np.array([env.reset(seed=s)[0] for s in range(6)], dtype=np.float64)
+    for action in (0, 1):
+        returns = policy_returns(
+            lambda o, a=action: np.full(len(o), a), TASKS[env_id], obs, gamma, steps, 3
+        )
+        assert returns.shape == (6, 3) and np.all(returns == returns[:, :1])
+        want = [_gym_return(env_id, o, action, gamma, steps) for o in obs]
+        np.testing.assert_allclose(returns[:, 0], want, rtol=1e-10)
+
+
+def test_policy_returns_need_two_rollouts() -> None:
+    with pytest.raises(ValueError, match="n_rollouts"):
+        policy_returns(
+            lambda o: np.zeros(len(o)), TASKS["CartPole-v1"], np.zeros((1, 4)), 0.9, 5, 1
+        )
+
+
+def _ppo_rollout_with_truncations():  # type: ignore[no-untyped-def]
+    """A real PPO rollout on CartPole with a 12-step time limit (so that SB3 bootstraps at
+    truncations), the critic fit script's recorder reading it."""
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    from tests.test_examples_training import load_script
+
+    critic_fit = load_script("critic_fit")
+    seen: list[tuple[Rollout, np.ndarray, np.ndarray]] = []
+
+    class Read(BaseCallback):
+        def _on_step(self) -> bool:
+            return True
+
+        def _on_rollout_end(self) -> None:
+            rollout = recorder.rollout()
+            with th.no_grad():
+                states = th.as_tensor(rollout.states(), dtype=th.float32)
+                values = self.model.policy.predict_values(states)
+            seen.append((rollout, values.numpy()[:, 0], self.model.rollout_buffer.returns.copy()))
+
+    env = make_vec_env("CartPole-v1", n_envs=3, seed=0, env_kwargs=dict(max_episode_steps=12))
+    model = PPO("MlpPolicy", env, n_steps=40, batch_size=60, gamma=0.97, gae_lambda=0.9, seed=0)
+    recorder = critic_fit.WithCeiling("CartPole-v1", first=0, n_rollouts=2, tail=0.1, seed=0)
+    model.learn(120, callback=[recorder, Read()])
+    return model, seen
+
+
+def test_rollout_returns_are_sb3s_with_its_bootstrap_at_truncations() -> None:
+    """Reference: SB3's own ``RolloutBuffer.returns``, recomputed from the recorded rewards,
+    starts and truncations with the MLP critic's values at the rollout's states."""
+    model, seen = _ppo_rollout_with_truncations()
+    assert len(seen) == 1
+    rollout, values, sb3_returns = seen[0]
+    assert len(rollout.truncations) > 0  # the time limit cut episodes inside the rollout
+    got = rollout.returns(values, model.gamma, model.gae_lambda)
+    np.testing.assert_allclose(got, sb3_returns, rtol=1e-5, atol=1e-5)
+
+
+def _always_right_rollout(steps: int, n_envs: int) -> Rollout:
+    """A rollout of the policy that always pushes right, stepped by gymnasium's CartPole in
+    SB3's vector env with a 9-step time limit: about as many episodes fall as are truncated."""
+    env = make_vec_env("CartPole-v1", n_envs=n_envs, seed=0, env_kwargs=dict(max_episode_steps=9))
+    obs, starts = env.reset(), np.ones(n_envs, dtype=bool)
+    rows: dict[str, list[np.ndarray]] = {"obs": [], "rewards": [], "starts": []}
+    truncations = []
+    for t in range(steps):
+        rows["obs"].append(obs)
+        rows["starts"].append(starts.astype(np.float64))
+        obs, rewards, starts, infos = env.step(np.ones(n_envs, dtype=np.int64))
+        rows["rewards"].append(rewards.astype(np.float64))
+        for e, info in enumerate(infos):
+            if starts[e] and info.get("TimeLimit.truncated", False):
+                truncations.append((t, e, info["terminal_observation"]))
+    return Rollout(
+        obs=np.array(rows["obs"]),
+        rewards=np.array(rows["rewards"]),
+        episode_starts=np.array(rows["starts"]),
+        last_obs=obs,
+        last_dones=starts.astype(np.float64),
+        truncations=truncations,
+    )
+
+
+def test_the_ceiling_of_certain_returns_is_one_and_of_a_guess_below() -> None:
+    """With a deterministic policy the return from a state is certain, so ``V^pi`` explains
+    all of its own GAE returns (ceiling 1, Monte Carlo error 0); a value function that is off
+    scores less."""
+    rollout = _always_right_rollout(60, 4)
+    task, gamma, lam = TASKS["CartPole-v1"], 0.97, 0.9
+    ends, truncations = rollout.episode_starts[1:].sum(), len(rollout.truncations)
+    assert ends > truncations > 0  # episodes fall and are cut
+    right = lambda o: np.ones(len(o), dtype=np.int64)  # noqa: E731
+    mc = policy_returns(right, task, rollout.states(), gamma, horizon(gamma, 1e-12), 2)
+    scores = ceiling(rollout, mc, gamma, lam)
+    assert scores["explained"] == pytest.approx(1.0, abs=1e-9)
+    assert scores["halves"] == pytest.approx(1.0, abs=1e-9) and scores["mc_se"] == 0.0
+    noisy = mc + np.random.default_rng(0).normal(0, 1, (len(mc), 1))
+    assert ceiling(rollout, noisy, gamma, lam)["explained"] < 0.99
