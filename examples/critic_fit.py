@@ -276,7 +276,34 @@ def summary(results: list[dict[str, Any]], critics: Sequence[str], last: float) 
         )
         lines += ["", *seed_table(results, critics, "tail_pooled", heading)]
         lines += paired_differences(results, critics, "tail_pooled")
+    if all("ceiling" in r for r in results):
+        lines += ["", *ceiling_table(results, critics)]
     return "\n".join(lines) + "\n"
+
+
+def ceiling_table(results: list[dict[str, Any]], critics: Sequence[str]) -> list[str]:
+    """Markdown lines: per environment and critic, the critic's score and its policies' ceiling
+    (``V^pi``'s score) on the same rollouts, by both readings, and the critic's distance from
+    ``V^pi`` at the rollouts' states; each a mean over seeds."""
+    n_mc = results[0]["ceiling"]["n_rollouts"]
+    lines = [
+        f"The ceiling: the score of the policies' own value function V^pi on the same rollouts "
+        f"(Monte Carlo, {n_mc} rollouts per state; halves: {n_mc // 2} each, lower by the "
+        "Monte Carlo noise); mean over seeds [min, max], seeds with a ceiling of at least "
+        f"{GOAL} (goal's reading), then the critic's values against V^pi at the scored states:",
+        "",
+        "| env | critic | critic's score | ceiling | ceiling, halves | pooled: critic | pooled: "
+        "ceiling | value RMSE to V^pi | mean value − V^pi | V^pi's sd |",
+        "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|",
+    ]
+    for env_id in dict.fromkeys(r["env_id"] for r in results):
+        for critic in critics:
+            runs = [r for r in results if (r["env_id"], r["critic"]) == (env_id, critic)]
+            if runs:
+                lines.append(
+                    f"| `{env_id}` | {critic} | " + " | ".join(_ceiling_cells(runs)) + " |"
+                )
+    return lines
 
 
 def seed_table(
@@ -328,6 +355,29 @@ def paired_differences(
     return lines
 
 
+def _ceiling_cells(runs: list[dict[str, Any]]) -> list[str]:
+    """The cells of :func:`ceiling_table`'s row of ``runs`` (one env and critic)."""
+    ceilings = [r["ceiling"]["tail_mean"] for r in runs]
+
+    def mean(values: list[float], fmt: str = ".3f") -> str:
+        return f"{np.mean(values):{fmt}}"
+
+    def per_rollout(key: str) -> list[float]:
+        return [float(np.mean([c[key] for c in r["ceiling"]["rollouts"]])) for r in runs]
+
+    reached = sum(c >= GOAL for c in ceilings)
+    return [
+        mean([r["tail_mean"] for r in runs]),
+        f"{mean(ceilings)} [{min(ceilings):.2f}, {max(ceilings):.2f}], {reached}/{len(runs)}",
+        mean([r["ceiling"]["tail_halves"] for r in runs]),
+        mean([r["tail_pooled"] for r in runs]),
+        mean([r["ceiling"]["tail_pooled"] for r in runs]),
+        mean(per_rollout("value_rmse"), ".2f"),
+        mean(per_rollout("value_bias"), "+.2f"),
+        mean(per_rollout("truth_sd"), ".2f"),
+    ]
+
+
 def plot(results: list[dict[str, Any]], path: Path) -> None:
     """Explained variance per rollout, one panel per environment, one line per run."""
     import matplotlib
@@ -350,6 +400,16 @@ def plot(results: list[dict[str, Any]], path: Path) -> None:
                 lw=1,
                 label=r["critic"] if first else None,
             )
+            if "ceiling" in r:
+                ax.plot(
+                    r["timesteps"][-r["tail_rollouts"] :],
+                    np.clip([c["explained"] for c in r["ceiling"]["rollouts"]], -1, 1),
+                    color=COLORS.get(r["critic"]),
+                    ls="none",
+                    marker="^",
+                    ms=4,
+                    label=f"{r['critic']}'s ceiling (V^pi)" if first else None,
+                )
         ax.axhline(GOAL, color="k", ls=":", lw=1)
         ax.set(title=env_id, xlabel="timesteps", ylim=(-1.02, 1.02))
         ax.grid(alpha=0.3)

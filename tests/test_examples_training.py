@@ -152,6 +152,27 @@ def test_critic_fit_tiny_run_writes_table_and_figure(tmp_path: Path) -> None:
         critic_fit.main([*argv, "--out", str(tmp_path), "--gp-option", "forgetting=0.9"])
 
 
+def test_critic_fit_ceiling_leaves_the_run_as_it_was(tmp_path: Path) -> None:
+    """``--ceiling`` adds the scored rollouts' ceilings without changing a single score of the
+    run (its Monte Carlo draws have their own random stream), and a run resumed with another
+    ``--ceiling`` is refused."""
+    critic_fit = load_script("critic_fit")
+    argv = ["--envs", "CartPole-v1", "--critics", "mlp", "--seeds", "0", "--scale", "0.01"]
+    critic_fit.main([*argv, "--out", str(tmp_path / "plain")])
+    critic_fit.main([*argv, "--ceiling", "4", "--out", str(tmp_path / "ceiling")])
+    plain, with_ceiling = (
+        json.loads((tmp_path / d / "runs" / "mlp__CartPole-v1__s0.json").read_text())
+        for d in ("plain", "ceiling")
+    )
+    assert with_ceiling["explained_variance"] == plain["explained_variance"]
+    ceilings = with_ceiling["ceiling"]["rollouts"]
+    assert len(ceilings) == plain["tail_rollouts"] and "ceiling" not in plain
+    assert all(c["explained"] <= 1 and c["truth_sd"] > 0 for c in ceilings)
+    assert "The ceiling" in (tmp_path / "ceiling" / "critic_fit.md").read_text()
+    with pytest.raises(ValueError, match="another --ceiling"):
+        critic_fit.main([*argv, "--out", str(tmp_path / "plain"), "--ceiling", "4"])
+
+
 def test_critic_fit_pairs_differences_by_seed() -> None:
     """Each critic minus the first, over the seeds both have, with the t interval scipy gives."""
     import scipy.stats as sps
@@ -167,26 +188,6 @@ def test_critic_fit_pairs_differences_by_seed() -> None:
     half = sps.t.ppf(0.975, 1) * diffs.std(ddof=1) / np.sqrt(2)
     assert row == f"| `CartPole-v1` | +0.200 [{0.2 - half:+.3f}, {0.2 + half:+.3f}] (2) |"
     assert critic_fit.paired_differences(results, ["mlp"]) == []
-
-
-def test_critic_fit_pooled_explained_variance_is_sb3s_formula_on_the_concatenated_rollouts() -> (
-    None
-):
-    """The moments summed over rollouts give SB3's ``explained_variance`` of all their points at
-    once (brute force on the concatenation), NaN where the returns do not vary."""
-    from stable_baselines3.common.utils import explained_variance
-
-    critic_fit = load_script("critic_fit")
-    rng = np.random.default_rng(0)
-    rollouts = [(rng.normal(m, s, n), rng.normal(0, 1, n)) for m, s, n in
-                ((0.0, 1.0, 64), (5.0, 0.01, 32), (-2.0, 3.0, 128))]  # fmt: skip
-    returns = [r for r, _ in rollouts]
-    values = [r + noise * 0.5 for r, noise in rollouts]
-    rows = [critic_fit.moments(r, r - v) for r, v in zip(returns, values, strict=True)]
-    expected = explained_variance(np.concatenate(values), np.concatenate(returns))
-    assert critic_fit.pooled_explained_variance(rows) == pytest.approx(expected, rel=1e-12)
-    flat = critic_fit.moments(np.full(8, 3.0), np.zeros(8))
-    assert np.isnan(critic_fit.pooled_explained_variance([flat]))
 
 
 class _PushUpLeft:
