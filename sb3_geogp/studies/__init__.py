@@ -5,7 +5,9 @@
 * :mod:`~sb3_geogp.studies.action_gap`: whether a critic orders CartPole's two actions as the
   true action values do (Monte Carlo gaps);
 * :mod:`~sb3_geogp.studies.advantage_error`: how far a critic's GAE advantages on the paper's
-  pendulum are from those of the policy's true value function (Monte Carlo).
+  pendulum are from those of the policy's true value function (Monte Carlo);
+* :mod:`~sb3_geogp.studies.value_ceiling`: the highest critic-fit score any critic could reach
+  on a CartPole or Acrobot rollout, that of the policy's own value function (Monte Carlo).
 
 They share :mod:`sb3_geogp.toolbox` with the critic comparison (:mod:`sb3_geogp.comparison`).
 """

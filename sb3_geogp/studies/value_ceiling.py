@@ -290,7 +290,11 @@ def ceiling(
         ``explained``: the ceiling; ``halves``: the mean of the two halves' ceilings (each
         from every other Monte Carlo rollout); ``mc_se``: the root-mean-square standard
         error of ``V^pi`` at the rollout's states; ``moments``: those of ``V^pi``'s returns
-        and residuals (:func:`~sb3_geogp.comparison.measurement.moments`), to pool rollouts.
+        and residuals (:func:`~sb3_geogp.comparison.measurement.moments`), to pool rollouts;
+        ``check_mean``, ``check_se``: the mean of the rollout's own Monte Carlo returns minus
+        ``V^pi`` (``lambda = 1``, bootstrapped with ``V^pi`` where the rollout stops), near 0
+        if the restarted rollouts are those of the policy and the task, with a standard error
+        from its per-env means.
     """
     n = rollout.rewards.size
 
@@ -303,7 +307,12 @@ def ceiling(
     values = mc_returns.mean(axis=1)
     halves = [score(mc_returns[:, k::2].mean(axis=1)) for k in (0, 1)]
     se = mc_returns[:n].std(axis=1, ddof=1) / math.sqrt(mc_returns.shape[1])
+    check = (rollout.returns(values, gamma, 1.0) - values[:n].reshape(rollout.rewards.shape)).mean(
+        0
+    )
     return dict(
+        check_mean=float(check.mean()),
+        check_se=float(check.std(ddof=1) / math.sqrt(len(check))),
         explained=score(values),
         halves=float(np.mean(halves)),
         mc_se=float(np.sqrt(np.mean(se**2))),

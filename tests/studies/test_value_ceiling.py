@@ -179,5 +179,8 @@ def test_the_ceiling_of_certain_returns_is_one_and_of_a_guess_below() -> None:
     scores = ceiling(rollout, mc, gamma, lam)
     assert scores["explained"] == pytest.approx(1.0, abs=1e-9)
     assert scores["halves"] == pytest.approx(1.0, abs=1e-9) and scores["mc_se"] == 0.0
+    assert scores["check_mean"] == pytest.approx(0.0, abs=1e-9)
     noisy = mc + np.random.default_rng(0).normal(0, 1, (len(mc), 1))
     assert ceiling(rollout, noisy, gamma, lam)["explained"] < 0.99
+    # values one too high: the rollout's own returns fall short of them
+    assert ceiling(rollout, mc + 1, gamma, lam)["check_mean"] < -0.1
