@@ -428,6 +428,41 @@ def plot(results: list[dict[str, Any]], path: Path) -> None:
     plt.close(fig)
 
 
+def plot_ceiling(results: list[dict[str, Any]], path: Path) -> None:
+    """Each scored rollout's score against its ceiling, one panel per environment: points below
+    the diagonal are what a better critic could still gain."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    envs = list(dict.fromkeys(r["env_id"] for r in results))
+    fig, axes = plt.subplots(1, len(envs), figsize=(4.6 * len(envs), 4.2), squeeze=False)
+    for ax, env_id in zip(axes[0], envs, strict=True):
+        for critic in dict.fromkeys(r["critic"] for r in results):
+            runs = [r for r in results if (r["env_id"], r["critic"]) == (env_id, critic)]
+            ceilings = [c["explained"] for r in runs for c in r["ceiling"]["rollouts"]]
+            scores = [s for r in runs for s in r["explained_variance"][-r["tail_rollouts"] :]]
+            ax.scatter(
+                np.clip(ceilings, -1, 1),
+                np.clip(scores, -1, 1),
+                s=12,
+                alpha=0.6,
+                color=COLORS.get(critic),
+                label=critic,
+            )
+        ax.plot([-1, 1], [-1, 1], color="k", lw=0.8)
+        ax.axhline(GOAL, color="k", ls=":", lw=1)
+        ax.set(title=env_id, xlabel="ceiling: V^pi's score (Monte Carlo)", xlim=(-1.05, 1.05))
+        ax.set(ylim=(-1.05, 1.05))
+        ax.grid(alpha=0.3)
+    axes[0][0].set_ylabel("the critic's score (clipped at -1)")
+    axes[0][0].legend(loc="lower right")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--envs", nargs="+", default=list(ENVS))
@@ -476,6 +511,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     text = summary(results, args.critics, args.last)
     (args.out / "critic_fit.md").write_text(text)
     plot(results, args.out / "critic_fit.png")
+    if all("ceiling" in r for r in results):
+        plot_ceiling(results, args.out / "ceiling.png")
     print(text)
     return 0
 

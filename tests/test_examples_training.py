@@ -169,6 +169,7 @@ def test_critic_fit_ceiling_leaves_the_run_as_it_was(tmp_path: Path) -> None:
     assert len(ceilings) == plain["tail_rollouts"] and "ceiling" not in plain
     assert all(c["explained"] <= 1 and c["truth_sd"] > 0 for c in ceilings)
     assert "The ceiling" in (tmp_path / "ceiling" / "critic_fit.md").read_text()
+    assert (tmp_path / "ceiling" / "ceiling.png").stat().st_size > 0
     with pytest.raises(ValueError, match="another --ceiling"):
         critic_fit.main([*argv, "--out", str(tmp_path / "plain"), "--ceiling", "4"])
 

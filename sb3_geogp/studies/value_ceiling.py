@@ -266,6 +266,19 @@ class Rollout:
         return advantages + own
 
 
+def own_value_weight(gamma: float, gae_lambda: float) -> float:
+    """The share of a critic's own values in its GAE targets, ``gamma (1 - lambda) / (1 - gamma
+    lambda)``.
+
+    Unrolled (inside an episode), ``R_V(t) = sum_k (gamma lambda)^k r_{t+k} + gamma (1 - lambda)
+    sum_{j >= 1} (gamma lambda)^{j-1} V(s_{t+j})``: the target is the critic's values at the
+    next states, weighted by this much in all, plus rewards. Where it is large, a critic's
+    errors reappear in its own targets, and its explained variance rewards agreeing with
+    itself as well as with the returns.
+    """
+    return gamma * (1 - gae_lambda) / (1 - gamma * gae_lambda)
+
+
 def explained_variance(returns: np.ndarray, values: np.ndarray) -> float:
     """Issue 13's score, the same formula as the critic-fit runs
     (:func:`~sb3_geogp.comparison.measurement.rollout_explained_variance`)."""

@@ -11,12 +11,14 @@ import pytest
 import torch as th
 from stable_baselines3.common.env_util import make_vec_env
 
+from sb3_geogp.studies.advantage_error import gae
 from sb3_geogp.studies.value_ceiling import (
     TASKS,
     Rollout,
     acrobot_step,
     ceiling,
     horizon,
+    own_value_weight,
     policy_returns,
 )
 
@@ -184,3 +186,17 @@ def test_the_ceiling_of_certain_returns_is_one_and_of_a_guess_below() -> None:
     assert ceiling(rollout, noisy, gamma, lam)["explained"] < 0.99
     # values one too high: the rollout's own returns fall short of them
     assert ceiling(rollout, mc + 1, gamma, lam)["check_mean"] < -0.1
+
+
+@pytest.mark.parametrize(("gamma", "lam"), [(0.98, 0.8), (0.99, 0.94), (0.9, 0.95)])
+def test_own_value_weight_is_what_sb3s_gae_puts_of_the_values_in_its_targets(
+    gamma: float, lam: float
+) -> None:
+    """Brute force through SB3's recursion: zero rewards, values 1 along a long episode; the
+    first step's target is the critic's own values, weighted by the closed form."""
+    T = 3000
+    values = np.ones((T, 1))
+    advantages = gae(
+        np.zeros((T, 1)), values, np.zeros((T, 1)), np.ones(1), np.zeros(1), gamma, lam
+    )
+    assert advantages[0, 0] + values[0, 0] == pytest.approx(own_value_weight(gamma, lam), rel=1e-9)
