@@ -151,12 +151,7 @@ class WithCeiling(ExplainedVariance):
             mc = policy_returns(
                 self._act, self.task, states, gamma, horizon(gamma, self.tail), self.n_rollouts
             )
-        scores = ceiling(rollout, mc, gamma, lam)
-        truth, values = mc.mean(axis=1)[: buffer.values.size], buffer.values.ravel()
-        scores["value_rmse"] = float(np.sqrt(np.mean((values - truth) ** 2)))
-        scores["value_bias"] = float(np.mean(values - truth))
-        scores["truth_sd"] = float(truth.std())
-        return scores
+        return ceiling(rollout, mc, gamma, lam, critic=buffer.values.ravel())
 
 
 def run_one(
@@ -207,6 +202,10 @@ def run_one(
             tail_mean=float(np.nanmean([c["explained"] for c in ceilings])),
             tail_halves=float(np.nanmean([c["halves"] for c in ceilings])),
             tail_pooled=pooled_explained_variance([c["moments"] for c in ceilings]),
+            **{
+                f"{key}_pooled": pooled_explained_variance([c[f"{key}_moments"] for c in ceilings])
+                for key in ("mc_ceiling", "mc_critic")
+            },
         )
     return result
 
@@ -298,11 +297,14 @@ def ceiling_table(results: list[dict[str, Any]], critics: Sequence[str]) -> list
         f"The ceiling: the score of the policies' own value function V^pi on the same rollouts "
         f"(Monte Carlo, {n_mc} rollouts per state; halves: {n_mc // 2} each, lower by the "
         "Monte Carlo noise); mean over seeds [min, max], seeds with a ceiling of at least "
-        f"{GOAL} (goal's reading), then the critic's values against V^pi at the scored states:",
+        f"{GOAL} (goal's reading); both pooled; both on G, the rollouts' own returns "
+        "bootstrapped with V^pi (lambda = 1, the same targets for both), pooled; the critic's "
+        "values against V^pi at the scored states:",
         "",
         "| env | critic | critic's score | ceiling | ceiling, halves | pooled: critic | pooled: "
-        "ceiling | value RMSE to V^pi | mean value − V^pi | V^pi's sd |",
-        "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|",
+        "ceiling | on G, pooled: critic | on G, pooled: V^pi | value RMSE to V^pi | "
+        "mean value − V^pi | V^pi's sd |",
+        "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
     ]
     for env_id in dict.fromkeys(r["env_id"] for r in results):
         for critic in critics:
@@ -380,6 +382,12 @@ def _ceiling_cells(runs: list[dict[str, Any]]) -> list[str]:
         mean([r["ceiling"]["tail_halves"] for r in runs]),
         mean([r["tail_pooled"] for r in runs]),
         mean([r["ceiling"]["tail_pooled"] for r in runs]),
+        *(
+            mean([r["ceiling"][f"{key}_pooled"] for r in runs])
+            if all(f"{key}_pooled" in r["ceiling"] for r in runs)
+            else "–"
+            for key in ("mc_critic", "mc_ceiling")
+        ),
         mean(per_rollout("value_rmse"), ".2f"),
         mean(per_rollout("value_bias"), "+.2f"),
         mean(per_rollout("truth_sd"), ".2f"),

@@ -286,9 +286,20 @@ def explained_variance(returns: np.ndarray, values: np.ndarray) -> float:
 
 
 def ceiling(
-    rollout: Rollout, mc_returns: np.ndarray, gamma: float, gae_lambda: float
+    rollout: Rollout,
+    mc_returns: np.ndarray,
+    gamma: float,
+    gae_lambda: float,
+    critic: np.ndarray | None = None,
 ) -> dict[str, Any]:
-    """The score of ``V^pi`` on the rollout, with ``V^pi`` the Monte Carlo mean.
+    """The score of ``V^pi`` on the rollout, with ``V^pi`` the Monte Carlo mean, and with
+    ``critic`` that critic's distance from it.
+
+    Two readings. The goal's: each value function scored on its own GAE returns (``explained``;
+    a critic's own score is the run's). And one on targets that no critic shapes: the rollout's
+    own discounted returns (``lambda = 1``) bootstrapped with ``V^pi`` where the rollout stops or
+    an episode is truncated, ``G``; on them ``V^pi`` is the best predictor there is, so
+    ``mc_ceiling`` bounds ``mc_critic`` up to Monte Carlo noise.
 
     Parameters
     ----------
@@ -296,6 +307,8 @@ def ceiling(
     mc_returns : ndarray, shape (m, n_rollouts)
         :func:`policy_returns` from :meth:`Rollout.states`.
     gamma, gae_lambda : float
+    critic : ndarray, shape (T n_envs,), optional
+        The critic's values at the rollout's steps (its ``values``, flattened).
 
     Returns
     -------
@@ -304,10 +317,12 @@ def ceiling(
         from every other Monte Carlo rollout); ``mc_se``: the root-mean-square standard
         error of ``V^pi`` at the rollout's states; ``moments``: those of ``V^pi``'s returns
         and residuals (:func:`~sb3_geogp.comparison.measurement.moments`), to pool rollouts;
-        ``check_mean``, ``check_se``: the mean of the rollout's own Monte Carlo returns minus
-        ``V^pi`` (``lambda = 1``, bootstrapped with ``V^pi`` where the rollout stops), near 0
-        if the restarted rollouts are those of the policy and the task, with a standard error
-        from its per-env means.
+        ``check_mean``, ``check_se``: the mean of ``G - V^pi`` (per env, then over envs,
+        with its standard error), near 0 if the restarted rollouts are those of the policy and
+        the task; ``mc_ceiling`` (and its ``mc_ceiling_moments``): ``V^pi``'s explained
+        variance of ``G``. With ``critic``: ``mc_critic`` (``mc_critic_moments``), the
+        critic's explained variance of ``G``, and ``value_rmse``, ``value_bias`` (mean of
+        critic - ``V^pi``), ``truth_sd`` (``V^pi``'s standard deviation) at the rollout's steps.
     """
     n = rollout.rewards.size
 
@@ -318,16 +333,28 @@ def ceiling(
         return explained_variance(returns(values), values[:n])
 
     values = mc_returns.mean(axis=1)
+    truth = values[:n]
     halves = [score(mc_returns[:, k::2].mean(axis=1)) for k in (0, 1)]
     se = mc_returns[:n].std(axis=1, ddof=1) / math.sqrt(mc_returns.shape[1])
-    check = (rollout.returns(values, gamma, 1.0) - values[:n].reshape(rollout.rewards.shape)).mean(
-        0
-    )
-    return dict(
-        check_mean=float(check.mean()),
-        check_se=float(check.std(ddof=1) / math.sqrt(len(check))),
+    targets = rollout.returns(values, gamma, 1.0).ravel()
+    check = (targets - truth).reshape(rollout.rewards.shape).mean(axis=0)
+    result = dict(
         explained=score(values),
         halves=float(np.mean(halves)),
         mc_se=float(np.sqrt(np.mean(se**2))),
-        moments=moments(returns(values), returns(values) - values[:n]),
+        moments=moments(returns(values), returns(values) - truth),
+        check_mean=float(check.mean()),
+        check_se=float(check.std(ddof=1) / math.sqrt(len(check))),
+        mc_ceiling=explained_variance(targets, truth),
+        mc_ceiling_moments=moments(targets, targets - truth),
     )
+    if critic is not None:
+        v = np.asarray(critic, dtype=np.float64).ravel()
+        result.update(
+            mc_critic=explained_variance(targets, v),
+            mc_critic_moments=moments(targets, targets - v),
+            value_rmse=float(np.sqrt(np.mean((v - truth) ** 2))),
+            value_bias=float(np.mean(v - truth)),
+            truth_sd=float(truth.std()),
+        )
+    return result

@@ -182,6 +182,14 @@ def test_the_ceiling_of_certain_returns_is_one_and_of_a_guess_below() -> None:
     assert scores["explained"] == pytest.approx(1.0, abs=1e-9)
     assert scores["halves"] == pytest.approx(1.0, abs=1e-9) and scores["mc_se"] == 0.0
     assert scores["check_mean"] == pytest.approx(0.0, abs=1e-9)
+    assert scores["mc_ceiling"] == pytest.approx(1.0, abs=1e-9)
+    # a critic one above V^pi: the same explained variance of G, its offset measured apart
+    n = rollout.rewards.size
+    shifted = ceiling(rollout, mc, gamma, lam, critic=mc.mean(axis=1)[:n] + 1)
+    assert shifted["mc_critic"] == pytest.approx(shifted["mc_ceiling"], abs=1e-9)
+    assert shifted["value_bias"] == pytest.approx(1.0) and shifted["value_rmse"] == pytest.approx(
+        1.0
+    )
     noisy = mc + np.random.default_rng(0).normal(0, 1, (len(mc), 1))
     assert ceiling(rollout, noisy, gamma, lam)["explained"] < 0.99
     # values one too high: the rollout's own returns fall short of them
