@@ -19,8 +19,9 @@ without its evaluations.
 
 ``--ceiling N`` also scores, on every scored rollout of CartPole-v1 or Acrobot-v1, the policy's
 own value function ``V^pi`` (Monte Carlo, ``N`` rollouts from every state;
-:mod:`sb3_geogp.studies.value_ceiling`): the highest score any critic could reach there, and
-how far the critic's values are from it. The run itself is unchanged.
+:mod:`sb3_geogp.studies.value_ceiling`): what the exact critic would score, by the goal's
+reading and on targets no critic shapes, and how far the critic's values are from it. The run
+itself is unchanged.
 
     python examples/critic_fit.py --envs CartPole-v1 Acrobot-v1 --critics mlp laplacian \
         --seeds 0 1 2 3 4 5 6 7 8 9 --workers 2 --ceiling 32 --out docs/critic_fit_ceiling

@@ -6,8 +6,9 @@
   true action values do (Monte Carlo gaps);
 * :mod:`~sb3_geogp.studies.advantage_error`: how far a critic's GAE advantages on the paper's
   pendulum are from those of the policy's true value function (Monte Carlo);
-* :mod:`~sb3_geogp.studies.value_ceiling`: the highest critic-fit score any critic could reach
-  on a CartPole or Acrobot rollout, that of the policy's own value function (Monte Carlo).
+* :mod:`~sb3_geogp.studies.value_ceiling`: what the policy's own value function (Monte Carlo)
+  scores by issue 13's critic-fit measure on CartPole and Acrobot rollouts, and how far a
+  critic's values are from it.
 
 They share :mod:`sb3_geogp.toolbox` with the critic comparison (:mod:`sb3_geogp.comparison`).
 """

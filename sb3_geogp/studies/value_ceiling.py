@@ -1,4 +1,4 @@
-"""The highest critic-fit score any critic could reach on a rollout: that of ``V^pi``.
+"""What the policy's own value function ``V^pi`` scores by issue 13's critic-fit measure.
 
 Issue 13's critic-fit score of a critic ``V`` on a rollout is SB3's explained variance of its
 values against the GAE returns computed with it,
@@ -9,11 +9,14 @@ values against the GAE returns computed with it,
 with ``A_V`` the GAE advantages (:func:`~sb3_geogp.studies.advantage_error.gae`; SB3 adds
 ``gamma V(terminal observation)`` to the reward at a time-limit truncation). The return from a
 state is random (the policy samples its actions), and no function of the state predicts it
-better than its mean, the policy's value function ``V^pi``. The *ceiling* of a rollout is the
-score of ``V^pi`` itself, its own GAE returns against its values: how much of the targets'
-variance is predictable at all. A ceiling below the goal's 0.9 says that no critic can meet
-the goal on that rollout; the gap between a critic's score and the ceiling is what a better
-critic could still gain.
+better than its mean, ``V^pi``. The *ceiling* of a rollout (:func:`ceiling`) is the score of
+``V^pi`` itself on its own GAE returns: what the exact critic would score. It is not a bound on
+other critics' scores: with ``lambda < 1`` a critic's targets carry its own values
+(:func:`own_value_weight`), so a critic can score well by agreeing with itself, even where
+``V^pi`` is constant and scores about 0. :func:`ceiling` therefore also scores ``V^pi`` and the
+critic on the same targets, which no critic shapes: ``G``, the rollout's own discounted
+returns bootstrapped with ``V^pi``; there ``V^pi``'s score bounds every critic's, up to Monte
+Carlo noise.
 
 ``V^pi`` is estimated at every state of the rollout by Monte Carlo (:func:`policy_returns`):
 CartPole-v1 and Acrobot-v1 have deterministic dynamics and observations that are their states
@@ -25,7 +28,7 @@ in size). The batch dynamics are the gymnasium equations in vectorised numpy
 (:func:`acrobot_step`; CartPole's :func:`~sb3_geogp.studies.action_gap.cartpole_step`).
 Monte Carlo noise in ``V^pi`` lowers the estimated ceiling; :func:`ceiling` also scores each
 half of the rollouts, whose difference from the whole measures that bias (it shrinks as
-``1 / n_rollouts``).
+``1 / n_rollouts``), and checks the estimate against the rollout's own returns.
 """
 
 from __future__ import annotations
