@@ -64,6 +64,8 @@ from sb3_geogp.toolbox.stats import mean_ci
 
 ENVS = ("Pendulum-v1", "CartPole-v1", "Acrobot-v1")
 GOAL = 0.9
+#: Standard deviation of ``V^pi`` over a rollout's states below which it counts as constant.
+VARYING = 1e-6
 
 
 class ExplainedVariance(RolloutRecorder):
@@ -299,8 +301,8 @@ def ceiling_table(results: list[dict[str, Any]], critics: Sequence[str]) -> list
         f"(Monte Carlo, {n_mc} rollouts per state; halves: {n_mc // 2} each, lower by the "
         "Monte Carlo noise); mean over seeds [min, max], seeds with a ceiling of at least "
         f"{GOAL} (goal's reading); both pooled; both on G, the rollouts' own returns "
-        "bootstrapped with V^pi (lambda = 1, the same targets for both), pooled; the critic's "
-        "values against V^pi at the scored states:",
+        "bootstrapped with V^pi (lambda = 1, the same targets for both), pooled, over the runs "
+        "whose V^pi varies; the critic's values against V^pi at the scored states:",
         "",
         "| env | critic | critic's score | ceiling | ceiling, halves | pooled: critic | pooled: "
         "ceiling | on G, pooled: critic | on G, pooled: V^pi | value RMSE to V^pi | "
@@ -366,6 +368,21 @@ def paired_differences(
     return lines
 
 
+def _on_g(runs: list[dict[str, Any]], key: str) -> str:
+    """Mean over ``runs`` of ``key``'s pooled score on G, over the runs whose ``V^pi`` varies
+    (where it is constant so is G, and a score of it is noise over nothing), how many if not
+    all; "–" for runs recorded before that reading."""
+    if not all(f"{key}_pooled" in r["ceiling"] for r in runs):
+        return "–"
+    varying = [
+        r["ceiling"][f"{key}_pooled"]
+        for r in runs
+        if np.mean([c["truth_sd"] for c in r["ceiling"]["rollouts"]]) > VARYING
+    ]
+    count = "" if len(varying) == len(runs) else f" ({len(varying)} runs)"
+    return f"{np.mean(varying):.3f}{count}" if varying else "–"
+
+
 def _ceiling_cells(runs: list[dict[str, Any]]) -> list[str]:
     """The cells of :func:`ceiling_table`'s row of ``runs`` (one env and critic)."""
     ceilings = [r["ceiling"]["tail_mean"] for r in runs]
@@ -383,12 +400,7 @@ def _ceiling_cells(runs: list[dict[str, Any]]) -> list[str]:
         mean([r["ceiling"]["tail_halves"] for r in runs]),
         mean([r["tail_pooled"] for r in runs]),
         mean([r["ceiling"]["tail_pooled"] for r in runs]),
-        *(
-            mean([r["ceiling"][f"{key}_pooled"] for r in runs])
-            if all(f"{key}_pooled" in r["ceiling"] for r in runs)
-            else "–"
-            for key in ("mc_critic", "mc_ceiling")
-        ),
+        *(_on_g(runs, key) for key in ("mc_critic", "mc_ceiling")),
         mean(per_rollout("value_rmse"), ".2f"),
         mean(per_rollout("value_bias"), "+.2f"),
         mean(per_rollout("truth_sd"), ".2f"),
@@ -438,34 +450,45 @@ def plot(results: list[dict[str, Any]], path: Path) -> None:
 
 
 def plot_ceiling(results: list[dict[str, Any]], path: Path) -> None:
-    """Each scored rollout's score against its ceiling, one panel per environment: points below
-    the diagonal are what a better critic could still gain."""
+    """Each scored rollout's score against its ceiling, one panel per environment (top: the
+    goal's reading; bottom, where recorded: on G, the same targets for both): points below the
+    diagonal are what a better critic could still gain."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     envs = list(dict.fromkeys(r["env_id"] for r in results))
-    fig, axes = plt.subplots(1, len(envs), figsize=(4.6 * len(envs), 4.2), squeeze=False)
-    for ax, env_id in zip(axes[0], envs, strict=True):
-        for critic in dict.fromkeys(r["critic"] for r in results):
-            runs = [r for r in results if (r["env_id"], r["critic"]) == (env_id, critic)]
-            ceilings = [c["explained"] for r in runs for c in r["ceiling"]["rollouts"]]
-            scores = [s for r in runs for s in r["explained_variance"][-r["tail_rollouts"] :]]
-            ax.scatter(
-                np.clip(ceilings, -1, 1),
-                np.clip(scores, -1, 1),
-                s=12,
-                alpha=0.6,
-                color=COLORS.get(critic),
-                label=critic,
-            )
-        ax.plot([-1, 1], [-1, 1], color="k", lw=0.8)
-        ax.axhline(GOAL, color="k", ls=":", lw=1)
-        ax.set(title=env_id, xlabel="ceiling: V^pi's score (Monte Carlo)", xlim=(-1.05, 1.05))
-        ax.set(ylim=(-1.05, 1.05))
-        ax.grid(alpha=0.3)
-    axes[0][0].set_ylabel("the critic's score (clipped at -1)")
+    readings = [("explained", None, "the goal's reading")]
+    if all("mc_critic" in c for r in results for c in r["ceiling"]["rollouts"]):
+        readings.append(("mc_ceiling", "mc_critic", "on G (lambda = 1, V^pi bootstraps)"))
+    fig, axes = plt.subplots(
+        len(readings), len(envs), figsize=(4.6 * len(envs), 4.2 * len(readings)), squeeze=False
+    )
+    for row, (x_key, y_key, reading) in zip(axes, readings, strict=True):
+        for ax, env_id in zip(row, envs, strict=True):
+            for critic in dict.fromkeys(r["critic"] for r in results):
+                runs = [r for r in results if (r["env_id"], r["critic"]) == (env_id, critic)]
+                rollouts = [c for r in runs for c in r["ceiling"]["rollouts"]]
+                scores = (
+                    [s for r in runs for s in r["explained_variance"][-r["tail_rollouts"] :]]
+                    if y_key is None
+                    else [c[y_key] for c in rollouts]
+                )
+                ax.scatter(
+                    np.clip([c[x_key] for c in rollouts], -1, 1),
+                    np.clip(scores, -1, 1),
+                    s=12,
+                    alpha=0.6,
+                    color=COLORS.get(critic),
+                    label=critic,
+                )
+            ax.plot([-1, 1], [-1, 1], color="k", lw=0.8)
+            ax.axhline(GOAL, color="k", ls=":", lw=1)
+            ax.set(title=f"{env_id}: {reading}", xlim=(-1.05, 1.05), ylim=(-1.05, 1.05))
+            ax.set(xlabel="V^pi's score (Monte Carlo)")
+            ax.grid(alpha=0.3)
+        row[0].set_ylabel("the critic's score (clipped at -1)")
     axes[0][0].legend(loc="lower right")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
