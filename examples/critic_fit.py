@@ -539,6 +539,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     if args.ceiling == 1 or args.ceiling < 0:
         parser.error("--ceiling needs at least 2 Monte Carlo rollouts per state (0: off)")
+    if args.ceiling and set(args.envs) - set(TASKS):
+        parser.error(f"--ceiling supports {', '.join(TASKS)}, not {set(args.envs) - set(TASKS)}")
     results = run_all(
         config.specs(), args.last, args.out, args.workers, args.ceiling, args.ceiling_tail
     )

@@ -172,6 +172,9 @@ def test_critic_fit_ceiling_leaves_the_run_as_it_was(tmp_path: Path) -> None:
     assert (tmp_path / "ceiling" / "ceiling.png").stat().st_size > 0
     with pytest.raises(ValueError, match="another --ceiling"):
         critic_fit.main([*argv, "--out", str(tmp_path / "plain"), "--ceiling", "4"])
+    with pytest.raises(SystemExit):  # no restartable dynamics for it: refused before any run
+        critic_fit.main(["--envs", "Pendulum-v1", "--ceiling", "4", "--out", str(tmp_path / "p")])
+    assert not (tmp_path / "p").exists()
 
 
 def test_critic_fit_pairs_differences_by_seed() -> None:
