@@ -49,18 +49,13 @@ from sb3_geogp import GPActorCriticPolicy, GPValueCallback
 from sb3_geogp.callbacks import time_limit_truncations
 from sb3_geogp.comparison.command import parse_gp_option
 from sb3_geogp.comparison.hyperparams import ALL_CRITICS, CRITICS
-from sb3_geogp.comparison.measurement import (
-    RolloutRecorder,
-    moments,
-    pooled_explained_variance,
-    rollout_explained_variance,
-)
+from sb3_geogp.comparison.measurement import RolloutRecorder, rollout_explained_variance
 from sb3_geogp.comparison.report import COLORS
 from sb3_geogp.comparison.run import build_model, write_json_atomic
 from sb3_geogp.comparison.specs import RunSpec, SweepConfig
 from sb3_geogp.studies.value_ceiling import TASKS, Rollout, ceiling, horizon, policy_returns
 from sb3_geogp.toolbox.provenance import provenance
-from sb3_geogp.toolbox.stats import mean_ci
+from sb3_geogp.toolbox.stats import mean_ci, moments, pooled_explained_variance
 
 ENVS = ("Pendulum-v1", "CartPole-v1", "Acrobot-v1")
 GOAL = 0.9

@@ -4,7 +4,6 @@ records."""
 from __future__ import annotations
 
 import time
-from collections.abc import Sequence
 from typing import Any
 
 import gymnasium as gym
@@ -21,38 +20,20 @@ from sb3_geogp.comparison.evaluation import (
     max_episode_steps,
 )
 from sb3_geogp.comparison.specs import RunSpec
+from sb3_geogp.toolbox.stats import explained_variance
 
 
 def rollout_explained_variance(buffer: Any) -> float:
-    """``1 - Var(R - V) / Var(R)`` of a rollout buffer's returns ``R`` and values ``V``.
-
-    The formula of SB3's ``explained_variance``, with the division in float64 (SB3's divides
-    the float32 variances as float32; the published per-rollout records were written with this
-    one). NaN where the returns do not vary.
+    """:func:`~sb3_geogp.toolbox.stats.explained_variance` of a rollout buffer's returns and
+    values (SB3's formula with the division in float64: SB3's divides the float32 variances as
+    float32; the published per-rollout records were written with this one).
 
     Parameters
     ----------
     buffer : RolloutBuffer
         ``returns`` and ``values``, each shape (n_steps, n_envs).
     """
-    returns, values = buffer.returns.ravel(), buffer.values.ravel()
-    spread = float(np.var(returns))
-    return 1.0 - float(np.var(returns - values)) / spread if spread > 0 else float("nan")
-
-
-def moments(returns: np.ndarray, residuals: np.ndarray) -> list[float]:
-    """``[n, sum R, sum R^2, sum e, sum e^2]`` in float64 of a rollout's returns ``R`` and
-    residuals ``e = R - V``, each shape (n,): what :func:`pooled_explained_variance` sums."""
-    r, e = returns.astype(np.float64), residuals.astype(np.float64)
-    return [float(len(r)), float(r.sum()), float(r @ r), float(e.sum()), float(e @ e)]
-
-
-def pooled_explained_variance(rows: Sequence[Sequence[float]]) -> float:
-    """``1 - Var(e) / Var(R)`` over all points of the rollouts whose :func:`moments` are
-    ``rows``, shape (rollouts, 5); NaN where the returns do not vary."""
-    n, r, r2, e, e2 = np.asarray(rows, dtype=np.float64).sum(axis=0)
-    spread = r2 / n - (r / n) ** 2
-    return 1.0 - (e2 / n - (e / n) ** 2) / spread if spread > 0 else float("nan")
+    return explained_variance(buffer.returns, buffer.values)
 
 
 class RolloutRecorder(BaseCallback):

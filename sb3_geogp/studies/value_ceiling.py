@@ -36,14 +36,13 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
-from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
 
-from sb3_geogp.comparison.measurement import moments, rollout_explained_variance
 from sb3_geogp.studies.action_gap import cartpole_step
 from sb3_geogp.studies.advantage_error import gae
+from sb3_geogp.toolbox.stats import explained_variance, moments
 
 #: ``act(obs) -> actions``: a stochastic policy's draws for a batch of observations,
 #: shape (n, obs_dim) -> (n,).
@@ -280,12 +279,6 @@ def own_value_weight(gamma: float, gae_lambda: float) -> float:
     itself as well as with the returns.
     """
     return gamma * (1 - gae_lambda) / (1 - gamma * gae_lambda)
-
-
-def explained_variance(returns: np.ndarray, values: np.ndarray) -> float:
-    """Issue 13's score, the same formula as the critic-fit runs
-    (:func:`~sb3_geogp.comparison.measurement.rollout_explained_variance`)."""
-    return rollout_explained_variance(SimpleNamespace(returns=returns, values=values))
 
 
 def ceiling(

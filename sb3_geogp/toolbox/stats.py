@@ -8,7 +8,9 @@
 * :func:`difference_ci`: bootstrap interval of a difference of statistics between two groups
   of independent runs (for verdicts such as "geodesic minus MLP");
 * :func:`steps_to_threshold`: first evaluation step at which a learning curve reaches a
-  threshold.
+  threshold;
+* :func:`explained_variance`, :func:`moments`, :func:`pooled_explained_variance`: how much of a
+  critic's targets its values explain, on one rollout or pooled over several.
 
 Conventions: the first axis of every ``samples`` array of the bootstrap functions indexes runs
 (seeds); further axes (e.g. checkpoints of a learning curve) are carried along, so one call
@@ -18,7 +20,7 @@ out their results (capacity x seed).
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Literal
 
 import numpy as np
@@ -222,3 +224,31 @@ def steps_to_threshold(timesteps: np.ndarray, curve: np.ndarray, threshold: floa
     reached = y >= threshold
     first = np.argmax(reached, axis=-1)
     return np.where(np.any(reached, axis=-1), t[first], np.inf)
+
+
+def explained_variance(returns: np.ndarray, values: np.ndarray) -> float:
+    """``1 - Var(R - V) / Var(R)``, the formula of SB3's ``explained_variance`` with the
+    division in float64; NaN where the returns do not vary.
+
+    Parameters
+    ----------
+    returns, values : ndarray, shape (n,)
+    """
+    returns, values = np.ravel(returns), np.ravel(values)
+    spread = float(np.var(returns))
+    return 1.0 - float(np.var(returns - values)) / spread if spread > 0 else float("nan")
+
+
+def moments(returns: np.ndarray, residuals: np.ndarray) -> list[float]:
+    """``[n, sum R, sum R^2, sum e, sum e^2]`` in float64 of a rollout's returns ``R`` and
+    residuals ``e = R - V``, each shape (n,): what :func:`pooled_explained_variance` sums."""
+    r, e = returns.astype(np.float64), residuals.astype(np.float64)
+    return [float(len(r)), float(r.sum()), float(r @ r), float(e.sum()), float(e @ e)]
+
+
+def pooled_explained_variance(rows: Sequence[Sequence[float]]) -> float:
+    """``1 - Var(e) / Var(R)`` over all points of the rollouts whose :func:`moments` are
+    ``rows``, shape (rollouts, 5); NaN where the returns do not vary."""
+    n, r, r2, e, e2 = np.asarray(rows, dtype=np.float64).sum(axis=0)
+    spread = r2 / n - (r / n) ** 2
+    return 1.0 - (e2 / n - (e / n) ** 2) / spread if spread > 0 else float("nan")

@@ -6,7 +6,16 @@ import numpy as np
 import pytest
 from scipy import stats as sps
 
-from sb3_geogp.toolbox.stats import bootstrap_ci, difference_ci, iqm, mean_ci, steps_to_threshold
+from sb3_geogp.toolbox.stats import (
+    bootstrap_ci,
+    difference_ci,
+    explained_variance,
+    iqm,
+    mean_ci,
+    moments,
+    pooled_explained_variance,
+    steps_to_threshold,
+)
 
 
 def test_mean_ci_hand_computed_with_student_t() -> None:
@@ -134,3 +143,23 @@ def test_steps_to_threshold_hand_computed() -> None:
     np.testing.assert_array_equal(steps_to_threshold(t, rows, 9), [2000, 0, np.inf])
     with pytest.raises(ValueError):
         steps_to_threshold(t, np.zeros(3), 0.0)
+
+
+def test_pooled_explained_variance_is_sb3s_formula_on_the_concatenated_rollouts() -> None:
+    """The moments summed over rollouts give SB3's ``explained_variance`` of all their points at
+    once (brute force on the concatenation), NaN where the returns do not vary."""
+    sb3_explained_variance = pytest.importorskip(
+        "stable_baselines3.common.utils"
+    ).explained_variance
+    rng = np.random.default_rng(0)
+    rollouts = [(rng.normal(m, s, n), rng.normal(0, 1, n)) for m, s, n in
+                ((0.0, 1.0, 64), (5.0, 0.01, 32), (-2.0, 3.0, 128))]  # fmt: skip
+    returns = [r for r, _ in rollouts]
+    values = [r + noise * 0.5 for r, noise in rollouts]
+    rows = [moments(r, r - v) for r, v in zip(returns, values, strict=True)]
+    expected = sb3_explained_variance(np.concatenate(values), np.concatenate(returns))
+    assert pooled_explained_variance(rows) == pytest.approx(expected, rel=1e-12)
+    for r, v in zip(returns, values, strict=True):  # one rollout: SB3's formula too
+        assert explained_variance(r, v) == pytest.approx(sb3_explained_variance(v, r), rel=1e-12)
+    assert np.isnan(explained_variance(np.full(8, 3.0), np.zeros(8)))
+    assert np.isnan(pooled_explained_variance([moments(np.full(8, 3.0), np.zeros(8))]))
