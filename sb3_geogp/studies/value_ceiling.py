@@ -329,16 +329,16 @@ def ceiling(
         return explained_variance(returns(values), values[:n])
 
     values = mc_returns.mean(axis=1)
-    truth = values[:n]
+    truth, own = values[:n], returns(values)
     halves = [score(mc_returns[:, k::2].mean(axis=1)) for k in (0, 1)]
     se = mc_returns[:n].std(axis=1, ddof=1) / math.sqrt(mc_returns.shape[1])
     targets = rollout.returns(values, gamma, 1.0).ravel()
     check = (targets - truth).reshape(rollout.rewards.shape).mean(axis=0)
     result = dict(
-        explained=score(values),
+        explained=explained_variance(own, truth),
         halves=float(np.mean(halves)),
         mc_se=float(np.sqrt(np.mean(se**2))),
-        moments=moments(returns(values), returns(values) - truth),
+        moments=moments(own, own - truth),
         check_mean=float(check.mean()),
         check_se=float(check.std(ddof=1) / math.sqrt(len(check))),
         mc_ceiling=explained_variance(targets, truth),
