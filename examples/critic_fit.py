@@ -14,8 +14,10 @@ without its evaluations.
 
     python examples/critic_fit.py --seeds 0 1 2 3 4 --workers 2 --out docs/critic_fit
 
-``--gp-option KEY=VALUE`` (repeatable) sets an option of both GP critics, as in
-``sb3-geogp compare``; runs with other options belong in another ``--out``.
+``--gp-option KEY=VALUE`` (repeatable) sets an option of both GP critics, and ``--target`` /
+``--horizon`` what :class:`~sb3_geogp.GPValueCallback` feeds them, as in ``sb3-geogp compare``;
+runs with other options belong in another ``--out``. The score is the same for every target:
+the rollout's values against SB3's GAE returns, which are computed from those values.
 
 ``--ceiling N`` also scores, on every scored rollout of CartPole-v1 or Acrobot-v1, the policy's
 own value function ``V^pi`` (Monte Carlo, ``N`` rollouts from every state;
@@ -47,7 +49,12 @@ from tqdm.auto import tqdm
 
 from sb3_geogp import GPActorCriticPolicy, GPValueCallback
 from sb3_geogp.callbacks import time_limit_truncations
-from sb3_geogp.comparison.command import parse_gp_option
+from sb3_geogp.comparison.command import (
+    UsageError,
+    add_target_arguments,
+    check_target_arguments,
+    parse_gp_option,
+)
 from sb3_geogp.comparison.hyperparams import ALL_CRITICS, CRITICS
 from sb3_geogp.comparison.measurement import RolloutRecorder, rollout_explained_variance
 from sb3_geogp.comparison.report import COLORS
@@ -171,7 +178,7 @@ def run_one(
     )
     callbacks: list[BaseCallback] = [recorder]
     if isinstance(model.policy, GPActorCriticPolicy):
-        callbacks.insert(0, GPValueCallback())
+        callbacks.insert(0, GPValueCallback(target=spec.target, horizon=spec.horizon))
     model.learn(spec.total_timesteps, callback=CallbackList(callbacks))
     env = model.get_env()
     assert env is not None
@@ -186,6 +193,7 @@ def run_one(
         seed=spec.seed,
         total_timesteps=spec.total_timesteps,
         gp_kwargs=dict(spec.gp_kwargs),
+        **_feed(spec),
         timesteps=recorder.timesteps,
         explained_variance=recorder.explained,
         tail_rollouts=len(scored),
@@ -208,6 +216,14 @@ def run_one(
             },
         )
     return result
+
+
+def _feed(spec: RunSpec) -> dict[str, Any]:
+    """What the GP critic is fed, where it is not the default (runs recorded before the
+    option existed carry none): ``target`` and ``horizon``."""
+    if spec.critic == "mlp":
+        return {}
+    return {key: value for key, value in spec.as_dict().items() if key in ("target", "horizon")}
 
 
 def _run_file(out: Path, spec: RunSpec) -> Path:
@@ -239,6 +255,12 @@ def run_all(
             raise ValueError(
                 f"{_run_file(out, spec)} ran with GP options {result['gp_kwargs']}, not "
                 f"{dict(spec.gp_kwargs)}: pass another --out"
+            )
+        recorded_feed = {key: result[key] for key in ("target", "horizon") if key in result}
+        if recorded_feed != _feed(spec):
+            raise ValueError(
+                f"{_run_file(out, spec)} was fed {recorded_feed or 'the returns'}, not "
+                f"{_feed(spec) or 'the returns'}: pass another --out"
             )
         recorded = result.get("ceiling", {})
         if (recorded.get("n_rollouts", 0), recorded.get("tail", tail)) != (ceiling_rollouts, tail):
@@ -523,7 +545,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         type=parse_gp_option,
         help="option of both GP critics, as in sb3-geogp compare (repeatable)",
     )
+    add_target_arguments(parser)
     args = parser.parse_args(argv)
+    try:
+        check_target_arguments(args)
+    except UsageError as err:
+        parser.error(str(err))
     config = SweepConfig(
         algos=("ppo",),
         critics=tuple(args.critics),
@@ -531,6 +558,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         seeds=tuple(args.seeds),
         timesteps_scale=args.scale,
         gp_options=tuple(args.gp_option),
+        target=args.target,
+        horizon=args.horizon,
     )
     if args.ceiling == 1 or args.ceiling < 0:
         parser.error("--ceiling needs at least 2 Monte Carlo rollouts per state (0: off)")

@@ -152,6 +152,28 @@ def test_critic_fit_tiny_run_writes_table_and_figure(tmp_path: Path) -> None:
         critic_fit.main([*argv, "--out", str(tmp_path), "--gp-option", "forgetting=0.9"])
 
 
+def test_critic_fit_feeds_the_gp_critic_the_target_asked_for(tmp_path: Path) -> None:
+    """``--target monte_carlo`` reaches the GP critic's callback: the first rollout (scored
+    before any feed) is the same, the later ones differ from the returns-fed run; the run
+    records its target, and a resume with another target or a horizon without it is refused."""
+    critic_fit = load_script("critic_fit")
+    argv = ["--envs", "CartPole-v1", "--critics", "rbf", "--seeds", "0", "--scale", "0.02"]
+    critic_fit.main([*argv, "--out", str(tmp_path / "returns")])
+    critic_fit.main([*argv, "--target", "monte_carlo", "--out", str(tmp_path / "mc")])
+    returns, mc = (
+        json.loads((tmp_path / d / "runs" / "rbf__CartPole-v1__s0.json").read_text())
+        for d in ("returns", "mc")
+    )
+    assert mc["target"] == "monte_carlo" and "target" not in returns
+    assert mc["explained_variance"][0] == returns["explained_variance"][0]
+    assert mc["explained_variance"][1:] != returns["explained_variance"][1:]
+    with pytest.raises(ValueError, match="another --out"):
+        critic_fit.main([*argv, "--out", str(tmp_path / "returns"), "--target", "monte_carlo"])
+    with pytest.raises(SystemExit):
+        critic_fit.main([*argv, "--horizon", "10", "--out", str(tmp_path / "h")])
+    assert not (tmp_path / "h").exists()
+
+
 def test_critic_fit_ceiling_leaves_the_run_as_it_was(tmp_path: Path) -> None:
     """``--ceiling`` adds the scored rollouts' ceilings without changing a single score of the
     run (its Monte Carlo draws have their own random stream), and a run resumed with another
