@@ -28,6 +28,16 @@ itself is unchanged.
     python examples/critic_fit.py --envs CartPole-v1 Acrobot-v1 --critics mlp laplacian \
         --seeds 0 1 2 3 4 5 6 7 8 9 --workers 2 --ceiling 32 --out docs/critic_fit_ceiling
 
+``--capacity`` (with ``--ceiling``) also fits value models once to half of each scored rollout's
+environments and scores them against ``V^pi`` on the other half
+(:func:`~sb3_geogp.studies.value_ceiling.capacity`): a fresh GP with the run's critic's options,
+the same with lengthscales from the batch's spread (and with the RBF kernel), SB3's MLP value
+network trained to convergence, 10 nearest neighbours; fitted to ``V^pi``, to the rollout's own
+returns and to the previous rollout's ``V^pi``. The run itself is unchanged.
+
+    python examples/critic_fit.py --envs Acrobot-v1 --critics laplacian --seeds 0 1 2 3 4 \
+        --last 0.5 --workers 2 --ceiling 32 --capacity --out docs/critic_fit_capacity
+
 Each run is written to ``OUT/runs/<run>.json`` when it finishes; an interrupted call resumes
 where it stopped. The summary is printed and written to ``OUT/critic_fit.md`` with a figure.
 """
@@ -60,7 +70,18 @@ from sb3_geogp.comparison.measurement import RolloutRecorder, rollout_explained_
 from sb3_geogp.comparison.report import COLORS
 from sb3_geogp.comparison.run import build_model, write_json_atomic
 from sb3_geogp.comparison.specs import RunSpec, SweepConfig
-from sb3_geogp.studies.value_ceiling import TASKS, Rollout, ceiling, horizon, policy_returns
+from sb3_geogp.policies import build_gp_critic
+from sb3_geogp.studies.value_ceiling import (
+    TASKS,
+    Fit,
+    Rollout,
+    capacity,
+    ceiling,
+    horizon,
+    knn_fit,
+    mlp_fit,
+    policy_returns,
+)
 from sb3_geogp.toolbox.provenance import provenance
 from sb3_geogp.toolbox.stats import mean_ci, moments, pooled_explained_variance
 
@@ -104,12 +125,23 @@ class WithCeiling(ExplainedVariance):
     seeded by the run's seed and the rollout's index: training's random streams are untouched,
     so the run's own scores are those of a run without the ceiling."""
 
-    def __init__(self, env_id: str, first: int, n_rollouts: int, tail: float, seed: int) -> None:
+    def __init__(
+        self,
+        env_id: str,
+        first: int,
+        n_rollouts: int,
+        tail: float,
+        seed: int,
+        with_capacity: bool = False,
+    ) -> None:
         super().__init__()
         if env_id not in TASKS:
             raise ValueError(f"--ceiling supports {sorted(TASKS)}, not {env_id}")
         self.task, self.first, self.n_rollouts, self.tail = TASKS[env_id], first, n_rollouts, tail
         self.seed = seed
+        self.with_capacity = with_capacity
+        # The previous scored rollout and its V^pi, for capacity's "lag" targets.
+        self._previous: tuple[Rollout, np.ndarray] | None = None
         self.rewards: list[np.ndarray] = []
         self.truncations: list[tuple[int, int, np.ndarray]] = []
 
@@ -158,21 +190,68 @@ class WithCeiling(ExplainedVariance):
             mc = policy_returns(
                 self._act, self.task, states, gamma, horizon(gamma, self.tail), self.n_rollouts
             )
-        return ceiling(rollout, mc, gamma, lam, critic=buffer.values.ravel())
+        result = ceiling(rollout, mc, gamma, lam, critic=buffer.values.ravel())
+        if self.with_capacity:
+            values = mc.mean(axis=1)
+            result["capacity"] = capacity(
+                self._fits(), rollout, values, gamma, buffer.values.ravel(), self._previous
+            )
+            self._previous = (rollout, values)
+        return result
+
+    def _fits(self) -> dict[str, Fit]:
+        """The value models :func:`capacity` fits: a fresh GP with the run's GP critic's
+        options (GP critics only), the same with lengthscales from the batch's spread instead
+        of the observation bounds, and with the RBF kernel too; SB3's MLP value network
+        trained to convergence; 10 nearest neighbours."""
+        fits = {"mlp": mlp_fit(), "knn": knn_fit(10)}
+        if isinstance(self.model.policy, GPActorCriticPolicy):
+            options = self.model.policy._get_constructor_parameters()["gp_kwargs"]
+            space = self.model.observation_space
+            bounds = (space.low.ravel(), space.high.ravel())
+            fits = {
+                "gp": _gp_fit(options, bounds, spread=False),
+                "gp, spread": _gp_fit(options, bounds, spread=True),
+                "gp, rbf, spread": _gp_fit({**options, "kernel": "rbf"}, bounds, spread=True),
+                **fits,
+            }
+        return fits
+
+
+def _gp_fit(options: dict[str, Any], bounds: tuple[np.ndarray, np.ndarray], spread: bool) -> Fit:
+    """:data:`~sb3_geogp.studies.value_ceiling.Fit` of a new GP critic of ``options`` fed the
+    batch once (float64, CPU); with ``spread`` its lengthscales start at the batch's standard
+    deviation per dimension instead of the observation bounds."""
+
+    def fit(x: np.ndarray, y: np.ndarray, episode_starts: np.ndarray) -> Any:
+        chosen = dict(options)
+        if spread:
+            chosen["kernel_kwargs"] = {**(chosen.get("kernel_kwargs") or {}),
+                                       "lengthscale": x.std(axis=0).tolist()}  # fmt: skip
+        gp = build_gp_critic(chosen, x.shape[1], bounds)
+        gp.update(x, y, episode_starts)
+        return lambda z: gp.predict(z, return_var=False)[0].cpu().numpy()
+
+    return fit
 
 
 def run_one(
-    spec: RunSpec, last: float, ceiling_rollouts: int = 0, tail: float = 0.1
+    spec: RunSpec,
+    last: float,
+    ceiling_rollouts: int = 0,
+    tail: float = 0.1,
+    with_capacity: bool = False,
 ) -> dict[str, Any]:
     """Train ``spec``'s model and return its per-rollout explained variance (and with
-    ``ceiling_rollouts`` Monte Carlo rollouts per state, the ceilings of the scored ones)."""
+    ``ceiling_rollouts`` Monte Carlo rollouts per state, the ceilings of the scored ones, with
+    ``with_capacity`` their :func:`~sb3_geogp.studies.value_ceiling.capacity` too)."""
     th.set_num_threads(1)
     model = build_model(spec)
     per_rollout = model.n_steps * model.n_envs
     n_rollouts = -(-spec.total_timesteps // per_rollout)
     first = int(np.floor((1 - last) * n_rollouts))
     recorder = (
-        WithCeiling(spec.env_id, first, ceiling_rollouts, tail, spec.seed)
+        WithCeiling(spec.env_id, first, ceiling_rollouts, tail, spec.seed, with_capacity)
         if ceiling_rollouts
         else ExplainedVariance()
     )
@@ -206,6 +285,7 @@ def run_one(
         result["ceiling"] = dict(
             n_rollouts=ceiling_rollouts,
             tail=tail,
+            **({"with_capacity": True} if with_capacity else {}),
             rollouts=ceilings,
             tail_mean=float(np.nanmean([c["explained"] for c in ceilings])),
             tail_halves=float(np.nanmean([c["halves"] for c in ceilings])),
@@ -231,9 +311,9 @@ def _run_file(out: Path, spec: RunSpec) -> Path:
 
 
 def _run_and_save(
-    spec: RunSpec, last: float, out: Path, ceiling_rollouts: int, tail: float
+    spec: RunSpec, last: float, out: Path, ceiling_rollouts: int, tail: float, with_capacity: bool
 ) -> dict[str, Any]:
-    result = run_one(spec, last, ceiling_rollouts, tail)
+    result = run_one(spec, last, ceiling_rollouts, tail, with_capacity)
     write_json_atomic(_run_file(out, spec), result)
     return result
 
@@ -245,6 +325,7 @@ def run_all(
     workers: int,
     ceiling_rollouts: int = 0,
     tail: float = 0.1,
+    with_capacity: bool = False,
 ) -> list[dict[str, Any]]:
     """Every run of ``specs`` not already in ``out`` (resumable), with a progress bar."""
     (out / "runs").mkdir(parents=True, exist_ok=True)
@@ -263,10 +344,15 @@ def run_all(
                 f"{_feed(spec) or 'the returns'}: pass another --out"
             )
         recorded = result.get("ceiling", {})
-        if (recorded.get("n_rollouts", 0), recorded.get("tail", tail)) != (ceiling_rollouts, tail):
+        settings = (recorded.get("n_rollouts", 0), recorded.get("tail", tail))
+        if (*settings, recorded.get("with_capacity", False)) != (
+            ceiling_rollouts,
+            tail,
+            with_capacity,
+        ):
             raise ValueError(
-                f"{_run_file(out, spec)} ran with another --ceiling or --ceiling-tail: "
-                "pass another --out"
+                f"{_run_file(out, spec)} ran with another --ceiling, --ceiling-tail or "
+                "--capacity: pass another --out"
             )
     todo = [s for s in specs if s not in existing]
     bar = tqdm(total=len(specs), initial=len(done), unit="run", desc="runs")
@@ -278,12 +364,13 @@ def run_all(
 
     if workers <= 1:
         for spec in todo:
-            finished(_run_and_save(spec, last, out, ceiling_rollouts, tail))
+            finished(_run_and_save(spec, last, out, ceiling_rollouts, tail, with_capacity))
     else:
         # Spawned, not forked: a fork after autograd has run on a GPU cannot backpropagate.
         with cf.ProcessPoolExecutor(workers, mp_context=mp.get_context("spawn")) as pool:
             futures = [
-                pool.submit(_run_and_save, s, last, out, ceiling_rollouts, tail) for s in todo
+                pool.submit(_run_and_save, s, last, out, ceiling_rollouts, tail, with_capacity)
+                for s in todo
             ]
             for future in cf.as_completed(futures):
                 finished(future.result())
@@ -307,7 +394,52 @@ def summary(results: list[dict[str, Any]], critics: Sequence[str], last: float) 
         lines += paired_differences(results, critics, "tail_pooled")
     if all("ceiling" in r for r in results):
         lines += ["", *ceiling_table(results, critics)]
+    if all("capacity" in c for r in results for c in r.get("ceiling", {}).get("rollouts", [{}])):
+        lines += ["", *capacity_table(results, critics)]
     return "\n".join(lines) + "\n"
+
+
+def capacity_table(results: list[dict[str, Any]], critics: Sequence[str]) -> list[str]:
+    """Markdown lines: per environment, critic and value model, what the model fitted once to
+    half a scored rollout's environments explains of ``V^pi`` on the other half (by target),
+    mean over the scored rollouts whose ``V^pi`` varies [min, max]."""
+    targets = ("exact", "G", "lag")
+    lines = [
+        "What value models fitted once to half of each scored rollout's environments explain "
+        "of V^pi on the other half (1 - MSE / Var(V^pi)), fitted to V^pi itself (exact), to "
+        "the rollout's own returns (G) and to the previous scored rollout's V^pi (lag); the "
+        "run's own critic on the same half; mean over the scored rollouts whose V^pi varies "
+        "[min, max] (rollouts):",
+        "",
+        "| env | run's critic | model | " + " | ".join(targets) + " |",
+        "|---|---|---|" + "---:|" * len(targets),
+    ]
+    for env_id in dict.fromkeys(r["env_id"] for r in results):
+        for critic in critics:
+            rows = [
+                c["capacity"]
+                for r in results
+                if (r["env_id"], r["critic"]) == (env_id, critic)
+                for c in r["ceiling"]["rollouts"]
+                if c["truth_sd"] > VARYING
+            ]
+            if not rows:
+                continue
+            models = dict.fromkeys(k.split("|")[0] for k in rows[0] if "|" in k)
+            lines.append(
+                f"| `{env_id}` | {critic} | the run's critic | {_spread(rows, 'critic')} | | |"
+            )
+            for model in models:
+                cells = [_spread(rows, f"{model}|{t}") for t in targets]
+                lines.append(f"| `{env_id}` | {critic} | {model} | " + " | ".join(cells) + " |")
+    return lines
+
+
+def _spread(rows: list[dict[str, float]], key: str) -> str:
+    values = [row[key] for row in rows if key in row]
+    if not values:
+        return "–"
+    return f"{np.mean(values):.2f} [{min(values):.2f}, {max(values):.2f}] ({len(values)})"
 
 
 def ceiling_table(results: list[dict[str, Any]], critics: Sequence[str]) -> list[str]:
@@ -545,6 +677,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         type=parse_gp_option,
         help="option of both GP critics, as in sb3-geogp compare (repeatable)",
     )
+    parser.add_argument(
+        "--capacity",
+        action="store_true",
+        help="with --ceiling: also fit value models once to half of each scored rollout and "
+        "score them against V^pi on the other half (what the critic's function class and one "
+        "rollout's returns allow)",
+    )
     add_target_arguments(parser)
     args = parser.parse_args(argv)
     try:
@@ -565,8 +704,16 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.error("--ceiling needs at least 2 Monte Carlo rollouts per state (0: off)")
     if args.ceiling and set(args.envs) - set(TASKS):
         parser.error(f"--ceiling supports {', '.join(TASKS)}, not {set(args.envs) - set(TASKS)}")
+    if args.capacity and not args.ceiling:
+        parser.error("--capacity scores against V^pi: it needs --ceiling N")
     results = run_all(
-        config.specs(), args.last, args.out, args.workers, args.ceiling, args.ceiling_tail
+        config.specs(),
+        args.last,
+        args.out,
+        args.workers,
+        args.ceiling,
+        args.ceiling_tail,
+        args.capacity,
     )
     text = summary(results, args.critics, args.last)
     (args.out / "critic_fit.md").write_text(text)

@@ -29,16 +29,26 @@ in size). The batch dynamics are the gymnasium equations in vectorised numpy
 Monte Carlo noise in ``V^pi`` lowers the estimated ceiling; :func:`ceiling` also scores each
 half of the rollouts, whose difference from the whole measures that bias (it shrinks as
 ``1 / n_rollouts``), and checks the estimate against the rollout's own returns.
+
+:func:`capacity` asks what a value model fitted once to a rollout can know of ``V^pi``: each
+model of a set is fitted to half the rollout's environments and scored against ``V^pi`` on the
+other half, on three sets of targets (``V^pi`` itself, ``G``, and the previous rollout's
+``V^pi``), which separates what the model's function class represents from what one rollout's
+noisy returns and a change of policy cost (:func:`knn_fit`, :func:`mlp_fit`: references
+that know nothing of GPs).
 """
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+import torch
+from scipy.spatial import cKDTree
 
 from sb3_geogp.studies.action_gap import cartpole_step
 from sb3_geogp.studies.advantage_error import gae
@@ -47,6 +57,13 @@ from sb3_geogp.toolbox.stats import explained_variance, moments
 #: ``act(obs) -> actions``: a stochastic policy's draws for a batch of observations,
 #: shape (n, obs_dim) -> (n,).
 Act = Callable[[np.ndarray], np.ndarray]
+
+#: ``predict(z) -> values``: a fitted value model, shape (m, obs_dim) -> (m,).
+Predict = Callable[[np.ndarray], np.ndarray]
+#: ``fit(x, y, episode_starts) -> predict``: a value model fitted once to ``x : (n, obs_dim)``,
+#: ``y : (n,)`` (env by env, each in time order; ``episode_starts : (n,)`` True where a
+#: trajectory starts), returning ``predict(z : (m, obs_dim)) -> (m,)``.
+Fit = Callable[[np.ndarray, np.ndarray, np.ndarray], Predict]
 
 #: Acrobot-v1's constants (gymnasium ``AcrobotEnv``, its default "book" dynamics).
 ACROBOT_DT = 0.2
@@ -354,3 +371,142 @@ def ceiling(
             truth_sd=float(truth.std()),
         )
     return result
+
+
+def value_r2(values: np.ndarray, truth: np.ndarray) -> float:
+    """Share of ``truth``'s variance that ``values`` explain, ``1 - mean((v - t)^2) / Var(t)``
+    (bias counted, unlike :func:`~sb3_geogp.toolbox.stats.explained_variance`); NaN where
+    ``truth`` is constant."""
+    truth = np.asarray(truth, dtype=np.float64)
+    var = float(truth.var())
+    if var == 0.0:
+        return math.nan
+    return 1.0 - float(np.mean((np.asarray(values, dtype=np.float64) - truth) ** 2)) / var
+
+
+def _env_block(
+    obs: np.ndarray, values: np.ndarray, starts: np.ndarray, envs: slice
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The steps of ``envs`` env by env (``obs (T, n_envs, d)``, ``values``/``starts``
+    ``(T, n_envs)``), each env's first step a trajectory start."""
+    block_starts = np.swapaxes(starts[:, envs], 0, 1).astype(bool)
+    block_starts[:, 0] = True
+    dim = obs.shape[-1]
+    return (
+        np.swapaxes(obs[:, envs], 0, 1).reshape(-1, dim).astype(np.float64),
+        np.swapaxes(values[:, envs], 0, 1).reshape(-1).astype(np.float64),
+        block_starts.reshape(-1),
+    )
+
+
+def capacity(
+    fits: dict[str, Fit],
+    rollout: Rollout,
+    values: np.ndarray,
+    gamma: float,
+    critic: np.ndarray,
+    previous: tuple[Rollout, np.ndarray] | None = None,
+) -> dict[str, float]:
+    """What models fitted once to this rollout explain of ``V^pi`` on held-out environments.
+
+    Every model is fitted to the first half of the rollout's environments and scored with
+    :func:`value_r2` against ``V^pi`` on the second half, on the targets
+
+    * ``exact``: ``V^pi`` itself (what the model represents of it from these states);
+    * ``G``: the rollout's own discounted returns bootstrapped with ``V^pi`` where it stops or
+      is truncated (what one rollout's returns teach, as a Monte Carlo target would);
+    * ``lag`` (with ``previous``): ``V^pi`` of the previous rollout's policy, all its
+      environments (what a critic one policy behind can know).
+
+    Parameters
+    ----------
+    fits : dict of name to :data:`Fit`
+    rollout : Rollout
+        ``T`` steps in ``n_envs >= 2`` environments.
+    values : ndarray, shape (m,)
+        ``V^pi`` at :meth:`Rollout.states` (the Monte Carlo mean).
+    gamma : float
+    critic : ndarray, shape (T n_envs,)
+        The critic's values at the rollout's steps, scored on the same half (``critic``).
+    previous : (Rollout, ndarray), optional
+        The previous scored rollout and its ``V^pi`` at its states.
+
+    Returns
+    -------
+    dict
+        ``"critic"`` and ``"<model>|<targets>"`` for every model and set of targets.
+    """
+    T, n_envs = rollout.rewards.shape
+    if n_envs < 2:
+        raise ValueError(f"capacity needs at least 2 environments to hold some out, got {n_envs}")
+    truth = np.asarray(values, dtype=np.float64)[: T * n_envs].reshape(T, n_envs)
+    returns = rollout.returns(values, gamma, 1.0)
+    train, test = slice(0, n_envs // 2), slice(n_envs // 2, n_envs)
+    x_test, y_test, _ = _env_block(rollout.obs, truth, rollout.episode_starts, test)
+    _, own, _ = _env_block(
+        rollout.obs, np.reshape(critic, (T, n_envs)), rollout.episode_starts, test
+    )
+    targets = {"exact": truth, "G": returns}
+    result = {"critic": value_r2(own, y_test)}
+    blocks = {
+        name: _env_block(rollout.obs, y, rollout.episode_starts, train)
+        for name, y in targets.items()
+    }
+    if previous is not None:
+        old, old_values = previous
+        old_truth = np.asarray(old_values)[: old.rewards.size].reshape(old.rewards.shape)
+        blocks["lag"] = _env_block(old.obs, old_truth, old.episode_starts, slice(None))
+    for model, fit in fits.items():
+        for name, (x, y, starts) in blocks.items():
+            result[f"{model}|{name}"] = value_r2(fit(x, y, starts)(x_test), y_test)
+    return result
+
+
+def knn_fit(k: int = 10) -> Fit:
+    """:data:`Fit` of ``k`` nearest neighbours (the mean of their targets) in inputs scaled by
+    the training data's standard deviation per dimension."""
+
+    def fit(x: np.ndarray, y: np.ndarray, episode_starts: np.ndarray) -> Predict:
+        scale = np.where(x.std(axis=0) > 0, x.std(axis=0), 1.0)
+        tree = cKDTree(x / scale)
+        neighbours = min(k, len(x))
+
+        def predict(z: np.ndarray) -> np.ndarray:
+            index = tree.query(np.asarray(z) / scale, k=neighbours)[1]
+            return y[np.reshape(index, (len(z), neighbours))].mean(axis=1)
+
+        return predict
+
+    return fit
+
+
+def mlp_fit(hidden: tuple[int, ...] = (64, 64), steps: int = 1500, lr: float = 3e-3) -> Fit:
+    """:data:`Fit` of SB3's default value network (``hidden`` tanh layers, float64), trained by
+    full-batch Adam for ``steps`` on standardised targets from a fixed initialisation (seed 0),
+    to convergence rather than PPO's few epochs."""
+
+    def fit(x: np.ndarray, y: np.ndarray, episode_starts: np.ndarray) -> Predict:
+        with torch.random.fork_rng(devices=[]):
+            torch.manual_seed(0)
+            sizes = (x.shape[1], *hidden)
+            layers: list[torch.nn.Module] = []
+            for n_in, n_out in itertools.pairwise(sizes):
+                layers += [torch.nn.Linear(n_in, n_out), torch.nn.Tanh()]
+            net = torch.nn.Sequential(*layers, torch.nn.Linear(sizes[-1], 1)).double()
+        mean, sd = float(y.mean()), float(y.std()) or 1.0
+        inputs, targets = torch.as_tensor(x), torch.as_tensor((y - mean) / sd)
+        optimizer = torch.optim.Adam(net.parameters(), lr=lr)
+        for _ in range(steps):
+            optimizer.zero_grad()
+            loss = (net(inputs).squeeze(-1) - targets).square().mean()
+            loss.backward()
+            optimizer.step()
+
+        def predict(z: np.ndarray) -> np.ndarray:
+            with torch.no_grad():
+                out = net(torch.as_tensor(np.asarray(z, dtype=np.float64))).squeeze(-1)
+            return out.numpy() * sd + mean
+
+        return predict
+
+    return fit
