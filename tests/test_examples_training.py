@@ -199,6 +199,29 @@ def test_critic_fit_ceiling_leaves_the_run_as_it_was(tmp_path: Path) -> None:
     assert not (tmp_path / "p").exists()
 
 
+def test_critic_fit_capacity_fits_models_beside_the_run(tmp_path: Path) -> None:
+    """``--capacity`` records, for every scored rollout, the held-out scores of the five models
+    (fresh GPs of the run's critic's options among them), the lag reading from the second
+    scored rollout on; the table is written; a resume without it and a run without
+    ``--ceiling`` are refused."""
+    critic_fit = load_script("critic_fit")
+    argv = ["--envs", "CartPole-v1", "--critics", "rbf", "--seeds", "0", "--scale", "0.02"]
+    critic_fit.main(
+        [*argv, "--ceiling", "4", "--capacity", "--last", "0.5", "--out", str(tmp_path)]
+    )
+    run = json.loads((tmp_path / "runs" / "rbf__CartPole-v1__s0.json").read_text())
+    rollouts = run["ceiling"]["rollouts"]
+    assert run["ceiling"]["with_capacity"] and len(rollouts) >= 2
+    models = {key.split("|")[0] for key in rollouts[0]["capacity"] if "|" in key}
+    assert models == {"gp", "gp, spread", "gp, rbf, spread", "mlp", "knn"}
+    assert "gp|lag" not in rollouts[0]["capacity"] and "gp|lag" in rollouts[1]["capacity"]
+    assert "What value models fitted once" in (tmp_path / "critic_fit.md").read_text()
+    with pytest.raises(ValueError, match="--capacity"):
+        critic_fit.main([*argv, "--ceiling", "4", "--last", "0.5", "--out", str(tmp_path)])
+    with pytest.raises(SystemExit):
+        critic_fit.main([*argv, "--capacity", "--out", str(tmp_path / "no_ceiling")])
+
+
 def test_critic_fit_pairs_differences_by_seed() -> None:
     """Each critic minus the first, over the seeds both have, with the t interval scipy gives."""
     import scipy.stats as sps

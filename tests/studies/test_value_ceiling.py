@@ -16,10 +16,14 @@ from sb3_geogp.studies.value_ceiling import (
     TASKS,
     Rollout,
     acrobot_step,
+    capacity,
     ceiling,
     horizon,
+    knn_fit,
+    mlp_fit,
     own_value_weight,
     policy_returns,
+    value_r2,
 )
 
 
@@ -208,3 +212,61 @@ def test_own_value_weight_is_what_sb3s_gae_puts_of_the_values_in_its_targets(
         np.zeros((T, 1)), values, np.zeros((T, 1)), np.ones(1), np.zeros(1), gamma, lam
     )
     assert advantages[0, 0] + values[0, 0] == pytest.approx(own_value_weight(gamma, lam), rel=1e-9)
+
+
+def _random_rollout(rng: np.random.Generator, steps: int = 6, n_envs: int = 4) -> Rollout:
+    return Rollout(
+        obs=rng.normal(size=(steps, n_envs, 3)),
+        rewards=rng.normal(size=(steps, n_envs)),
+        episode_starts=rng.random((steps, n_envs)) < 0.2,
+        last_obs=rng.normal(size=(n_envs, 3)),
+        last_dones=np.zeros(n_envs),
+        truncations=[],
+    )
+
+
+def test_capacity_fits_the_first_envs_and_scores_the_others() -> None:
+    """Brute force: a model that predicts the mean of its training targets scores ``1 - mean((m
+    - V)^2) / Var(V)`` on envs 2-3, with ``m`` the mean over envs 0-1 of ``V^pi`` (exact), of the
+    rollout's own returns (G), and over all envs of the previous rollout's ``V^pi`` (lag); each
+    env's block starts a trajectory; the critic is scored on envs 2-3."""
+    rng = np.random.default_rng(3)
+    rollout, old = _random_rollout(rng), _random_rollout(rng)
+    values, old_values = rng.normal(size=6 * 4 + 4), rng.normal(size=6 * 4 + 4)
+    critic = rng.normal(size=6 * 4)
+    fed: list[tuple[np.ndarray, np.ndarray]] = []
+
+    def mean_fit(x: np.ndarray, y: np.ndarray, starts: np.ndarray):  # type: ignore[no-untyped-def]
+        fed.append((x, starts))
+        return lambda z: np.full(len(z), y.mean())
+
+    out = capacity({"mean": mean_fit}, rollout, values, 0.9, critic, (old, old_values))
+    truth = values[:24].reshape(6, 4)
+    test = truth[:, 2:]
+
+    def r2(pred: np.ndarray) -> float:
+        return float(1 - np.mean((pred - test) ** 2) / test.var())
+
+    g = rollout.returns(values, 0.9, 1.0)
+    assert out["mean|exact"] == pytest.approx(r2(np.full_like(test, truth[:, :2].mean())))
+    assert out["mean|G"] == pytest.approx(r2(np.full_like(test, g[:, :2].mean())))
+    assert out["mean|lag"] == pytest.approx(r2(np.full_like(test, old_values[:24].mean())))
+    assert out["critic"] == pytest.approx(r2(critic.reshape(6, 4)[:, 2:]))
+    x_exact, starts = fed[0]
+    np.testing.assert_array_equal(x_exact[:6], rollout.obs[:, 0])  # env 0, in time order
+    assert starts[0] and starts[6] and len(starts) == 12
+    with pytest.raises(ValueError, match="at least 2 environments"):
+        capacity({}, _random_rollout(rng, n_envs=1), values[:7], 0.9, critic[:6])
+
+
+def test_knn_and_mlp_fits_recover_a_smooth_function() -> None:
+    """One nearest neighbour returns the training targets at the training points; the MLP fit
+    explains most of a smooth function's variance on points it was not fitted to."""
+    rng = np.random.default_rng(0)
+    x = rng.uniform(-1, 1, (600, 2))
+    y = np.sin(2 * x[:, 0]) + x[:, 1] ** 2
+    starts = np.zeros(600, dtype=bool)
+    np.testing.assert_array_equal(knn_fit(1)(x, y, starts)(x), y)
+    predict = mlp_fit(steps=800)(x[:400], y[:400], starts[:400])
+    assert value_r2(predict(x[400:]), y[400:]) > 0.95
+    assert math.isnan(value_r2(np.zeros(3), np.ones(3)))
