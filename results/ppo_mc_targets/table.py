@@ -1,0 +1,102 @@
+"""Monte Carlo targets under PPO on issue 13's 40 seeds, read as ``PREREGISTRATION.md`` fixes
+(session 41, a screen).
+
+C: PPO's default GP critic fed ``GPValueCallback(target="monte_carlo")`` (``s0``, ``s10``,
+``s150``, ``s160`` here). A: the default's runs of the 40-seed table, and SB3's MLP critic's
+(``results/table40_prior/table.py``'s arms). Final return (or ``--metric mean_return``, the
+area under the curve), difference of means, 95 % percentile bootstrap; C − MLP family-wise at
+the published 42 comparisons, C − A over the cells run. Only seeds that C, A and the MLP all
+have are compared, so a partial screen reads on its finished seeds.
+
+    python results/ppo_mc_targets/table.py --plot results/ppo_mc_targets/table.png \
+        > results/ppo_mc_targets/table.md
+    python results/ppo_mc_targets/table.py --metric mean_return > results/ppo_mc_targets/auc.md
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib.util
+import sys
+from pathlib import Path
+from typing import Any
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE.parent / "replication_0_15"))
+from pool30 import mlp_rows, print_table  # noqa: E402
+
+from sb3_geogp.comparison.report import plot_difference_panels  # noqa: E402
+from sb3_geogp.comparison.results import comparisons, pool_sweeps  # noqa: E402
+
+FIRST_SEEDS = (0, 10, 150, 160)
+#: Acrobot-v1's evaluation return of a policy that never reaches the goal (500 steps at -1).
+CAP = -500.0
+
+
+def _table40() -> Any:
+    """``results/table40_prior/table.py`` as a module (loaded by path: several scripts are named
+    ``table.py``)."""
+    spec = importlib.util.spec_from_file_location(
+        "table40_prior", HERE.parent / "table40_prior" / "table.py"
+    )
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def arms() -> tuple[list[dict[str, Any]], list[dict[str, Any]], list[dict[str, Any]]]:
+    """C, A and the MLP critic's runs of the cells C has, each on the seeds all three have."""
+    mc = pool_sweeps([HERE / f"s{f}" for f in FIRST_SEEDS if (HERE / f"s{f}").is_dir()])
+    # table40_prior's B arm (prior_sd=0.1) is 0.23's default; its A arm is 0.22's.
+    default, _, mlp = _table40().arms()
+
+    def cell_seeds(runs: list[dict[str, Any]]) -> set[tuple[str, int]]:
+        return {(r["spec"]["env_id"], r["spec"]["seed"]) for r in runs}
+
+    common = cell_seeds(mc) & cell_seeds(default) & cell_seeds(mlp)
+
+    def keep(runs: list[dict[str, Any]]) -> list[dict[str, Any]]:
+        return [r for r in runs if (r["spec"]["env_id"], r["spec"]["seed"]) in common]
+
+    return keep(mc), keep(default), keep(mlp)
+
+
+def stalls(runs: list[dict[str, Any]]) -> str:
+    """Acrobot runs whose final evaluation return is at the cap, as "k of n"."""
+    acrobot = [r for r in runs if r["spec"]["env_id"] == "Acrobot-v1"]
+    return f"{sum(r['final_return'] <= CAP for r in acrobot)} of {len(acrobot)}"
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--metric", choices=("final_return", "mean_return"), default="final_return")
+    parser.add_argument("--plot", metavar="PNG", help="draw each cell: A − MLP, C − MLP, C − A")
+    args = parser.parse_args()
+    label = {"final_return": "final return", "mean_return": "area under the curve"}[args.metric]
+    mc, default, mlp = arms()
+    cells = {(r["spec"]["env_id"], "ppo") for r in mc}
+    sets = {
+        "C − MLP": mlp_rows(mc + mlp, args.metric),
+        "A − MLP": {k: v for k, v in mlp_rows(default + mlp, args.metric).items() if k in cells},
+        "C − A": {
+            (c["env"], c["algo"]): c
+            for c in comparisons(mc, baseline=default, family_size=len(cells))
+            if c["metric"] == args.metric
+        },
+    }
+    for name, rows in sets.items():
+        print(f"\n### {name} (C: Monte Carlo targets; A: the default)\n")
+        print_table(rows, label, name)
+    print(f"\nAcrobot runs at the -500 cap: C {stalls(mc)}, A {stalls(default)}, MLP {stalls(mlp)}")
+    if args.plot:
+        panels = [{"env": e, "algo": a, **{k: t.get((e, a)) for k, t in sets.items()}}
+                  for e, a in sorted(cells)]  # fmt: skip
+        seeds = min(c["n_a"] for c in sets["C − MLP"].values())
+        title = f"PPO ({seeds} seeds a cell): Monte Carlo targets (C), default (A), {label}"
+        plot_difference_panels(panels, list(sets), args.plot, title, n_cols=len(cells),
+                               panel_size=(2.6, 2.4))  # fmt: skip
+
+
+if __name__ == "__main__":
+    main()
