@@ -1,12 +1,13 @@
 """Monte Carlo targets under PPO on issue 13's 40 seeds, read as ``PREREGISTRATION.md`` fixes
-(session 41, a screen).
+(session 41: a screen, then the adoption test of its addendum 1).
 
-C: PPO's default GP critic fed ``GPValueCallback(target="monte_carlo")`` (``s0``, ``s10``,
-``s150``, ``s160`` here). A: the default's runs of the 40-seed table, and SB3's MLP critic's
-(``results/table40_prior/table.py``'s arms). Final return (or ``--metric mean_return``, the
-area under the curve), difference of means, 95 % percentile bootstrap; C − MLP family-wise at
-the published 42 comparisons, C − A over the cells run. Only seeds that C, A and the MLP all
-have are compared, so a partial screen reads on its finished seeds.
+C: PPO's default GP critic fed ``GPValueCallback(target="monte_carlo")`` (here: ``s0``,
+``s10``, ``s150``, ``s160``, Acrobot and CartPole, the screen; ``rest_s*``, the five other PPO
+cells, the adoption test of addendum 1). A: the default's runs of the 40-seed table, and SB3's
+MLP critic's (``results/table40_prior/table.py``'s arms). Final return (or ``--metric
+mean_return``, the area under the curve), difference of means, 95 % percentile bootstrap;
+C − MLP family-wise at the published 42 comparisons, C − A over the cells run. Only seeds that
+C, A and the MLP all have are compared, so a partial sweep reads on its finished seeds.
 
     python results/ppo_mc_targets/table.py --plot results/ppo_mc_targets/table.png \
         > results/ppo_mc_targets/table.md
@@ -47,7 +48,8 @@ def _table40() -> Any:
 
 def arms() -> tuple[list[dict[str, Any]], list[dict[str, Any]], list[dict[str, Any]]]:
     """C, A and the MLP critic's runs of the cells C has, each on the seeds all three have."""
-    mc = pool_sweeps([HERE / f"s{f}" for f in FIRST_SEEDS if (HERE / f"s{f}").is_dir()])
+    folders = [HERE / f"{p}s{f}" for p in ("", "rest_") for f in FIRST_SEEDS]
+    mc = pool_sweeps([folder for folder in folders if folder.is_dir()])
     # table40_prior's B arm (prior_sd=0.1) is 0.23's default; its A arm is 0.22's.
     default, _, mlp = _table40().arms()
 
