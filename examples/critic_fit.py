@@ -402,13 +402,14 @@ def summary(results: list[dict[str, Any]], critics: Sequence[str], last: float) 
 def capacity_table(results: list[dict[str, Any]], critics: Sequence[str]) -> list[str]:
     """Markdown lines: per environment, critic and value model, what the model fitted once to
     half a scored rollout's environments explains of ``V^pi`` on the other half (by target),
-    mean over the scored rollouts whose ``V^pi`` varies [min, max]."""
+    median over the scored rollouts whose ``V^pi`` varies [min, max] (a rollout early in a
+    swing-up, where ``V^pi`` barely varies, can send one score far below 0)."""
     targets = ("exact", "G", "lag")
     lines = [
         "What value models fitted once to half of each scored rollout's environments explain "
         "of V^pi on the other half (1 - MSE / Var(V^pi)), fitted to V^pi itself (exact), to "
         "the rollout's own returns (G) and to the previous scored rollout's V^pi (lag); the "
-        "run's own critic on the same half; mean over the scored rollouts whose V^pi varies "
+        "run's own critic on the same half; median over the scored rollouts whose V^pi varies "
         "[min, max] (rollouts):",
         "",
         "| env | run's critic | model | " + " | ".join(targets) + " |",
@@ -439,7 +440,7 @@ def _spread(rows: list[dict[str, float]], key: str) -> str:
     values = [row[key] for row in rows if key in row]
     if not values:
         return "–"
-    return f"{np.mean(values):.2f} [{min(values):.2f}, {max(values):.2f}] ({len(values)})"
+    return f"{np.median(values):.2f} [{min(values):.2f}, {max(values):.2f}] ({len(values)})"
 
 
 def ceiling_table(results: list[dict[str, Any]], critics: Sequence[str]) -> list[str]:
