@@ -74,6 +74,7 @@ from sb3_geogp.policies import build_gp_critic
 from sb3_geogp.studies.value_ceiling import (
     TASKS,
     Fit,
+    Predict,
     Rollout,
     capacity,
     ceiling,
@@ -223,7 +224,7 @@ def _gp_fit(options: dict[str, Any], bounds: tuple[np.ndarray, np.ndarray], spre
     batch once (float64, CPU); with ``spread`` its lengthscales start at the batch's standard
     deviation per dimension instead of the observation bounds."""
 
-    def fit(x: np.ndarray, y: np.ndarray, episode_starts: np.ndarray) -> Any:
+    def fit(x: np.ndarray, y: np.ndarray, episode_starts: np.ndarray) -> Predict:
         chosen = dict(options)
         if spread:
             chosen["kernel_kwargs"] = {**(chosen.get("kernel_kwargs") or {}),
