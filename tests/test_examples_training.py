@@ -152,18 +152,24 @@ def test_critic_fit_tiny_run_writes_table_and_figure(tmp_path: Path) -> None:
         critic_fit.main([*argv, "--out", str(tmp_path), "--gp-option", "forgetting=0.9"])
 
 
+def _each_run(
+    critic_fit: Any, argv: list[str], variants: dict[str, list[str]], tmp_path: Path, run: str
+) -> list[dict[str, Any]]:
+    """``critic_fit`` run with ``argv`` plus each variant's arguments, each into its own folder
+    under ``tmp_path``; the run file ``run`` of each, in the variants' order."""
+    for name, extra in variants.items():
+        critic_fit.main([*argv, *extra, "--out", str(tmp_path / name)])
+    return [json.loads((tmp_path / name / "runs" / run).read_text()) for name in variants]
+
+
 def test_critic_fit_feeds_the_gp_critic_the_target_asked_for(tmp_path: Path) -> None:
     """``--target monte_carlo`` reaches the GP critic's callback: the first rollout (scored
     before any feed) is the same, the later ones differ from the returns-fed run; the run
     records its target, and a resume with another target or a horizon without it is refused."""
     critic_fit = load_script("critic_fit")
     argv = ["--envs", "CartPole-v1", "--critics", "rbf", "--seeds", "0", "--scale", "0.02"]
-    critic_fit.main([*argv, "--out", str(tmp_path / "returns")])
-    critic_fit.main([*argv, "--target", "monte_carlo", "--out", str(tmp_path / "mc")])
-    returns, mc = (
-        json.loads((tmp_path / d / "runs" / "rbf__CartPole-v1__s0.json").read_text())
-        for d in ("returns", "mc")
-    )
+    variants = {"returns": [], "mc": ["--target", "monte_carlo"]}
+    returns, mc = _each_run(critic_fit, argv, variants, tmp_path, "rbf__CartPole-v1__s0.json")
     assert mc["target"] == "monte_carlo" and "target" not in returns
     assert mc["explained_variance"][0] == returns["explained_variance"][0]
     assert mc["explained_variance"][1:] != returns["explained_variance"][1:]
@@ -180,11 +186,9 @@ def test_critic_fit_ceiling_leaves_the_run_as_it_was(tmp_path: Path) -> None:
     ``--ceiling`` is refused."""
     critic_fit = load_script("critic_fit")
     argv = ["--envs", "CartPole-v1", "--critics", "mlp", "--seeds", "0", "--scale", "0.01"]
-    critic_fit.main([*argv, "--out", str(tmp_path / "plain")])
-    critic_fit.main([*argv, "--ceiling", "4", "--out", str(tmp_path / "ceiling")])
-    plain, with_ceiling = (
-        json.loads((tmp_path / d / "runs" / "mlp__CartPole-v1__s0.json").read_text())
-        for d in ("plain", "ceiling")
+    variants = {"plain": [], "ceiling": ["--ceiling", "4"]}
+    plain, with_ceiling = _each_run(
+        critic_fit, argv, variants, tmp_path, "mlp__CartPole-v1__s0.json"
     )
     assert with_ceiling["explained_variance"] == plain["explained_variance"]
     ceilings = with_ceiling["ceiling"]["rollouts"]
