@@ -94,7 +94,9 @@ def main() -> None:
     if args.plot:
         panels = [{"env": e, "algo": a, **{k: t.get((e, a)) for k, t in sets.items()}}
                   for e, a in sorted(cells)]  # fmt: skip
-        seeds = min(c["n_a"] for c in sets["C − MLP"].values())
+        counts = [c["n_a"] for c in sets["C − MLP"].values()]
+        low, high = min(counts), max(counts)
+        seeds = f"{low}" if low == high else f"{low}-{high}"
         title = f"PPO ({seeds} seeds a cell): Monte Carlo targets (C), default (A), {label}"
         plot_difference_panels(panels, list(sets), args.plot, title, n_cols=len(cells),
                                panel_size=(2.6, 2.4))  # fmt: skip
