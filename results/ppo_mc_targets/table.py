@@ -12,6 +12,12 @@ C, A and the MLP all have are compared, so a partial sweep reads on its finished
     python results/ppo_mc_targets/table.py --plot results/ppo_mc_targets/table.png \
         > results/ppo_mc_targets/table.md
     python results/ppo_mc_targets/table.py --metric mean_return > results/ppo_mc_targets/auc.md
+
+``table.md``, ``auc.md`` and ``table.png`` were written by these commands before any
+``rest_s*`` folder existed (the screen's two cells); ``table_partial.md``, ``auc_partial.md``
+and ``table_partial.png`` by the same commands with ``_partial`` names once ``rest_s0``,
+``rest_s10`` and ``rest_s150`` had finished (session 41). With all four blocks the adoption
+test is read into ``adoption.md`` / ``adoption_auc.md`` / ``adoption.png``.
 """
 
 from __future__ import annotations
