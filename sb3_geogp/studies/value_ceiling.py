@@ -52,6 +52,7 @@ from scipy.spatial import cKDTree
 
 from sb3_geogp.studies.action_gap import cartpole_step
 from sb3_geogp.studies.advantage_error import gae
+from sb3_geogp.targets import env_major, per_env
 from sb3_geogp.toolbox.stats import explained_variance, moments
 
 #: ``act(obs) -> actions``: a stochastic policy's draws for a batch of observations,
@@ -387,16 +388,10 @@ def value_r2(values: np.ndarray, truth: np.ndarray) -> float:
 def _env_block(
     obs: np.ndarray, values: np.ndarray, starts: np.ndarray, envs: slice
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The steps of ``envs`` env by env (``obs (T, n_envs, d)``, ``values``/``starts``
-    ``(T, n_envs)``), each env's first step a trajectory start."""
-    block_starts = np.swapaxes(starts[:, envs], 0, 1).astype(bool)
-    block_starts[:, 0] = True
-    dim = obs.shape[-1]
-    return (
-        np.swapaxes(obs[:, envs], 0, 1).reshape(-1, dim).astype(np.float64),
-        np.swapaxes(values[:, envs], 0, 1).reshape(-1).astype(np.float64),
-        block_starts.reshape(-1),
-    )
+    """The steps of ``envs`` env by env (:func:`~sb3_geogp.targets.per_env` of ``obs (T, n_envs,
+    d)``, ``values``/``starts`` ``(T, n_envs)``), in float64 for the value models."""
+    x, y, block_starts = per_env(obs[:, envs], values[:, envs], starts[:, envs])
+    return x.astype(np.float64), y.astype(np.float64), block_starts
 
 
 def capacity(
@@ -443,9 +438,7 @@ def capacity(
     returns = rollout.returns(values, gamma, 1.0)
     train, test = slice(0, n_envs // 2), slice(n_envs // 2, n_envs)
     x_test, y_test, _ = _env_block(rollout.obs, truth, rollout.episode_starts, test)
-    _, own, _ = _env_block(
-        rollout.obs, np.reshape(critic, (T, n_envs)), rollout.episode_starts, test
-    )
+    own = env_major(np.reshape(critic, (T, n_envs))[:, test])
     targets = {"exact": truth, "G": returns}
     result = {"critic": value_r2(own, y_test)}
     blocks = {
