@@ -52,22 +52,14 @@ def _table40() -> Any:
     return module
 
 
-def arms() -> tuple[list[dict[str, Any]], list[dict[str, Any]], list[dict[str, Any]]]:
+def arms() -> tuple[list[dict[str, Any]], ...]:
     """C, A and the MLP critic's runs of the cells C has, each on the seeds all three have."""
     folders = [HERE / f"{p}s{f}" for p in ("", "rest_") for f in FIRST_SEEDS]
     mc = pool_sweeps([folder for folder in folders if folder.is_dir()])
+    table40 = _table40()
     # table40_prior's B arm (prior_sd=0.1) is 0.23's default; its A arm is 0.22's.
-    default, _, mlp = _table40().arms()
-
-    def cell_seeds(runs: list[dict[str, Any]]) -> set[tuple[str, int]]:
-        return {(r["spec"]["env_id"], r["spec"]["seed"]) for r in runs}
-
-    common = cell_seeds(mc) & cell_seeds(default) & cell_seeds(mlp)
-
-    def keep(runs: list[dict[str, Any]]) -> list[dict[str, Any]]:
-        return [r for r in runs if (r["spec"]["env_id"], r["spec"]["seed"]) in common]
-
-    return keep(mc), keep(default), keep(mlp)
+    default, _, mlp = table40.arms()
+    return table40.on_common_seeds(mc, default, mlp)
 
 
 def stalls(runs: list[dict[str, Any]]) -> str:

@@ -45,16 +45,19 @@ def arms() -> tuple[list[dict[str, Any]], list[dict[str, Any]], list[dict[str, A
     prior = pool_sweeps([HERE / f"s{f}" for f in FIRST_SEEDS if (HERE / f"s{f}").is_dir()])
     default = [r for r in table if r["spec"]["critic"] == "laplacian"]
     mlp = [r for r in table if r["spec"]["critic"] == "mlp"]
+    return on_common_seeds(prior, default, mlp)
+
+
+def on_common_seeds(*arms: list[dict[str, Any]]) -> tuple[list[dict[str, Any]], ...]:
+    """Each arm's runs of the (env, seed) pairs that every arm has."""
 
     def cell_seeds(runs: list[dict[str, Any]]) -> set[tuple[str, int]]:
         return {(r["spec"]["env_id"], r["spec"]["seed"]) for r in runs}
 
-    common = cell_seeds(prior) & cell_seeds(default) & cell_seeds(mlp)
-
-    def keep(runs: list[dict[str, Any]]) -> list[dict[str, Any]]:
-        return [r for r in runs if (r["spec"]["env_id"], r["spec"]["seed"]) in common]
-
-    return keep(prior), keep(default), keep(mlp)
+    common = set.intersection(*(cell_seeds(runs) for runs in arms))
+    return tuple(
+        [r for r in runs if (r["spec"]["env_id"], r["spec"]["seed"]) in common] for runs in arms
+    )
 
 
 def a2c_runs() -> list[dict[str, Any]]:
