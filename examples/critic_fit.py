@@ -345,12 +345,12 @@ def run_all(
                 f"{_feed(spec) or 'the returns'}: pass another --out"
             )
         recorded = result.get("ceiling", {})
-        settings = (recorded.get("n_rollouts", 0), recorded.get("tail", tail))
-        if (*settings, recorded.get("with_capacity", False)) != (
-            ceiling_rollouts,
-            tail,
-            with_capacity,
-        ):
+        settings = (
+            recorded.get("n_rollouts", 0),
+            recorded.get("tail", tail),
+            recorded.get("with_capacity", False),
+        )
+        if settings != (ceiling_rollouts, tail, with_capacity):
             raise ValueError(
                 f"{_run_file(out, spec)} ran with another --ceiling, --ceiling-tail or "
                 "--capacity: pass another --out"
