@@ -123,7 +123,8 @@ def run(
     )  # fmt: skip
     model = build_model(spec)
     recorder = RolloutRecorder()
-    callbacks: list[BaseCallback] = [recorder] if critic == "mlp" else [GPValueCallback(), recorder]
+    feed = GPValueCallback(target=spec.target, horizon=spec.horizon)  # the spec's: SB3's returns
+    callbacks: list[BaseCallback] = [recorder] if critic == "mlp" else [feed, recorder]
     model.learn(timesteps, callback=CallbackList(callbacks))
     env = model.get_env()
     assert env is not None

@@ -7,7 +7,8 @@ that a setting is the only thing that changes:
 
 1. **Record.** One PPO run per environment and seed, the comparison's run
    (:func:`~sb3_geogp.comparison.run.build_model`: zoo hyperparameters, the GP critic with the
-   comparison's options, here adaptive with its defaults), for ``--timesteps`` steps; every
+   comparison's options, here adaptive with its defaults, fed SB3's returns as
+   :func:`~sb3_geogp.comparison.shadow.ppo_spec` says), for ``--timesteps`` steps; every
    batch the GP critic is fed (states, returns, episode starts) is kept in
    ``OUT/streams/`` or ``--streams`` (an interrupted call resumes from the streams already
    there; another call can replay other settings on them).
@@ -116,9 +117,11 @@ def record(env_id: str, seed: int, timesteps: int, path: Path) -> list[Any]:
     if path.exists():
         return th.load(path, weights_only=False)
     th.set_num_threads(1)
-    model = build_model(ppo_spec(env_id, seed, timesteps, {}))
+    spec = ppo_spec(env_id, seed, timesteps, {})
+    model = build_model(spec)
     recorder = StreamRecorder(gp_critic(model))
-    model.learn(timesteps, callback=CallbackList([GPValueCallback(), recorder]))
+    feed = GPValueCallback(target=spec.target, horizon=spec.horizon)
+    model.learn(timesteps, callback=CallbackList([feed, recorder]))
     env = model.get_env()
     assert env is not None
     env.close()

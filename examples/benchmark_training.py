@@ -20,11 +20,13 @@ after ``+adapt`` or ``+cheap`` by other adaptation settings (``+gapN``: ``max_ga
 ``+thinN``: ``score_points`` and ``fold_points`` N; ``+scoreN``, ``+foldN``: one of them;
 ``+stepsN``; ``+floorN``: ``fit_floor=N/100``; ``+priorN``: ``prior_sd=N/100``; ``+nosettle``:
 ``settle=False``; ``+snapshot``: ``summary="snapshot"``; ``+lagged``:
-``forgetting_score="lagged"``; settings after ``+adapt`` start from
-:class:`~sb3_geogp.Adaptation`'s defaults, so ``laplacian+adapt+gap1+f1`` is PPO's critic
-before 0.10, a refit every block, ``+adapt+score256`` folds every point, and
+``forgetting_score="lagged"``; and anywhere ``+returns``, ``GPValueCallback(target="returns")``,
+SB3's returns as the GP's targets instead of the algorithm's default); settings after
+``+adapt`` start from :class:`~sb3_geogp.Adaptation`'s defaults, so ``laplacian+adapt+gap1+f1``
+is PPO's critic before 0.10, a refit every block, ``+adapt+score256`` folds every point, and
 ``laplacian+adapt+gap16+nosettle+score256+fold256+floor80+snapshot+f1`` is 0.13's PPO critic,
-without ``+f1`` 0.22's, with ``+prior10`` instead 0.23's),
+without ``+f1`` 0.22's, with ``+prior10`` instead 0.23's with ``+returns``; the default critic
+under PPO, ``laplacian+adapt``, is 0.24's),
 so that the cost of an option is measured interleaved with the default's.
 
 ``--threads default`` leaves torch's thread count as a new user has it (the engine then runs
@@ -92,6 +94,8 @@ SETTING_SUFFIXES: dict[str, tuple[tuple[str, ...], int]] = {
     "floor": (("fit_floor",), 100),
     "prior": (("prior_sd",), 100),
 }
+#: Suffixes that configure ``GPValueCallback`` instead of the GP, and its options they set.
+CALLBACK_SUFFIXES: dict[str, dict[str, Any]] = {"returns": {"target": "returns"}}
 #: Suffixes without a count (after ``+adapt``) and the settings they give it.
 SETTING_FLAGS: dict[str, dict[str, Any]] = {
     "nosettle": {"settle": False},
@@ -100,12 +104,20 @@ SETTING_FLAGS: dict[str, dict[str, Any]] = {
 }
 
 
+def callback_kwargs_of(suffixes: Sequence[str]) -> dict[str, Any]:
+    """The ``GPValueCallback`` options the suffixes of a GP critic's name set."""
+    return {k: v for s in suffixes for k, v in CALLBACK_SUFFIXES.get(s, {}).items()}
+
+
 def gp_kwargs_of(suffixes: Sequence[str]) -> dict[str, Any] | None:
     """What the suffixes of a GP critic's name add to its ``gp_kwargs`` (``None``: a suffix
-    is unknown, or a setting suffix comes without ``+adapt``)."""
+    is unknown, or a setting suffix comes without ``+adapt``); :data:`CALLBACK_SUFFIXES` add
+    nothing."""
     options: dict[str, Any] = {}
     settings: dict[str, Any] = {}
     for suffix in suffixes:
+        if suffix in CALLBACK_SUFFIXES:
+            continue
         name = suffix.rstrip("0123456789")
         count = suffix[len(name) :]
         if suffix in SUFFIXES:
@@ -135,7 +147,8 @@ def critic_name(text: str) -> str:
         counted = " +".join([*(f"{k}N" for k in SETTING_SUFFIXES), *SETTING_FLAGS])
         raise argparse.ArgumentTypeError(
             f"unknown critic {text!r}: use one of {ALL_CRITICS}, a GP kernel optionally followed "
-            f"by +{' +'.join(SUFFIXES)}, and after +adapt or +cheap by +{counted} (e.g. "
+            f"by +{' +'.join([*SUFFIXES, *CALLBACK_SUFFIXES])}, and after +adapt or +cheap by "
+            f"+{counted} (e.g. "
             "geodesic+adapt+shared, geodesic+adapt+thin512+gap4)"
         )
     return text
@@ -157,7 +170,7 @@ def run(workload: str, critic: str, seed: int, max_basis: int, scale: float) -> 
         policy_kwargs = {**policy_kwargs, "gp_kwargs": gp_kwargs}
         model = algo_cls(GPActorCriticPolicy, env, seed=seed, policy_kwargs=policy_kwargs, **kwargs)
         seconds = GPClock(model.policy.gp).seconds
-        callback = GPValueCallback()
+        callback = GPValueCallback(**callback_kwargs_of(suffixes))
     start = time.perf_counter()
     model.learn(int(steps * scale), callback=callback)
     wall = time.perf_counter() - start

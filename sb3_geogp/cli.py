@@ -31,7 +31,7 @@ from stable_baselines3.common.logger import HumanOutputFormat, KVWriter, SeqWrit
 
 import sb3_geogp.envs  # noqa: F401  (registers the package's environments for --env)
 from sb3_geogp import __version__
-from sb3_geogp.callbacks import GPValueCallback
+from sb3_geogp.callbacks import GPValueCallback, default_target
 from sb3_geogp.comparison.command import (
     DESCRIPTION,
     EPILOG,
@@ -160,7 +160,7 @@ def check_train_args(args: argparse.Namespace, out: Path) -> None:
 
 def check_targets(args: argparse.Namespace) -> None:
     """Raise :class:`UsageError` unless ``--target`` and ``--horizon`` can reach the critic."""
-    if args.critic == "mlp" and (args.target != "returns" or args.horizon is not None):
+    if args.critic == "mlp" and (args.target == "monte_carlo" or args.horizon is not None):
         raise UsageError(
             "--target and --horizon choose what the GP critic learns; SB3's MLP critic learns "
             "SB3's returns. Drop them, or pass a GP --critic"
@@ -184,6 +184,10 @@ _SETTINGS = "train_settings.json"
 
 def _settings(args: argparse.Namespace) -> dict[str, Any]:
     settings = {k: v for k, v in vars(args).items() if k not in ("command", "out", "no_progress")}
+    # The target the critic is fed, as run directories made before its default moved record it.
+    if settings["target"] is None:
+        gp = args.critic != "mlp"
+        settings["target"] = default_target(ALGOS[args.algo]) if gp else "returns"
     # Unset, an option added after 0.20 is left out, so that older run directories still match.
     return {k: v for k, v in settings.items() if not (k in _ADDED and v is None)}
 

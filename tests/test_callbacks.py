@@ -19,6 +19,7 @@ from stable_baselines3.common.env_util import make_vec_env
 from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
 
 from sb3_geogp import GPActorCriticPolicy, GPValueCallback
+from sb3_geogp.callbacks import DEFAULT_TARGET, default_target
 from sb3_geogp.policies import SUPPORTED_ALGORITHMS
 from sb3_geogp.targets import (
     discounted_returns,
@@ -262,6 +263,33 @@ def test_horizon_targets_match_hand_computed_returns(horizon: int) -> None:
             assert y == pytest.approx(expected_horizon(env_id, t, horizon), rel=1e-6)
 
 
+def _fed(algo: type[BaseAlgorithm], callback: GPValueCallback) -> list[np.ndarray]:
+    """Targets of every batch ``callback`` feeds a scripted model of ``algo`` (GP kept empty)."""
+    model = make_scripted(algo, n_steps=4)
+    recorder = FeedRecorder(model.policy, keep_empty=True)
+    model.learn(4 * 8, callback=callback)
+    return [np.concatenate([obs, targets[:, None]], axis=1) for obs, targets, _ in recorder.batches]
+
+
+@pytest.mark.parametrize(("algo", "expected"), [(PPO, "monte_carlo"), (A2C, "returns")])
+def test_default_target_is_the_algorithms(algo: type[BaseAlgorithm], expected: str) -> None:
+    """Unset, the target is the algorithm's default, resolved when training starts: the
+    batches fed are those of that target passed explicitly, and not those of the other."""
+    callback = GPValueCallback()
+    assert callback.target is None
+    default = _fed(algo, callback)
+    assert callback.target == expected == default_target(algo)
+    other = "returns" if expected == "monte_carlo" else "monte_carlo"
+    for target, same in ((expected, True), (other, False)):
+        explicit = _fed(algo, GPValueCallback(target=target))  # type: ignore[arg-type]
+        matches = len(explicit) == len(default) and all(
+            a.shape == b.shape and np.array_equal(a, b)
+            for a, b in zip(explicit, default, strict=True)
+        )
+        assert matches == same, target
+    assert default_target(None) == DEFAULT_TARGET == "monte_carlo"
+
+
 def test_horizon_needs_monte_carlo_and_a_positive_integer() -> None:
     for bad in (0, -1, 2.5):
         with pytest.raises(ValueError, match="horizon"):
@@ -284,7 +312,7 @@ def test_returns_target_is_the_buffer_returns_env_by_env() -> None:
     model = make_scripted(PPO, n_steps=4)
     recorder = FeedRecorder(model.policy, keep_empty=True)
     buffers = BufferRecorder()
-    model.learn(2 * 4 * 3, callback=CallbackList([GPValueCallback(), buffers]))
+    model.learn(2 * 4 * 3, callback=CallbackList([GPValueCallback(target="returns"), buffers]))
     assert len(recorder.batches) == len(buffers.rollouts) == 3
     for (obs, targets, starts), rollout in zip(recorder.batches, buffers.rollouts, strict=True):
         for env in range(2):
@@ -386,7 +414,8 @@ def test_advantage_timing(algo: type[BaseAlgorithm], recompute: bool) -> None:
     after = BufferRecorder()
     # Step-by-step values, so that ``before`` sees SB3's own (deferred values are equivalent:
     # test_deferred_values_equal_step_by_step).
-    cb = GPValueCallback(recompute_advantages=recompute, deferred_values=False)
+    # SB3's returns: 64 steps per env and rollout complete no 200-step episode.
+    cb = GPValueCallback(target="returns", recompute_advantages=recompute, deferred_values=False)
     model.learn(3 * 128, callback=CallbackList([before, cb, after]))
     last = after.rollouts[-1]
     obs = th.as_tensor(last["observations"].reshape(-1, 3))
@@ -492,7 +521,7 @@ def test_logged_metrics(kernel: str) -> None:
         policy_kwargs=dict(gp_kwargs=dict(kernel=kernel, max_basis=32, forgetting=0.95)),
     )
     recorder = BufferRecorder()
-    model.learn(4 * 128, callback=CallbackList([GPValueCallback(), recorder]))
+    model.learn(4 * 128, callback=CallbackList([GPValueCallback(target="returns"), recorder]))
     logged = recorder.logged[-1]
     keys = {"gp/n_basis", "gp/update_ms", "gp/explained_variance", "gp/mse"}
     keys |= {"gp/forgetting", "gp/n_fed"}

@@ -168,7 +168,11 @@ def test_version(capsys: pytest.CaptureFixture[str]) -> None:
         (["--timesteps", "0"], "--timesteps must be at least 1"),
         (["--forgetting", "1.5"], "--forgetting must be in (0, 1]"),
         (["--device", "gpu0"], "--device 'gpu0' is not a torch device"),
-        (["--horizon", "5"], "with target='monte_carlo'; got horizon=5 with target='returns'"),
+        (
+            ["--horizon", "5"],
+            "target='monte_carlo' passed explicitly; got horizon=5 with target=None",
+        ),
+        (["--target", "returns", "--horizon", "5"], "got horizon=5 with target='returns'"),
         (["--target", "monte_carlo", "--horizon", "0"], "horizon=0 with target='monte_carlo'"),
         (["--critic", "mlp", "--target", "monte_carlo"], "SB3's MLP critic learns SB3's returns"),
         (["--critic", "mlp", "--horizon", "5"], "Drop them, or pass a GP --critic"),
@@ -220,6 +224,29 @@ def test_unset_horizon_keeps_older_run_directories_valid(tmp_path: Path) -> None
     settings = json.loads((out / "train_settings.json").read_text())
     assert "horizon" not in settings  # as 0.20 wrote it, so re-running there is accepted
     assert main(argv) == 0
+
+
+@pytest.mark.parametrize(
+    ("extra", "target"),
+    [(["--algo", "ppo"], "monte_carlo"), (["--algo", "a2c"], "returns"),
+     (["--algo", "ppo", "--critic", "mlp"], "returns"),
+     (["--algo", "ppo", "--target", "returns"], "returns")],
+)  # fmt: skip
+def test_run_directory_records_the_target_fed(
+    extra: list[str], target: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Unset, ``--target`` is the algorithm's default and recorded as such: a directory made
+    before PPO's default moved (``"returns"``) is refused under PPO, kept under A2C."""
+    argv = ["train", *extra, "--env", "CartPole-v1", "--timesteps", "32", "--n-steps", "16"]
+    argv.append("--no-progress")
+    assert main([*argv, "--out", str(tmp_path / "run")]) == 0
+    settings = json.loads((tmp_path / "run" / "train_settings.json").read_text())
+    assert settings["target"] == target
+    older = tmp_path / "older"
+    older.mkdir()
+    (older / "train_settings.json").write_text(json.dumps({**settings, "target": "returns"}))
+    assert main([*argv, "--out", str(older)]) == (0 if target == "returns" else 2)
+    assert target == "returns" or "other settings" in capsys.readouterr().err
 
 
 def test_existing_out_with_other_settings_is_refused(

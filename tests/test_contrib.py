@@ -104,10 +104,11 @@ def test_trpo_trains_the_actor_and_feeds_the_gp(kernel: str | None) -> None:
     before = actor_params(model)
     with warnings.catch_warnings(record=True) as record:
         warnings.simplefilter("always")
-        model.learn(3 * 128, callback=GPValueCallback())
+        model.learn(4 * 128, callback=GPValueCallback())
     assert model.n_critic_updates == 0  # the GP learns in the callback instead
     assert {str(w.message) for w in record} <= set(EMPTY_VALUE_LOSSES)
-    assert model.policy.gp.n_basis > 0 and int(model.policy.gp.n_seen) == 3 * 128
+    # TRPO's default target, Monte Carlo returns: each env's one completed 200-step episode.
+    assert model.policy.gp.n_basis > 0 and int(model.policy.gp.n_seen) == 2 * 200
     assert np.isnan(model.logger.name_to_value["train/value_loss"])
     after = actor_params(model)
     assert any(not th.equal(after[k], before[k]) for k in before), "the actor did not move"
@@ -128,8 +129,8 @@ def test_trpo_without_the_callback_names_it() -> None:
 # ------------------------------------------------------------------------------------------------
 @pytest.mark.parametrize(
     "callback_kwargs",
-    [{}, dict(target="monte_carlo", recompute_advantages=True)],
-    ids=["returns", "monte-carlo-recomputed"],
+    [dict(target="returns"), {}, dict(target="monte_carlo", recompute_advantages=True)],
+    ids=["returns", "default", "monte-carlo-recomputed"],
 )
 def test_maskable_ppo_trains_within_the_masks_and_feeds_the_gp(
     callback_kwargs: dict[str, Any],
@@ -139,8 +140,8 @@ def test_maskable_ppo_trains_within_the_masks_and_feeds_the_gp(
     model.learn(3 * 128, callback=GPValueCallback(**callback_kwargs))
     policy = model.policy
     assert isinstance(policy, MaskableGPActorCriticPolicy)
-    # Monte Carlo targets: only completed episodes (of 20 steps) are fed.
-    n_fed = 3 * 128 if not callback_kwargs else 3 * 120
+    # Monte Carlo targets (MaskablePPO's default): only completed episodes (of 20 steps) are fed.
+    n_fed = 3 * 128 if callback_kwargs.get("target") == "returns" else 3 * 120
     assert policy.gp.n_basis > 0 and int(policy.gp.n_seen) == n_fed
     after = actor_params(model)
     assert any(not th.equal(after[k], before[k]) for k in before), "the actor did not move"
@@ -173,7 +174,9 @@ def test_maskable_save_load_is_exact(tmp_path: Path) -> None:
     np.testing.assert_array_equal(actions, expected_actions)
     assert loaded.policy.gp_kwargs == model.policy.gp_kwargs
     loaded.learn(128, callback=GPValueCallback(), reset_num_timesteps=False)  # and it trains on
-    assert int(loaded.policy.gp.n_seen) == 256
+    # MaskablePPO's default target, Monte Carlo returns: each call's 64 steps per env complete
+    # three 20-step episodes (an episode open at the end of a call is not fed).
+    assert int(loaded.policy.gp.n_seen) == 2 * (2 * 3 * 20)
 
 
 def test_maskable_actor_starts_as_maskable_mlp_policy() -> None:

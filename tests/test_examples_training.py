@@ -78,6 +78,10 @@ def test_benchmark_training_setting_suffixes_build_those_settings() -> None:
     assert bench.gp_kwargs_of(["adapt"]) == {"adapt": True}
     assert bench.gp_kwargs_of(["adapt", "notrend"]) == {"adapt": True, "trend": "none"}
     assert bench.gp_kwargs_of(["adapt", "f1"]) == {"adapt": True, "forgetting": 1.0}
+    # +returns configures the callback, not the GP: 0.23's targets.
+    assert bench.gp_kwargs_of(["adapt", "returns"]) == {"adapt": True}
+    assert bench.callback_kwargs_of(["adapt", "returns"]) == {"target": "returns"}
+    assert bench.callback_kwargs_of(["adapt", "f1"]) == {}
     # +cheap: the preset, settings on top of it.
     assert as_adaptation(bench.gp_kwargs_of(["cheap"])["adapt"]) == CHEAP_ADAPTATION
     cheap = as_adaptation(bench.gp_kwargs_of(["cheap", "steps2"])["adapt"])
@@ -163,18 +167,20 @@ def _each_run(
 
 
 def test_critic_fit_feeds_the_gp_critic_the_target_asked_for(tmp_path: Path) -> None:
-    """``--target monte_carlo`` reaches the GP critic's callback: the first rollout (scored
-    before any feed) is the same, the later ones differ from the returns-fed run; the run
-    records its target, and a resume with another target or a horizon without it is refused."""
+    """``--target`` reaches the GP critic's callback, unset PPO's default (Monte Carlo returns):
+    the first rollout (scored before any feed) is the same, the later ones differ from the
+    returns-fed run; the run records its target, and a resume with another target (a folder of
+    returns-fed runs, as before 0.24, resumed with the default) or a horizon without
+    ``--target monte_carlo`` is refused."""
     critic_fit = load_script("critic_fit")
     argv = ["--envs", "CartPole-v1", "--critics", "rbf", "--seeds", "0", "--scale", "0.02"]
-    variants = {"returns": [], "mc": ["--target", "monte_carlo"]}
+    variants = {"returns": ["--target", "returns"], "default": []}
     returns, mc = _each_run(critic_fit, argv, variants, tmp_path, "rbf__CartPole-v1__s0.json")
     assert mc["target"] == "monte_carlo" and "target" not in returns
     assert mc["explained_variance"][0] == returns["explained_variance"][0]
     assert mc["explained_variance"][1:] != returns["explained_variance"][1:]
     with pytest.raises(ValueError, match="another --out"):
-        critic_fit.main([*argv, "--out", str(tmp_path / "returns"), "--target", "monte_carlo"])
+        critic_fit.main([*argv, "--out", str(tmp_path / "returns")])
     with pytest.raises(SystemExit):
         critic_fit.main([*argv, "--horizon", "10", "--out", str(tmp_path / "h")])
     assert not (tmp_path / "h").exists()

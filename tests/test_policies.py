@@ -39,6 +39,13 @@ KERNELS = ["geodesic", "rbf"]
 ENVS = {"box": "Pendulum-v1", "discrete": "CartPole-v1"}
 
 
+def feed() -> GPValueCallback:
+    """The callback with SB3's returns, which feed every step: these runs are shorter than
+    most episodes, and the PPO family's default target since 0.24, Monte Carlo returns, feeds
+    completed episodes only (tests/test_callbacks.py tests both)."""
+    return GPValueCallback(target="returns")
+
+
 def algo_kwargs(algo: type[BaseAlgorithm], n_envs: int) -> dict[str, Any]:
     """Small rollouts: 128 points per rollout whatever the number of envs."""
     n_steps = 128 // n_envs
@@ -77,7 +84,7 @@ def assert_round_trip_exact(model: BaseAlgorithm, adapt: Adaptation, tmp_path: P
         assert th.equal(other, value) if isinstance(value, th.Tensor) else other == value, name
     obs = flat_obs(model)
     assert th.equal(loaded.policy.predict_values(obs), model.policy.predict_values(obs))
-    loaded.learn(256, callback=GPValueCallback(), reset_num_timesteps=False)
+    loaded.learn(256, callback=feed(), reset_num_timesteps=False)
     assert th.isfinite(loaded.policy.predict_values(obs)).all()
 
 
@@ -137,7 +144,7 @@ def test_learn_values_change_and_explain_returns(
     probe = visited_observations(ENVS[action], 8)
     assert th.equal(policy.predict_values(probe), th.zeros(8, 1))  # empty GP: prior mean 0
     values = ValueProbe(probe)
-    model.learn(4 * 128, callback=CallbackList([GPValueCallback(), values]))
+    model.learn(4 * 128, callback=CallbackList([feed(), values]))
 
     assert len(values.values) == 4
     assert all(np.isfinite(v).all() for v in values.values)
@@ -175,7 +182,7 @@ def test_optimizer_holds_only_actor_parameters(algo: type[BaseAlgorithm]) -> Non
 @pytest.mark.parametrize("algo", ALGOS)
 def test_values_are_float32_column_on_policy_device(algo: type[BaseAlgorithm]) -> None:
     model = make_model(algo)
-    model.learn(128, callback=GPValueCallback())
+    model.learn(128, callback=feed())
     policy = model.policy
     obs = th.as_tensor(model.observation_space.sample()[None], device=policy.device)
     for batch in (obs, flat_obs(model).to(policy.device)):
@@ -206,7 +213,7 @@ def test_optimistic_critic_gives_the_upper_confidence_bound_and_survives_save_lo
     model = make_model(
         A2C, env_id="CartPole-v1", n_envs=2, trend="level", optimism=1.0, optimism_cap=cap
     )
-    model.learn(256, callback=GPValueCallback())
+    model.learn(256, callback=feed())
     obs = flat_obs(model)
     mean, var = model.policy.gp.predict(obs.double())
     assert var is not None and float(var.min()) >= 0
@@ -328,7 +335,7 @@ def test_model_saved_before_0_10_loads_with_the_adaptation_it_was_trained_with(
     model = PPO(
         GPActorCriticPolicy, env, n_steps=64, batch_size=64, seed=0, policy_kwargs=every_block
     )
-    model.learn(256, callback=GPValueCallback())
+    model.learn(256, callback=feed())
     model.save(tmp_path / "model.zip")
     as_saved = dict(gp_kwargs=dict(max_basis=16, **adapt_then), net_arch=[16])
     loaded = PPO.load(tmp_path / "model.zip", env=env, custom_objects={"policy_kwargs": as_saved})
@@ -337,7 +344,7 @@ def test_model_saved_before_0_10_loads_with_the_adaptation_it_was_trained_with(
     obs = flat_obs(model)
     assert th.equal(loaded.policy.predict_values(obs), model.policy.predict_values(obs))
     seen = int(loaded.policy.gp.n_seen)
-    loaded.learn(128, callback=GPValueCallback(), reset_num_timesteps=False)
+    loaded.learn(128, callback=feed(), reset_num_timesteps=False)
     assert (
         int(loaded.policy.gp.n_seen) == seen + 128 and loaded.policy.gp.adaptation == Adaptation()
     )
@@ -353,7 +360,7 @@ def test_a2c_model_saved_before_0_17_loads_with_its_every_block_refits(tmp_path:
     env = make_vec_env("Pendulum-v1", n_envs=2, seed=0)
     then = dict(gp_kwargs=dict(max_basis=16, adapt={}), net_arch=[16])
     model = A2C(GPActorCriticPolicy, env, n_steps=8, seed=0, policy_kwargs=then)
-    model.learn(256, callback=GPValueCallback())
+    model.learn(256, callback=feed())
     model.save(tmp_path / "model.zip")
     as_saved = dict(gp_kwargs=dict(max_basis=16), net_arch=[16])
     assert A2C(GPActorCriticPolicy, env, policy_kwargs=as_saved).policy.gp.adaptation == (
@@ -376,14 +383,14 @@ def test_model_saved_by_0_10_keeps_its_folded_summary(tmp_path: Path) -> None:
     kwargs = dict(gp_kwargs=dict(max_basis=16, adapt=saved_by_0_10), net_arch=[16])
     model = PPO(GPActorCriticPolicy, env, n_steps=64, batch_size=64, seed=0, policy_kwargs=kwargs)
     assert isinstance(model.policy, GPActorCriticPolicy)
-    model.learn(256, callback=GPValueCallback())
+    model.learn(256, callback=feed())
     model.save(tmp_path / "model.zip")
     loaded = PPO.load(tmp_path / "model.zip", env=env, custom_objects={"policy_kwargs": kwargs})
     assert isinstance(loaded.policy, GPActorCriticPolicy)
     assert loaded.policy.gp.adaptation == dataclasses.replace(then, summary="fold")
     obs = flat_obs(model)
     assert th.equal(loaded.policy.predict_values(obs), model.policy.predict_values(obs))
-    loaded.learn(128, callback=GPValueCallback(), reset_num_timesteps=False)
+    loaded.learn(128, callback=feed(), reset_num_timesteps=False)
     assert int(loaded.policy.gp.summary_batch) == 0  # never a snapshot
 
 
@@ -395,7 +402,7 @@ def test_ppo_model_saved_before_0_23_loads_without_the_hyperprior(tmp_path: Path
     then = dataclasses.replace(DEFAULT_ADAPTATION, prior_sd=None)
     trained = dict(gp_kwargs=dict(max_basis=16, adapt=then.as_dict()), net_arch=[16])
     model = PPO(GPActorCriticPolicy, env, n_steps=64, batch_size=64, seed=0, policy_kwargs=trained)
-    model.learn(256, callback=GPValueCallback())
+    model.learn(256, callback=feed())
     model.save(tmp_path / "model.zip")
     as_saved = dict(gp_kwargs=dict(max_basis=16), net_arch=[16])
     assert PPO(GPActorCriticPolicy, env, policy_kwargs=as_saved).policy.gp.adaptation == (
@@ -407,7 +414,7 @@ def test_ppo_model_saved_before_0_23_loads_without_the_hyperprior(tmp_path: Path
     obs = flat_obs(model)
     assert th.equal(loaded.policy.predict_values(obs), model.policy.predict_values(obs))
     seen = int(loaded.policy.gp.n_seen)
-    loaded.learn(128, callback=GPValueCallback(), reset_num_timesteps=False)
+    loaded.learn(128, callback=feed(), reset_num_timesteps=False)
     assert int(loaded.policy.gp.n_seen) == seen + 128 and loaded.policy.gp.adaptation == then
 
 
@@ -429,7 +436,7 @@ def test_model_saved_by_0_13_or_0_14_keeps_its_forgetting(
     trained = dict(gp_kwargs=dict(max_basis=16, **options), net_arch=[16])
     model = PPO(GPActorCriticPolicy, env, n_steps=64, batch_size=64, seed=0, policy_kwargs=trained)
     assert isinstance(model.policy, GPActorCriticPolicy)
-    model.learn(256, callback=GPValueCallback())
+    model.learn(256, callback=feed())
     model.save(tmp_path / "model.zip")
     as_saved = dict(gp_kwargs=dict(max_basis=16), net_arch=[16])  # what its user passed
     loaded = PPO.load(tmp_path / "model.zip", env=env, custom_objects={"policy_kwargs": as_saved})
@@ -442,7 +449,7 @@ def test_model_saved_by_0_13_or_0_14_keeps_its_forgetting(
     original = PPO.load(tmp_path / "model.zip", env=env, custom_objects={"policy_kwargs": trained})
     for m in (original, loaded):
         m.set_random_seed(1)
-        m.learn(128, callback=GPValueCallback(), reset_num_timesteps=False)
+        m.learn(128, callback=feed(), reset_num_timesteps=False)
     assert th.equal(loaded.policy.predict_values(obs), original.policy.predict_values(obs))
     # Loaded without adaptation: no forgetting is adopted, the critic keeps 1 per batch.
     fixed = dict(gp_kwargs=dict(max_basis=16, adapt=False), net_arch=[16])
@@ -463,7 +470,7 @@ def test_model_saved_before_0_9_without_a_trend_loads_with_its_trend_free_critic
     model = PPO(
         GPActorCriticPolicy, env, n_steps=64, batch_size=64, seed=0, policy_kwargs=trend_free
     )
-    model.learn(256, callback=GPValueCallback())
+    model.learn(256, callback=feed())
     model.save(tmp_path / "model.zip")
     loaded = PPO.load(tmp_path / "model.zip", env=env, custom_objects={"policy_kwargs": old_kwargs})
     assert isinstance(loaded.policy, GPActorCriticPolicy)
@@ -472,7 +479,7 @@ def test_model_saved_before_0_9_without_a_trend_loads_with_its_trend_free_critic
     obs = flat_obs(model)
     assert th.equal(loaded.policy.predict_values(obs), model.policy.predict_values(obs))
     seen = int(loaded.policy.gp.n_seen)
-    loaded.learn(128, callback=GPValueCallback(), reset_num_timesteps=False)
+    loaded.learn(128, callback=feed(), reset_num_timesteps=False)
     assert int(loaded.policy.gp.n_seen) == seen + 128 and loaded.policy.gp.trend == "none"
     level = dict(old_kwargs, gp_kwargs=dict(max_basis=16, trend="level"))
     with pytest.raises(ValueError, match="trend='none'"):
@@ -488,7 +495,7 @@ def test_model_saved_before_0_6_without_a_kernel_loads_with_its_geodesic_critic(
     old_kwargs = dict(gp_kwargs=dict(max_basis=16), net_arch=[16])
     geodesic = dict(old_kwargs, gp_kwargs=dict(kernel="geodesic", max_basis=16))
     model = PPO(GPActorCriticPolicy, env, n_steps=64, batch_size=64, seed=0, policy_kwargs=geodesic)
-    model.learn(256, callback=GPValueCallback())
+    model.learn(256, callback=feed())
     model.save(tmp_path / "model.zip")
     loaded = PPO.load(tmp_path / "model.zip", env=env, custom_objects={"policy_kwargs": old_kwargs})
     assert isinstance(loaded.policy, GPActorCriticPolicy)
@@ -500,7 +507,7 @@ def test_model_saved_before_0_6_without_a_kernel_loads_with_its_geodesic_critic(
     obs = flat_obs(model)
     assert th.equal(loaded.policy.predict_values(obs), model.policy.predict_values(obs))
     seen = int(loaded.policy.gp.n_seen)
-    loaded.learn(128, callback=GPValueCallback(), reset_num_timesteps=False)
+    loaded.learn(128, callback=feed(), reset_num_timesteps=False)
     assert int(loaded.policy.gp.n_seen) == seen + 128
     # A state the adopted kernel cannot take (another max_basis) leaves the policy as it was.
     other = PPO(GPActorCriticPolicy, env, n_steps=64, batch_size=64, seed=0,
@@ -529,7 +536,7 @@ def test_a2c_model_saved_before_0_22_without_a_kernel_loads_with_its_geodesic_cr
     old_kwargs = dict(gp_kwargs=dict(max_basis=16), net_arch=[16])
     geodesic = dict(old_kwargs, gp_kwargs=dict(kernel="geodesic", max_basis=16))
     model = A2C(GPActorCriticPolicy, env, n_steps=8, seed=0, policy_kwargs=geodesic)
-    model.learn(64, callback=GPValueCallback())
+    model.learn(64, callback=feed())
     model.save(tmp_path / "model.zip")
     # as 0.21 saved it: A2C's own policy_kwargs (its RMSprop) and gp_kwargs without a kernel
     saved = dict(model.policy_kwargs, gp_kwargs=dict(max_basis=16))
@@ -539,7 +546,7 @@ def test_a2c_model_saved_before_0_22_without_a_kernel_loads_with_its_geodesic_cr
     obs = flat_obs(model)
     assert th.equal(loaded.policy.predict_values(obs), model.policy.predict_values(obs))
     seen = int(loaded.policy.gp.n_seen)
-    loaded.learn(32, callback=GPValueCallback(), reset_num_timesteps=False)
+    loaded.learn(32, callback=feed(), reset_num_timesteps=False)
     assert int(loaded.policy.gp.n_seen) == seen + 32
     fresh = A2C(GPActorCriticPolicy, env, n_steps=8, seed=0, policy_kwargs=old_kwargs)
     assert isinstance(fresh.policy, GPActorCriticPolicy)
@@ -555,7 +562,7 @@ def test_separate_critic_features_extractor() -> None:
         n_epochs=1,
         policy_kwargs=dict(share_features_extractor=False, gp_kwargs=dict(max_basis=16)),
     )
-    model.learn(128, callback=GPValueCallback())
+    model.learn(128, callback=feed())
     obs = flat_obs(model)
     assert model.policy.critic_features(obs).shape == (64, 3)
     values = model.policy.predict_values(obs)
@@ -611,7 +618,7 @@ def test_multidim_observations_and_other_action_spaces(
         **algo_kwargs(algo, 2),
     )
     assert model.policy.gp.input_dim == 6
-    model.learn(256, callback=GPValueCallback())
+    model.learn(256, callback=feed())
     values = model.policy.predict_values(flat_obs(model))
     assert values.shape == (128, 1) and th.isfinite(values).all()
 
@@ -711,7 +718,7 @@ def test_learn_without_callback_raises_naming_the_callback(algo: type[BaseAlgori
 
 def test_fed_then_unfed_rollout_raises() -> None:
     model = make_model(PPO)
-    model.learn(128, callback=GPValueCallback())
+    model.learn(128, callback=feed())
     with pytest.raises(RuntimeError, match="GPValueCallback"):
         model.learn(128, reset_num_timesteps=False)
 
@@ -782,7 +789,7 @@ def test_subclasses_of_supported_algorithms_are_supported() -> None:
         pass
 
     model = MyPPO(GPActorCriticPolicy, "Pendulum-v1", n_steps=64, batch_size=64, n_epochs=1)
-    model.learn(64, callback=GPValueCallback())
+    model.learn(64, callback=feed())
     assert model.policy.gp.n_basis > 0
 
 
@@ -795,7 +802,7 @@ def test_save_load_is_exact_and_training_continues(
     algo: type[BaseAlgorithm], kernel: str, tmp_path: Path
 ) -> None:
     model = make_model(algo, kernel=kernel, n_envs=2)
-    model.learn(256, callback=GPValueCallback())
+    model.learn(256, callback=feed())
     obs = flat_obs(model)
     expected = model.policy.predict_values(obs)
     assert not th.equal(expected, th.zeros_like(expected))
@@ -819,7 +826,7 @@ def test_save_load_is_exact_and_training_continues(
     assert th.equal(policy.predict_values(obs), expected)
 
     seen = int(loaded.policy.gp.n_seen)
-    loaded.learn(256, callback=GPValueCallback(), reset_num_timesteps=False)
+    loaded.learn(256, callback=feed(), reset_num_timesteps=False)
     assert int(loaded.policy.gp.n_seen) == seen + 256
     assert not th.equal(loaded.policy.predict_values(obs), expected)
 
@@ -838,7 +845,7 @@ def test_adaptation_is_logged_and_survives_save_load_bit_for_bit(
     adapt = Adaptation(window=256, interval=128, steps=2, fit_points=128)
     model = make_model(PPO, kernel=kernel, n_envs=2, adapt=adapt)
     model.set_logger(configure(str(tmp_path / "log"), ["csv"]))
-    model.learn(512, callback=GPValueCallback())
+    model.learn(512, callback=feed())
     gp = model.policy.gp
     assert int(gp.n_blocks) >= 2 and "lengthscale_0" in gp.last_stats
     logged = (tmp_path / "log" / "progress.csv").read_text().splitlines()[0].split(",")
@@ -861,7 +868,7 @@ def test_lagged_forgetting_survives_save_load_bit_for_bit(tmp_path: Path) -> Non
     keeps half of each 128-point rollout, as PPO's keeps part of a larger one."""
     adapt = dataclasses.replace(LAGGED_ADAPTATION, window=64)
     model = make_model(PPO, n_envs=2, adapt=adapt)
-    model.learn(768, callback=GPValueCallback())
+    model.learn(768, callback=feed())
     gp = model.policy.gp
     assert int(gp.last_batch_points) == 128 and "forgetting" in gp.last_stats
     assert_round_trip_exact(model, adapt, tmp_path)
@@ -870,7 +877,7 @@ def test_lagged_forgetting_survives_save_load_bit_for_bit(tmp_path: Path) -> Non
 @pytest.mark.parametrize("option", [dict(prior_mean="linear"), dict(trend="linear")])
 def test_linear_options_survive_save_load_bit_for_bit(option: dict, tmp_path: Path) -> None:
     model = make_model(PPO, n_envs=2, **option)
-    model.learn(256, callback=GPValueCallback())
+    model.learn(256, callback=feed())
     gp = model.policy.gp
     assert float((gp.y_slope.abs().sum() + gp.trend_coef.abs().sum()).item()) > 0
     model.save(tmp_path / "model.zip")
@@ -878,7 +885,7 @@ def test_linear_options_survive_save_load_bit_for_bit(option: dict, tmp_path: Pa
     obs = flat_obs(model)
     assert th.equal(loaded.policy.predict_values(obs), model.policy.predict_values(obs))
     assert (loaded.policy.gp.prior_mean, loaded.policy.gp.trend) == (gp.prior_mean, gp.trend)
-    loaded.learn(256, callback=GPValueCallback(), reset_num_timesteps=False)
+    loaded.learn(256, callback=feed(), reset_num_timesteps=False)
     assert th.isfinite(loaded.policy.predict_values(obs)).all()
 
 
@@ -903,7 +910,7 @@ def test_model_saved_by_v0_1_loads_and_predicts_the_same() -> None:
         actions = model.policy.get_distribution(saved["probe"]).mode()
         th.testing.assert_close(actions, saved["actions"], rtol=1e-5, atol=1e-8)
     seen = int(model.policy.gp.n_seen)
-    model.learn(64, callback=GPValueCallback(), reset_num_timesteps=False)  # and it trains on
+    model.learn(64, callback=feed(), reset_num_timesteps=False)  # and it trains on
     assert int(model.policy.gp.n_seen) == seen + 64
 
 
@@ -912,7 +919,7 @@ def test_same_seed_same_results(algo: type[BaseAlgorithm]) -> None:
     runs = []
     for _ in range(2):
         model = make_model(algo, n_envs=2, seed=3)
-        model.learn(384, callback=GPValueCallback())
+        model.learn(384, callback=feed())
         runs.append((model.policy.state_dict(), model.policy.predict_values(flat_obs(model))))
     (state_a, values_a), (state_b, values_b) = runs
     assert th.equal(values_a, values_b)
@@ -933,7 +940,7 @@ def test_subproc_vec_env() -> None:
             seed=0,
             **algo_kwargs(PPO, 2),
         )
-        model.learn(256, callback=GPValueCallback())
+        model.learn(256, callback=feed())
         assert model.policy.gp.n_basis > 0
         assert th.isfinite(model.policy.predict_values(flat_obs(model))).all()
     finally:

@@ -13,6 +13,14 @@ C, A and the MLP all have are compared, so a partial sweep reads on its finished
         > results/ppo_mc_targets/table.md
     python results/ppo_mc_targets/table.py --metric mean_return > results/ppo_mc_targets/auc.md
 
+``--verdict`` (session 42, after adoption as 0.24's PPO default target) prints issue 13's
+verdict table with today's defaults: the PPO rows C's runs, the A2C rows 0.22's default's
+(as ``results/table40_prior/table.py --verdict``), each cell against SB3's MLP critic:
+
+    python results/ppo_mc_targets/table.py --verdict > results/ppo_mc_targets/verdict.md
+    python results/ppo_mc_targets/table.py --verdict --metric mean_return \
+        > results/ppo_mc_targets/verdict_auc.md
+
 ``table.md``, ``auc.md`` and ``table.png`` were written by these commands before any
 ``rest_s*`` folder existed (the screen's two cells); ``table_partial.md``, ``auc_partial.md``
 and ``table_partial.png`` by the same commands with ``_partial`` names once ``rest_s0``,
@@ -36,6 +44,7 @@ from sb3_geogp.comparison.report import plot_difference_panels  # noqa: E402
 from sb3_geogp.comparison.results import comparisons, pool_sweeps  # noqa: E402
 
 FIRST_SEEDS = (0, 10, 150, 160)
+LABELS = {"final_return": "final return", "mean_return": "area under the curve"}
 #: Acrobot-v1's evaluation return of a policy that never reaches the goal (500 steps at -1).
 CAP = -500.0
 
@@ -68,36 +77,58 @@ def stalls(runs: list[dict[str, Any]]) -> str:
     return f"{sum(r['final_return'] <= CAP for r in acrobot)} of {len(acrobot)}"
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--metric", choices=("final_return", "mean_return"), default="final_return")
-    parser.add_argument("--plot", metavar="PNG", help="draw each cell: A − MLP, C − MLP, C − A")
-    args = parser.parse_args()
-    label = {"final_return": "final return", "mean_return": "area under the curve"}[args.metric]
-    mc, default, mlp = arms()
+def report(
+    mc: list[dict[str, Any]],
+    default: list[dict[str, Any]],
+    mlp: list[dict[str, Any]],
+    metric: str,
+    c_a_family: int,
+    plot: str | None,
+    a_name: str = "the default",
+) -> None:
+    """Print C − MLP (family-wise at the published 42), A − MLP and C − A (family-wise over
+    ``c_a_family`` cells) per cell of ``mc``, and the Acrobot runs at the cap; draw the three
+    differences per cell to ``plot``."""
+    label = LABELS[metric]
     cells = {(r["spec"]["env_id"], "ppo") for r in mc}
     sets = {
-        "C − MLP": mlp_rows(mc + mlp, args.metric),
-        "A − MLP": {k: v for k, v in mlp_rows(default + mlp, args.metric).items() if k in cells},
+        "C − MLP": mlp_rows(mc + mlp, metric),
+        "A − MLP": {k: v for k, v in mlp_rows(default + mlp, metric).items() if k in cells},
         "C − A": {
             (c["env"], c["algo"]): c
-            for c in comparisons(mc, baseline=default, family_size=len(cells))
-            if c["metric"] == args.metric
+            for c in comparisons(mc, baseline=default, family_size=c_a_family)
+            if c["metric"] == metric
         },
     }
     for name, rows in sets.items():
-        print(f"\n### {name} (C: Monte Carlo targets; A: the default)\n")
+        print(f"\n### {name} (C: Monte Carlo targets; A: {a_name})\n")
         print_table(rows, label, name)
     print(f"\nAcrobot runs at the -500 cap: C {stalls(mc)}, A {stalls(default)}, MLP {stalls(mlp)}")
-    if args.plot:
+    if plot:
         panels = [{"env": e, "algo": a, **{k: t.get((e, a)) for k, t in sets.items()}}
                   for e, a in sorted(cells)]  # fmt: skip
         counts = [c["n_a"] for c in sets["C − MLP"].values()]
         low, high = min(counts), max(counts)
         seeds = f"{low}" if low == high else f"{low}-{high}"
-        title = f"PPO ({seeds} seeds a cell): Monte Carlo targets (C), default (A), {label}"
-        plot_difference_panels(panels, list(sets), args.plot, title, n_cols=len(cells),
+        title = f"PPO ({seeds} seeds a cell): Monte Carlo targets (C), {a_name} (A), {label}"
+        plot_difference_panels(panels, list(sets), plot, title, n_cols=len(cells),
                                panel_size=(2.6, 2.4))  # fmt: skip
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--metric", choices=("final_return", "mean_return"), default="final_return")
+    parser.add_argument("--plot", metavar="PNG", help="draw each cell: A − MLP, C − MLP, C − A")
+    parser.add_argument(
+        "--verdict", action="store_true", help="today's defaults, PPO (C) and A2C, against the MLP"
+    )
+    args = parser.parse_args()
+    mc, default, mlp = arms()
+    if args.verdict:
+        print_table(mlp_rows(mc + mlp + _table40().a2c_runs(), args.metric), LABELS[args.metric])
+        return
+    n_cells = len({r["spec"]["env_id"] for r in mc})
+    report(mc, default, mlp, args.metric, n_cells, args.plot)
 
 
 if __name__ == "__main__":

@@ -246,9 +246,11 @@ def add_target_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--target",
         choices=("returns", "monte_carlo"),
-        default="returns",
-        help="value targets GPValueCallback feeds the GP critics (returns, the default: SB3's "
-        "TD(lambda) returns, which the MLP critic learns too)",
+        default=None,
+        help="value targets GPValueCallback feeds the GP critics: returns (SB3's TD(lambda) "
+        "returns, which the MLP critic learns too) or monte_carlo (returns of completed "
+        "episodes); default: GPValueCallback's per algorithm, monte_carlo for PPO, returns for "
+        "A2C",
     )
     parser.add_argument(
         "--horizon",
@@ -266,7 +268,8 @@ def check_target_arguments(args: argparse.Namespace) -> None:
     try:
         GPValueCallback(target=args.target, horizon=args.horizon)
     except ValueError as err:
-        raise UsageError(f"--target {args.target} --horizon {args.horizon}: {err}") from None
+        target = args.target or "(default)"
+        raise UsageError(f"--target {target} --horizon {args.horizon}: {err}") from None
 
 
 def config_from_args(args: argparse.Namespace) -> SweepConfig:

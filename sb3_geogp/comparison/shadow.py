@@ -8,7 +8,9 @@ that differs) feeds every batch the run's critic learns from to other critics to
 * :func:`gp_shadow`: a fresh GP critic built exactly as that run's policy builds it;
 * :class:`MLPShadow`: SB3's MLP critic of the comparison's ``mlp`` run, trained on the
   batches as PPO trains its critic;
-* :class:`ShadowFeed`: the callback that gives them every rollout of a run;
+* :class:`ShadowFeed`: the callback that gives them every rollout of a run (SB3's returns,
+  which SB3's MLP critic learns; the run's own GP critic is fed those too, as 0.23's default
+  fed it, not the PPO family's default target since 0.24, Monte Carlo returns);
 * :func:`learn_with_shadows`: a run trained with an MLP shadow and GP shadows beside it, each
   critic's values (the run's own too) given to a callback that scores them at rollout ends;
 * :func:`study_parser`, :func:`run_study`: the command line and the resumable loop over actors
@@ -52,7 +54,8 @@ StudyResults = dict[str, dict[int, Any]]
 
 
 def ppo_spec(env_id: str, seed: int, timesteps: int, setting: dict[str, Any]) -> RunSpec:
-    """The comparison's PPO run of a critic on ``env_id`` with ``setting``.
+    """The comparison's PPO run of a critic on ``env_id`` with ``setting``, its GP critic fed
+    SB3's returns (as the shadows are).
 
     Parameters
     ----------
@@ -73,6 +76,7 @@ def ppo_spec(env_id: str, seed: int, timesteps: int, setting: dict[str, Any]) ->
         seeds=(seed,),
         timesteps=timesteps,
         gp_options=tuple(sorted(options.items())),
+        target="returns",
     )
     (spec,) = config.specs()
     return spec
@@ -231,7 +235,9 @@ def learn_with_shadows(
 
     learners: list[Learner] = [learn_mlp, *(gp.update for gp in gps.values())]
     scorer = checkpoints(values)
-    own_feed = [GPValueCallback()] if isinstance(model.policy, GPActorCriticPolicy) else []
+    own_feed = (
+        [GPValueCallback(target="returns")] if isinstance(model.policy, GPActorCriticPolicy) else []
+    )
     model.learn(timesteps, callback=CallbackList([scorer, *own_feed, ShadowFeed(learners)]))
     env = model.get_env()
     assert env is not None

@@ -7,7 +7,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-from sb3_geogp.callbacks import Target
+from sb3_geogp.callbacks import Target, default_target
 from sb3_geogp.comparison.hyperparams import (
     ALGOS,
     CRITICS,
@@ -131,10 +131,12 @@ class SweepConfig:
     gp_options : tuple of (key, value)
         Options of the GP critic on top of :data:`GP_KWARGS` (e.g. ``(("forgetting", 0.9),)``),
         the same for ``rbf`` and ``geodesic``.
-    target : {"returns", "monte_carlo"}
-        As :class:`RunSpec`.
+    target : {"returns", "monte_carlo"}, optional
+        As :class:`RunSpec`; ``None`` (default): ``GPValueCallback``'s default for each
+        algorithm (:func:`~sb3_geogp.callbacks.default_target`).
     horizon : int, optional
-        As :class:`RunSpec`.
+        As :class:`RunSpec`. The MLP critic's runs, which learn SB3's returns, record
+        ``target="returns"`` and no horizon whatever these are.
     """
 
     algos: tuple[str, ...] = tuple(ALGOS)
@@ -148,7 +150,7 @@ class SweepConfig:
     n_probe_states: int = 32
     n_mc_rollouts: int = 4
     gp_options: tuple[tuple[str, Any], ...] = ()
-    target: Target = "returns"
+    target: Target | None = None
     horizon: int | None = None
     timesteps: int | None = None
     thresholds: tuple[tuple[str, float], ...] = ()
@@ -204,14 +206,19 @@ class SweepConfig:
                                 n_probe_states=self.n_probe_states,
                                 n_mc_rollouts=self.n_mc_rollouts,
                                 gp_kwargs=gp_kwargs,
-                                target=self.target,
-                                horizon=self.horizon,
+                                target=self._target(algo, critic),
+                                horizon=None if critic == "mlp" else self.horizon,
                                 hyperparams=hp.values,
                                 hyperparams_source=hp.source,
                                 threshold=level,
                             )
                         )
         return out
+
+    def _target(self, algo: str, critic: str) -> Target:
+        if critic == "mlp":
+            return "returns"
+        return self.target or default_target(ALGOS[algo])
 
     def _budget(self, algo: str, env_id: str, n_timesteps: float | None) -> int:
         if self.timesteps is not None:

@@ -66,17 +66,25 @@ def test_cli_arguments() -> None:
     assert config_from_args(_parse("--quick", "--first-seed", "7")).seeds == (7, 8)
 
 
-def test_target_reaches_every_run_and_keeps_the_run_ids() -> None:
-    specs = config_from_args(_parse("--algos", "a2c", "--target", "monte_carlo")).specs()
-    default = config_from_args(_parse("--algos", "a2c")).specs()
-    assert {s.target for s in specs} == {"monte_carlo"} and {s.target for s in default} == {
-        "returns"
-    }
+def test_target_reaches_every_gp_run_and_keeps_the_run_ids() -> None:
+    """``--target``/``--horizon`` reach every GP critic's run; unset, each algorithm's default
+    target (GPValueCallback's: Monte Carlo returns under PPO since 0.24, SB3's returns under
+    A2C); SB3's MLP critic's runs record the returns it learns whatever is passed."""
+    specs = config_from_args(_parse("--target", "monte_carlo", "--horizon", "50")).specs()
+    default = config_from_args(_parse()).specs()
     assert [s.run_id for s in specs] == [s.run_id for s in default]
+    assert {s.algo for s in specs} == {"ppo", "a2c"} and "mlp" in {s.critic for s in specs}
+    for spec, unset in zip(specs, default, strict=True):
+        assert unset.horizon is None
+        if spec.critic == "mlp":
+            assert (spec.target, spec.horizon, unset.target) == ("returns", None, "returns")
+        else:
+            assert (spec.target, spec.horizon) == ("monte_carlo", 50)
+            assert unset.target == {"ppo": "monte_carlo", "a2c": "returns"}[spec.algo]
+    returns = config_from_args(_parse("--target", "returns")).specs()
+    assert {s.target for s in returns} == {"returns"}
     with pytest.raises(SystemExit):
         _parse("--target", "td0")
-    cut = config_from_args(_parse("--target", "monte_carlo", "--horizon", "50")).specs()
-    assert {s.horizon for s in cut} == {50} and {s.horizon for s in default} == {None}
     for bad in (["--horizon", "50"], ["--target", "monte_carlo", "--horizon", "0"]):
         with pytest.raises(UsageError, match="--horizon"):
             config_from_args(_parse(*bad))

@@ -31,7 +31,7 @@ def test_a_shadow_with_the_runs_settings_reproduces_the_runs_critic() -> None:
     same = gp_shadow(spec)
     other = gp_shadow(ppo_spec("CartPole-v1", 0, 1, {"gp_options": {"max_basis": 8}}))
     feed = ShadowFeed([same.update, other.update])
-    model.learn(768, callback=CallbackList([GPValueCallback(), feed]))
+    model.learn(768, callback=CallbackList([GPValueCallback(target="returns"), feed]))
     own = gp_critic(model)
     probe = th.as_tensor(model.rollout_buffer.observations.reshape(-1, 4), dtype=th.float64)
     assert same.n_basis == own.n_basis

@@ -1,0 +1,73 @@
+"""The confirmation of Monte Carlo targets under PPO on fresh seeds 240-259, read as
+``PREREGISTRATION.md`` fixes (session 42).
+
+C: PPO's GP critic fed ``GPValueCallback(target="monte_carlo")`` (0.24's default); A: the same
+critic fed SB3's returns (0.23's default); SB3's MLP critic; folders ``{C,A,mlp}_{ac,mcc}_sF``
+made by ``run.sh``. Final return (or ``--metric mean_return``), difference of means, 95 %
+percentile bootstrap; C − A family-wise over the two primary cells (Acrobot-v1, CartPole-v1),
+C − MLP family-wise at the published 42 comparisons; the same printing and figure as
+``results/ppo_mc_targets/table.py``. Only seeds all three arms have are compared, so a partial
+sweep reads on its finished seeds (whole MountainCarContinuous blocks only, by the
+registration: ``--first-seeds``).
+
+    python results/ppo_mc_confirm/table.py --plot results/ppo_mc_confirm/table.png \\
+        > results/ppo_mc_confirm/table.md
+    python results/ppo_mc_confirm/table.py --metric mean_return > results/ppo_mc_confirm/auc.md
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib.util
+from pathlib import Path
+from types import ModuleType
+from typing import Any
+
+from sb3_geogp.comparison.results import pool_sweeps
+
+HERE = Path(__file__).resolve().parent
+#: Cells of the primary reading: C − A family-wise over these.
+PRIMARY = ("Acrobot-v1", "CartPole-v1")
+
+
+def _load(name: str) -> ModuleType:
+    """``results/<name>/table.py`` as a module (loaded by path: several scripts are named
+    ``table.py``)."""
+    spec = importlib.util.spec_from_file_location(name, HERE.parent / name / "table.py")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def arms(first_seeds: tuple[int, ...]) -> tuple[list[dict[str, Any]], ...]:
+    """C, A and the MLP critic's runs, each on the seeds all three have (MountainCarContinuous
+    from the blocks of ``first_seeds`` only)."""
+
+    def pooled(arm: str) -> list[dict[str, Any]]:
+        blocks = ["ac_s240", *(f"mcc_s{f}" for f in first_seeds)]
+        return pool_sweeps([d for b in blocks if (d := HERE / f"{arm}_{b}").is_dir()])
+
+    table40 = _load("table40_prior")
+    return table40.on_common_seeds(pooled("C"), pooled("A"), pooled("mlp"))
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--metric", choices=("final_return", "mean_return"), default="final_return")
+    parser.add_argument("--plot", metavar="PNG", help="draw each cell: A − MLP, C − MLP, C − A")
+    parser.add_argument(
+        "--first-seeds",
+        type=int,
+        nargs="+",
+        default=[240, 250],
+        help="MountainCarContinuous blocks to read (whole blocks all three arms finished)",
+    )
+    args = parser.parse_args()
+    mc, returns, mlp = arms(tuple(args.first_seeds))
+    report = _load("ppo_mc_targets").report
+    report(mc, returns, mlp, args.metric, len(PRIMARY), args.plot, a_name="SB3's returns")
+
+
+if __name__ == "__main__":
+    main()
