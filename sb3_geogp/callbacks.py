@@ -74,9 +74,9 @@ class GPValueCallback(BaseCallback):
         MaskablePPO since 0.24, ``"returns"`` for A2C), chosen when training starts.
     horizon : int, optional
         With ``target="monte_carlo"`` (passed explicitly, as the default target depends on
-        the algorithm): cut each return after ``horizon`` steps with the
-        critic's value of the state reached then (predicted when the step is fed), so that a
-        step waits at most ``horizon`` steps instead of until its episode ends. Under A2C
+        the algorithm): cut each return after ``horizon`` steps with the critic's value of the
+        state reached then (predicted when the step is fed), so that a step waits at most
+        ``horizon`` steps instead of until its episode ends. Under A2C
         with ``gae_lambda=1`` SB3's returns cut at the rollout's end instead. ``None``
         (default): no cut. Measured under A2C with ``horizon=100`` (docs/results.md, "Monte
         Carlo targets cut after 100 steps"): better than ``"returns"`` on CartPole-v1, worse on
