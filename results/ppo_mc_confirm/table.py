@@ -17,7 +17,6 @@ registration: ``--first-seeds``).
 
 from __future__ import annotations
 
-import argparse
 import importlib.util
 from pathlib import Path
 from types import ModuleType
@@ -30,14 +29,17 @@ HERE = Path(__file__).resolve().parent
 PRIMARY = ("Acrobot-v1", "CartPole-v1")
 
 
-def _load(name: str) -> ModuleType:
-    """``results/<name>/table.py`` as a module (loaded by path: several scripts are named
-    ``table.py``)."""
-    spec = importlib.util.spec_from_file_location(name, HERE.parent / name / "table.py")
+def _ppo_mc_targets() -> ModuleType:
+    """``results/ppo_mc_targets/table.py``, whose reading this one repeats, as a module."""
+    path = HERE.parent / "ppo_mc_targets" / "table.py"
+    spec = importlib.util.spec_from_file_location("ppo_mc_targets", path)
     assert spec is not None and spec.loader is not None
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
+
+
+READING = _ppo_mc_targets()
 
 
 def arms(first_seeds: tuple[int, ...]) -> tuple[list[dict[str, Any]], ...]:
@@ -48,14 +50,11 @@ def arms(first_seeds: tuple[int, ...]) -> tuple[list[dict[str, Any]], ...]:
         blocks = ["ac_s240", *(f"mcc_s{f}" for f in first_seeds)]
         return pool_sweeps([d for b in blocks if (d := HERE / f"{arm}_{b}").is_dir()])
 
-    table40 = _load("table40_prior")
-    return table40.on_common_seeds(pooled("C"), pooled("A"), pooled("mlp"))
+    return READING.TABLE40.on_common_seeds(pooled("C"), pooled("A"), pooled("mlp"))
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--metric", choices=("final_return", "mean_return"), default="final_return")
-    parser.add_argument("--plot", metavar="PNG", help="draw each cell: A − MLP, C − MLP, C − A")
+    parser = READING.TABLE40.reading_parser(__doc__, "C", verdict=False)
     parser.add_argument(
         "--first-seeds",
         type=int,
@@ -65,8 +64,7 @@ def main() -> None:
     )
     args = parser.parse_args()
     mc, returns, mlp = arms(tuple(args.first_seeds))
-    report = _load("ppo_mc_targets").report
-    report(mc, returns, mlp, args.metric, len(PRIMARY), args.plot, a_name="SB3's returns")
+    READING.report(mc, returns, mlp, args.metric, len(PRIMARY), args.plot, a_name="SB3's returns")
 
 
 if __name__ == "__main__":

@@ -30,10 +30,10 @@ test is read into ``adoption.md`` / ``adoption_auc.md`` / ``adoption.png``.
 
 from __future__ import annotations
 
-import argparse
 import importlib.util
 import sys
 from pathlib import Path
+from types import ModuleType
 from typing import Any
 
 HERE = Path(__file__).resolve().parent
@@ -49,26 +49,27 @@ LABELS = {"final_return": "final return", "mean_return": "area under the curve"}
 CAP = -500.0
 
 
-def _table40() -> Any:
-    """``results/table40_prior/table.py`` as a module (loaded by path: several scripts are named
+def load_table(name: str) -> ModuleType:
+    """``results/<name>/table.py`` as a module (loaded by path: several scripts are named
     ``table.py``)."""
-    spec = importlib.util.spec_from_file_location(
-        "table40_prior", HERE.parent / "table40_prior" / "table.py"
-    )
+    spec = importlib.util.spec_from_file_location(name, HERE.parent / name / "table.py")
     assert spec is not None and spec.loader is not None
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
 
 
+#: ``results/table40_prior/table.py``: the default's and the MLP critic's runs, and the reading.
+TABLE40 = load_table("table40_prior")
+
+
 def arms() -> tuple[list[dict[str, Any]], ...]:
     """C, A and the MLP critic's runs of the cells C has, each on the seeds all three have."""
     folders = [HERE / f"{p}s{f}" for p in ("", "rest_") for f in FIRST_SEEDS]
     mc = pool_sweeps([folder for folder in folders if folder.is_dir()])
-    table40 = _table40()
     # table40_prior's B arm (prior_sd=0.1) is 0.23's default; its A arm is 0.22's.
-    default, _, mlp = table40.arms()
-    return table40.on_common_seeds(mc, default, mlp)
+    default, _, mlp = TABLE40.arms()
+    return TABLE40.on_common_seeds(mc, default, mlp)
 
 
 def stalls(runs: list[dict[str, Any]]) -> str:
@@ -116,16 +117,13 @@ def report(
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--metric", choices=("final_return", "mean_return"), default="final_return")
-    parser.add_argument("--plot", metavar="PNG", help="draw each cell: A − MLP, C − MLP, C − A")
-    parser.add_argument(
-        "--verdict", action="store_true", help="today's defaults, PPO (C) and A2C, against the MLP"
-    )
-    args = parser.parse_args()
+    args = TABLE40.reading_parser(__doc__, "C").parse_args()
     mc, default, mlp = arms()
     if args.verdict:
-        print_table(mlp_rows(mc + mlp + _table40().a2c_runs(), args.metric), LABELS[args.metric])
+        print_table(
+            mlp_rows(mc + mlp + TABLE40.a2c_runs(), args.metric),
+            LABELS[args.metric],
+        )
         return
     n_cells = len({r["spec"]["env_id"] for r in mc})
     report(mc, default, mlp, args.metric, n_cells, args.plot)

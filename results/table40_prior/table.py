@@ -81,14 +81,26 @@ def against_default(
     return {(c["env"], c["algo"]): c for c in rows if c["metric"] == metric}
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+def reading_parser(doc: str, arm: str, verdict: bool = True) -> argparse.ArgumentParser:
+    """The options of a reading of issue 13's PPO cells with a new arm ``arm`` (e.g. ``"B"``)
+    against the default (A) and SB3's MLP critic: ``--metric``, ``--plot`` and, with
+    ``verdict``, ``--verdict``; ``doc``'s first paragraph describes it."""
+    parser = argparse.ArgumentParser(description=doc.split("\n\n")[0])
     parser.add_argument("--metric", choices=("final_return", "mean_return"), default="final_return")
-    parser.add_argument("--plot", metavar="PNG", help="draw each cell: A − MLP, B − MLP, B − A")
     parser.add_argument(
-        "--verdict", action="store_true", help="today's defaults, PPO (B) and A2C, against the MLP"
+        "--plot", metavar="PNG", help=f"draw each cell: A − MLP, {arm} − MLP, {arm} − A"
     )
-    args = parser.parse_args()
+    if verdict:
+        parser.add_argument(
+            "--verdict",
+            action="store_true",
+            help=f"today's defaults, PPO ({arm}) and A2C, against the MLP",
+        )
+    return parser
+
+
+def main() -> None:
+    args = reading_parser(__doc__, "B").parse_args()
     label = {"final_return": "final return", "mean_return": "area under the curve"}[args.metric]
     prior, default, mlp = arms()
     if args.verdict:
