@@ -13,6 +13,10 @@ registration: ``--first-seeds``).
     python results/ppo_mc_confirm/table.py --plot results/ppo_mc_confirm/table.png \\
         > results/ppo_mc_confirm/table.md
     python results/ppo_mc_confirm/table.py --metric mean_return > results/ppo_mc_confirm/auc.md
+
+``table_ac.md``, ``auc_ac.md`` and ``table_ac.png`` are the same commands with
+``--first-seeds`` (no MountainCarContinuous block), written when the Acrobot and CartPole block
+(the primary reading, all 20 seeds) had finished and MountainCarContinuous was running.
 """
 
 from __future__ import annotations
@@ -58,7 +62,7 @@ def main() -> None:
     parser.add_argument(
         "--first-seeds",
         type=int,
-        nargs="+",
+        nargs="*",
         default=[240, 250],
         help="MountainCarContinuous blocks to read (whole blocks all three arms finished)",
     )
