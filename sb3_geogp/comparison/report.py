@@ -281,7 +281,8 @@ def plot_difference_panels(
         ax.grid(alpha=0.3, axis="y")
     for ax in axes.flat[len(rows) :]:
         ax.axis("off")
-    fig.suptitle(title, fontsize=10)
+    # About 13 characters of a 10-point title per inch: a narrow figure wraps it, not cuts it.
+    fig.suptitle(textwrap.fill(title, width=int(13 * width * n_cols)), fontsize=10)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)

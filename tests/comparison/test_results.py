@@ -14,6 +14,7 @@ from sb3_geogp.comparison.report import (
     BAND_CAPTION,
     comparisons_markdown,
     plot_critic_accuracy,
+    plot_difference_panels,
     plot_learning_curves,
     rerun_markdown,
     summary_markdown,
@@ -220,6 +221,28 @@ def test_figures_say_what_their_bands_are(monkeypatch: pytest.MonkeyPatch, tmp_p
     monkeypatch.undo()
     for fig in figures:
         plt.close(fig)
+
+
+@pytest.mark.parametrize("n_cells", [1, 2, 7])
+def test_difference_panels_keep_a_long_title_inside_the_figure(
+    n_cells: int, monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    """However few the panels, the title is wrapped to the figure's width, never cut."""
+    plt = pytest.importorskip("matplotlib.pyplot")
+    figures: list[Any] = []
+    monkeypatch.setattr(plt, "close", figures.append)
+    cell = {"diff": 1.0, "low": 0.0, "high": 2.0}
+    rows = [{"env": f"Env{i}-v0", "algo": "ppo", "C − A": cell} for i in range(n_cells)]
+    title = "PPO (20 seeds a cell): Monte Carlo targets (C), SB3's returns (A), final return"
+    plot_difference_panels(rows, ["C − A"], tmp_path / "d.png", title, n_cols=n_cells,
+                           panel_size=(2.6, 2.4))  # fmt: skip
+    (fig,) = figures
+    renderer = fig.canvas.get_renderer()
+    extent = fig._suptitle.get_window_extent(renderer)
+    assert extent.x0 >= 0 and extent.x1 <= fig.bbox.width
+    assert fig._suptitle.get_text().replace("\n", " ") == title
+    monkeypatch.undo()
+    plt.close(fig)
 
 
 def test_a_rerun_is_compared_under_the_published_rule() -> None:
