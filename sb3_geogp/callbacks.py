@@ -69,7 +69,8 @@ class GPValueCallback(BaseCallback):
         only, episodes spanning rollouts stitched per environment; a time-limit truncation is
         bootstrapped with the critic's value of the terminal observation (SB3 adds
         ``gamma * V(terminal_observation)`` to that step's reward), a termination is not.
-        Steps of unfinished episodes wait for a later rollout. ``None`` (default): the
+        Steps of unfinished episodes wait for a later rollout; a ``learn`` call that feeds
+        nothing (no episode ended) warns, as its critic learnt nothing. ``None`` (default): the
         algorithm's default, :func:`default_target` (``"monte_carlo"`` for PPO, TRPO and
         MaskablePPO since 0.24, ``"returns"`` for A2C), chosen when training starts.
     horizon : int, optional
@@ -191,6 +192,8 @@ class GPValueCallback(BaseCallback):
             )
         # Unfinished episodes of an earlier learn() call may have been cut by an env reset.
         self._pending = [_empty_segment(self.model.observation_space.shape)] * self.model.n_envs
+        # Rollouts and points fed in this learn() call, for _on_training_end's warning.
+        self._fed = [0, 0]
 
     def _on_rollout_start(self) -> None:
         self._truncations = []
@@ -229,11 +232,26 @@ class GPValueCallback(BaseCallback):
         if self.recompute_advantages:
             old_bootstrap = self._bootstrap_values(policy)
         stats = policy.update_critic(obs, targets, starts, values)
+        self._fed = [self._fed[0] + 1, self._fed[1] + len(targets)]
         self.update_seconds += 1e-3 * stats["update_ms"]
         if self.recompute_advantages:
             self._recompute(policy, buffer, dones, old_bootstrap)
         for key, value in stats.items():
             self.logger.record(f"gp/{key}", value)
+
+    def _on_training_end(self) -> None:
+        rollouts, points = self._fed
+        if rollouts and not points:
+            # Monte Carlo targets wait for an episode's end, and a new learn() call drops the
+            # unfinished ones: short or chunked learn() calls could leave the critic unfed.
+            warn_user(
+                f"GPValueCallback fed the GP critic nothing in this learn() call ({rollouts} "
+                f"rollout{'s' * (rollouts > 1)}): no episode ended, and with "
+                "target='monte_carlo' (the PPO family's default since 0.24) a step is fed only "
+                "once its episode ends (or its horizon has passed), so the critic still "
+                "predicts its prior. Train for longer than an episode in one learn() call, or "
+                "pass GPValueCallback(target='returns') (SB3's returns, fed every rollout)."
+            )
 
     # ------------------------------------------------------------------------------------------
     # Helpers

@@ -18,7 +18,7 @@ from stable_baselines3.common.callbacks import BaseCallback, CallbackList
 from stable_baselines3.common.env_util import make_vec_env
 from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
 
-from sb3_geogp import GPActorCriticPolicy, GPValueCallback
+from sb3_geogp import GPActorCriticPolicy, GPCriticWarning, GPValueCallback
 from sb3_geogp.callbacks import DEFAULT_TARGET, default_target
 from sb3_geogp.policies import SUPPORTED_ALGORITHMS
 from sb3_geogp.targets import (
@@ -302,7 +302,8 @@ def test_horizon_needs_monte_carlo_and_a_positive_integer() -> None:
 def test_monte_carlo_feeds_nothing_until_an_episode_completes() -> None:
     model = make_scripted(A2C, n_steps=2)
     recorder = FeedRecorder(model.policy, keep_empty=False)
-    model.learn(4, callback=GPValueCallback(target="monte_carlo"))  # 2 steps per env: none done
+    with pytest.warns(GPCriticWarning, match=r"nothing in this learn\(\) call \(1 rollout\)"):
+        model.learn(4, callback=GPValueCallback(target="monte_carlo"))  # 2 steps per env: none done
     assert [len(b[1]) for b in recorder.batches] == [0]
     assert model.policy.gp.n_basis == 0
     model.learn(4, callback=GPValueCallback(target="monte_carlo"), reset_num_timesteps=False)
@@ -564,12 +565,14 @@ def test_bad_target_raises() -> None:
 def test_vec_normalize_warns_about_drifting_statistics() -> None:
     env = VecNormalize(make_vec_env("Pendulum-v1", n_envs=1, seed=0))
     model = PPO(GPActorCriticPolicy, env, n_steps=64, batch_size=64, n_epochs=1)
+    # SB3's returns: fed every rollout (Monte Carlo targets would warn that 64 steps of
+    # Pendulum's 200-step episodes fed nothing).
     with pytest.warns(UserWarning, match="VecNormalize"):
-        model.learn(64, callback=GPValueCallback())
+        model.learn(64, callback=GPValueCallback(target="returns"))
     env.training = False  # frozen statistics: no warning
     with warnings.catch_warnings():
         warnings.simplefilter("error", UserWarning)
-        model.learn(64, callback=GPValueCallback(), reset_num_timesteps=False)
+        model.learn(64, callback=GPValueCallback(target="returns"), reset_num_timesteps=False)
 
 
 def test_a2c_without_forgetting_warns() -> None:
@@ -577,7 +580,7 @@ def test_a2c_without_forgetting_warns() -> None:
         extra = dict(batch_size=8) if algo is PPO else {}
         model = algo(GPActorCriticPolicy, "Pendulum-v1", n_steps=8, seed=0, **extra,
                      policy_kwargs=dict(gp_kwargs=dict(kernel="rbf", **gp_kwargs)))  # fmt: skip
-        model.learn(8, callback=GPValueCallback())
+        model.learn(8, callback=GPValueCallback(target="returns"))
 
     with pytest.warns(UserWarning, match="forgetting=0.9"):
         learn(A2C, adapt=False)
@@ -622,10 +625,31 @@ def test_nan_reward_is_named_with_its_step_and_env() -> None:
             assert th.equal(value.nan_to_num(), gp_before[key].nan_to_num()), key
 
 
+def test_a_learn_call_that_feeds_nothing_says_so() -> None:
+    """Monte Carlo targets (PPO's default) wait for an episode's end: a learn() call shorter
+    than Pendulum's 200-step episodes feeds nothing and warns; SB3's returns feed every rollout,
+    and a call in which an episode ends feeds its 200 steps, neither with a warning."""
+
+    def pendulum() -> PPO:
+        return PPO(GPActorCriticPolicy, "Pendulum-v1", n_steps=64, batch_size=64, n_epochs=1,
+                   seed=0)  # fmt: skip
+
+    short = pendulum()
+    with pytest.warns(GPCriticWarning, match="fed the GP critic nothing in this learn"):
+        short.learn(128, callback=GPValueCallback())
+    assert int(short.policy.gp.n_seen) == 0
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", GPCriticWarning)
+        fed_returns = pendulum()
+        fed_returns.learn(128, callback=GPValueCallback(target="returns"))
+        assert int(fed_returns.policy.gp.n_seen) == 128
+        longer = pendulum()
+        longer.learn(256, callback=GPValueCallback())
+        assert int(longer.policy.gp.n_seen) == 200
+
+
 def test_warnings_have_their_own_category_and_point_at_the_users_line() -> None:
     import warnings as std_warnings
-
-    from sb3_geogp import GPCriticWarning
 
     fixed = dict(gp_kwargs=dict(adapt=False))
     model = A2C(GPActorCriticPolicy, "Pendulum-v1", n_steps=8, seed=0, policy_kwargs=fixed)
@@ -643,8 +667,6 @@ def test_warnings_have_their_own_category_and_point_at_the_users_line() -> None:
 
 def test_no_forgetting_warning_when_the_gp_adapts_its_forgetting() -> None:
     import warnings as std_warnings
-
-    from sb3_geogp import GPCriticWarning
 
     kwargs = dict(gp_kwargs=dict(adapt=True))
     model = A2C(GPActorCriticPolicy, "Pendulum-v1", n_steps=8, seed=0, policy_kwargs=kwargs)
