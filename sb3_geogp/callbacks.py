@@ -248,9 +248,9 @@ class GPValueCallback(BaseCallback):
                 f"GPValueCallback fed the GP critic nothing in this learn() call ({rollouts} "
                 f"rollout{'s' * (rollouts > 1)}): no episode ended, and with "
                 "target='monte_carlo' (the PPO family's default since 0.24) a step is fed only "
-                "once its episode ends (or its horizon has passed), so the critic still "
-                "predicts its prior. Train for longer than an episode in one learn() call, or "
-                "pass GPValueCallback(target='returns') (SB3's returns, fed every rollout)."
+                "once its episode ends (or its horizon has passed), so the critic learnt "
+                "nothing in this call. Train for longer than an episode in one learn() call, "
+                "or pass GPValueCallback(target='returns') (SB3's returns, fed every rollout)."
             )
 
     # ------------------------------------------------------------------------------------------
