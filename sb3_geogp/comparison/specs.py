@@ -20,6 +20,16 @@ from sb3_geogp.comparison.hyperparams import (
 )
 
 
+def fed_target(target: Target | None, algo: str, critic: str) -> Target:
+    """The target ``critic`` learns under ``algo`` (a key of
+    :data:`~sb3_geogp.comparison.hyperparams.ALGOS`) when ``target`` is asked for: SB3's
+    returns for the MLP critic, else ``target``, or where ``None`` ``GPValueCallback``'s default
+    for the algorithm (:func:`~sb3_geogp.callbacks.default_target`)."""
+    if critic == "mlp":
+        return "returns"
+    return target or default_target(ALGOS[algo])
+
+
 @dataclass(frozen=True)
 class RunSpec:
     """Everything that defines one run; equal specs give the same result file name.
@@ -206,7 +216,7 @@ class SweepConfig:
                                 n_probe_states=self.n_probe_states,
                                 n_mc_rollouts=self.n_mc_rollouts,
                                 gp_kwargs=gp_kwargs,
-                                target=self._target(algo, critic),
+                                target=fed_target(self.target, algo, critic),
                                 horizon=None if critic == "mlp" else self.horizon,
                                 hyperparams=hp.values,
                                 hyperparams_source=hp.source,
@@ -214,11 +224,6 @@ class SweepConfig:
                             )
                         )
         return out
-
-    def _target(self, algo: str, critic: str) -> Target:
-        if critic == "mlp":
-            return "returns"
-        return self.target or default_target(ALGOS[algo])
 
     def _budget(self, algo: str, env_id: str, n_timesteps: float | None) -> int:
         if self.timesteps is not None:
