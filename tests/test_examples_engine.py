@@ -2,13 +2,13 @@
 
 from __future__ import annotations
 
-import importlib.util
 import json
-import sys
 from pathlib import Path
 from types import ModuleType
 
 import pytest
+
+from sb3_geogp.toolbox import scripts as toolbox_scripts
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
@@ -17,12 +17,7 @@ def load_script(name: str) -> ModuleType:
     """Import ``examples/<name>.py`` as a module (the examples are not a package)."""
     pytest.importorskip("tqdm")
     pytest.importorskip("matplotlib")
-    spec = importlib.util.spec_from_file_location(f"_example_{name}", EXAMPLES / f"{name}.py")
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module
-    spec.loader.exec_module(module)
-    return module
+    return toolbox_scripts.load_script(EXAMPLES / f"{name}.py", f"_example_{name}")
 
 
 def test_benchmark_speed_quick_writes_promised_json(tmp_path: Path) -> None:

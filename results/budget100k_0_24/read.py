@@ -13,27 +13,13 @@ partial sweep reads as such. The helpers are ``results/budget100k_0_23/read.py``
 
 from __future__ import annotations
 
-import importlib.util
-import sys
 from collections.abc import Sequence
 from pathlib import Path
-from types import ModuleType
+
+from sb3_geogp.toolbox.scripts import load_script
 
 HERE = Path(__file__).resolve().parent
-
-
-def _reader() -> ModuleType:
-    """``results/budget100k_0_23/read.py`` as a module (loaded by path)."""
-    path = HERE.parent / "budget100k_0_23" / "read.py"
-    spec = importlib.util.spec_from_file_location("budget100k_0_23_read", path)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module  # its dataclass resolves annotations through it
-    spec.loader.exec_module(module)
-    return module
-
-
-R = _reader()
+R = load_script(HERE.parent / "budget100k_0_23" / "read.py", "budget100k_0_23_read")
 STUDY = R.Study(
     HERE,
     (260, 270),

@@ -21,29 +21,19 @@ registration: ``--first-seeds``).
 
 from __future__ import annotations
 
-import importlib.util
 from pathlib import Path
-from types import ModuleType
 from typing import Any
 
 from sb3_geogp.comparison.results import pool_sweeps
+from sb3_geogp.toolbox.scripts import load_script
 
 HERE = Path(__file__).resolve().parent
 #: Cells of the primary reading: C − A family-wise over these.
 PRIMARY = ("Acrobot-v1", "CartPole-v1")
 
 
-def _ppo_mc_targets() -> ModuleType:
-    """``results/ppo_mc_targets/table.py``, whose reading this one repeats, as a module."""
-    path = HERE.parent / "ppo_mc_targets" / "table.py"
-    spec = importlib.util.spec_from_file_location("ppo_mc_targets", path)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-READING = _ppo_mc_targets()
+#: ``results/ppo_mc_targets/table.py``, whose reading this one repeats.
+READING = load_script(HERE.parent / "ppo_mc_targets" / "table.py", "ppo_mc_targets")
 
 
 def arms(first_seeds: tuple[int, ...]) -> tuple[list[dict[str, Any]], ...]:

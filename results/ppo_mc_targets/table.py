@@ -30,10 +30,8 @@ test is read into ``adoption.md`` / ``adoption_auc.md`` / ``adoption.png``.
 
 from __future__ import annotations
 
-import importlib.util
 import sys
 from pathlib import Path
-from types import ModuleType
 from typing import Any
 
 HERE = Path(__file__).resolve().parent
@@ -42,6 +40,7 @@ from pool30 import mlp_rows, print_table  # noqa: E402
 
 from sb3_geogp.comparison.report import plot_difference_panels  # noqa: E402
 from sb3_geogp.comparison.results import comparisons, pool_sweeps  # noqa: E402
+from sb3_geogp.toolbox.scripts import load_script  # noqa: E402
 
 FIRST_SEEDS = (0, 10, 150, 160)
 LABELS = {"final_return": "final return", "mean_return": "area under the curve"}
@@ -49,18 +48,8 @@ LABELS = {"final_return": "final return", "mean_return": "area under the curve"}
 CAP = -500.0
 
 
-def load_table(name: str) -> ModuleType:
-    """``results/<name>/table.py`` as a module (loaded by path: several scripts are named
-    ``table.py``)."""
-    spec = importlib.util.spec_from_file_location(name, HERE.parent / name / "table.py")
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
 #: ``results/table40_prior/table.py``: the default's and the MLP critic's runs, and the reading.
-TABLE40 = load_table("table40_prior")
+TABLE40 = load_script(HERE.parent / "table40_prior" / "table.py", "table40_prior")
 
 
 def arms() -> tuple[list[dict[str, Any]], ...]:

@@ -24,7 +24,6 @@ table of today's defaults: these PPO rows (B − MLP) beside the A2C rows of 0.2
 from __future__ import annotations
 
 import argparse
-import importlib.util
 import sys
 from pathlib import Path
 from typing import Any
@@ -35,6 +34,7 @@ from pool30 import mlp_rows, pooled_runs, print_table  # noqa: E402
 
 from sb3_geogp.comparison.report import plot_difference_panels  # noqa: E402
 from sb3_geogp.comparison.results import comparisons, pool_sweeps  # noqa: E402
+from sb3_geogp.toolbox.scripts import load_script  # noqa: E402
 
 FIRST_SEEDS = (0, 10, 150, 160)
 
@@ -62,13 +62,8 @@ def on_common_seeds(*arms: list[dict[str, Any]]) -> tuple[list[dict[str, Any]], 
 
 def a2c_runs() -> list[dict[str, Any]]:
     """The A2C runs of the table with 0.22's default, paired as ``table40_rbf/table.py`` pairs
-    them (that script's module, loaded by path: both scripts are named ``table.py``)."""
-    spec = importlib.util.spec_from_file_location(
-        "table40_rbf", HERE.parent / "table40_rbf" / "table.py"
-    )
-    assert spec is not None and spec.loader is not None
-    rbf = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(rbf)
+    them."""
+    rbf = load_script(HERE.parent / "table40_rbf" / "table.py", "table40_rbf")
     return [r for r in rbf.table_runs("0.22", False) if r["spec"]["algo"] == "a2c"]
 
 

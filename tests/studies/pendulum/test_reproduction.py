@@ -3,9 +3,7 @@
 from __future__ import annotations
 
 import csv
-import importlib.util
 import json
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -21,8 +19,7 @@ from sb3_geogp.studies.pendulum.reproduction import (
 )
 from sb3_geogp.studies.pendulum.task import Task, policy_episodes
 from sb3_geogp.toolbox.shepard import shepard_mean
-
-ROOT = Path(__file__).resolve().parents[3]
+from tests.test_examples_engine import load_script
 
 
 def test_euclidean_laplacian_kernel_is_exp_minus_r() -> None:
@@ -60,19 +57,8 @@ def test_jump_cells_finds_a_step() -> None:
     assert mask[:, [0, 4, 5, 9]].all() and mask.sum() == 40
 
 
-def _load_example():  # type: ignore[no-untyped-def]
-    spec = importlib.util.spec_from_file_location(
-        "reproduce_paper", ROOT / "examples" / "reproduce_paper.py"
-    )
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules["reproduce_paper"] = module
-    spec.loader.exec_module(module)
-    return module
-
-
 def test_quick_run_writes_every_promised_file(tmp_path: Path) -> None:
-    example = _load_example()
+    example = load_script("reproduce_paper")
     example.main(["--quick", "--out", str(tmp_path)])
     for name in (*example.FIGURES, *example.TABLES):
         assert (tmp_path / name).stat().st_size > 0, name

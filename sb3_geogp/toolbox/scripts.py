@@ -1,0 +1,62 @@
+"""Import a standalone script (``examples/*.py``, ``results/*/table.py``) as a module.
+
+The scripts are not a package, and several share a file name (``table.py``, ``read.py``), so
+a reading that reuses another reading, or a test that calls a script's functions, loads the
+file by path under a name of its own.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import sys
+from pathlib import Path
+from types import ModuleType
+
+
+def load_script(path: str | Path, name: str) -> ModuleType:
+    """Execute the script at ``path`` as the module ``name`` and return it.
+
+    The module is registered in :data:`sys.modules` under ``name`` before it runs, as an
+    import would, so that its dataclasses and pickled objects resolve through it; a second
+    call with the same ``name`` returns the module already loaded.
+
+    Parameters
+    ----------
+    path : str or Path
+        The script's file.
+    name : str
+        The module name to give it; unique among loaded modules (two scripts named
+        ``table.py`` need two names).
+
+    Returns
+    -------
+    ModuleType
+        The executed module.
+
+    Raises
+    ------
+    FileNotFoundError
+        If ``path`` is not a file.
+    ValueError
+        If ``name`` is already the name of a module loaded from another file.
+    """
+    path = Path(path).resolve()
+    if not path.is_file():
+        raise FileNotFoundError(f"no script at {path}: pass the path of a .py file")
+    loaded = sys.modules.get(name)
+    if loaded is not None:
+        if Path(getattr(loaded, "__file__", "") or "").resolve() != path:
+            raise ValueError(
+                f"module name {name!r} is already taken by {loaded!r}; give {path} another name"
+            )
+        return loaded
+    spec = importlib.util.spec_from_file_location(name, path)
+    assert spec is not None and spec.loader is not None  # a .py path always has a loader
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module
+    try:
+        spec.loader.exec_module(module)
+    except BaseException:
+        del sys.modules[name]  # a failed import leaves no half-run module behind
+        raise
+    return module
