@@ -1,0 +1,97 @@
+"""The screen of ``horizon=500`` on PPO MountainCarContinuous-v0, read as
+``PREREGISTRATION.md`` fixes (session 43).
+
+H: PPO's default GP critic fed Monte Carlo returns cut after 500 steps
+(``GPValueCallback(target="monte_carlo", horizon=500)``; folders ``s0``, ``s10``, ``s150``,
+``s160``); C: 0.24's default (uncut Monte Carlo returns), A: 0.23's (SB3's returns) and SB3's
+MLP critic, the runs ``results/ppo_mc_targets/table.py`` reads. Final return (or ``--metric
+mean_return``), difference of means, 95 % percentile bootstrap; H − C the primary reading (one
+cell), H − MLP and C − MLP family-wise at the published 42 comparisons. Only seeds all four
+arms have are compared. The identity control (``identity``: H on CartPole-v1 and Acrobot-v1,
+seed 0, where no episode exceeds 500 steps) is compared with C's stored runs first.
+
+    python results/ppo_mcc_horizon/table.py --plot results/ppo_mcc_horizon/table.png \\
+        > results/ppo_mcc_horizon/table.md
+    python results/ppo_mcc_horizon/table.py --metric mean_return > results/ppo_mcc_horizon/auc.md
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE.parent / "replication_0_15"))
+from pool30 import mlp_rows, print_table  # noqa: E402
+
+from sb3_geogp.comparison.report import plot_difference_panels  # noqa: E402
+from sb3_geogp.comparison.results import comparisons, pool_sweeps  # noqa: E402
+from sb3_geogp.toolbox.scripts import load_script  # noqa: E402
+
+#: ``results/ppo_mc_targets/table.py``: C's, A's and the MLP critic's runs, and the parser.
+READING = load_script(HERE.parent / "ppo_mc_targets" / "table.py", "ppo_mc_targets")
+ENV = "MountainCarContinuous-v0"
+
+
+def identity() -> list[str]:
+    """One line per identity-control run: equal to C's stored run of the same cell and seed,
+    or how it differs."""
+    lines = []
+    for path in sorted((HERE / "identity" / "runs").glob("*.json")):
+        h = json.loads(path.read_text())
+        c = json.loads((HERE.parent / "ppo_mc_targets" / "s0" / "runs" / path.name).read_text())
+        same = h["final_return"] == c["final_return"] and h["eval"] == c["eval"]
+        verdict = (
+            "identical" if same else f"differs: H {h['final_return']} vs C {c['final_return']}"
+        )
+        lines.append(f"- `{path.stem}`: final return and every evaluation {verdict}")
+    return lines
+
+
+def arms() -> tuple[list[dict[str, Any]], ...]:
+    """H, C, A and the MLP critic's MountainCarContinuous runs on the seeds all four have."""
+    folders = [HERE / f"s{f}" for f in READING.FIRST_SEEDS]
+    horizon = pool_sweeps([folder for folder in folders if folder.is_dir()])
+    return READING.TABLE40.on_common_seeds(
+        horizon, *([r for r in runs if r["spec"]["env_id"] == ENV] for runs in READING.arms())
+    )
+
+
+def main() -> None:
+    parser = READING.TABLE40.reading_parser(__doc__, "H", verdict=False)
+    args = parser.parse_args()
+    horizon, mc, returns, mlp = arms()
+    label = READING.LABELS[args.metric]
+    print("## Identity control (H where no episode exceeds 500 steps)\n")
+    print("\n".join(identity()) or "(not run)")
+
+    def against(b: list[dict[str, Any]], a: list[dict[str, Any]] = horizon) -> dict:
+        return {
+            (c["env"], c["algo"]): c
+            for c in comparisons(a, baseline=b, family_size=1)
+            if c["metric"] == args.metric
+        }
+
+    sets = {
+        "H − C": against(mc),
+        "H − MLP": mlp_rows(horizon + mlp, args.metric),
+        "C − MLP": mlp_rows(mc + mlp, args.metric),
+        "H − A": against(returns),
+    }
+    names = "H: cut after 500 steps; C: 0.24's default; A: SB3's returns"
+    for name, rows in sets.items():
+        print(f"\n### {name} ({names})\n")
+        print_table(rows, label, name)
+    if args.plot:
+        panels = [{"env": ENV, "algo": "ppo", **{k: t.get((ENV, "ppo")) for k, t in sets.items()}}]
+        n = len({r["spec"]["seed"] for r in horizon})
+        title = f"PPO {ENV} ({n} seeds): horizon=500 (H), 0.24's default (C), {label}"
+        plot_difference_panels(
+            panels, list(sets), args.plot, title, n_cols=1, panel_size=(4.5, 3.2)
+        )
+
+
+if __name__ == "__main__":
+    main()
