@@ -43,10 +43,9 @@ def identity() -> list[str]:
         h = json.loads(path.read_text())
         c = json.loads((HERE.parent / "ppo_mc_targets" / "s0" / "runs" / path.name).read_text())
         same = h["final_return"] == c["final_return"] and h["eval"] == c["eval"]
-        verdict = (
-            "identical" if same else f"differs: H {h['final_return']} vs C {c['final_return']}"
-        )
-        lines.append(f"- `{path.stem}`: final return and every evaluation {verdict}")
+        verdict = "identical" if same else "differ"
+        final = f"H {h['final_return']:.1f}, C {c['final_return']:.1f}"
+        lines.append(f"- `{path.stem}`: final return and evaluations {verdict} ({final})")
     return lines
 
 

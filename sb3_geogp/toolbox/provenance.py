@@ -1,5 +1,6 @@
 """Which code made a result: the git commit, one hash of the whole engine, package versions,
-and the CPU kernels torch chose (a run is bit-reproducible only where they agree).
+and the machine: the CPU kernels torch chose, the CPU's model and flags (a run is
+bit-reproducible only where they agree).
 
 The engine hash covers every source file of the GP engine together (:data:`ENGINE_FILES`), so
 a result names the engine it measured in one string; a refactor that moves code between
@@ -94,23 +95,61 @@ def package_versions(*modules: ModuleType) -> dict[str, str]:
     return versions
 
 
+def cpu(cpuinfo: str | None = None) -> dict[str, str | None]:
+    """The CPU's model name and a digest of its feature flags, from ``/proc/cpuinfo``.
+
+    Two machines whose torch reports the same capability (e.g. ``"AVX512"``) can still draw
+    different runs from one seed (MKL and oneDNN choose kernels by the CPU itself; session 43
+    met it, docs/results.md, "Limits of this comparison"): the model and the flags tell such
+    machines apart.
+
+    Parameters
+    ----------
+    cpuinfo : str, optional
+        The text of ``/proc/cpuinfo``; by default read from the file where it exists (Linux).
+
+    Returns
+    -------
+    dict
+        ``cpu_model`` (the first processor's ``model name``, else :func:`platform.processor`,
+        else None) and ``cpu_flags_sha256`` (the first 12 hex digits of the SHA-256 of its
+        sorted, space-joined ``flags``; None where there are none).
+    """
+    if cpuinfo is None:
+        path = Path("/proc/cpuinfo")
+        cpuinfo = path.read_text() if path.is_file() else ""
+    first: dict[str, str] = {}
+    for line in cpuinfo.split("\n\n", 1)[0].splitlines():
+        key, sep, value = line.partition(":")
+        if sep:
+            first.setdefault(key.strip(), value.strip())
+    flags = " ".join(sorted(first.get("flags", "").split()))
+    return {
+        "cpu_model": first.get("model name") or platform.processor() or None,
+        "cpu_flags_sha256": hashlib.sha256(flags.encode()).hexdigest()[:12] if flags else None,
+    }
+
+
 def machine() -> dict[str, Any]:
     """The facts of this machine that decide a run's last bits.
 
     The same code and versions draw different runs from one seed on CPUs where torch
     dispatches to other vector kernels (e.g. AVX2 against AVX512; docs/results.md, "Limits of
-    this comparison"), and its thread count can change the order of a reduction.
+    this comparison"), on CPUs of one capability but another model, and its thread count can
+    change the order of a reduction.
 
     Returns
     -------
     dict
         ``arch`` (``platform.machine()``), ``torch_cpu_capability`` (the kernels torch
-        dispatches to, e.g. ``"AVX512"``) and ``torch_threads``.
+        dispatches to, e.g. ``"AVX512"``), ``torch_threads``, and :func:`cpu`'s
+        ``cpu_model`` and ``cpu_flags_sha256``.
     """
     return {
         "arch": platform.machine(),
         "torch_cpu_capability": torch.backends.cpu.get_cpu_capability(),
         "torch_threads": torch.get_num_threads(),
+        **cpu(),
     }
 
 

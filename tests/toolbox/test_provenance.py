@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
+import platform
 import subprocess
 import sys
 
-from sb3_geogp.toolbox.provenance import engine_files
+from sb3_geogp.toolbox.provenance import cpu, engine_files
 
 # The package root and the warning helper change no number the engine computes.
 _NOT_NUMERICS = {"__init__.py", "kernels/__init__.py", "user_warnings.py"}
@@ -40,3 +42,33 @@ def test_the_record_names_the_cpu_kernels_torch_was_made_to_use() -> None:
     record = json.loads(out.stdout)
     assert record["machine"]["torch_cpu_capability"] == "DEFAULT"
     assert record["machine"]["torch_threads"] == 1
+    assert record["machine"]["cpu_model"] == cpu()["cpu_model"]
+
+
+_CPUINFO = """processor\t: 0
+vendor_id\t: GenuineIntel
+model name\t: Example CPU @ 2.00GHz
+flags\t\t: sse2 avx512f avx2 fpu
+
+processor\t: 1
+model name\t: Another CPU
+flags\t\t: fpu
+"""
+
+
+def test_cpu_reads_the_first_processor_and_digests_its_sorted_flags() -> None:
+    record = cpu(_CPUINFO)
+    assert record["cpu_model"] == "Example CPU @ 2.00GHz"
+    expected = hashlib.sha256(b"avx2 avx512f fpu sse2").hexdigest()[:12]
+    assert record["cpu_flags_sha256"] == expected
+    # The same flags in another order are the same machine; one flag more is not.
+    reordered = _CPUINFO.replace("sse2 avx512f avx2 fpu", "fpu avx2 sse2 avx512f")
+    assert cpu(reordered)["cpu_flags_sha256"] == expected
+    added = _CPUINFO.replace("sse2 avx512f avx2 fpu", "sse2 avx512f avx2 fpu amx_tile")
+    assert cpu(added)["cpu_flags_sha256"] != expected
+
+
+def test_cpu_without_cpuinfo_names_no_flags() -> None:
+    record = cpu("")
+    assert record["cpu_flags_sha256"] is None
+    assert record["cpu_model"] == (platform.processor() or None)
