@@ -8,7 +8,8 @@ MLP critic, the runs ``results/ppo_mc_targets/table.py`` reads. Final return (or
 mean_return``), difference of means, 95 % percentile bootstrap; H − C the primary reading (one
 cell), H − MLP and C − MLP family-wise at the published 42 comparisons. Only seeds all four
 arms have are compared. The identity control (``identity``: H on CartPole-v1 and Acrobot-v1,
-seed 0, where no episode exceeds 500 steps) is compared with C's stored runs first.
+seed 0, where no episode exceeds 500 steps) is compared with C's stored runs first; addendum
+1's control (``c_rerun_s0``: C re-run on this machine, seeds 0-9) is read last, paired by seed.
 
     python results/ppo_mcc_horizon/table.py --plot results/ppo_mcc_horizon/table.png \\
         > results/ppo_mcc_horizon/table.md
@@ -32,6 +33,8 @@ from sb3_geogp.toolbox.scripts import load_script  # noqa: E402
 
 #: ``results/ppo_mc_targets/table.py``: C's, A's and the MLP critic's runs, and the parser.
 READING = load_script(HERE.parent / "ppo_mc_targets" / "table.py", "ppo_mc_targets")
+#: ``results/budget100k_0_23/read.py``: differences paired by seed.
+PAIRED = load_script(HERE.parent / "budget100k_0_23" / "read.py", "budget100k_0_23_read")
 ENV = "MountainCarContinuous-v0"
 
 
@@ -56,6 +59,24 @@ def arms() -> tuple[list[dict[str, Any]], ...]:
     return READING.TABLE40.on_common_seeds(
         horizon, *([r for r in runs if r["spec"]["env_id"] == ENV] for runs in READING.arms())
     )
+
+
+def same_machine(horizon: list[dict[str, Any]], mc: list[dict[str, Any]]) -> list[str]:
+    """Addendum 1's control: H − C re-run on this machine (``c_rerun_s0``), and the re-run −
+    the stored C, each paired by seed on the seeds the re-run has."""
+    rerun = pool_sweeps([HERE / "c_rerun_s0"]) if (HERE / "c_rerun_s0").is_dir() else []
+    seeds = {r["spec"]["seed"] for r in rerun}
+    runs = {
+        name: {(ENV, r["spec"]["seed"]): r for r in arm if r["spec"]["seed"] in seeds}
+        for name, arm in (("H", horizon), ("C re-run", rerun), ("C", mc))
+    }
+    if not seeds or any(len(arm) != len(seeds) for arm in runs.values()):
+        return ["(not run)"]
+    return [
+        PAIRED.paired_header(),
+        PAIRED.paired(runs, "H", "C re-run", ENV),
+        PAIRED.paired(runs, "C re-run", "C", ENV),
+    ]
 
 
 def main() -> None:
@@ -83,6 +104,8 @@ def main() -> None:
     for name, rows in sets.items():
         print(f"\n### {name} ({names})\n")
         print_table(rows, label, name)
+    print("\n### Same-machine control (addendum 1, exploratory): paired by seed\n")
+    print("\n".join(same_machine(horizon, mc)))
     if args.plot:
         panels = [{"env": ENV, "algo": "ppo", **{k: t.get((ENV, "ppo")) for k, t in sets.items()}}]
         n = len({r["spec"]["seed"] for r in horizon})
