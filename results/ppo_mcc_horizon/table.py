@@ -14,10 +14,19 @@ seed 0, where no episode exceeds 500 steps) is compared with C's stored runs fir
     python results/ppo_mcc_horizon/table.py --plot results/ppo_mcc_horizon/table.png \\
         > results/ppo_mcc_horizon/table.md
     python results/ppo_mcc_horizon/table.py --metric mean_return > results/ppo_mcc_horizon/auc.md
+
+``--confirm`` reads addendum 2's confirmation on fresh seeds 280-299 instead (``confirm/``;
+whole blocks of 10 seeds only), H − C also paired by seed:
+
+    python results/ppo_mcc_horizon/table.py --confirm \\
+        --plot results/ppo_mcc_horizon/confirm/table.png > results/ppo_mcc_horizon/confirm/table.md
+    python results/ppo_mcc_horizon/table.py --confirm --metric mean_return \\
+        > results/ppo_mcc_horizon/confirm/auc.md
 """
 
 from __future__ import annotations
 
+import itertools
 import json
 import sys
 from pathlib import Path
@@ -36,6 +45,9 @@ READING = load_script(HERE.parent / "ppo_mc_targets" / "table.py", "ppo_mc_targe
 #: ``results/budget100k_0_23/read.py``: differences paired by seed.
 PAIRED = load_script(HERE.parent / "budget100k_0_23" / "read.py", "budget100k_0_23_read")
 ENV = "MountainCarContinuous-v0"
+#: Addendum 2's blocks of fresh seeds, and the critics of its ``C_s<F>`` folders (C, MLP).
+CONFIRM_BLOCKS = (280, 290)
+CRITICS = ("laplacian", "mlp")
 
 
 def identity() -> list[str]:
@@ -52,7 +64,7 @@ def identity() -> list[str]:
     return lines
 
 
-def arms() -> tuple[list[dict[str, Any]], ...]:
+def arms_of_screen() -> tuple[list[dict[str, Any]], ...]:
     """H, C, A and the MLP critic's MountainCarContinuous runs on the seeds all four have."""
     folders = [HERE / f"s{f}" for f in READING.FIRST_SEEDS]
     horizon = pool_sweeps([folder for folder in folders if folder.is_dir()])
@@ -61,55 +73,94 @@ def arms() -> tuple[list[dict[str, Any]], ...]:
     )
 
 
+def paired(*arms: list[dict[str, Any]], names: tuple[str, ...] = ("H", "C")) -> list[str]:
+    """Each consecutive pair of ``arms`` (named ``names``) differenced, paired by seed, on the
+    seeds all of them have."""
+    seeds = set.intersection(*({r["spec"]["seed"] for r in arm} for arm in arms))
+    if not seeds:
+        return ["(not run)"]
+    runs = {
+        name: {(ENV, r["spec"]["seed"]): r for r in arm if r["spec"]["seed"] in seeds}
+        for name, arm in zip(names, arms, strict=True)
+    }
+    rows = [PAIRED.paired(runs, a, b, ENV) for a, b in itertools.pairwise(names)]
+    return [PAIRED.paired_header(), *rows]
+
+
 def same_machine(horizon: list[dict[str, Any]], mc: list[dict[str, Any]]) -> list[str]:
     """Addendum 1's control: H − C re-run on this machine (``c_rerun_s0``), and the re-run −
     the stored C, each paired by seed on the seeds the re-run has."""
-    rerun = pool_sweeps([HERE / "c_rerun_s0"]) if (HERE / "c_rerun_s0").is_dir() else []
-    seeds = {r["spec"]["seed"] for r in rerun}
-    runs = {
-        name: {(ENV, r["spec"]["seed"]): r for r in arm if r["spec"]["seed"] in seeds}
-        for name, arm in (("H", horizon), ("C re-run", rerun), ("C", mc))
-    }
-    if not seeds or any(len(arm) != len(seeds) for arm in runs.values()):
-        return ["(not run)"]
-    return [
-        PAIRED.paired_header(),
-        PAIRED.paired(runs, "H", "C re-run", ENV),
-        PAIRED.paired(runs, "C re-run", "C", ENV),
-    ]
+    folder = HERE / "c_rerun_s0"
+    rerun = pool_sweeps([folder]) if folder.is_dir() else []
+    return paired(horizon, rerun, mc, names=("H", "C re-run", "C"))
+
+
+def confirmation() -> tuple[list[dict[str, Any]], ...]:
+    """Addendum 2's H, C and MLP runs (``confirm/H_s<F>``, ``confirm/C_s<F>``), of the blocks
+    of 10 seeds whose three arms have all finished."""
+    arms: tuple[list[dict[str, Any]], ...] = ([], [], [])
+    for first in CONFIRM_BLOCKS:
+        folders = [HERE / "confirm" / f"{arm}_s{first}" for arm in ("H", "C")]
+        if not all(folder.is_dir() for folder in folders):
+            continue
+        horizon, rest = (pool_sweeps([folder]) for folder in folders)
+        block = (horizon, *([r for r in rest if r["spec"]["critic"] == c] for c in CRITICS))
+        if all(len(runs) == 10 for runs in block):
+            for pooled, runs in zip(arms, block, strict=True):
+                pooled.extend(runs)
+    return arms
+
+
+def differences(
+    arms: dict[str, list[dict[str, Any]]], metric: str
+) -> dict[str, dict[tuple[str, str], dict[str, Any]]]:
+    """H − C (family of one), each arm but the MLP − MLP (family-wise at the published 42),
+    and H − A where ``arms`` has A."""
+
+    def against(a: str, b: str) -> dict[tuple[str, str], dict[str, Any]]:
+        rows = comparisons(arms[a], baseline=arms[b], family_size=1)
+        return {(c["env"], c["algo"]): c for c in rows if c["metric"] == metric}
+
+    sets = {"H − C": against("H", "C")}
+    for arm in ("H", "C"):
+        sets[f"{arm} − MLP"] = mlp_rows(arms[arm] + arms["MLP"], metric)
+    if "A" in arms:
+        sets["H − A"] = against("H", "A")
+    return sets
 
 
 def main() -> None:
     parser = READING.TABLE40.reading_parser(__doc__, "H", verdict=False)
+    parser.add_argument(
+        "--confirm", action="store_true", help="addendum 2's confirmation on seeds 280-299"
+    )
     args = parser.parse_args()
-    horizon, mc, returns, mlp = arms()
     label = READING.LABELS[args.metric]
-    print("## Identity control (H where no episode exceeds 500 steps)\n")
-    print("\n".join(identity()) or "(not run)")
-
-    def against(b: list[dict[str, Any]], a: list[dict[str, Any]] = horizon) -> dict:
-        return {
-            (c["env"], c["algo"]): c
-            for c in comparisons(a, baseline=b, family_size=1)
-            if c["metric"] == args.metric
-        }
-
-    sets = {
-        "H − C": against(mc),
-        "H − MLP": mlp_rows(horizon + mlp, args.metric),
-        "C − MLP": mlp_rows(mc + mlp, args.metric),
-        "H − A": against(returns),
-    }
+    if args.confirm:
+        horizon, mc, mlp = confirmation()
+        arms = {"H": horizon, "C": mc, "MLP": mlp}
+        what = "confirmation, fresh seeds"
+    else:
+        horizon, mc, returns, mlp = arms_of_screen()
+        arms = {"H": horizon, "C": mc, "A": returns, "MLP": mlp}
+        what = "screen"
+        print("## Identity control (H where no episode exceeds 500 steps)\n")
+        print("\n".join(identity()) or "(not run)")
+    sets = differences(arms, args.metric)
     names = "H: cut after 500 steps; C: 0.24's default; A: SB3's returns"
     for name, rows in sets.items():
         print(f"\n### {name} ({names})\n")
         print_table(rows, label, name)
-    print("\n### Same-machine control (addendum 1, exploratory): paired by seed\n")
-    print("\n".join(same_machine(horizon, mc)))
+    if args.confirm:
+        print("\n### H − C paired by seed\n")
+        print("\n".join(paired(horizon, mc)))
+    else:
+        print("\n### Same-machine control (addendum 1, exploratory): paired by seed\n")
+        print("\n".join(same_machine(horizon, mc)))
     if args.plot:
         panels = [{"env": ENV, "algo": "ppo", **{k: t.get((ENV, "ppo")) for k, t in sets.items()}}]
         n = len({r["spec"]["seed"] for r in horizon})
-        title = f"PPO {ENV} ({n} seeds): horizon=500 (H), 0.24's default (C), {label}"
+        title = f"PPO {ENV}, {what} ({n} seeds): horizon=500 (H), 0.24's default (C), {label}"
         plot_difference_panels(
             panels, list(sets), args.plot, title, n_cols=1, panel_size=(4.5, 3.2)
         )
