@@ -98,10 +98,11 @@ def package_versions(*modules: ModuleType) -> dict[str, str]:
 def cpu(cpuinfo: str | None = None) -> dict[str, str | None]:
     """The CPU's model name and a digest of its feature flags, from ``/proc/cpuinfo``.
 
-    Two machines whose torch reports the same capability (e.g. ``"AVX512"``) can still draw
-    different runs from one seed (MKL and oneDNN choose kernels by the CPU itself; session 43
-    met it, docs/results.md, "Limits of this comparison"): the model and the flags tell such
-    machines apart.
+    Runs stored in sessions 41-42 did not reproduce bit for bit in session 43 although torch's
+    capability (``"AVX512"``), its threads, the versions and the commit all matched
+    (docs/results.md, "Limits of this comparison"); the cause was not found, and the likeliest,
+    another CPU model (numerical libraries such as MKL dispatch on the CPU's own features), is
+    what these two fields can tell apart.
 
     Parameters
     ----------
