@@ -290,6 +290,19 @@ def test_default_target_is_the_algorithms(algo: type[BaseAlgorithm], expected: s
     assert default_target(None) == DEFAULT_TARGET == "monte_carlo"
 
 
+@pytest.mark.parametrize(("horizon", "same"), [(5, True), (500, True), (4, False)])
+def test_a_horizon_no_episode_reaches_changes_nothing(horizon: int, same: bool) -> None:
+    """Cut after at least the longest episode (5 steps here), the Monte Carlo returns are fed
+    as uncut ones, in the same batches (docs/results.md, "Monte Carlo returns cut after 500
+    steps": the identity that confines ``horizon=500`` to tasks with longer episodes)."""
+    uncut = _fed(PPO, GPValueCallback(target="monte_carlo"))
+    cut = _fed(PPO, GPValueCallback(target="monte_carlo", horizon=horizon))
+    matches = len(cut) == len(uncut) and all(
+        a.shape == b.shape and np.array_equal(a, b) for a, b in zip(cut, uncut, strict=True)
+    )
+    assert matches == same
+
+
 def test_horizon_needs_monte_carlo_and_a_positive_integer() -> None:
     for bad in (0, -1, 2.5):
         with pytest.raises(ValueError, match="horizon"):
