@@ -73,17 +73,19 @@ def arms_of_screen() -> tuple[list[dict[str, Any]], ...]:
     )
 
 
-def paired(*arms: list[dict[str, Any]], names: tuple[str, ...] = ("H", "C")) -> list[str]:
-    """Each consecutive pair of ``arms`` (named ``names``) differenced, paired by seed, on the
-    seeds all of them have."""
+def paired(
+    *arms: list[dict[str, Any]], names: tuple[str, ...] = ("H", "C"), env: str = ENV
+) -> list[str]:
+    """Each consecutive pair of ``arms`` (named ``names``; runs of ``env``) differenced, paired
+    by seed, on the seeds all of them have."""
     seeds = set.intersection(*({r["spec"]["seed"] for r in arm} for arm in arms))
     if not seeds:
         return ["(not run)"]
     runs = {
-        name: {(ENV, r["spec"]["seed"]): r for r in arm if r["spec"]["seed"] in seeds}
+        name: {(env, r["spec"]["seed"]): r for r in arm if r["spec"]["seed"] in seeds}
         for name, arm in zip(names, arms, strict=True)
     }
-    rows = [PAIRED.paired(runs, a, b, ENV) for a, b in itertools.pairwise(names)]
+    rows = [PAIRED.paired(runs, a, b, env) for a, b in itertools.pairwise(names)]
     return [PAIRED.paired_header(), *rows]
 
 
@@ -112,13 +114,13 @@ def confirmation() -> tuple[list[dict[str, Any]], ...]:
 
 
 def differences(
-    arms: dict[str, list[dict[str, Any]]], metric: str
+    arms: dict[str, list[dict[str, Any]]], metric: str, family: int = 1
 ) -> dict[str, dict[tuple[str, str], dict[str, Any]]]:
-    """H − C (family of one), each arm but the MLP − MLP (family-wise at the published 42),
-    and H − A where ``arms`` has A."""
+    """H − C (family-wise over ``family`` cells), each arm but the MLP − MLP (family-wise at
+    the published 42), and H − A where ``arms`` has A."""
 
     def against(a: str, b: str) -> dict[tuple[str, str], dict[str, Any]]:
-        rows = comparisons(arms[a], baseline=arms[b], family_size=1)
+        rows = comparisons(arms[a], baseline=arms[b], family_size=family)
         return {(c["env"], c["algo"]): c for c in rows if c["metric"] == metric}
 
     sets = {"H − C": against("H", "C")}
