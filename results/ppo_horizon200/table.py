@@ -64,7 +64,7 @@ def main() -> None:
     for env in ENVS:
         cell = [[r for r in arm if r["spec"]["env_id"] == env] for arm in (horizon, mc)]
         lines = HORIZON.paired(*cell, env=env)
-        print("\n".join(lines if env == ENVS[0] else lines[2:]))
+        print("\n".join(lines if env == ENVS[0] else lines[1:]))
     stalls = ", ".join(
         f"{n} {READING.stalls(a)}" for n, a in (("H", horizon), ("C", mc), ("MLP", mlp))
     )
