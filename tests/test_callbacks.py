@@ -271,6 +271,13 @@ def _fed(algo: type[BaseAlgorithm], callback: GPValueCallback) -> list[np.ndarra
     return [np.concatenate([obs, targets[:, None]], axis=1) for obs, targets, _ in recorder.batches]
 
 
+def _same_batches(a: list[np.ndarray], b: list[np.ndarray]) -> bool:
+    """Whether two feeds (:func:`_fed`) are the same batches, value for value."""
+    return len(a) == len(b) and all(
+        x.shape == y.shape and np.array_equal(x, y) for x, y in zip(a, b, strict=True)
+    )
+
+
 @pytest.mark.parametrize(("algo", "expected"), [(PPO, "monte_carlo"), (A2C, "returns")])
 def test_default_target_is_the_algorithms(algo: type[BaseAlgorithm], expected: str) -> None:
     """Unset, the target is the algorithm's default, resolved when training starts: the
@@ -282,11 +289,7 @@ def test_default_target_is_the_algorithms(algo: type[BaseAlgorithm], expected: s
     other = "returns" if expected == "monte_carlo" else "monte_carlo"
     for target, same in ((expected, True), (other, False)):
         explicit = _fed(algo, GPValueCallback(target=target))  # type: ignore[arg-type]
-        matches = len(explicit) == len(default) and all(
-            a.shape == b.shape and np.array_equal(a, b)
-            for a, b in zip(explicit, default, strict=True)
-        )
-        assert matches == same, target
+        assert _same_batches(explicit, default) == same, target
     assert default_target(None) == DEFAULT_TARGET == "monte_carlo"
 
 
@@ -297,10 +300,7 @@ def test_a_horizon_no_episode_reaches_changes_nothing(horizon: int, same: bool) 
     steps": the identity that confines ``horizon=500`` to tasks with longer episodes)."""
     uncut = _fed(PPO, GPValueCallback(target="monte_carlo"))
     cut = _fed(PPO, GPValueCallback(target="monte_carlo", horizon=horizon))
-    matches = len(cut) == len(uncut) and all(
-        a.shape == b.shape and np.array_equal(a, b) for a, b in zip(cut, uncut, strict=True)
-    )
-    assert matches == same
+    assert _same_batches(cut, uncut) == same
 
 
 def test_horizon_needs_monte_carlo_and_a_positive_integer() -> None:
