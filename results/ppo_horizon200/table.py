@@ -11,6 +11,15 @@ Acrobot runs at the -500 cap. Only whole blocks of 10 seeds (both arms, both cel
     python results/ppo_horizon200/table.py --plot results/ppo_horizon200/table.png \\
         > results/ppo_horizon200/table.md
     python results/ppo_horizon200/table.py --metric mean_return > results/ppo_horizon200/auc.md
+
+``--confirm`` reads addendum 1's confirmation on fresh seeds 300-319 instead (``confirm/``;
+Acrobot, CartPole and MountainCarContinuous, the MLP critic run beside; a cell on the blocks
+whose three arms finished it):
+
+    python results/ppo_horizon200/table.py --confirm \\
+        --plot results/ppo_horizon200/confirm/table.png > results/ppo_horizon200/confirm/table.md
+    python results/ppo_horizon200/table.py --confirm --metric mean_return \\
+        > results/ppo_horizon200/confirm/auc.md
 """
 
 from __future__ import annotations
@@ -32,10 +41,14 @@ HORIZON = load_script(HERE.parent / "ppo_mcc_horizon" / "table.py", "ppo_mcc_hor
 READING = HORIZON.READING
 ENVS = ("Acrobot-v1", "CartPole-v1")
 FIRST_SEEDS = READING.FIRST_SEEDS
+#: Addendum 1's blocks, cells and the critics of its ``C_s<F>`` folders (C, MLP).
+CONFIRM_BLOCKS = (300, 310)
+CONFIRM_ENVS = (*ENVS, "MountainCarContinuous-v0")
+CRITICS = ("laplacian", "mlp")
 
 
 def arms() -> tuple[list[dict[str, Any]], ...]:
-    """H, C and the MLP critic's runs of the whole blocks, on the seeds all three have."""
+    """The screen's H, C and MLP runs of the whole blocks, on the seeds all three have."""
     horizon: list[dict[str, Any]] = []
     mc: list[dict[str, Any]] = []
     for first in FIRST_SEEDS:
@@ -51,32 +64,54 @@ def arms() -> tuple[list[dict[str, Any]], ...]:
     return READING.TABLE40.on_common_seeds(horizon, mc, mlp)
 
 
+def confirmation() -> tuple[list[dict[str, Any]], ...]:
+    """Addendum 1's H, C and MLP runs (``confirm/H_s<F>``, ``confirm/C_s<F>``): each cell on
+    the blocks where all three arms finished its 10 seeds."""
+    out: tuple[list[dict[str, Any]], ...] = ([], [], [])
+    for first in CONFIRM_BLOCKS:
+        folders = [HERE / "confirm" / f"{arm}_s{first}" for arm in ("H", "C")]
+        if not all(folder.is_dir() for folder in folders):
+            continue
+        horizon, rest = (pool_sweeps([folder]) for folder in folders)
+        block = (horizon, *([r for r in rest if r["spec"]["critic"] == c] for c in CRITICS))
+        for env in CONFIRM_ENVS:
+            cells = [[r for r in runs if r["spec"]["env_id"] == env] for runs in block]
+            if all(len(cell) == 10 for cell in cells):
+                for pooled, cell in zip(out, cells, strict=True):
+                    pooled.extend(cell)
+    return out
+
+
 def main() -> None:
-    args = READING.TABLE40.reading_parser(__doc__, "H", verdict=False).parse_args()
-    horizon, mc, mlp = arms()
+    parser = READING.TABLE40.reading_parser(__doc__, "H", verdict=False)
+    parser.add_argument(
+        "--confirm", action="store_true", help="addendum 1's confirmation on seeds 300-319"
+    )
+    args = parser.parse_args()
+    horizon, mc, mlp = confirmation() if args.confirm else arms()
+    envs = sorted({r["spec"]["env_id"] for r in horizon})
     label = READING.LABELS[args.metric]
-    sets = HORIZON.differences({"H": horizon, "C": mc, "MLP": mlp}, args.metric, len(ENVS))
-    names = "H: cut after 200 steps; C: 0.24's default, re-run here"
+    sets = HORIZON.differences({"H": horizon, "C": mc, "MLP": mlp}, args.metric, len(envs))
+    names = "H: cut after 200 steps; C: 0.24's default, run here"
     for name, rows in sets.items():
         print(f"\n### {name} ({names})\n")
         print_table(rows, label, name)
     print("\n### H − C paired by seed (95 % t)\n")
-    for env in ENVS:
+    for k, env in enumerate(envs):
         cell = [[r for r in arm if r["spec"]["env_id"] == env] for arm in (horizon, mc)]
         lines = HORIZON.paired(*cell, env=env)
-        print("\n".join(lines if env == ENVS[0] else lines[1:]))
-    stalls = ", ".join(
-        f"{n} {READING.stalls(a)}" for n, a in (("H", horizon), ("C", mc), ("MLP", mlp))
-    )
-    print(f"\nAcrobot runs at the -500 cap: {stalls}")
+        print("\n".join(lines if k == 0 else lines[1:]))
+    stalls = [f"{n} {READING.stalls(a)}" for n, a in (("H", horizon), ("C", mc), ("MLP", mlp))]
+    print(f"\nAcrobot runs at the -500 cap: {', '.join(stalls)}")
     if args.plot:
         panels = [
             {"env": env, "algo": "ppo", **{k: t.get((env, "ppo")) for k, t in sets.items()}}
-            for env in ENVS
+            for env in envs
         ]
-        n = len({r["spec"]["seed"] for r in horizon})
-        title = f"PPO ({n} seeds a cell): horizon=200 (H), 0.24's default (C), {label}"
-        plot_difference_panels(panels, list(sets), args.plot, title, len(ENVS), (3.2, 2.8))
+        seeds = len({r["spec"]["seed"] for r in horizon})
+        what = "confirmation, fresh seeds" if args.confirm else "screen"
+        title = f"PPO, {what} ({seeds} seeds): horizon=200 (H), 0.24's default (C), {label}"
+        plot_difference_panels(panels, list(sets), args.plot, title, len(envs), (3.2, 2.8))
 
 
 if __name__ == "__main__":
