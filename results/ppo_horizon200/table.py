@@ -41,10 +41,9 @@ HORIZON = load_script(HERE.parent / "ppo_mcc_horizon" / "table.py", "ppo_mcc_hor
 READING = HORIZON.READING
 ENVS = ("Acrobot-v1", "CartPole-v1")
 FIRST_SEEDS = READING.FIRST_SEEDS
-#: Addendum 1's blocks, cells and the critics of its ``C_s<F>`` folders (C, MLP).
+#: Addendum 1's blocks and cells.
 CONFIRM_BLOCKS = (300, 310)
 CONFIRM_ENVS = (*ENVS, "MountainCarContinuous-v0")
-CRITICS = ("laplacian", "mlp")
 
 
 def arms() -> tuple[list[dict[str, Any]], ...]:
@@ -64,31 +63,16 @@ def arms() -> tuple[list[dict[str, Any]], ...]:
     return READING.TABLE40.on_common_seeds(horizon, mc, mlp)
 
 
-def confirmation() -> tuple[list[dict[str, Any]], ...]:
-    """Addendum 1's H, C and MLP runs (``confirm/H_s<F>``, ``confirm/C_s<F>``): each cell on
-    the blocks where all three arms finished its 10 seeds."""
-    out: tuple[list[dict[str, Any]], ...] = ([], [], [])
-    for first in CONFIRM_BLOCKS:
-        folders = [HERE / "confirm" / f"{arm}_s{first}" for arm in ("H", "C")]
-        if not all(folder.is_dir() for folder in folders):
-            continue
-        horizon, rest = (pool_sweeps([folder]) for folder in folders)
-        block = (horizon, *([r for r in rest if r["spec"]["critic"] == c] for c in CRITICS))
-        for env in CONFIRM_ENVS:
-            cells = [[r for r in runs if r["spec"]["env_id"] == env] for runs in block]
-            if all(len(cell) == 10 for cell in cells):
-                for pooled, cell in zip(out, cells, strict=True):
-                    pooled.extend(cell)
-    return out
-
-
 def main() -> None:
     parser = READING.TABLE40.reading_parser(__doc__, "H", verdict=False)
     parser.add_argument(
         "--confirm", action="store_true", help="addendum 1's confirmation on seeds 300-319"
     )
     args = parser.parse_args()
-    horizon, mc, mlp = confirmation() if args.confirm else arms()
+    if args.confirm:
+        horizon, mc, mlp = HORIZON.confirmation(HERE / "confirm", CONFIRM_BLOCKS, CONFIRM_ENVS)
+    else:
+        horizon, mc, mlp = arms()
     envs = sorted({r["spec"]["env_id"] for r in horizon})
     label = READING.LABELS[args.metric]
     sets = HORIZON.differences({"H": horizon, "C": mc, "MLP": mlp}, args.metric, len(envs))

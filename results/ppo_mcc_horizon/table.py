@@ -97,20 +97,27 @@ def same_machine(horizon: list[dict[str, Any]], mc: list[dict[str, Any]]) -> lis
     return paired(horizon, rerun, mc, names=("H", "C re-run", "C"))
 
 
-def confirmation() -> tuple[list[dict[str, Any]], ...]:
-    """Addendum 2's H, C and MLP runs (``confirm/H_s<F>``, ``confirm/C_s<F>``), of the blocks
-    of 10 seeds whose three arms have all finished."""
-    arms: tuple[list[dict[str, Any]], ...] = ([], [], [])
-    for first in CONFIRM_BLOCKS:
-        folders = [HERE / "confirm" / f"{arm}_s{first}" for arm in ("H", "C")]
-        if not all(folder.is_dir() for folder in folders):
+def confirmation(
+    folder: Path = HERE / "confirm",
+    blocks: tuple[int, ...] = CONFIRM_BLOCKS,
+    envs: tuple[str, ...] = (ENV,),
+) -> tuple[list[dict[str, Any]], ...]:
+    """A confirmation's H, C and MLP runs (``folder/H_s<F>``; C and the MLP critic in
+    ``folder/C_s<F>``): each cell of ``envs`` on the blocks of 10 seeds whose three arms have
+    all finished it (here addendum 2's)."""
+    out: tuple[list[dict[str, Any]], ...] = ([], [], [])
+    for first in blocks:
+        folders = [folder / f"{arm}_s{first}" for arm in ("H", "C")]
+        if not all(f.is_dir() for f in folders):
             continue
-        horizon, rest = (pool_sweeps([folder]) for folder in folders)
+        horizon, rest = (pool_sweeps([f]) for f in folders)
         block = (horizon, *([r for r in rest if r["spec"]["critic"] == c] for c in CRITICS))
-        if all(len(runs) == 10 for runs in block):
-            for pooled, runs in zip(arms, block, strict=True):
-                pooled.extend(runs)
-    return arms
+        for env in envs:
+            cells = [[r for r in runs if r["spec"]["env_id"] == env] for runs in block]
+            if all(len(cell) == 10 for cell in cells):
+                for pooled, cell in zip(out, cells, strict=True):
+                    pooled.extend(cell)
+    return out
 
 
 def differences(
