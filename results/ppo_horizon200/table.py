@@ -81,10 +81,7 @@ def main() -> None:
         print(f"\n### {name} ({names})\n")
         print_table(rows, label, name)
     print("\n### H − C paired by seed (95 % t)\n")
-    for k, env in enumerate(envs):
-        cell = [[r for r in arm if r["spec"]["env_id"] == env] for arm in (horizon, mc)]
-        lines = HORIZON.paired(*cell, env=env)
-        print("\n".join(lines if k == 0 else lines[1:]))
+    print("\n".join(HORIZON.paired(horizon, mc, envs=tuple(envs))))
     stalls = [f"{n} {READING.stalls(a)}" for n, a in (("H", horizon), ("C", mc), ("MLP", mlp))]
     print(f"\nAcrobot runs at the -500 cap: {', '.join(stalls)}")
     if args.plot:

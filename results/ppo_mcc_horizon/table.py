@@ -74,18 +74,25 @@ def arms_of_screen() -> tuple[list[dict[str, Any]], ...]:
 
 
 def paired(
-    *arms: list[dict[str, Any]], names: tuple[str, ...] = ("H", "C"), env: str = ENV
+    *arms: list[dict[str, Any]],
+    names: tuple[str, ...] = ("H", "C"),
+    envs: tuple[str, ...] = (ENV,),
 ) -> list[str]:
-    """Each consecutive pair of ``arms`` (named ``names``; runs of ``env``) differenced, paired
-    by seed, on the seeds all of them have."""
-    seeds = set.intersection(*({r["spec"]["seed"] for r in arm} for arm in arms))
-    if not seeds:
+    """Each consecutive pair of ``arms`` (named ``names``) differenced in each cell of
+    ``envs``, paired by seed, on the (cell, seed) pairs all of them have."""
+    cells = set.intersection(*({(r["spec"]["env_id"], r["spec"]["seed"]) for r in a} for a in arms))
+    if not cells:
         return ["(not run)"]
     runs = {
-        name: {(env, r["spec"]["seed"]): r for r in arm if r["spec"]["seed"] in seeds}
+        name: {key: r for r in arm if (key := (r["spec"]["env_id"], r["spec"]["seed"])) in cells}
         for name, arm in zip(names, arms, strict=True)
     }
-    rows = [PAIRED.paired(runs, a, b, env) for a, b in itertools.pairwise(names)]
+    rows = [
+        PAIRED.paired(runs, a, b, env)
+        for env in envs
+        if any(e == env for e, _ in cells)
+        for a, b in itertools.pairwise(names)
+    ]
     return [PAIRED.paired_header(), *rows]
 
 
