@@ -20,6 +20,22 @@ whose three arms finished it):
         --plot results/ppo_horizon200/confirm/table.png > results/ppo_horizon200/confirm/table.md
     python results/ppo_horizon200/table.py --confirm --metric mean_return \\
         > results/ppo_horizon200/confirm/auc.md
+
+``--registered`` reads addendum 2's registered test on fresh seeds 320-339 (``registered/``,
+laid out as ``confirm/``) and checks its primary reading and guards; Acrobot's H − C is also
+read paired over every seed run so far. ``--verdict`` prints issue 13's verdict table with H's
+runs in the three PPO cells a 200-step cut changes (the screen's ``H_s<F>`` and ``mcc_s<F>``),
+every other cell as published, against SB3's MLP critic, and checks addendum 2's adoption rule
+against the published table (``results/ppo_mc_targets/table.py --verdict``):
+
+    python results/ppo_horizon200/table.py --registered \\
+        --plot results/ppo_horizon200/registered/table.png \\
+        > results/ppo_horizon200/registered/table.md
+    python results/ppo_horizon200/table.py --registered --metric mean_return \\
+        > results/ppo_horizon200/registered/auc.md
+    python results/ppo_horizon200/table.py --verdict > results/ppo_horizon200/verdict.md
+    python results/ppo_horizon200/table.py --verdict --metric mean_return \\
+        > results/ppo_horizon200/verdict_auc.md
 """
 
 from __future__ import annotations
@@ -30,7 +46,7 @@ from typing import Any
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent / "replication_0_15"))
-from pool30 import print_table  # noqa: E402
+from pool30 import mlp_rows, print_table  # noqa: E402
 
 from sb3_geogp.comparison.report import plot_difference_panels  # noqa: E402
 from sb3_geogp.comparison.results import pool_sweeps  # noqa: E402
@@ -43,7 +59,10 @@ ENVS = ("Acrobot-v1", "CartPole-v1")
 FIRST_SEEDS = READING.FIRST_SEEDS
 #: Addendum 1's blocks and cells.
 CONFIRM_BLOCKS = (300, 310)
-CONFIRM_ENVS = (*ENVS, "MountainCarContinuous-v0")
+MCC = "MountainCarContinuous-v0"
+CONFIRM_ENVS = (*ENVS, MCC)
+#: Addendum 2's blocks of fresh seeds.
+REGISTERED_BLOCKS = (320, 330)
 
 
 def arms() -> tuple[list[dict[str, Any]], ...]:
@@ -63,14 +82,83 @@ def arms() -> tuple[list[dict[str, Any]], ...]:
     return READING.TABLE40.on_common_seeds(horizon, mc, mlp)
 
 
+def pooled_acrobot() -> tuple[list[dict[str, Any]], ...]:
+    """H's and C's Acrobot runs of every sample so far (the screen, addenda 1 and 2), whole
+    blocks only."""
+    samples = [
+        arms(),
+        HORIZON.confirmation(HERE / "confirm", CONFIRM_BLOCKS, CONFIRM_ENVS),
+        HORIZON.confirmation(HERE / "registered", REGISTERED_BLOCKS, CONFIRM_ENVS),
+    ]
+    return tuple(
+        [r for sample in samples for r in sample[i] if r["spec"]["env_id"] == "Acrobot-v1"]
+        for i in (0, 1)
+    )
+
+
+def registered_rule(h_c: dict[tuple[str, str], dict[str, Any]]) -> list[str]:
+    """Addendum 2's primary reading and guards, each as a line saying whether it holds."""
+    if set(h_c) != {(env, "ppo") for env in CONFIRM_ENVS}:
+        return ["- partial: not every cell has finished; no decision"]
+    primary = h_c[(MCC, "ppo")]["verdict"] == "better"
+    guards = {env: h_c[(env, "ppo")]["verdict"] != "worse" for env in ENVS}
+    lines = [f"- primary, {MCC} H − C better at 95 %: {'holds' if primary else 'fails'}"]
+    lines += [f"- guard, {env} H − C not worse at 95 %: {'holds' if ok else 'fails'}"
+              for env, ok in guards.items()]  # fmt: skip
+    return lines
+
+
+def verdict(metric: str) -> list[str]:
+    """Issue 13's table with H in the cells a 200-step cut changes, and addendum 2's adoption
+    rule checked against the published table (both on the seeds every arm has)."""
+    mcc = pool_sweeps([f for f in (HERE / f"mcc_s{s}" for s in FIRST_SEEDS) if f.is_dir()])
+    horizon = mcc + [r for r in arms()[0] if r["spec"]["env_id"] in ENVS]
+    published, _, mlp = READING.arms()
+    changed = {r["spec"]["env_id"] for r in horizon}
+    kept = [r for r in published if r["spec"]["env_id"] not in changed]
+    a2c = READING.TABLE40.a2c_runs()
+    new = mlp_rows(horizon + kept + mlp + a2c, metric)
+    old = mlp_rows(published + mlp + a2c, metric)
+    print_table(new, READING.LABELS[metric])
+    lost = [f"{env} {algo}" for (env, algo), c in old.items()
+            if c["verdict"] == "better" and new[(env, algo)]["verdict"] != "better"]  # fmt: skip
+    worse = [sum(c["verdict"] == "worse" for c in t.values()) for t in (new, old)]
+    fw_worse = [k for k, c in new.items() if c["fw_verdict"] == "worse"]
+    complete = all(env in changed and new[(env, "ppo")]["n_a"] == 40 for env in CONFIRM_ENVS)
+    return [
+        *([] if complete else ["- partial: a changed cell lacks H's 40 seeds; no decision"]),
+        f"- no cell worse family-wise: {'holds' if not fw_worse else f'fails ({fw_worse})'}",
+        f"- worse at 95 %: {worse[0]} (published {worse[1]}): "
+        f"{'holds' if worse[0] <= worse[1] else 'fails'}",
+        f"- no better cell lost: {'holds' if not lost else f'fails ({lost})'}",
+    ]
+
+
 def main() -> None:
     parser = READING.TABLE40.reading_parser(__doc__, "H", verdict=False)
-    parser.add_argument(
+    sample = parser.add_mutually_exclusive_group()
+    sample.add_argument(
         "--confirm", action="store_true", help="addendum 1's confirmation on seeds 300-319"
     )
+    sample.add_argument(
+        "--registered", action="store_true", help="addendum 2's test on seeds 320-339"
+    )
+    sample.add_argument(
+        "--verdict", action="store_true", help="issue 13's table with H in its changed cells"
+    )
     args = parser.parse_args()
-    if args.confirm:
-        horizon, mc, mlp = HORIZON.confirmation(HERE / "confirm", CONFIRM_BLOCKS, CONFIRM_ENVS)
+    if args.verdict:
+        print("## Issue 13's table, H in the PPO cells a 200-step cut changes\n")
+        rule = verdict(args.metric)
+        if args.metric == "final_return":
+            print("\n### Addendum 2's adoption rule\n")
+            print("\n".join(rule))
+        return
+    if args.confirm or args.registered:
+        folder, blocks = (
+            ("registered", REGISTERED_BLOCKS) if args.registered else ("confirm", CONFIRM_BLOCKS)
+        )
+        horizon, mc, mlp = HORIZON.confirmation(HERE / folder, blocks, CONFIRM_ENVS)
     else:
         horizon, mc, mlp = arms()
     envs = sorted({r["spec"]["env_id"] for r in horizon})
@@ -84,13 +172,18 @@ def main() -> None:
     print("\n".join(HORIZON.paired(horizon, mc, envs=tuple(envs))))
     stalls = [f"{n} {READING.stalls(a)}" for n, a in (("H", horizon), ("C", mc), ("MLP", mlp))]
     print(f"\nAcrobot runs at the -500 cap: {', '.join(stalls)}")
+    if args.registered and args.metric == "final_return":
+        print("\n### Addendum 2's rule\n")
+        print("\n".join(registered_rule(sets["H − C"])))
+        print("\n### Acrobot H − C paired by seed, every sample so far (secondary)\n")
+        print("\n".join(HORIZON.paired(*pooled_acrobot(), envs=("Acrobot-v1",))))
     if args.plot:
         panels = [
             {"env": env, "algo": "ppo", **{k: t.get((env, "ppo")) for k, t in sets.items()}}
             for env in envs
         ]
         seeds = len({r["spec"]["seed"] for r in horizon})
-        what = "confirmation, fresh seeds" if args.confirm else "screen"
+        what = "fresh seeds" if args.confirm or args.registered else "screen"
         title = f"PPO, {what} ({seeds} seeds): horizon=200 (H), 0.24's default (C), {label}"
         plot_difference_panels(panels, list(sets), args.plot, title, len(envs), (3.2, 2.8))
 
