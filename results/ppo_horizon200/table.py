@@ -26,7 +26,9 @@ laid out as ``confirm/``) and checks its primary reading and guards; Acrobot's H
 read paired over every seed run so far. ``--verdict`` prints issue 13's verdict table with H's
 runs in the three PPO cells a 200-step cut changes (the screen's ``H_s<F>`` and ``mcc_s<F>``),
 every other cell as published, against SB3's MLP critic, and checks addendum 2's adoption rule
-against the published table (``results/ppo_mc_targets/table.py --verdict``):
+against the published table (``results/ppo_mc_targets/table.py --verdict``); it first compares
+H and C run on seed 0 of the four PPO cells whose episodes last at most 200 steps
+(``identity/``, session 44, after the adoption reading), where the cut should change nothing:
 
     python results/ppo_horizon200/table.py --registered \\
         --plot results/ppo_horizon200/registered/table.png \\
@@ -148,7 +150,9 @@ def main() -> None:
     )
     args = parser.parse_args()
     if args.verdict:
-        print("## Issue 13's table, H in the PPO cells a 200-step cut changes\n")
+        print("## Identity control: H and C where no episode exceeds 200 steps, seed 0\n")
+        print("\n".join(HORIZON.identity(*(HERE / "identity" / a / "runs" for a in "HC"))))
+        print("\n## Issue 13's table, H in the PPO cells a 200-step cut changes\n")
         rule = verdict(args.metric)
         if args.metric == "final_return":
             print("\n### Addendum 2's adoption rule\n")

@@ -50,13 +50,16 @@ CONFIRM_BLOCKS = (280, 290)
 CRITICS = ("laplacian", "mlp")
 
 
-def identity() -> list[str]:
-    """One line per identity-control run: equal to C's stored run of the same cell and seed,
-    or how it differs."""
+def identity(
+    runs: Path = HERE / "identity" / "runs",
+    reference: Path = HERE.parent / "ppo_mc_targets" / "s0" / "runs",
+) -> list[str]:
+    """One line per identity-control run in ``runs``: equal to the run of the same cell and
+    seed in ``reference`` (here C's stored runs), or how it differs."""
     lines = []
-    for path in sorted((HERE / "identity" / "runs").glob("*.json")):
+    for path in sorted(runs.glob("*.json")):
         h = json.loads(path.read_text())
-        c = json.loads((HERE.parent / "ppo_mc_targets" / "s0" / "runs" / path.name).read_text())
+        c = json.loads((reference / path.name).read_text())
         same = h["final_return"] == c["final_return"] and h["eval"] == c["eval"]
         verdict = "identical" if same else "differ"
         final = f"H {h['final_return']:.1f}, C {c['final_return']:.1f}"
