@@ -45,7 +45,7 @@ from sb3_geogp.comparison.command import (
 from sb3_geogp.comparison.hyperparams import ALGOS, ALL_CRITICS
 from sb3_geogp.comparison.hyperparams import threshold as comparison_threshold
 from sb3_geogp.comparison.report import pyplot
-from sb3_geogp.comparison.specs import fed_target
+from sb3_geogp.comparison.specs import fed
 from sb3_geogp.policies import GPActorCriticPolicy, default_kernel
 
 if TYPE_CHECKING:
@@ -185,8 +185,8 @@ _SETTINGS = "train_settings.json"
 
 def _settings(args: argparse.Namespace) -> dict[str, Any]:
     settings = {k: v for k, v in vars(args).items() if k not in ("command", "out", "no_progress")}
-    # The target the critic is fed, as run directories made before its default moved record it.
-    settings["target"] = fed_target(args.target, args.algo, args.critic)
+    # What the critic is fed, as run directories made before its default moved record it.
+    settings["target"], settings["horizon"] = fed(args.target, args.horizon, args.algo, args.critic)
     # Unset, an option added after 0.20 is left out, so that older run directories still match.
     return {k: v for k, v in settings.items() if not (k in _ADDED and v is None)}
 

@@ -18,8 +18,8 @@ from stable_baselines3.common.callbacks import BaseCallback, CallbackList
 from stable_baselines3.common.env_util import make_vec_env
 from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
 
-from sb3_geogp import GPActorCriticPolicy, GPCriticWarning, GPValueCallback
-from sb3_geogp.callbacks import DEFAULT_TARGET, default_target
+from sb3_geogp import GPActorCriticPolicy, GPCriticWarning, GPValueCallback, callbacks
+from sb3_geogp.callbacks import DEFAULT_HORIZON, DEFAULT_TARGET, default_feed, default_target
 from sb3_geogp.policies import SUPPORTED_ALGORITHMS
 from sb3_geogp.targets import (
     discounted_returns,
@@ -291,6 +291,26 @@ def test_default_target_is_the_algorithms(algo: type[BaseAlgorithm], expected: s
         explicit = _fed(algo, GPValueCallback(target=target))  # type: ignore[arg-type]
         assert _same_batches(explicit, default) == same, target
     assert default_target(None) == DEFAULT_TARGET == "monte_carlo"
+
+
+def test_default_feed_cuts_the_ppo_familys_monte_carlo_returns(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Unset, PPO's Monte Carlo returns are cut after :data:`DEFAULT_HORIZON` steps: the
+    batches are those of that horizon passed explicitly, not the uncut ones (the horizon set
+    to 4 here, below the scripted episodes' 5 steps); A2C's returns have no horizon."""
+    assert default_feed(PPO) == ("monte_carlo", DEFAULT_HORIZON) == ("monte_carlo", 200)
+    assert default_feed(A2C) == ("returns", None)
+    monkeypatch.setattr(callbacks, "DEFAULT_HORIZON", 4)
+    callback = GPValueCallback()
+    default = _fed(PPO, callback)
+    assert (callback.target, callback.horizon) == ("monte_carlo", 4)
+    cut = _fed(PPO, GPValueCallback(target="monte_carlo", horizon=4))
+    uncut = _fed(PPO, GPValueCallback(target="monte_carlo"))
+    assert _same_batches(default, cut) and not _same_batches(default, uncut)
+    a2c = GPValueCallback()
+    _fed(A2C, a2c)
+    assert (a2c.target, a2c.horizon) == ("returns", None)
 
 
 @pytest.mark.parametrize(("horizon", "same"), [(5, True), (500, True), (4, False)])

@@ -227,21 +227,27 @@ def test_unset_horizon_keeps_older_run_directories_valid(tmp_path: Path) -> None
 
 
 @pytest.mark.parametrize(
-    ("extra", "target"),
-    [(["--algo", "ppo"], "monte_carlo"), (["--algo", "a2c"], "returns"),
-     (["--algo", "ppo", "--critic", "mlp"], "returns"),
-     (["--algo", "ppo", "--target", "returns"], "returns")],
+    ("extra", "target", "horizon"),
+    [(["--algo", "ppo"], "monte_carlo", 200), (["--algo", "a2c"], "returns", None),
+     (["--algo", "ppo", "--critic", "mlp"], "returns", None),
+     (["--algo", "ppo", "--target", "returns"], "returns", None),
+     (["--algo", "ppo", "--target", "monte_carlo"], "monte_carlo", None)],
 )  # fmt: skip
 def test_run_directory_records_the_target_fed(
-    extra: list[str], target: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+    extra: list[str],
+    target: str,
+    horizon: int | None,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
 ) -> None:
-    """Unset, ``--target`` is the algorithm's default and recorded as such: a directory made
-    before PPO's default moved (``"returns"``) is refused under PPO, kept under A2C."""
+    """Unset, ``--target`` is the algorithm's default and recorded as such, with its horizon
+    where it has one: a directory made before PPO's default moved (``"returns"``) is refused
+    under PPO, kept under A2C."""
     argv = ["train", *extra, "--env", "CartPole-v1", "--timesteps", "32", "--n-steps", "16"]
     argv.append("--no-progress")
     assert main([*argv, "--out", str(tmp_path / "run")]) == 0
     settings = json.loads((tmp_path / "run" / "train_settings.json").read_text())
-    assert settings["target"] == target
+    assert (settings["target"], settings.get("horizon")) == (target, horizon)
     older = tmp_path / "older"
     older.mkdir()
     (older / "train_settings.json").write_text(json.dumps({**settings, "target": "returns"}))

@@ -7,7 +7,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-from sb3_geogp.callbacks import Target, default_target
+from sb3_geogp.callbacks import Target, default_feed
 from sb3_geogp.comparison.hyperparams import (
     ALGOS,
     CRITICS,
@@ -20,14 +20,19 @@ from sb3_geogp.comparison.hyperparams import (
 )
 
 
-def fed_target(target: Target | None, algo: str, critic: str) -> Target:
+def fed(
+    target: Target | None, horizon: int | None, algo: str, critic: str
+) -> tuple[Target, int | None]:
     """The target ``critic`` learns under ``algo`` (a key of
-    :data:`~sb3_geogp.comparison.hyperparams.ALGOS`) when ``target`` is asked for: SB3's
-    returns for the MLP critic, else ``target``, or where ``None`` ``GPValueCallback``'s default
-    for the algorithm (:func:`~sb3_geogp.callbacks.default_target`)."""
+    :data:`~sb3_geogp.comparison.hyperparams.ALGOS`) and where it is cut, when ``target`` and
+    ``horizon`` are asked for: SB3's returns, uncut, for the MLP critic; else as asked, or
+    where ``target`` is ``None`` ``GPValueCallback``'s default for the algorithm
+    (:func:`~sb3_geogp.callbacks.default_feed`)."""
     if critic == "mlp":
-        return "returns"
-    return target or default_target(ALGOS[algo])
+        return "returns", None
+    if target is None:
+        return default_feed(ALGOS[algo])
+    return target, horizon
 
 
 @dataclass(frozen=True)
@@ -142,8 +147,8 @@ class SweepConfig:
         Options of the GP critic on top of :data:`GP_KWARGS` (e.g. ``(("forgetting", 0.9),)``),
         the same for ``rbf`` and ``geodesic``.
     target : {"returns", "monte_carlo"}, optional
-        As :class:`RunSpec`; ``None`` (default): ``GPValueCallback``'s default for each
-        algorithm (:func:`~sb3_geogp.callbacks.default_target`).
+        As :class:`RunSpec`; ``None`` (default): ``GPValueCallback``'s default target and
+        horizon for each algorithm (:func:`~sb3_geogp.callbacks.default_feed`).
     horizon : int, optional
         As :class:`RunSpec`. The MLP critic's runs, which learn SB3's returns, record
         ``target="returns"`` and no horizon whatever these are.
@@ -202,6 +207,7 @@ class SweepConfig:
                 rollout = n_envs * int(kwargs.get("n_steps", 2048 if algo == "ppo" else 5))
                 steps = max(2 * rollout, self._budget(algo, env_id, hp.n_timesteps))
                 for critic in self.critics:
+                    target, horizon = fed(self.target, self.horizon, algo, critic)
                     for seed in self.seeds:
                         out.append(
                             RunSpec(
@@ -216,8 +222,8 @@ class SweepConfig:
                                 n_probe_states=self.n_probe_states,
                                 n_mc_rollouts=self.n_mc_rollouts,
                                 gp_kwargs=gp_kwargs,
-                                target=fed_target(self.target, algo, critic),
-                                horizon=None if critic == "mlp" else self.horizon,
+                                target=target,
+                                horizon=horizon,
                                 hyperparams=hp.values,
                                 hyperparams_source=hp.source,
                                 threshold=level,

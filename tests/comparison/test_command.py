@@ -68,19 +68,20 @@ def test_cli_arguments() -> None:
 
 def test_target_reaches_every_gp_run_and_keeps_the_run_ids() -> None:
     """``--target``/``--horizon`` reach every GP critic's run; unset, each algorithm's default
-    target (GPValueCallback's: Monte Carlo returns under PPO since 0.24, SB3's returns under
-    A2C); SB3's MLP critic's runs record the returns it learns whatever is passed."""
+    (GPValueCallback's: Monte Carlo returns under PPO since 0.24, cut after 200 steps since
+    0.25, SB3's returns uncut under A2C); SB3's MLP critic's runs record the returns it learns,
+    uncut, whatever is passed."""
     specs = config_from_args(_parse("--target", "monte_carlo", "--horizon", "50")).specs()
     default = config_from_args(_parse()).specs()
     assert [s.run_id for s in specs] == [s.run_id for s in default]
     assert {s.algo for s in specs} == {"ppo", "a2c"} and "mlp" in {s.critic for s in specs}
     for spec, unset in zip(specs, default, strict=True):
-        assert unset.horizon is None
         if spec.critic == "mlp":
-            assert (spec.target, spec.horizon, unset.target) == ("returns", None, "returns")
+            assert (spec.target, spec.horizon) == (unset.target, unset.horizon) == ("returns", None)
         else:
             assert (spec.target, spec.horizon) == ("monte_carlo", 50)
-            assert unset.target == {"ppo": "monte_carlo", "a2c": "returns"}[spec.algo]
+            expected = {"ppo": ("monte_carlo", 200), "a2c": ("returns", None)}[spec.algo]
+            assert (unset.target, unset.horizon) == expected
     returns = config_from_args(_parse("--target", "returns")).specs()
     assert {s.target for s in returns} == {"returns"}
     with pytest.raises(SystemExit):
