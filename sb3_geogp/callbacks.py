@@ -59,9 +59,9 @@ def default_target(algorithm: type[BaseAlgorithm] | None) -> Target:
 #: after this many steps (since 0.25), so a step waits at most 200 steps for its target instead
 #: of until its episode ends. In its pre-registered test on fresh PPO seeds 320-339
 #: (docs/results.md, "Monte Carlo returns cut after 200 steps: PPO's default since 0.25")
-#: MountainCarContinuous-v0 (999-step episodes) gained +41.8 [+28.1, +54.2] against the uncut returns, and Acrobot-v1
-#: (+5.5) and CartPole-v1 (-5.9) were no different; where no episode lasts longer than 200 steps
-#: nothing changes.
+#: MountainCarContinuous-v0 (999-step episodes) gained +41.8 [+28.1, +54.2] against the uncut
+#: returns, and Acrobot-v1 (+5.5) and CartPole-v1 (-5.9) were no different; where no episode
+#: lasts longer than 200 steps nothing changes.
 DEFAULT_HORIZON = 200
 
 
