@@ -266,15 +266,16 @@ class GPValueCallback(BaseCallback):
     def _on_training_end(self) -> None:
         rollouts, points = self._fed
         if rollouts and not points:
-            # Monte Carlo targets wait for an episode's end, and a new learn() call drops the
-            # unfinished ones: short or chunked learn() calls could leave the critic unfed.
+            # Monte Carlo targets wait for an episode's end or their horizon, and a new learn()
+            # call drops the unfinished ones: short or chunked calls could leave the critic unfed.
+            wait = "" if self.horizon is None else f" or {self.horizon} steps have followed it"
             warn_user(
                 f"GPValueCallback fed the GP critic nothing in this learn() call ({rollouts} "
-                f"rollout{'s' * (rollouts > 1)}): no episode ended, and with "
-                "target='monte_carlo' (the PPO family's default since 0.24) a step is fed only "
-                "once its episode ends (or its horizon has passed), so the critic learnt "
-                "nothing in this call. Train for longer than an episode in one learn() call, "
-                "or pass GPValueCallback(target='returns') (SB3's returns, fed every rollout)."
+                f"rollout{'s' * (rollouts > 1)}): with target='monte_carlo' (the PPO family's "
+                "default since 0.24, cut after 200 steps since 0.25) a step is fed only once "
+                f"its episode ends{wait}, and in this call none did, so the critic learnt "
+                "nothing. Train for more steps per environment in one learn() call, or pass "
+                "GPValueCallback(target='returns') (SB3's returns, fed every rollout)."
             )
 
     # ------------------------------------------------------------------------------------------

@@ -332,11 +332,17 @@ def test_horizon_needs_monte_carlo_and_a_positive_integer() -> None:
     assert GPValueCallback(target="monte_carlo", horizon=5.0).horizon == 5  # type: ignore[arg-type]
 
 
-def test_monte_carlo_feeds_nothing_until_an_episode_completes() -> None:
+@pytest.mark.parametrize(("horizon", "wait"), [(None, "ends, and"), (3, "ends or 3 steps have")])
+def test_monte_carlo_feeds_nothing_until_an_episode_completes(
+    horizon: int | None, wait: str
+) -> None:
+    """2 steps per env: no episode done and no 3-step window complete; the warning names what
+    the steps wait for."""
     model = make_scripted(A2C, n_steps=2)
     recorder = FeedRecorder(model.policy, keep_empty=False)
-    with pytest.warns(GPCriticWarning, match=r"nothing in this learn\(\) call \(1 rollout\)"):
-        model.learn(4, callback=GPValueCallback(target="monte_carlo"))  # 2 steps per env: none done
+    with pytest.warns(GPCriticWarning, match=r"nothing in this learn\(\) call \(1 rollout\)") as w:
+        model.learn(4, callback=GPValueCallback(target="monte_carlo", horizon=horizon))
+    assert any(f"its episode {wait}" in str(r.message) for r in w)
     assert [len(b[1]) for b in recorder.batches] == [0]
     assert model.policy.gp.n_basis == 0
     model.learn(4, callback=GPValueCallback(target="monte_carlo"), reset_num_timesteps=False)
