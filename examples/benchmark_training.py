@@ -26,7 +26,7 @@ SB3's returns as the GP's targets instead of the algorithm's default); settings 
 is PPO's critic before 0.10, a refit every block, ``+adapt+score256`` folds every point, and
 ``laplacian+adapt+gap16+nosettle+score256+fold256+floor80+snapshot+f1`` is 0.13's PPO critic,
 without ``+f1`` 0.22's, with ``+prior10`` instead 0.23's with ``+returns``; the default critic
-under PPO, ``laplacian+adapt``, is 0.24's),
+under PPO, ``laplacian+adapt``, is 0.25's),
 so that the cost of an option is measured interleaved with the default's.
 
 ``--threads default`` leaves torch's thread count as a new user has it (the engine then runs
