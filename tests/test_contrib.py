@@ -29,6 +29,7 @@ from sb3_geogp import (
     LaplacianKernel,
     MaskableGPActorCriticPolicy,
 )
+from sb3_geogp.callbacks import default_feed
 from sb3_geogp.policies import SUPPORTED_ALGORITHMS
 
 UNSUPPORTED = re.escape(SUPPORTED_ALGORITHMS)
@@ -116,6 +117,12 @@ def test_trpo_trains_the_actor_and_feeds_the_gp(kernel: str | None) -> None:
     values = model.policy.predict_values(obs)
     assert values.shape == (128, 1) and th.isfinite(values).all()
     assert not th.equal(values, th.zeros_like(values))
+
+
+@pytest.mark.parametrize("algo", [TRPO, MaskablePPO])
+def test_the_ppo_familys_default_feed_is_ppos(algo: type[BaseAlgorithm]) -> None:
+    """TRPO and MaskablePPO get PPO's default feed: Monte Carlo returns cut after 200 steps."""
+    assert default_feed(algo) == default_feed(PPO) == ("monte_carlo", 200)
 
 
 def test_trpo_without_the_callback_names_it() -> None:
