@@ -37,13 +37,15 @@ ENVS = ("Pendulum-v1", "CartPole-v1", "Acrobot-v1")
 
 @dataclass(frozen=True)
 class Study:
-    """A 100,000-step PPO study on ``ENVS``: its folder, seed blocks, and per arm the folder
-    prefix and critic of its runs (``{arm: (prefix, critic)}``) and its colour."""
+    """A 100,000-step PPO study on ``envs``: its folder, seed blocks, and per arm the folder
+    prefix (relative to ``here``) and critic of its runs (``{arm: (prefix, critic)}``) and its
+    colour."""
 
     here: Path
     blocks: tuple[int, ...]
     sources: dict[str, tuple[str, str]]
     colours: dict[str, str]
+    envs: tuple[str, ...] = ENVS
 
     @property
     def arms(self) -> tuple[str, ...]:
@@ -64,7 +66,7 @@ def arm_runs(study: Study, arm: str, block: int) -> dict[tuple[str, int], dict[s
     folder = study.here / f"{prefix}{block}"
     runs = pool_sweeps([folder]) if folder.is_dir() else []
     return {(r["spec"]["env_id"], r["spec"]["seed"]): r for r in runs
-            if r["spec"]["critic"] == critic}  # fmt: skip
+            if r["spec"]["critic"] == critic and r["spec"]["env_id"] in study.envs}  # fmt: skip
 
 
 def whole_blocks(study: Study) -> tuple[Runs, list[int]]:
@@ -73,7 +75,7 @@ def whole_blocks(study: Study) -> tuple[Runs, list[int]]:
     done = []
     for block in study.blocks:
         by_arm = {arm: arm_runs(study, arm, block) for arm in study.arms}
-        if all(len(r) == len(ENVS) * 10 for r in by_arm.values()):
+        if all(len(r) == len(study.envs) * 10 for r in by_arm.values()):
             done.append(block)
             for arm in study.arms:
                 runs[arm].update(by_arm[arm])
@@ -104,7 +106,7 @@ def arm_row(study: Study, runs: Runs, arm: str) -> str:
     capped = sum(r["final_return"] <= -500 for (e, _), r in runs[arm].items() if e == "Acrobot-v1")
     cells = [f"| {arm} | {len(fell)} of {reached} ({', '.join(map(str, fell)) or '–'})",
              f"{capped}"]  # fmt: skip
-    for env in ENVS:
+    for env in study.envs:
         steps = [r["steps_to_threshold"] for (e, _), r in runs[arm].items() if e == env]
         hit = [s for s in steps if s is not None]
         median = f"{np.median(hit):,.0f}" if hit else "–"
@@ -115,8 +117,8 @@ def arm_row(study: Study, runs: Runs, arm: str) -> str:
 def print_arm_rows(study: Study, runs: Runs) -> None:
     """:func:`arm_row` of every arm, under its header."""
     print("\n| arm | CartPole falls (reach 475, end below 300) | Acrobot runs ending at -500 | "
-          + " | ".join(f"median steps to threshold, {e}" for e in ENVS) + " |")  # fmt: skip
-    print("|---|---|---:|" + "---|" * len(ENVS))
+          + " | ".join(f"median steps to threshold, {e}" for e in study.envs) + " |")  # fmt: skip
+    print("|---|---|---:|" + "---|" * len(study.envs))
     for arm in study.arms:
         print(arm_row(study, runs, arm))
 
@@ -147,8 +149,8 @@ def paired_header(level: str = "95 %") -> str:
 def plot(study: Study, runs: Runs, path: str, blocks: list[int], what: str) -> None:
     """Each cell: every run's evaluation curve per arm (thin) and the arm's mean (bold)."""
     plt = pyplot()
-    fig, axes = plt.subplots(1, len(ENVS), figsize=(4.6 * len(ENVS), 3.8))
-    for ax, env in zip(axes, ENVS, strict=True):
+    fig, axes = plt.subplots(1, len(study.envs), figsize=(4.6 * len(study.envs), 3.8))
+    for ax, env in zip(axes, study.envs, strict=True):
         for arm in study.arms:
             mine = [r for (e, _), r in runs[arm].items() if e == env]
             t = np.array(mine[0]["eval"]["timesteps"])

@@ -1,0 +1,68 @@
+"""The reading fixed in PREREGISTRATION.md: 0.25's PPO default (Monte Carlo returns cut after
+200 steps) at 100,000 steps on seeds 260-279, against 0.24's (uncut) and SB3's MLP critic, on
+CartPole-v1 and Acrobot-v1, the cells of ``../budget100k_0_24`` the cut changes (session 44).
+
+Arms: 0.25 (``H_s<F>``) and 0.24 (``C_s<F>``), both run here; SB3's MLP critic's runs of
+``../budget100k_0_24`` (``s<F>``). Only whole blocks of 10 seeds are read (every arm, cell and
+seed of the block finished). The helpers are ``results/budget100k_0_23/read.py``'s.
+
+    python results/budget100k_0_25/read.py --plot results/budget100k_0_25/curves.png \\
+        > results/budget100k_0_25/read.md
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from sb3_geogp.comparison.results import comparisons
+from sb3_geogp.toolbox.scripts import load_script
+
+HERE = Path(__file__).resolve().parent
+R = load_script(HERE.parent / "budget100k_0_23" / "read.py", "budget100k_0_23_read")
+POOL30 = load_script(HERE.parent / "replication_0_15" / "pool30.py", "pool30")
+ENVS = ("CartPole-v1", "Acrobot-v1")
+STUDY = R.Study(
+    HERE,
+    (260, 270),
+    {
+        "0.25": ("H_s", "laplacian"),
+        "0.24": ("C_s", "laplacian"),
+        "MLP": ("../budget100k_0_24/s", "mlp"),
+    },
+    {"0.25": "tab:purple", "0.24": "tab:green", "MLP": "0.35"},
+    ENVS,
+)
+
+
+def against(runs: R.Runs, a: str, b: str, metric: str, family: int) -> dict[Any, dict[str, Any]]:
+    """``a`` − ``b`` per cell on ``metric``, the table's rule, family-wise over ``family``."""
+    rows = comparisons(list(runs[a].values()), baseline=list(runs[b].values()), family_size=family)
+    return {(c["env"], c["algo"]): c for c in rows if c["metric"] == metric}
+
+
+def main(argv: Sequence[str] | None = None) -> None:
+    runs, blocks, figure = R.start(STUDY, argv, __doc__)
+    print("**Primary**: 0.25 − 0.24, final return, family-wise over the 2 cells:\n")
+    R.print_table(against(runs, "0.25", "0.24", "final_return", 2), "final return", "0.25 − 0.24")
+    print("\n0.25 − 0.24 paired by seed (95 % t):\n")
+    print(R.paired_header())
+    for env in ENVS:
+        print(R.paired(runs, "0.25", "0.24", env))
+    for arm in ("0.25", "0.24"):
+        for metric, label in (
+            ("final_return", "final return"),
+            ("mean_return", "area under the curve"),
+        ):
+            print(f"\nSecondary: {arm} − MLP, {label}, family-wise at the published 42:\n")
+            mlp = POOL30.mlp_rows(list(runs[arm].values()) + list(runs["MLP"].values()), metric)
+            R.print_table(mlp, label, f"{arm} − MLP")
+    R.print_arm_rows(STUDY, runs)
+    if figure:
+        what = "0.25's default GP critic (cut after 200 steps), 0.24's (uncut), SB3's MLP critic"
+        R.plot(STUDY, runs, figure, blocks, what)
+
+
+if __name__ == "__main__":
+    main()
