@@ -138,6 +138,14 @@ def start(study: Study, argv: Sequence[str] | None, doc: str) -> tuple[Runs, lis
     return runs, blocks, args.plot
 
 
+def finish(study: Study, runs: Runs, figure: str | None, blocks: list[int], what: str) -> None:
+    """End a reading: :func:`print_arm_rows`, then, where ``figure`` is a path, :func:`plot` of
+    ``what`` there."""
+    print_arm_rows(study, runs)
+    if figure:
+        plot(study, runs, figure, blocks, what)
+
+
 def paired_header(level: str = "95 %") -> str:
     """Header of :func:`paired`'s rows, its intervals at ``level``."""
     return (
@@ -186,10 +194,13 @@ def main(argv: Sequence[str] | None = None) -> None:
     for arm in ("0.23", "0.22"):
         print()
         print_table(against_mlp(runs, arm, "mean_return"), "area under the curve", f"{arm} − MLP")
-    print_arm_rows(STUDY, runs)
-    if figure:
-        what = "0.23's default GP critic (hyperprior), 0.22's, SB3's MLP critic"
-        plot(STUDY, runs, figure, blocks, what)
+    finish(
+        STUDY,
+        runs,
+        figure,
+        blocks,
+        "0.23's default GP critic (hyperprior), 0.22's, SB3's MLP critic",
+    )
 
 
 if __name__ == "__main__":

@@ -43,10 +43,8 @@ def main(argv: Sequence[str] | None = None) -> None:
         print()
         auc = R.against_mlp(runs, arm, "mean_return")
         R.print_table(auc, "area under the curve", f"{arm} − MLP")
-    R.print_arm_rows(STUDY, runs)
-    if figure:
-        what = "0.24's default GP critic (Monte Carlo targets), 0.23's (SB3's returns), MLP critic"
-        R.plot(STUDY, runs, figure, blocks, what)
+    what = "0.24's default GP critic (Monte Carlo targets), 0.23's (SB3's returns), MLP critic"
+    R.finish(STUDY, runs, figure, blocks, what)
 
 
 if __name__ == "__main__":

@@ -58,10 +58,8 @@ def main(argv: Sequence[str] | None = None) -> None:
             print(f"\nSecondary: {arm} − MLP, {label}, family-wise at the published 42:\n")
             mlp = POOL30.mlp_rows(list(runs[arm].values()) + list(runs["MLP"].values()), metric)
             R.print_table(mlp, label, f"{arm} − MLP")
-    R.print_arm_rows(STUDY, runs)
-    if figure:
-        what = "0.25's default GP critic (cut after 200 steps), 0.24's (uncut), SB3's MLP critic"
-        R.plot(STUDY, runs, figure, blocks, what)
+    what = "0.25's default GP critic (cut after 200 steps), 0.24's (uncut), SB3's MLP critic"
+    R.finish(STUDY, runs, figure, blocks, what)
 
 
 if __name__ == "__main__":
