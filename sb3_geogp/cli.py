@@ -45,7 +45,7 @@ from sb3_geogp.comparison.command import (
 from sb3_geogp.comparison.hyperparams import ALGOS, ALL_CRITICS
 from sb3_geogp.comparison.hyperparams import threshold as comparison_threshold
 from sb3_geogp.comparison.report import pyplot
-from sb3_geogp.comparison.specs import fed
+from sb3_geogp.comparison.specs import fed, setting_differences
 from sb3_geogp.policies import GPActorCriticPolicy, default_kernel
 
 if TYPE_CHECKING:
@@ -152,10 +152,11 @@ def check_train_args(args: argparse.Namespace, out: Path) -> None:
     check_env(args.env)
     check_device(args.device)
     saved = out / _SETTINGS
-    if saved.is_file() and json.loads(saved.read_text()) != _settings(args):
+    if saved.is_file() and (made := json.loads(saved.read_text())) != (asked := _settings(args)):
         raise UsageError(
-            f"{out} holds a run made with other settings ({saved}); pass another --out or "
-            "delete that directory"
+            f"{out} holds a run made with other settings ({saved}: "
+            f"{setting_differences(made, asked)}); pass the options it was made with, another "
+            "--out, or delete that directory"
         )
 
 

@@ -35,6 +35,21 @@ def fed(
     return target, horizon
 
 
+def setting_differences(made: Any, asked: Any) -> str:
+    """Where a recorded setting differs from the one asked for, for an error message: per key
+    of two dicts, ``"key: <made> there, <asked> now"`` (``unset`` where a side lacks the key),
+    joined by ``"; "``; other values as ``"<made> there, <asked> now"``."""
+    if not (isinstance(made, dict) and isinstance(asked, dict)):
+        return f"{made!r} there, {asked!r} now"
+
+    def shown(d: dict[str, Any], key: str) -> str:
+        return repr(d[key]) if key in d else "unset"
+
+    keys = sorted(set(made) | set(asked), key=str)
+    differ = [k for k in keys if k not in made or k not in asked or made[k] != asked[k]]
+    return "; ".join(f"{k}: {shown(made, k)} there, {shown(asked, k)} now" for k in differ)
+
+
 @dataclass(frozen=True)
 class RunSpec:
     """Everything that defines one run; equal specs give the same result file name.

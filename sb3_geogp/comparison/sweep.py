@@ -28,7 +28,7 @@ from sb3_geogp.comparison.hyperparams import (
     ZOO_SOURCE,
 )
 from sb3_geogp.comparison.run import SCHEMA, load_result, result_path, run_one, write_json_atomic
-from sb3_geogp.comparison.specs import RunSpec, SweepConfig
+from sb3_geogp.comparison.specs import RunSpec, SweepConfig, setting_differences
 
 
 def pending_runs(specs: Iterable[RunSpec], out_dir: str | Path) -> list[RunSpec]:
@@ -52,10 +52,11 @@ def pending_runs(specs: Iterable[RunSpec], out_dir: str | Path) -> list[RunSpec]
             ("hyperparameters", done.get("hyperparams", {}).get("values"), spec.hyperparams),
             ("threshold", done.get("threshold"), spec.threshold),
         ):
-            if made != _jsonable(asked):
+            if made != (asked := _jsonable(asked)):
                 raise ValueError(
-                    f"{result_path(out_dir, spec)} was made with other {what} ({made}) than "
-                    f"requested ({asked}); use another --out"
+                    f"{result_path(out_dir, spec)} was made with other {what} than requested "
+                    f"({setting_differences(made, asked)}); pass the options it was made with "
+                    "or use another --out"
                 )
     return todo
 

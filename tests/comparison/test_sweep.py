@@ -256,7 +256,7 @@ def test_monte_carlo_targets_reach_the_gp_critic_and_its_result(
     assert cut["critic_accuracy"]["rmse"] != mc["critic_accuracy"]["rmse"]
     with pytest.raises(ValueError, match="other settings"):
         pending_runs([mc_spec], tmp_path)
-    with pytest.raises(ValueError, match="other settings"):
+    with pytest.raises(ValueError, match=r"other settings .*horizon: unset there, 3 now"):
         pending_runs([cut_spec], tmp_path / "mc")
 
 
