@@ -191,7 +191,7 @@ def test_compare_on_an_environment_only_the_test_knows(
     argv[argv.index("-3")] = "-4"
     assert main(argv) == 2
     err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "was made with other threshold (-3.0) than requested" in err
+    assert err.count("\n") == 1 and "other threshold than requested (-3.0 there, -4.0 now)" in err
 
 
 def test_mistakes_end_in_one_line_and_status_2_before_any_run(
