@@ -272,9 +272,9 @@ class GPValueCallback(BaseCallback):
             warn_user(
                 f"GPValueCallback fed the GP critic nothing in this learn() call ({rollouts} "
                 f"rollout{'s' * (rollouts > 1)}): with target='monte_carlo' (the PPO family's "
-                "default since 0.24, cut after 200 steps since 0.25) a step is fed only once "
-                f"its episode ends{wait}, and in this call none did, so the critic learnt "
-                "nothing. Train for more steps per environment in one learn() call, or pass "
+                f"default since 0.24, cut after {DEFAULT_HORIZON} steps since 0.25) a step is "
+                f"fed only once its episode ends{wait}, and in this call none did, so the critic "
+                "learnt nothing. Train for more steps per environment in one learn() call, or pass "
                 "GPValueCallback(target='returns') (SB3's returns, fed every rollout)."
             )
 
