@@ -14,9 +14,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
 
-from sb3_geogp.comparison.results import comparisons
 from sb3_geogp.toolbox.scripts import load_script
 
 HERE = Path(__file__).resolve().parent
@@ -36,16 +34,12 @@ STUDY = R.Study(
 )
 
 
-def against(runs: R.Runs, a: str, b: str, metric: str, family: int) -> dict[Any, dict[str, Any]]:
-    """``a`` − ``b`` per cell on ``metric``, the table's rule, family-wise over ``family``."""
-    rows = comparisons(list(runs[a].values()), baseline=list(runs[b].values()), family_size=family)
-    return {(c["env"], c["algo"]): c for c in rows if c["metric"] == metric}
-
-
 def main(argv: Sequence[str] | None = None) -> None:
     runs, blocks, figure = R.start(STUDY, argv, __doc__)
     print("**Primary**: 0.25 − 0.24, final return, family-wise over the 2 cells:\n")
-    R.print_table(against(runs, "0.25", "0.24", "final_return", 2), "final return", "0.25 − 0.24")
+    new, old = (list(runs[arm].values()) for arm in ("0.25", "0.24"))
+    primary = POOL30.against_baseline(new, old, "final_return", 2)
+    R.print_table(primary, "final return", "0.25 − 0.24")
     print("\n0.25 − 0.24 paired by seed (95 % t):\n")
     print(R.paired_header())
     for env in ENVS:

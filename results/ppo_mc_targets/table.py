@@ -36,10 +36,10 @@ from typing import Any
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent / "replication_0_15"))
-from pool30 import mlp_rows, print_table  # noqa: E402
+from pool30 import against_baseline, mlp_rows, print_table  # noqa: E402
 
 from sb3_geogp.comparison.report import plot_difference_panels  # noqa: E402
-from sb3_geogp.comparison.results import comparisons, pool_sweeps  # noqa: E402
+from sb3_geogp.comparison.results import pool_sweeps  # noqa: E402
 from sb3_geogp.toolbox.scripts import load_script  # noqa: E402
 
 FIRST_SEEDS = (0, 10, 150, 160)
@@ -84,11 +84,7 @@ def report(
     sets = {
         "C − MLP": mlp_rows(mc + mlp, metric),
         "A − MLP": {k: v for k, v in mlp_rows(default + mlp, metric).items() if k in cells},
-        "C − A": {
-            (c["env"], c["algo"]): c
-            for c in comparisons(mc, baseline=default, family_size=c_a_family)
-            if c["metric"] == metric
-        },
+        "C − A": against_baseline(mc, default, metric, c_a_family),
     }
     for name, rows in sets.items():
         print(f"\n### {name} (C: Monte Carlo targets; A: {a_name})\n")

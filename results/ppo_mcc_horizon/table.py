@@ -34,10 +34,10 @@ from typing import Any
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent / "replication_0_15"))
-from pool30 import mlp_rows, print_table  # noqa: E402
+from pool30 import against_baseline, mlp_rows, print_table  # noqa: E402
 
 from sb3_geogp.comparison.report import plot_difference_panels  # noqa: E402
-from sb3_geogp.comparison.results import comparisons, pool_sweeps  # noqa: E402
+from sb3_geogp.comparison.results import pool_sweeps  # noqa: E402
 from sb3_geogp.toolbox.scripts import load_script  # noqa: E402
 
 #: ``results/ppo_mc_targets/table.py``: C's, A's and the MLP critic's runs, and the parser.
@@ -136,15 +136,11 @@ def differences(
     """H − C (family-wise over ``family`` cells), each arm but the MLP − MLP (family-wise at
     the published 42), and H − A where ``arms`` has A."""
 
-    def against(a: str, b: str) -> dict[tuple[str, str], dict[str, Any]]:
-        rows = comparisons(arms[a], baseline=arms[b], family_size=family)
-        return {(c["env"], c["algo"]): c for c in rows if c["metric"] == metric}
-
-    sets = {"H − C": against("H", "C")}
+    sets = {"H − C": against_baseline(arms["H"], arms["C"], metric, family)}
     for arm in ("H", "C"):
         sets[f"{arm} − MLP"] = mlp_rows(arms[arm] + arms["MLP"], metric)
     if "A" in arms:
-        sets["H − A"] = against("H", "A")
+        sets["H − A"] = against_baseline(arms["H"], arms["A"], metric, family)
     return sets
 
 

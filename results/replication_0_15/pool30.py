@@ -130,6 +130,18 @@ def mlp_rows(
     }
 
 
+def against_baseline(
+    runs: list[dict[str, Any]], baseline: list[dict[str, Any]], metric: str, family: int
+) -> dict[tuple[str, str], dict[str, Any]]:
+    """``runs`` − ``baseline`` (the same critic in another arm) on ``metric`` by (env, algo),
+    family-wise over ``family`` comparisons."""
+    return {
+        (c["env"], c["algo"]): c
+        for c in comparisons(runs, baseline=baseline, family_size=family)
+        if c["metric"] == metric
+    }
+
+
 def plot(a2c: str, added: tuple[str, ...], path: str) -> None:
     """Each cell's difference on the 30 seeds, on the added seeds alone and pooled."""
     sets = {

@@ -30,10 +30,10 @@ from typing import Any
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent / "replication_0_15"))
-from pool30 import mlp_rows, pooled_runs, print_table  # noqa: E402
+from pool30 import against_baseline, mlp_rows, pooled_runs, print_table  # noqa: E402
 
 from sb3_geogp.comparison.report import plot_difference_panels  # noqa: E402
-from sb3_geogp.comparison.results import comparisons, pool_sweeps  # noqa: E402
+from sb3_geogp.comparison.results import pool_sweeps  # noqa: E402
 from sb3_geogp.toolbox.scripts import load_script  # noqa: E402
 
 FIRST_SEEDS = (0, 10, 150, 160)
@@ -72,8 +72,7 @@ def against_default(
 ) -> dict[tuple[str, str], dict[str, Any]]:
     """B − A by (env, algo): the same critic, the default's runs as the baseline (the rule
     reads its 95 % verdict; the family-wise one is over these seven cells)."""
-    rows = comparisons(prior, baseline=default, family_size=7)
-    return {(c["env"], c["algo"]): c for c in rows if c["metric"] == metric}
+    return against_baseline(prior, default, metric, 7)
 
 
 def reading_parser(doc: str, arm: str, verdict: bool = True) -> argparse.ArgumentParser:
