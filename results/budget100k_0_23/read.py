@@ -101,11 +101,14 @@ def against_mlp(runs: Runs, arm: str, metric: str) -> dict[tuple[str, str], dict
 
 def arm_row(study: Study, runs: Runs, arm: str) -> str:
     """Per arm: CartPole falls, Acrobot runs ending at -500, median steps to each threshold."""
-    cartpole = [r for (e, _), r in runs[arm].items() if e == "CartPole-v1"]
-    _, reached, fell = counts(cartpole, study.sources[arm][1])
-    capped = sum(r["final_return"] <= -500 for (e, _), r in runs[arm].items() if e == "Acrobot-v1")
-    cells = [f"| {arm} | {len(fell)} of {reached} ({', '.join(map(str, fell)) or '–'})",
-             f"{capped}"]  # fmt: skip
+    cells = [f"| {arm}"]
+    if "CartPole-v1" in study.envs:
+        cartpole = [r for (e, _), r in runs[arm].items() if e == "CartPole-v1"]
+        _, reached, fell = counts(cartpole, study.sources[arm][1])
+        cells.append(f"{len(fell)} of {reached} ({', '.join(map(str, fell)) or '–'})")
+    if "Acrobot-v1" in study.envs:
+        acrobot = [r for (e, _), r in runs[arm].items() if e == "Acrobot-v1"]
+        cells.append(f"{sum(r['final_return'] <= -500 for r in acrobot)}")
     for env in study.envs:
         steps = [r["steps_to_threshold"] for (e, _), r in runs[arm].items() if e == env]
         hit = [s for s in steps if s is not None]
@@ -116,9 +119,12 @@ def arm_row(study: Study, runs: Runs, arm: str) -> str:
 
 def print_arm_rows(study: Study, runs: Runs) -> None:
     """:func:`arm_row` of every arm, under its header."""
-    print("\n| arm | CartPole falls (reach 475, end below 300) | Acrobot runs ending at -500 | "
+    columns = {"CartPole-v1": ("CartPole falls (reach 475, end below 300)", "---|"),
+               "Acrobot-v1": ("Acrobot runs ending at -500", "---:|")}  # fmt: skip
+    counted = [columns[e] for e in columns if e in study.envs]
+    print("\n| arm | " + "".join(f"{name} | " for name, _ in counted)
           + " | ".join(f"median steps to threshold, {e}" for e in study.envs) + " |")  # fmt: skip
-    print("|---|---|---:|" + "---|" * len(study.envs))
+    print("|---|" + "".join(rule for _, rule in counted) + "---|" * len(study.envs))
     for arm in study.arms:
         print(arm_row(study, runs, arm))
 
@@ -157,7 +163,9 @@ def paired_header(level: str = "95 %") -> str:
 def plot(study: Study, runs: Runs, path: str, blocks: list[int], what: str) -> None:
     """Each cell: every run's evaluation curve per arm (thin) and the arm's mean (bold)."""
     plt = pyplot()
-    fig, axes = plt.subplots(1, len(study.envs), figsize=(4.6 * len(study.envs), 3.8))
+    width = max(4.6 * len(study.envs), 9.2)  # one panel still fits the title
+    fig, grid = plt.subplots(1, len(study.envs), figsize=(width, 3.8), squeeze=False)
+    axes = grid[0]
     for ax, env in zip(axes, study.envs, strict=True):
         for arm in study.arms:
             mine = [r for (e, _), r in runs[arm].items() if e == env]
