@@ -218,6 +218,7 @@ class GPValueCallback(BaseCallback):
         self._pending = [_empty_segment(self.model.observation_space.shape)] * self.model.n_envs
         # Rollouts and points fed in this learn() call, for _on_training_end's warning.
         self._fed = [0, 0]
+        self._warned_still = False
 
     def _on_rollout_start(self) -> None:
         self._truncations = []
@@ -262,6 +263,30 @@ class GPValueCallback(BaseCallback):
             self._recompute(policy, buffer, dones, old_bootstrap)
         for key, value in stats.items():
             self.logger.record(f"gp/{key}", value)
+        if not self._warned_still and not buffer.advantages.any():
+            self._warn_still()
+
+    def _warn_still(self) -> None:
+        # Measured in docs/results.md ("The 200-step cut at 100,000 steps on Acrobot"): runs
+        # that never reach Acrobot's goal end here, at -500, and stay.
+        self._warned_still = True
+        uncut = (
+            ", or feed uncut Monte Carlo returns, GPValueCallback(target='monte_carlo'), whose "
+            "targets vary with the time limit for longer"
+            if self.target == "monte_carlo" and self.horizon is not None
+            else ""
+        )
+        warn_user(
+            f"GPValueCallback: every advantage of the rollout ending at step "
+            f"{self.num_timesteps} is exactly 0 (the GP critic's values satisfy V(s) = r + "
+            "gamma V(s') at every step), so the actor's loss has no gradient but the entropy "
+            "bonus's and the policy does not change while this lasts. It happens when every "
+            "reward has been the same and the critic has learnt the constant value that follows, "
+            "and lasts until a reward differs: harmless where the policy already does what it "
+            "should (a pole balanced at every step), fatal where it has not reached its goal yet "
+            "(Acrobot at -500). There, give the actor an entropy bonus (ent_coef > 0)"
+            f"{uncut} (docs/results.md, 'The 200-step cut at 100,000 steps on Acrobot')."
+        )
 
     def _on_training_end(self) -> None:
         rollouts, points = self._fed

@@ -688,6 +688,46 @@ def test_a_learn_call_that_feeds_nothing_says_so() -> None:
         assert int(longer.policy.gp.n_seen) == 200
 
 
+class ConstantRewardEnv(ScriptedEnv):
+    """:class:`ScriptedEnv` whose every reward is ``reward``, never terminating."""
+
+    def __init__(self, env_id: int, reward: float) -> None:
+        super().__init__(env_id, None)
+        self.reward = reward
+
+    def step(self, action: int) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        obs, _, terminated, truncated, info = super().step(action)
+        return obs, self.reward, terminated, truncated, info
+
+
+@pytest.mark.parametrize(("reward", "still"), [(1.0, True), (1.5, False)])
+def test_advantages_all_zero_warn_that_the_actor_stands_still(reward: float, still: bool) -> None:
+    """The GP kept at its prior mean ``m = 2`` everywhere, ``gamma = 0.5`` and every reward
+    ``r = (1 - gamma) m = 1``: each TD error ``r + gamma m - m`` is 0 (also at the time limit,
+    where SB3 folds ``gamma m`` into the reward), so every advantage is 0, PPO's actor gets no
+    gradient (``ent_coef=0``) and its parameters stay as they were, bit for bit; the callback
+    says so once. With ``r = 1.5`` the advantages vary along the rollout, the actor moves, and
+    nothing is said."""
+    env = DummyVecEnv(
+        [lambda i=i: TimeLimit(ConstantRewardEnv(i, reward), max_episode_steps=5) for i in (0, 1)]
+    )
+    gp_kwargs = dict(kernel="rbf", max_basis=16, target_mean=2.0)
+    model = PPO(GPActorCriticPolicy, env, n_steps=8, batch_size=16, n_epochs=2, gamma=0.5,
+                ent_coef=0.0, seed=0, policy_kwargs=dict(gp_kwargs=gp_kwargs))  # fmt: skip
+    FeedRecorder(model.policy, keep_empty=True)
+    before = {name: p.detach().clone() for name, p in model.policy.named_parameters()}
+    recorder = BufferRecorder()
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        model.learn(3 * 16, callback=CallbackList([GPValueCallback(target="returns"), recorder]))
+    said = [w for w in caught if "is exactly 0" in str(w.message)]
+    advantages = np.stack([r["advantages"] for r in recorder.rollouts])
+    assert len(recorder.rollouts) == 3 and (not advantages.any()) == still
+    assert len(said) == int(still) and all(w.category is GPCriticWarning for w in said)
+    moved = [n for n, p in model.policy.named_parameters() if not th.equal(p, before[n])]
+    assert bool(moved) != still, moved
+
+
 def test_warnings_have_their_own_category_and_point_at_the_users_line() -> None:
     import warnings as std_warnings
 
