@@ -270,11 +270,15 @@ class GPValueCallback(BaseCallback):
         # Measured in docs/results.md ("The 200-step cut at 100,000 steps on Acrobot"): runs
         # that never reach Acrobot's goal end here, at -500, and stay.
         self._warned_still = True
-        uncut = (
-            ", or feed uncut Monte Carlo returns, GPValueCallback(target='monte_carlo'), whose "
-            "targets vary with the time limit for longer"
+        entropy = (
+            "give the actor an entropy bonus (ent_coef > 0; 0.01 got one of three such runs to "
+            "the goal)"
+        )
+        fix = (
+            "feed uncut Monte Carlo returns, GPValueCallback(target='monte_carlo'), whose targets "
+            f"vary with the time limit for longer (all three runs then reached it), or {entropy}"
             if self.target == "monte_carlo" and self.horizon is not None
-            else ""
+            else entropy
         )
         warn_user(
             f"GPValueCallback: every advantage of the rollout ending at step "
@@ -284,8 +288,8 @@ class GPValueCallback(BaseCallback):
             "reward has been the same and the critic has learnt the constant value that follows, "
             "and lasts until a reward differs: harmless where the policy already does what it "
             "should (a pole balanced at every step), fatal where it has not reached its goal yet "
-            "(Acrobot at -500). There, give the actor an entropy bonus (ent_coef > 0)"
-            f"{uncut} (docs/results.md, 'The 200-step cut at 100,000 steps on Acrobot')."
+            f"(Acrobot at -500). There, {fix} (docs/results.md, 'The 200-step cut at 100,000 "
+            "steps on Acrobot')."
         )
 
     def _on_training_end(self) -> None:

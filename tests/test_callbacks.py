@@ -700,14 +700,12 @@ class ConstantRewardEnv(ScriptedEnv):
         return obs, self.reward, terminated, truncated, info
 
 
-@pytest.mark.parametrize(("reward", "still"), [(1.0, True), (1.5, False)])
-def test_advantages_all_zero_warn_that_the_actor_stands_still(reward: float, still: bool) -> None:
-    """The GP kept at its prior mean ``m = 2`` everywhere, ``gamma = 0.5`` and every reward
-    ``r = (1 - gamma) m = 1``: each TD error ``r + gamma m - m`` is 0 (also at the time limit,
-    where SB3 folds ``gamma m`` into the reward), so every advantage is 0, PPO's actor gets no
-    gradient (``ent_coef=0``) and its parameters stay as they were, bit for bit; the callback
-    says so once. With ``r = 1.5`` the advantages vary along the rollout, the actor moves, and
-    nothing is said."""
+def _learn_at_prior(
+    reward: float, callback: GPValueCallback
+) -> tuple[list[warnings.WarningMessage], np.ndarray, list[str]]:
+    """PPO on :class:`ConstantRewardEnv` (time limit 5) with its GP kept at the prior mean 2,
+    ``gamma = 0.5``, ``ent_coef = 0``: the all-zero warnings, the advantages and the names of
+    the actor's parameters that changed."""
     env = DummyVecEnv(
         [lambda i=i: TimeLimit(ConstantRewardEnv(i, reward), max_episode_steps=5) for i in (0, 1)]
     )
@@ -719,13 +717,35 @@ def test_advantages_all_zero_warn_that_the_actor_stands_still(reward: float, sti
     recorder = BufferRecorder()
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        model.learn(3 * 16, callback=CallbackList([GPValueCallback(target="returns"), recorder]))
+        model.learn(3 * 16, callback=CallbackList([callback, recorder]))
     said = [w for w in caught if "is exactly 0" in str(w.message)]
     advantages = np.stack([r["advantages"] for r in recorder.rollouts])
-    assert len(recorder.rollouts) == 3 and (not advantages.any()) == still
-    assert len(said) == int(still) and all(w.category is GPCriticWarning for w in said)
     moved = [n for n, p in model.policy.named_parameters() if not th.equal(p, before[n])]
+    return said, advantages, moved
+
+
+@pytest.mark.parametrize(("reward", "still"), [(1.0, True), (1.5, False)])
+def test_advantages_all_zero_warn_that_the_actor_stands_still(reward: float, still: bool) -> None:
+    """The GP kept at its prior mean ``m = 2`` everywhere, ``gamma = 0.5`` and every reward
+    ``r = (1 - gamma) m = 1``: each TD error ``r + gamma m - m`` is 0 (also at the time limit,
+    where SB3 folds ``gamma m`` into the reward), so every advantage is 0, PPO's actor gets no
+    gradient (``ent_coef=0``) and its parameters stay as they were, bit for bit; the callback
+    says so once. With ``r = 1.5`` the advantages vary along the rollout, the actor moves, and
+    nothing is said."""
+    said, advantages, moved = _learn_at_prior(reward, GPValueCallback(target="returns"))
+    assert len(advantages) == 3 and (not advantages.any()) == still
+    assert len(said) == int(still) and all(w.category is GPCriticWarning for w in said)
     assert bool(moved) != still, moved
+
+
+@pytest.mark.parametrize(("horizon", "names_uncut"), [(3, True), (None, False)])
+def test_the_all_zero_warning_names_uncut_returns_only_where_returns_are_cut(
+    horizon: int | None, names_uncut: bool
+) -> None:
+    """Uncut Monte Carlo returns are offered as the fix only to a critic fed cut ones."""
+    said, _, _ = _learn_at_prior(1.0, GPValueCallback(target="monte_carlo", horizon=horizon))
+    assert len(said) == 1
+    assert ("target='monte_carlo'" in str(said[0].message)) == names_uncut
 
 
 def test_warnings_have_their_own_category_and_point_at_the_users_line() -> None:
