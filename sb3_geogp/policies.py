@@ -4,8 +4,8 @@ The actor is SB3's, unchanged. The critic is a :class:`~sb3_geogp.SparseOnlineGP
 flattened observation features; it has no network parameters, so the optimiser holds only
 the actor's. The GP learns outside gradient descent: :class:`~sb3_geogp.GPValueCallback` feeds
 it each rollout through :meth:`GPCriticMixin.update_critic` (by default, since 0.24, Monte
-Carlo returns under PPO, TRPO and MaskablePPO, cut after 200 steps since 0.25; SB3's returns
-under A2C).
+Carlo returns under PPO, TRPO and MaskablePPO, cut after 200 steps where ``gamma ** 200 >= 0.5``
+since 0.26; SB3's returns under A2C).
 
 :class:`GPCriticMixin` holds the GP-critic behaviour; :class:`GPActorCriticPolicy` puts it on
 SB3's ``ActorCriticPolicy`` (PPO, A2C, sb3-contrib's TRPO) and

@@ -19,7 +19,13 @@ from stable_baselines3.common.env_util import make_vec_env
 from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
 
 from sb3_geogp import GPActorCriticPolicy, GPCriticWarning, GPValueCallback, callbacks
-from sb3_geogp.callbacks import DEFAULT_HORIZON, DEFAULT_TARGET, default_feed, default_target
+from sb3_geogp.callbacks import (
+    CUT_WEIGHT,
+    DEFAULT_HORIZON,
+    DEFAULT_TARGET,
+    default_feed,
+    default_target,
+)
 from sb3_geogp.policies import SUPPORTED_ALGORITHMS
 from sb3_geogp.targets import (
     discounted_returns,
@@ -80,8 +86,10 @@ def expected_monte_carlo(env_id: int, t: int) -> float:
     return sum(GAMMA ** (k - t) * (1 + k) for k in range(t, 5)) + GAMMA ** (5 - t) * PRIOR
 
 
-def make_scripted(algo: type[BaseAlgorithm] = PPO, n_steps: int = 4) -> BaseAlgorithm:
-    kwargs: dict[str, Any] = dict(n_steps=n_steps, gamma=GAMMA, gae_lambda=1.0, seed=0)
+def make_scripted(
+    algo: type[BaseAlgorithm] = PPO, n_steps: int = 4, gamma: float = GAMMA
+) -> BaseAlgorithm:
+    kwargs: dict[str, Any] = dict(n_steps=n_steps, gamma=gamma, gae_lambda=1.0, seed=0)
     if algo is PPO:
         kwargs.update(batch_size=2 * n_steps, n_epochs=1)
     return algo(
@@ -263,9 +271,12 @@ def test_horizon_targets_match_hand_computed_returns(horizon: int) -> None:
             assert y == pytest.approx(expected_horizon(env_id, t, horizon), rel=1e-6)
 
 
-def _fed(algo: type[BaseAlgorithm], callback: GPValueCallback) -> list[np.ndarray]:
-    """Targets of every batch ``callback`` feeds a scripted model of ``algo`` (GP kept empty)."""
-    model = make_scripted(algo, n_steps=4)
+def _fed(
+    algo: type[BaseAlgorithm], callback: GPValueCallback, gamma: float = GAMMA
+) -> list[np.ndarray]:
+    """Targets of every batch ``callback`` feeds a scripted model of ``algo`` with discount
+    ``gamma`` (GP kept empty)."""
+    model = make_scripted(algo, n_steps=4, gamma=gamma)
     recorder = FeedRecorder(model.policy, keep_empty=True)
     model.learn(4 * 8, callback=callback)
     return [np.concatenate([obs, targets[:, None]], axis=1) for obs, targets, _ in recorder.batches]
@@ -293,24 +304,40 @@ def test_default_target_is_the_algorithms(algo: type[BaseAlgorithm], expected: s
     assert default_target(None) == DEFAULT_TARGET == "monte_carlo"
 
 
-def test_default_feed_cuts_the_ppo_familys_monte_carlo_returns(
-    monkeypatch: pytest.MonkeyPatch,
+@pytest.mark.parametrize(("gamma", "cut"), [(0.9, True), (0.8, False)])
+def test_default_feed_cuts_the_ppo_familys_monte_carlo_returns_where_the_tail_weighs(
+    monkeypatch: pytest.MonkeyPatch, gamma: float, cut: bool
 ) -> None:
-    """Unset, PPO's Monte Carlo returns are cut after :data:`DEFAULT_HORIZON` steps: the
-    batches are those of that horizon passed explicitly, not the uncut ones (the horizon set
-    to 4 here, below the scripted episodes' 5 steps); A2C's returns have no horizon."""
-    assert default_feed(PPO) == ("monte_carlo", DEFAULT_HORIZON) == ("monte_carlo", 200)
-    assert default_feed(A2C) == ("returns", None)
+    """Unset, PPO's Monte Carlo returns are cut after :data:`DEFAULT_HORIZON` steps where
+    ``gamma ** DEFAULT_HORIZON >= CUT_WEIGHT`` (0.5): the batches are those of that horizon
+    passed explicitly, else the uncut ones. The horizon is set to 4 here, below the scripted
+    episodes' 5 steps: ``0.9 ** 4`` = 0.66 cuts, ``0.8 ** 4`` = 0.41 does not. A2C's returns
+    have no horizon."""
     monkeypatch.setattr(callbacks, "DEFAULT_HORIZON", 4)
     callback = GPValueCallback()
-    default = _fed(PPO, callback)
-    assert (callback.target, callback.horizon) == ("monte_carlo", 4)
-    cut = _fed(PPO, GPValueCallback(target="monte_carlo", horizon=4))
-    uncut = _fed(PPO, GPValueCallback(target="monte_carlo"))
-    assert _same_batches(default, cut) and not _same_batches(default, uncut)
+    default = _fed(PPO, callback, gamma)
+    assert (callback.target, callback.horizon) == ("monte_carlo", 4 if cut else None)
+    explicit = _fed(PPO, GPValueCallback(target="monte_carlo", horizon=4), gamma)
+    uncut = _fed(PPO, GPValueCallback(target="monte_carlo"), gamma)
+    assert _same_batches(default, explicit) == cut and _same_batches(default, uncut) != cut
     a2c = GPValueCallback()
-    _fed(A2C, a2c)
+    _fed(A2C, a2c, gamma)
     assert (a2c.target, a2c.horizon) == ("returns", None)
+
+
+@pytest.mark.parametrize(
+    ("gamma", "horizon"),
+    # 0.5 ** (1 / 200) = 0.99654: the least gamma whose 200th power weighs 0.5.
+    [(0.9999, 200), (0.9966, 200), (0.9965, None), (0.99, None), (0.98, None)],
+)
+def test_the_default_cut_of_200_steps_needs_gamma_above_0_99654(
+    gamma: float, horizon: int | None
+) -> None:
+    """MountainCarContinuous-v0's zoo ``gamma`` (0.9999) is cut, Acrobot-v1's (0.99) and
+    CartPole-v1's (0.98) are not; A2C is fed SB3's returns whatever its discount."""
+    assert (DEFAULT_HORIZON, CUT_WEIGHT) == (200, 0.5)
+    assert default_feed(PPO, gamma) == ("monte_carlo", horizon)
+    assert default_feed(A2C, gamma) == ("returns", None)
 
 
 @pytest.mark.parametrize(("horizon", "same"), [(5, True), (500, True), (4, False)])

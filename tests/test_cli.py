@@ -228,7 +228,7 @@ def test_unset_horizon_keeps_older_run_directories_valid(tmp_path: Path) -> None
 
 @pytest.mark.parametrize(
     ("extra", "target", "horizon"),
-    [(["--algo", "ppo"], "monte_carlo", 200), (["--algo", "a2c"], "returns", None),
+    [(["--algo", "ppo"], "monte_carlo", None), (["--algo", "a2c"], "returns", None),
      (["--algo", "ppo", "--critic", "mlp"], "returns", None),
      (["--algo", "ppo", "--target", "returns"], "returns", None),
      (["--algo", "ppo", "--target", "monte_carlo"], "monte_carlo", None)],

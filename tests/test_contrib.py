@@ -121,8 +121,10 @@ def test_trpo_trains_the_actor_and_feeds_the_gp(kernel: str | None) -> None:
 
 @pytest.mark.parametrize("algo", [TRPO, MaskablePPO])
 def test_the_ppo_familys_default_feed_is_ppos(algo: type[BaseAlgorithm]) -> None:
-    """TRPO and MaskablePPO get PPO's default feed: Monte Carlo returns cut after 200 steps."""
-    assert default_feed(algo) == default_feed(PPO) == ("monte_carlo", 200)
+    """TRPO and MaskablePPO get PPO's default feed: Monte Carlo returns, cut after 200 steps
+    where ``gamma ** 200 >= 0.5``."""
+    for gamma, horizon in ((0.9999, 200), (0.99, None)):
+        assert default_feed(algo, gamma) == default_feed(PPO, gamma) == ("monte_carlo", horizon)
 
 
 def test_trpo_without_the_callback_names_it() -> None:

@@ -249,8 +249,8 @@ def add_target_arguments(parser: argparse.ArgumentParser) -> None:
         default=None,
         help="value targets GPValueCallback feeds the GP critics: returns (SB3's TD(lambda) "
         "returns, which the MLP critic learns too) or monte_carlo (returns of completed "
-        "episodes); default: GPValueCallback's per algorithm, monte_carlo cut after 200 steps "
-        "for PPO, returns for A2C",
+        "episodes); default: GPValueCallback's per algorithm, monte_carlo for PPO (cut after 200 "
+        "steps where gamma**200 >= 0.5), returns for A2C",
     )
     parser.add_argument(
         "--horizon",
@@ -259,7 +259,7 @@ def add_target_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="N",
         help="with --target monte_carlo: cut each return after N steps with the critic's value "
         "(GPValueCallback's horizon); unset: no cut there, and without --target each algorithm's "
-        "default (cut after 200 steps under PPO)",
+        "default (under PPO cut after 200 steps where gamma**200 >= 0.5)",
     )
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import inspect
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -21,17 +22,20 @@ from sb3_geogp.comparison.hyperparams import (
 
 
 def fed(
-    target: Target | None, horizon: int | None, algo: str, critic: str
+    target: Target | None, horizon: int | None, algo: str, critic: str, gamma: float | None = None
 ) -> tuple[Target, int | None]:
     """The target ``critic`` learns under ``algo`` (a key of
-    :data:`~sb3_geogp.comparison.hyperparams.ALGOS`) and where it is cut, when ``target`` and
-    ``horizon`` are asked for: SB3's returns, uncut, for the MLP critic; else as asked, or
-    where ``target`` is ``None`` ``GPValueCallback``'s default for the algorithm
-    (:func:`~sb3_geogp.callbacks.default_feed`)."""
+    :data:`~sb3_geogp.comparison.hyperparams.ALGOS`) with discount ``gamma`` (``None``: the
+    algorithm's default) and where it is cut, when ``target`` and ``horizon`` are asked for:
+    SB3's returns, uncut, for the MLP critic; else as asked, or where ``target`` is ``None``
+    ``GPValueCallback``'s default (:func:`~sb3_geogp.callbacks.default_feed`)."""
     if critic == "mlp":
         return "returns", None
     if target is None:
-        return default_feed(ALGOS[algo])
+        algorithm = ALGOS[algo]
+        if gamma is None:
+            gamma = inspect.signature(algorithm).parameters["gamma"].default
+        return default_feed(algorithm, gamma)
     return target, horizon
 
 
@@ -221,8 +225,9 @@ class SweepConfig:
                     raise ValueError(f"{hp.source}, {algo} on {env_id}: {err}") from None
                 rollout = n_envs * int(kwargs.get("n_steps", 2048 if algo == "ppo" else 5))
                 steps = max(2 * rollout, self._budget(algo, env_id, hp.n_timesteps))
+                gamma = kwargs.get("gamma")
                 for critic in self.critics:
-                    target, horizon = fed(self.target, self.horizon, algo, critic)
+                    target, horizon = fed(self.target, self.horizon, algo, critic, gamma)
                     for seed in self.seeds:
                         out.append(
                             RunSpec(
