@@ -70,8 +70,10 @@ def main() -> None:
               f"{warned} |")  # fmt: skip
     cut, uncut = (np.array([r["final_return"] for r in runs]) for runs in by_arm.values())
     estimate, lo, hi = difference_ci(uncut, cut)
-    print(f"\nuncut − cut, final return: {estimate:+.1f} [{lo:+.1f}, {hi:+.1f}] "
-          "(95 % percentile bootstrap of the difference of means)")
+    print(
+        f"\nuncut − cut, final return: {estimate:+.1f} [{lo:+.1f}, {hi:+.1f}] "
+        "(95 % percentile bootstrap of the difference of means)"
+    )
 
 
 if __name__ == "__main__":

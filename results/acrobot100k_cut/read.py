@@ -72,7 +72,9 @@ def main(argv: Sequence[str] | None = None) -> None:
     runs, blocks, figure = R.start(STUDY, args, __doc__)
     new, old = (list(runs[arm].values()) for arm in ("0.25", "0.24"))
     print("**Primary**: 0.25 − 0.24, final return (the table's rule, one comparison):\n")
-    R.print_table(POOL30.against_baseline(new, old, "final_return", 1), "final return", "0.25 − 0.24")
+    R.print_table(
+        POOL30.against_baseline(new, old, "final_return", 1), "final return", "0.25 − 0.24"
+    )
     print("\n0.25 − 0.24 paired by seed (95 % t):\n")
     print(R.paired_header())
     print(R.paired(runs, "0.25", "0.24", "Acrobot-v1"))
@@ -80,7 +82,10 @@ def main(argv: Sequence[str] | None = None) -> None:
     R.print_table(POOL30.against_baseline(new, old, "mean_return", 1), "area under the curve",
                   "0.25 − 0.24")  # fmt: skip
     for arm in ("0.25", "0.24"):
-        for metric, label in (("final_return", "final return"), ("mean_return", "area under the curve")):
+        for metric, label in (
+            ("final_return", "final return"),
+            ("mean_return", "area under the curve"),
+        ):
             print(f"\nSecondary: {arm} − MLP, {label}, family-wise at the published 42:\n")
             mlp = POOL30.mlp_rows(list(runs[arm].values()) + list(runs["MLP"].values()), metric)
             R.print_table(mlp, label, f"{arm} − MLP")

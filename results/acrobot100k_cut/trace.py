@@ -41,7 +41,9 @@ class Trace(BaseCallback):
         self._lengths: list[int] = []
 
     def _on_step(self) -> bool:
-        self._lengths += [info["episode"]["l"] for info in self.locals["infos"] if "episode" in info]
+        self._lengths += [
+            info["episode"]["l"] for info in self.locals["infos"] if "episode" in info
+        ]
         return True
 
     def _on_rollout_end(self) -> None:

@@ -27,7 +27,9 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--metric", choices=("final_return", "mean_return"), default="final_return")
     args = parser.parse_args()
-    print("## Issue 13's table, PPO's returns cut where gamma ** 200 >= 0.5 (MountainCarContinuous)\n")
+    print(
+        "## Issue 13's table, PPO's returns cut where gamma ** 200 >= 0.5 (MountainCarContinuous)\n"
+    )
     H200.verdict(args.metric, cut=(H200.MCC,))
 
 
