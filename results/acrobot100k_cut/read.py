@@ -81,14 +81,7 @@ def main(argv: Sequence[str] | None = None) -> None:
     print("\nSecondary: 0.25 − 0.24 on the area under the curve:\n")
     R.print_table(POOL30.against_baseline(new, old, "mean_return", 1), "area under the curve",
                   "0.25 − 0.24")  # fmt: skip
-    for arm in ("0.25", "0.24"):
-        for metric, label in (
-            ("final_return", "final return"),
-            ("mean_return", "area under the curve"),
-        ):
-            print(f"\nSecondary: {arm} − MLP, {label}, family-wise at the published 42:\n")
-            mlp = POOL30.mlp_rows(list(runs[arm].values()) + list(runs["MLP"].values()), metric)
-            R.print_table(mlp, label, f"{arm} − MLP")
+    R.print_against_mlp(runs, ("0.25", "0.24"))
     earlier, _ = R.whole_blocks(EARLIER.STUDY)
     pooled = {arm: [r for (e, _), r in earlier[arm].items() if e == "Acrobot-v1"] + list(runs[arm].values())
               for arm in ("0.25", "0.24")}  # fmt: skip

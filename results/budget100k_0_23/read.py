@@ -29,7 +29,7 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent / "budget100k"))
 sys.path.insert(0, str(HERE.parent / "replication_0_15"))
 from falls import counts  # noqa: E402
-from pool30 import print_table  # noqa: E402
+from pool30 import mlp_rows, print_table  # noqa: E402
 
 Runs = dict[str, dict[tuple[str, int], dict[str, Any]]]
 ENVS = ("Pendulum-v1", "CartPole-v1", "Acrobot-v1")
@@ -97,6 +97,19 @@ def against_mlp(runs: Runs, arm: str, metric: str) -> dict[tuple[str, str], dict
     """``arm`` − MLP per cell, the comparison's statistics, family-wise over the 3 cells."""
     rows = comparisons(list(runs[arm].values()) + list(runs["MLP"].values()), family_size=3)
     return {(c["env"], c["algo"]): c for c in rows if c["metric"] == metric}
+
+
+def print_against_mlp(runs: Runs, arms: Sequence[str]) -> None:
+    """Each of ``arms`` − SB3's MLP critic (arm ``"MLP"``) on the final return and the area
+    under the curve, family-wise at the published 42."""
+    for arm in arms:
+        for metric, label in (
+            ("final_return", "final return"),
+            ("mean_return", "area under the curve"),
+        ):
+            print(f"\nSecondary: {arm} − MLP, {label}, family-wise at the published 42:\n")
+            rows = mlp_rows(list(runs[arm].values()) + list(runs["MLP"].values()), metric)
+            print_table(rows, label, f"{arm} − MLP")
 
 
 def arm_row(study: Study, runs: Runs, arm: str) -> str:

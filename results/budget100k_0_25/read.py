@@ -44,14 +44,7 @@ def main(argv: Sequence[str] | None = None) -> None:
     print(R.paired_header())
     for env in ENVS:
         print(R.paired(runs, "0.25", "0.24", env))
-    for arm in ("0.25", "0.24"):
-        for metric, label in (
-            ("final_return", "final return"),
-            ("mean_return", "area under the curve"),
-        ):
-            print(f"\nSecondary: {arm} − MLP, {label}, family-wise at the published 42:\n")
-            mlp = POOL30.mlp_rows(list(runs[arm].values()) + list(runs["MLP"].values()), metric)
-            R.print_table(mlp, label, f"{arm} − MLP")
+    R.print_against_mlp(runs, ("0.25", "0.24"))
     what = "0.25's default GP critic (cut after 200 steps), 0.24's (uncut), SB3's MLP critic"
     R.finish(STUDY, runs, figure, blocks, what)
 
