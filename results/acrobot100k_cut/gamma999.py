@@ -8,10 +8,19 @@ fresh PPO seeds 430-449, with the default feed (cut) and uncut returns: do cut r
 there too? A screen on 20 seeds, not a test; no default changes on it.
 
     python results/acrobot100k_cut/gamma999.py > results/acrobot100k_cut/gamma999.md
+
+``--registered`` runs and reads addendum 2 of PREREGISTRATION.md (session 46): the same two
+arms on fresh seeds 450-489, its primary reading (uncut − cut, final return, 95 % percentile
+bootstrap), the runs ending at -500 with Fisher's exact test (one-sided, cut more), the two
+arms paired by seed, and the 60 seeds pooled with the screen's (reported, not decided on):
+
+    python results/acrobot100k_cut/gamma999.py --registered \
+        > results/acrobot100k_cut/gamma999_registered.md
 """
 
 from __future__ import annotations
 
+import argparse
 import dataclasses
 import json
 from concurrent.futures import ProcessPoolExecutor
@@ -19,6 +28,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import scipy.stats as sps
 
 from sb3_geogp.comparison.run import result_path, run_one
 from sb3_geogp.comparison.specs import RunSpec, SweepConfig, fed
@@ -27,13 +37,15 @@ from sb3_geogp.toolbox.stats import difference_ci
 HERE = Path(__file__).resolve().parent
 OUT = HERE / "gamma999"
 SEEDS = tuple(range(430, 450))
+#: Addendum 2's fresh seeds (session 46).
+REGISTERED = tuple(range(450, 490))
 GAMMA = 0.999
 ARMS = {"cut (0.26 default)": None, "uncut": "monte_carlo"}
 
 
-def specs(target: str | None) -> list[RunSpec]:
+def specs(target: str | None, seeds: tuple[int, ...]) -> list[RunSpec]:
     config = SweepConfig(
-        algos=("ppo",), critics=("laplacian",), envs=("Acrobot-v1",), seeds=SEEDS,
+        algos=("ppo",), critics=("laplacian",), envs=("Acrobot-v1",), seeds=seeds,
         timesteps=100_000, target=target,  # type: ignore[arg-type]
     )  # fmt: skip
     out = []
@@ -54,26 +66,67 @@ def run(args: tuple[RunSpec, str]) -> dict[str, Any]:
     return run_one(spec, OUT / folder)
 
 
-def main() -> None:
-    jobs = [(s, name.split()[0]) for name, t in ARMS.items() for s in specs(t)]
+def finals(runs: list[dict[str, Any]]) -> np.ndarray:
+    return np.array([r["final_return"] for r in runs])
+
+
+def arms(seeds: tuple[int, ...]) -> dict[str, list[dict[str, Any]]]:
+    """Each arm's runs on ``seeds``, in seed order (made first where missing)."""
+    jobs = [(s, name.split()[0]) for name, t in ARMS.items() for s in specs(t, seeds)]
     with ProcessPoolExecutor(2) as pool:
         results = list(pool.map(run, jobs))
-    by_arm = {name: [r for r, (_, f) in zip(results, jobs, strict=True) if f == name.split()[0]]
-              for name in ARMS}  # fmt: skip
-    print(f"PPO Acrobot-v1, gamma {GAMMA}, 100,000 steps, seeds {SEEDS[0]}-{SEEDS[-1]}\n")
+    return {name: [r for r, (_, f) in zip(results, jobs, strict=True) if f == name.split()[0]]
+            for name in ARMS}  # fmt: skip
+
+
+def print_arms(by_arm: dict[str, list[dict[str, Any]]], seeds: tuple[int, ...]) -> None:
+    print(f"PPO Acrobot-v1, gamma {GAMMA}, 100,000 steps, seeds {seeds[0]}-{seeds[-1]}\n")
     print("| feed | mean final return | runs ending at -500 | all-zero warning |")
     print("|---|---:|---:|---:|")
     for name, runs in by_arm.items():
-        finals = np.array([r["final_return"] for r in runs])
+        final = finals(runs)
         warned = sum(any("is exactly 0" in w for w in r["warnings"]) for r in runs)
-        print(f"| {name} | {finals.mean():.1f} | {int((finals <= -500).sum())} of {len(runs)} | "
+        print(f"| {name} | {final.mean():.1f} | {int((final <= -500).sum())} of {len(runs)} | "
               f"{warned} |")  # fmt: skip
-    cut, uncut = (np.array([r["final_return"] for r in runs]) for runs in by_arm.values())
-    estimate, lo, hi = difference_ci(uncut, cut)
-    print(
-        f"\nuncut − cut, final return: {estimate:+.1f} [{lo:+.1f}, {hi:+.1f}] "
-        "(95 % percentile bootstrap of the difference of means)"
-    )
+
+
+def print_difference(by_arm: dict[str, list[dict[str, Any]]], label: str) -> None:
+    estimate, lo, hi = difference_ci(*(finals(by_arm[a]) for a in ("uncut", "cut (0.26 default)")))
+    verdict = "better" if lo > 0 else "worse" if hi < 0 else "no difference"
+    print(f"\n{label}uncut − cut, final return: {estimate:+.1f} [{lo:+.1f}, {hi:+.1f}] "
+          f"(95 % percentile bootstrap of the difference of means): {verdict}")  # fmt: skip
+
+
+def registered() -> None:
+    """Addendum 2: the primary reading, then the secondary ones."""
+    by_arm = arms(REGISTERED)
+    print_arms(by_arm, REGISTERED)
+    print_difference(by_arm, "**Primary**: ")
+    cut, uncut = (finals(by_arm[a]) for a in ARMS)
+    frozen = [int((f <= -500).sum()) for f in (cut, uncut)]
+    table = [[frozen[0], len(cut) - frozen[0]], [frozen[1], len(uncut) - frozen[1]]]
+    p = sps.fisher_exact(table, alternative="greater").pvalue
+    print(f"\nRuns ending at -500: cut {frozen[0]} of {len(cut)}, uncut {frozen[1]} of "
+          f"{len(uncut)}; Fisher's exact p (one-sided, cut more) = {p:.4f}")  # fmt: skip
+    paired = uncut - cut
+    half = sps.t.ppf(0.975, len(paired) - 1) * paired.std(ddof=1) / np.sqrt(len(paired))
+    print(f"\nuncut − cut paired by seed: {paired.mean():+.1f} "
+          f"[{paired.mean() - half:+.1f}, {paired.mean() + half:+.1f}] (95 % t); "
+          f"medians {np.median(uncut):.1f} (uncut), {np.median(cut):.1f} (cut)")  # fmt: skip
+    screen = arms(SEEDS)
+    pooled = {a: screen[a] + by_arm[a] for a in ARMS}
+    print_difference(pooled, f"Pooled with the screen (seeds {SEEDS[0]}-{REGISTERED[-1]}): ")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--registered", action="store_true", help="addendum 2's test")
+    if parser.parse_args().registered:
+        registered()
+        return
+    by_arm = arms(SEEDS)
+    print_arms(by_arm, SEEDS)
+    print_difference(by_arm, "")
 
 
 if __name__ == "__main__":
