@@ -23,6 +23,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+import tempfile
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import Any
@@ -32,6 +33,7 @@ import scipy.stats as sps
 
 from sb3_geogp.comparison.run import result_path, run_one
 from sb3_geogp.comparison.specs import RunSpec, SweepConfig, fed
+from sb3_geogp.toolbox.scripts import load_script
 from sb3_geogp.toolbox.stats import difference_ci
 
 HERE = Path(__file__).resolve().parent
@@ -118,10 +120,35 @@ def registered() -> None:
     print_difference(pooled, f"Pooled with the screen (seeds {SEEDS[0]}-{REGISTERED[-1]}): ")
 
 
+def trace(seed: int) -> None:
+    """Both arms of one seed, re-run with ``trace.py``'s recorder (which changes nothing)."""
+    recorder = load_script(HERE / "trace.py", "acrobot100k_cut_trace")
+    print(f"PPO Acrobot-v1, gamma {GAMMA}, 100,000 steps, seed {seed}, re-run with a recorder\n")
+    print("| feed | final return (stored run) | first rollout with a goal | goals in training | "
+          "advantages all equal from | advantage spread, rollouts 2-4 |")  # fmt: skip
+    print("|---|---:|---:|---:|---:|---|")
+    for name, target in ARMS.items():
+        (spec,) = specs(target, (seed,))
+        rows = recorder.Trace()
+        with tempfile.TemporaryDirectory() as out:
+            final = run_one(spec, out, recorders=[rows])["final_return"]
+        stored = json.loads(result_path(OUT / name.split()[0], spec).read_text())["final_return"]
+        early = ", ".join(f"{r['advantage_sd']:.3g}" for r in rows.rows[1:4])
+        print(f"| {name} | {final:.1f} ({stored:.1f}) | "
+              f"{recorder.first(rows.rows, lambda r: r['goals'] > 0)} | "
+              f"{sum(r['goals'] for r in rows.rows)} | {recorder.frozen_from(rows.rows)} | "
+              f"{early} |")  # fmt: skip
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--registered", action="store_true", help="addendum 2's test")
-    if parser.parse_args().registered:
+    parser.add_argument("--trace", type=int, metavar="SEED", help="trace one seed's two runs")
+    args = parser.parse_args()
+    if args.trace is not None:
+        trace(args.trace)
+        return
+    if args.registered:
         registered()
         return
     by_arm = arms(SEEDS)
