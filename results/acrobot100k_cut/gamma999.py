@@ -16,6 +16,12 @@ arms paired by seed, and the 60 seeds pooled with the screen's (reported, not de
 
     python results/acrobot100k_cut/gamma999.py --registered \
         > results/acrobot100k_cut/gamma999_registered.md
+
+``--trace SEED`` re-runs one seed under both arms exactly as above with ``trace.py``'s
+recorder (exploratory: did its training episodes ever reach the goal, did its advantages stop):
+
+    python results/acrobot100k_cut/gamma999.py --trace 475 \\
+        > results/acrobot100k_cut/gamma999_trace.md
 """
 
 from __future__ import annotations
