@@ -14,7 +14,7 @@ arms on fresh seeds 450-489, its primary reading (uncut − cut, final return, 9
 bootstrap), the runs ending at -500 with Fisher's exact test (one-sided, cut more), the two
 arms paired by seed, and the 60 seeds pooled with the screen's (reported, not decided on):
 
-    python results/acrobot100k_cut/gamma999.py --registered \
+    python results/acrobot100k_cut/gamma999.py --registered \\
         > results/acrobot100k_cut/gamma999_registered.md
 
 ``--trace SEED`` re-runs one seed under both arms exactly as above with ``trace.py``'s
