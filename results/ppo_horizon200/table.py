@@ -110,18 +110,25 @@ def registered_rule(h_c: dict[tuple[str, str], dict[str, Any]]) -> list[str]:
     return lines
 
 
-def verdict(metric: str, cut: tuple[str, ...] = CONFIRM_ENVS) -> list[str]:
-    """Issue 13's table with H in the ``cut`` cells of those a 200-step cut changes (by
-    default all three), and addendum 2's adoption rule checked against the published table
-    (both on the seeds every arm has)."""
+def table_runs(cut: tuple[str, ...] = CONFIRM_ENVS) -> tuple[list[dict[str, Any]], ...]:
+    """The runs of issue 13's table with H in the ``cut`` cells (the default critic's and SB3's
+    MLP critic's, both algorithms), the published table's, and the H cells' names."""
     mcc = pool_sweeps([f for f in (HERE / f"mcc_s{s}" for s in FIRST_SEEDS) if f.is_dir()])
     horizon = [r for r in mcc + arms()[0] if r["spec"]["env_id"] in cut]
     published, _, mlp = READING.arms()
     changed = {r["spec"]["env_id"] for r in horizon}
     kept = [r for r in published if r["spec"]["env_id"] not in changed]
     a2c = READING.TABLE40.a2c_runs()
-    new = mlp_rows(horizon + kept + mlp + a2c, metric)
-    old = mlp_rows(published + mlp + a2c, metric)
+    return horizon + kept + mlp + a2c, published + mlp + a2c, sorted(changed)
+
+
+def verdict(metric: str, cut: tuple[str, ...] = CONFIRM_ENVS) -> list[str]:
+    """Issue 13's table with H in the ``cut`` cells of those a 200-step cut changes (by
+    default all three), and addendum 2's adoption rule checked against the published table
+    (both on the seeds every arm has)."""
+    runs, published, changed = table_runs(cut)
+    new = mlp_rows(runs, metric)
+    old = mlp_rows(published, metric)
     print_table(new, READING.LABELS[metric])
     lost = [f"{env} {algo}" for (env, algo), c in old.items()
             if c["verdict"] == "better" and new[(env, algo)]["verdict"] != "better"]  # fmt: skip
