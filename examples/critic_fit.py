@@ -7,7 +7,10 @@ the GP critics. The goal is at least 0.9 averaged over the last 20% of training'
 Since session 39 each run also records the explained variance of those rollouts pooled, the
 same formula over all their points at once (``tail_pooled``): a rollout whose returns hardly
 vary (a CartPole policy that rarely fails) weighs in it by its points, not as one rollout's
-score that a small ``Var(R)`` can send far below 0.
+score that a small ``Var(R)`` can send far below 0. A rollout whose returns do not vary at all
+(every step of every episode alike, values and advantages exactly constant) has no score: it is
+recorded as ``null``, left out of its run's mean, and a run none of whose scored rollouts has one
+is left out of the tables' means (they say how many runs they hold).
 The runs are the comparison's (:class:`~sb3_geogp.comparison.specs.SweepConfig`: zoo
 hyperparameters and budgets, the same seeds, the GP critics with the comparison's options),
 without its evaluations.
@@ -275,10 +278,12 @@ def run_one(
         gp_kwargs=dict(spec.gp_kwargs),
         **_feed(spec),
         timesteps=recorder.timesteps,
-        explained_variance=recorder.explained,
+        explained_variance=[_score(x) for x in recorder.explained],
         tail_rollouts=len(scored),
-        tail_mean=float(np.nanmean(scored)),
-        tail_pooled=pooled_explained_variance([r["moments"] for r in recorder.rows[first:]]),
+        tail_mean=_score(np.nanmean(scored) if np.isfinite(scored).any() else np.nan),
+        tail_pooled=_score(
+            pooled_explained_variance([r["moments"] for r in recorder.rows[first:]])
+        ),
         provenance=provenance(),
     )
     if ceiling_rollouts:
@@ -297,6 +302,12 @@ def run_one(
             },
         )
     return result
+
+
+def _score(x: float) -> float | None:
+    """An explained variance as the run file keeps it: ``None`` (JSON ``null``) where it is
+    undefined (returns that do not vary)."""
+    return float(x) if np.isfinite(x) else None
 
 
 def _feed(spec: RunSpec) -> dict[str, Any]:
@@ -360,7 +371,9 @@ def run_all(
 
     def finished(result: dict[str, Any]) -> None:
         done.append(result)
-        bar.set_postfix_str(f"{result['critic']} {result['env_id']} {result['tail_mean']:.2f}")
+        score = result["tail_mean"]
+        shown = "undefined" if score is None else f"{score:.2f}"
+        bar.set_postfix_str(f"{result['critic']} {result['env_id']} {shown}")
         bar.update()
 
     if workers <= 1:
@@ -480,13 +493,16 @@ def seed_table(
     for env_id in dict.fromkeys(r["env_id"] for r in results):
         cells = []
         for critic in critics:
-            tails = [r[key] for r in results if (r["env_id"], r["critic"]) == (env_id, critic)]
+            runs = [r[key] for r in results if (r["env_id"], r["critic"]) == (env_id, critic)]
+            tails = [t for t in runs if t is not None]
             if not tails:
                 cells.append("–")
                 continue
             reached = sum(t >= GOAL for t in tails)
+            undefined = f" ({len(runs) - len(tails)} undefined)" if len(tails) < len(runs) else ""
             cells.append(
-                f"{np.mean(tails):.3f} [{min(tails):.2f}, {max(tails):.2f}], {reached}/{len(tails)}"
+                f"{np.mean(tails):.3f} [{min(tails):.2f}, {max(tails):.2f}], "
+                f"{reached}/{len(runs)}{undefined}"
             )
         lines.append(f"| `{env_id}` | " + " | ".join(cells) + " |")
     return lines
@@ -507,7 +523,7 @@ def paired_differences(
         "| env | " + " | ".join(f"{c} − {first}" for c in critics[1:]) + " |",
         "|---|" + "---:|" * (len(critics) - 1),
     ]
-    tails = {(r["env_id"], r["critic"], r["seed"]): r[key] for r in results}
+    tails = {(r["env_id"], r["critic"], r["seed"]): r[key] for r in results if r[key] is not None}
     for env_id in dict.fromkeys(r["env_id"] for r in results):
         cells = []
         for critic in critics[1:]:
@@ -540,8 +556,9 @@ def _ceiling_cells(runs: list[dict[str, Any]]) -> list[str]:
     """The cells of :func:`ceiling_table`'s row of ``runs`` (one env and critic)."""
     ceilings = [r["ceiling"]["tail_mean"] for r in runs]
 
-    def mean(values: list[float], fmt: str = ".3f") -> str:
-        return f"{np.mean(values):{fmt}}"
+    def mean(values: list[float | None], fmt: str = ".3f") -> str:
+        defined = [v for v in values if v is not None]  # a critic's score may be undefined
+        return f"{np.mean(defined):{fmt}}" if defined else "–"
 
     def per_rollout(key: str) -> list[float]:
         return [float(np.mean([c[key] for c in r["ceiling"]["rollouts"]])) for r in runs]
@@ -576,7 +593,7 @@ def plot(results: list[dict[str, Any]], path: Path) -> None:
             first = r["seed"] == min(q["seed"] for q in results if q["critic"] == r["critic"])
             ax.plot(
                 r["timesteps"],
-                np.clip(r["explained_variance"], -1, 1),
+                np.clip(np.array(r["explained_variance"], dtype=float), -1, 1),
                 color=COLORS.get(r["critic"]),
                 alpha=0.6,
                 lw=1,
@@ -630,7 +647,7 @@ def plot_ceiling(results: list[dict[str, Any]], path: Path) -> None:
                 )
                 ax.scatter(
                     np.clip([c[x_key] for c in rollouts], -1, 1),
-                    np.clip(scores, -1, 1),
+                    np.clip(np.array(scores, dtype=float), -1, 1),
                     s=12,
                     alpha=0.6,
                     color=COLORS.get(critic),

@@ -156,6 +156,39 @@ def test_critic_fit_tiny_run_writes_table_and_figure(tmp_path: Path) -> None:
         critic_fit.main([*argv, "--out", str(tmp_path), "--gp-option", "forgetting=0.9"])
 
 
+def test_critic_fit_leaves_undefined_scores_out_of_its_means(tmp_path: Path) -> None:
+    """A rollout whose returns do not vary has no explained variance (NaN): the run file keeps
+    it as ``null`` (strict JSON), its run's mean and the tables' means leave it out and say how
+    many runs had none, the paired differences use the seeds both critics have, and the
+    figure draws the rest."""
+    import scipy.stats
+
+    from sb3_geogp.comparison.run import write_json_atomic
+
+    critic_fit = load_script("critic_fit")
+    assert critic_fit._score(float("nan")) is None and critic_fit._score(0.25) == 0.25
+    write_json_atomic(tmp_path / "run.json", {"scores": [critic_fit._score(float("nan"))]})
+    assert json.loads((tmp_path / "run.json").read_text()) == {"scores": [None]}
+
+    def run(critic: str, seed: int, score: float | None) -> dict[str, Any]:
+        return dict(env_id="CartPole-v1", critic=critic, seed=seed, tail_mean=score,
+                    tail_pooled=score, timesteps=[1, 2],
+                    explained_variance=[0.0, score])  # fmt: skip
+
+    results = [run("mlp", s, v) for s, v in enumerate((0.4, 0.6, 0.8))]
+    results += [run("laplacian", s, v) for s, v in enumerate((0.5, None, 0.95))]
+    table = critic_fit.seed_table(results, ["mlp", "laplacian"], "tail_mean", "heading")
+    assert (
+        table[-1]
+        == "| `CartPole-v1` | 0.600 [0.40, 0.80], 0/3 | 0.725 [0.50, 0.95], 1/3 (1 undefined) |"
+    )
+    paired = critic_fit.paired_differences(results, ["mlp", "laplacian"])
+    half = scipy.stats.t.ppf(0.975, 1) * 0.05 / 2  # seeds 0 and 2: +0.1, +0.15; sd 0.05 / sqrt 2
+    assert paired[-1].endswith(f"+0.125 [{0.125 - half:+.3f}, {0.125 + half:+.3f}] (2) |")
+    critic_fit.plot(results, tmp_path / "fit.png")
+    assert (tmp_path / "fit.png").stat().st_size > 0
+
+
 def _each_run(
     critic_fit: Any, argv: list[str], variants: dict[str, list[str]], tmp_path: Path, run: str
 ) -> list[dict[str, Any]]:
