@@ -40,7 +40,7 @@ import scipy.stats as sps
 from sb3_geogp.comparison.run import result_path, run_one
 from sb3_geogp.comparison.specs import RunSpec, SweepConfig, fed
 from sb3_geogp.toolbox.scripts import load_script
-from sb3_geogp.toolbox.stats import difference_ci
+from sb3_geogp.toolbox.stats import difference_ci, mean_ci
 
 HERE = Path(__file__).resolve().parent
 OUT = HERE / "gamma999"
@@ -116,10 +116,9 @@ def registered() -> None:
     p = sps.fisher_exact(table, alternative="greater").pvalue
     print(f"\nRuns ending at -500: cut {frozen[0]} of {len(cut)}, uncut {frozen[1]} of "
           f"{len(uncut)}; Fisher's exact p (one-sided, cut more) = {p:.4f}")  # fmt: skip
-    paired = uncut - cut
-    half = sps.t.ppf(0.975, len(paired) - 1) * paired.std(ddof=1) / np.sqrt(len(paired))
-    print(f"\nuncut − cut paired by seed: {paired.mean():+.1f} "
-          f"[{paired.mean() - half:+.1f}, {paired.mean() + half:+.1f}] (95 % t); "
+    mean, half = (float(v) for v in mean_ci(uncut - cut, nan_policy="propagate"))
+    print(f"\nuncut − cut paired by seed: {mean:+.1f} "
+          f"[{mean - half:+.1f}, {mean + half:+.1f}] (95 % t); "
           f"medians {np.median(uncut):.1f} (uncut), {np.median(cut):.1f} (cut)")  # fmt: skip
     screen = arms(SEEDS)
     pooled = {a: screen[a] + by_arm[a] for a in ARMS}

@@ -26,11 +26,10 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import scipy.stats as sps
 
 from sb3_geogp.comparison.results import load_results
 from sb3_geogp.toolbox.scripts import load_script
-from sb3_geogp.toolbox.stats import difference_ci
+from sb3_geogp.toolbox.stats import difference_ci, mean_ci
 
 HERE = Path(__file__).resolve().parent
 FALLS = load_script(HERE.parent / "budget100k" / "falls.py", "budget100k_falls")
@@ -52,13 +51,12 @@ def main() -> None:
         seeds = sorted(set(default) & set(wide))
         a, b = (np.array([arm[s]["final_return"] for s in seeds]) for arm in (default, wide))
         est, lo, hi = difference_ci(b, a)
-        d = b - a
-        half = sps.t.ppf(0.975, len(d) - 1) * d.std(ddof=1) / np.sqrt(len(d))
+        mean, half = (float(v) for v in mean_ci(b - a, nan_policy="propagate"))
         stuck = " / ".join(str(int((x <= -500).sum())) for x in (a, b))
         stuck = stuck if env_id == "Acrobot-v1" else "–"
         print(f"| {env_id} ({len(seeds)} seeds) | {a.mean():.1f} | {b.mean():.1f} | "
-              f"{est:+.1f} [{lo:+.1f}, {hi:+.1f}] | {d.mean():+.1f} [{d.mean() - half:+.1f}, "
-              f"{d.mean() + half:+.1f}] | {stuck} |")  # fmt: skip
+              f"{est:+.1f} [{lo:+.1f}, {hi:+.1f}] | {mean:+.1f} [{mean - half:+.1f}, "
+              f"{mean + half:+.1f}] | {stuck} |")  # fmt: skip
     print(f"\nCartPole-v1 falls (reach {FALLS.THRESHOLD:g} at a checkpoint, end below "
           f"{FALLS.FALLEN:g}; `results/budget100k/falls.py`'s definition):\n")  # fmt: skip
     print("| arm | runs | reached the threshold | fell | seeds that fell |")
