@@ -192,7 +192,7 @@ def read_table(metric: str) -> list[Rule]:
     worse_default = [env for (env, _), c in against.items() if c["fw_verdict"] == "worse"]
     complete = len(ppo_new) == PPO_CELLS and all(c["n_a"] == 40 for c in ppo_new.values())
     better_today = sum(c["verdict"] == "better" for (_, algo), c in old.items() if algo == "ppo")
-    assert better_today == BETTER_TODAY, "the published table changed"
+    assert metric != "final_return" or better_today == BETTER_TODAY, "the table changed"
     rules = [
         ("2. no cell worse than the MLP family-wise", _holds(fw_worse)),
         ("2. no PPO cell better today lost", _holds(lost)),
