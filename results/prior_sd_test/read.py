@@ -28,7 +28,7 @@ HERE = Path(__file__).resolve().parent
 RESULTS = HERE.parent
 DOCS = RESULTS.parent / "docs"
 H200 = load_script(RESULTS / "ppo_horizon200" / "table.py", "ppo_horizon200")
-POOL30 = H200.READING.TABLE40
+TABLE40 = H200.READING.TABLE40
 FALLS = load_script(RESULTS / "budget100k" / "falls.py", "budget100k_falls")
 ARMS = ("default", "prior30")
 FIT_SEEDS = range(510, 530)
@@ -86,13 +86,6 @@ def read_fit() -> list[Rule]:
     return [(f"1. fit, prior30 − default above 0 at 95 % ({n} seeds)", state)]
 
 
-def _long_runs(*folders: Path) -> dict[str, list[dict[str, Any]]]:
-    """Each arm's 100,000-step runs: ``long_<arm>`` here and ``<arm>`` in each of ``folders``."""
-    return {arm: [r for folder in (HERE, *folders)
-                  for r in load_results(folder / (f"long_{arm}" if folder == HERE else arm))]
-            for arm in ARMS}  # fmt: skip
-
-
 def _returns_row(
     runs: dict[str, list[dict[str, Any]]], env_id: str, name: str
 ) -> tuple[list[int], str]:
@@ -115,8 +108,9 @@ def _returns_row(
 def read_long() -> list[Rule]:
     """The 100,000-step returns, CartPole falls and Acrobot runs at -500, and rule 3; the
     returns pooled with session 46's screen (seeds 490-509) as a secondary reading."""
-    runs = _long_runs()
-    pooled = _long_runs(RESULTS / "prior_sd_screen")
+    runs = {arm: load_results(HERE / f"long_{arm}") for arm in ARMS}
+    screen = RESULTS / "prior_sd_screen"
+    pooled = {arm: runs[arm] + load_results(screen / arm) for arm in ARMS}
     print("\n## 3. Long: PPO, 100,000 steps, fresh seeds 530-569, final return\n")
     print("| env | default | prior30 | prior30 − default [95 % bootstrap] | paired [95 % t] | "
           "verdict |")  # fmt: skip
@@ -168,7 +162,7 @@ def table_arms(runs: list[dict[str, Any]]) -> tuple[list[dict[str, Any]], ...]:
     default = [r for r in ppo if r["spec"]["critic"] != "mlp"]
     mlp = [r for r in ppo if r["spec"]["critic"] == "mlp"]
     a2c = [r for r in runs if r["spec"]["algo"] == "a2c"]
-    return (*POOL30.on_common_seeds(prior, default, mlp), a2c)
+    return (*TABLE40.on_common_seeds(prior, default, mlp), a2c)
 
 
 def read_table(metric: str) -> list[Rule]:
@@ -181,7 +175,7 @@ def read_table(metric: str) -> list[Rule]:
     print(f"\n## 2. Table: issue 13's 30k cells, prior30 in the PPO rows, {label}\n")
     H200.print_table(new, label)
     print(f"\n### prior30 − default (family-wise over the {PPO_CELLS} PPO cells)\n")
-    against = POOL30.against_default(prior, default, metric)
+    against = TABLE40.against_default(prior, default, metric)
     H200.print_table(against, label, "prior30 − default")
     ppo_new = {k: c for k, c in new.items() if k[1] == "ppo"}
     lost = [env for (env, algo), c in old.items() if algo == "ppo"
