@@ -21,7 +21,8 @@ after ``+adapt`` or ``+cheap`` by other adaptation settings (``+gapN``: ``max_ga
 ``+stepsN``; ``+floorN``: ``fit_floor=N/100``; ``+priorN``: ``prior_sd=N/100``; ``+nosettle``:
 ``settle=False``; ``+snapshot``: ``summary="snapshot"``; ``+lagged``:
 ``forgetting_score="lagged"``; and anywhere ``+returns``, ``GPValueCallback(target="returns")``,
-SB3's returns as the GP's targets instead of the algorithm's default); settings after
+SB3's returns as the GP's targets instead of the algorithm's default, and ``+everyN``,
+``GPValueCallback(feed_every=N)``, the GP fed every N-th rollout); settings after
 ``+adapt`` start from :class:`~sb3_geogp.Adaptation`'s defaults, so ``laplacian+adapt+gap1+f1``
 is PPO's critic before 0.10, a refit every block, ``+adapt+score256`` folds every point, and
 ``laplacian+adapt+gap16+nosettle+score256+fold256+floor80+snapshot+f1`` is 0.13's PPO critic,
@@ -96,6 +97,9 @@ SETTING_SUFFIXES: dict[str, tuple[tuple[str, ...], int]] = {
 }
 #: Suffixes that configure ``GPValueCallback`` instead of the GP, and its options they set.
 CALLBACK_SUFFIXES: dict[str, dict[str, Any]] = {"returns": {"target": "returns"}}
+#: Suffixes with a count that configure ``GPValueCallback``, and the option the count sets:
+#: ``+every4`` (``feed_every=4``).
+CALLBACK_COUNTS: dict[str, str] = {"every": "feed_every"}
 #: Suffixes without a count (after ``+adapt``) and the settings they give it.
 SETTING_FLAGS: dict[str, dict[str, Any]] = {
     "nosettle": {"settle": False},
@@ -104,9 +108,17 @@ SETTING_FLAGS: dict[str, dict[str, Any]] = {
 }
 
 
+def callback_option(suffix: str) -> dict[str, Any] | None:
+    """The ``GPValueCallback`` options one suffix sets (``None``: it sets none)."""
+    name = suffix.rstrip("0123456789")
+    if name in CALLBACK_COUNTS and suffix != name and int(suffix[len(name) :]) >= 1:
+        return {CALLBACK_COUNTS[name]: int(suffix[len(name) :])}
+    return CALLBACK_SUFFIXES.get(suffix)
+
+
 def callback_kwargs_of(suffixes: Sequence[str]) -> dict[str, Any]:
     """The ``GPValueCallback`` options the suffixes of a GP critic's name set."""
-    return {k: v for s in suffixes for k, v in CALLBACK_SUFFIXES.get(s, {}).items()}
+    return {k: v for s in suffixes for k, v in (callback_option(s) or {}).items()}
 
 
 def gp_kwargs_of(suffixes: Sequence[str]) -> dict[str, Any] | None:
@@ -116,7 +128,7 @@ def gp_kwargs_of(suffixes: Sequence[str]) -> dict[str, Any] | None:
     options: dict[str, Any] = {}
     settings: dict[str, Any] = {}
     for suffix in suffixes:
-        if suffix in CALLBACK_SUFFIXES:
+        if callback_option(suffix) is not None:
             continue
         name = suffix.rstrip("0123456789")
         count = suffix[len(name) :]
@@ -147,7 +159,8 @@ def critic_name(text: str) -> str:
         counted = " +".join([*(f"{k}N" for k in SETTING_SUFFIXES), *SETTING_FLAGS])
         raise argparse.ArgumentTypeError(
             f"unknown critic {text!r}: use one of {ALL_CRITICS}, a GP kernel optionally followed "
-            f"by +{' +'.join([*SUFFIXES, *CALLBACK_SUFFIXES])}, and after +adapt or +cheap by "
+            f"by +{' +'.join([*SUFFIXES, *CALLBACK_SUFFIXES, *(f'{k}N' for k in CALLBACK_COUNTS)])}"
+            ", and after +adapt or +cheap by "
             f"+{counted} (e.g. "
             "geodesic+adapt+shared, geodesic+adapt+thin512+gap4)"
         )

@@ -117,6 +117,15 @@ class GPValueCallback(BaseCallback):
         the uncut returns. Measured under A2C with ``horizon=100`` (docs/results.md, "Monte
         Carlo targets cut after 100 steps"): better than ``"returns"`` on CartPole-v1, worse on
         Acrobot-v1, whose exploration the critic's early bias above the returns had kept.
+    feed_every : int
+        Feed the GP every ``feed_every``-th rollout, with the targets of that rollout and the
+        ``feed_every - 1`` before it (each env's steps stitched in time order), instead of
+        after every rollout. The critic's values stay those of the last feed in between, so
+        the rollouts held back are valued by a critic that has not seen them yet. It divides
+        the GP's per-update costs (scoring, adaptation) by ``feed_every`` where rollouts are
+        short, as A2C's are (40 steps per rollout in the zoo's CartPole-v1 setting). What is
+        held is fed at the end of every ``learn`` call, so nothing is dropped. ``1`` (default):
+        every rollout.
     recompute_advantages : bool
         Recompute the rollout's values, returns and advantages with the updated GP before
         ``train`` (including the time-limit bootstraps). ``False`` (default) keeps SB3's
@@ -164,6 +173,7 @@ class GPValueCallback(BaseCallback):
         self,
         target: Target | None = None,
         horizon: int | None = None,
+        feed_every: int = 1,
         recompute_advantages: bool = False,
         deferred_values: bool = True,
         verbose: int = 0,
@@ -181,6 +191,9 @@ class GPValueCallback(BaseCallback):
                 f"explicitly; got horizon={horizon!r} with target={target!r}"
             )
         self.horizon = None if horizon is None else int(horizon)
+        if isinstance(feed_every, bool) or int(feed_every) != feed_every or feed_every < 1:
+            raise ValueError(f"feed_every must be a positive integer, got {feed_every!r}")
+        self.feed_every = int(feed_every)
         self.recompute_advantages = bool(recompute_advantages)
         self.deferred_values = bool(deferred_values)
         #: Wall-clock seconds spent in GP updates so far (all rollouts of this callback).
@@ -189,6 +202,8 @@ class GPValueCallback(BaseCallback):
         self._pending: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
         # Truncations of the current rollout: (step, env, terminal observation).
         self._truncations: list[tuple[int, int, np.ndarray]] = []
+        # Rollouts not fed yet (feed_every > 1), as _rollout_targets gives them.
+        self._held: list[tuple[np.ndarray, ...]] = []
 
     # ------------------------------------------------------------------------------------------
     # SB3 hooks
@@ -234,6 +249,7 @@ class GPValueCallback(BaseCallback):
         # Rollouts and points fed in this learn() call, for _on_training_end's warning.
         self._fed = [0, 0]
         self._warned_still = False
+        self._held = []
 
     def _on_rollout_start(self) -> None:
         self._truncations = []
@@ -261,25 +277,44 @@ class GPValueCallback(BaseCallback):
             # values of one batched prediction they are what step-by-step values would give.
             # ``values`` is SB3's last value (of the observations after the rollout).
             self._fill_values(policy, buffer, self.locals["values"], dones)
-        values: np.ndarray | None = None
-        if self.target == "returns":
-            obs, targets, starts = per_env(
-                buffer.observations, buffer.returns, buffer.episode_starts
-            )
-            values = env_major(buffer.values)
+        self._held.append(self._rollout_targets(buffer, dones))
+        self._fed[0] += 1
+        if len(self._held) < self.feed_every:
+            # Only marks the rollout handled: the GP, and so the advantages, stay as they are.
+            policy.update_critic(*_empty_segment(self.model.observation_space.shape))
         else:
-            obs, targets, starts = self._completed_episodes(buffer, dones)
-        if self.recompute_advantages:
-            old_bootstrap = self._bootstrap_values(policy)
-        stats = policy.update_critic(obs, targets, starts, values)
-        self._fed = [self._fed[0] + 1, self._fed[1] + len(targets)]
-        self.update_seconds += 1e-3 * stats["update_ms"]
-        if self.recompute_advantages:
-            self._recompute(policy, buffer, dones, old_bootstrap)
-        for key, value in stats.items():
-            self.logger.record(f"gp/{key}", value)
+            if self.recompute_advantages:
+                old_bootstrap = self._bootstrap_values(policy)
+            stats = self._feed_held(policy)
+            if self.recompute_advantages:
+                self._recompute(policy, buffer, dones, old_bootstrap)
+            for key, value in stats.items():
+                self.logger.record(f"gp/{key}", value)
         if not self._warned_still and not buffer.advantages.any():
             self._warn_still()
+
+    def _rollout_targets(self, buffer: RolloutBuffer, dones: np.ndarray) -> tuple[np.ndarray, ...]:
+        """What this rollout feeds: SB3's returns as the buffer's time-major ``(observations,
+        returns, episode_starts, values)``, copied (the buffer is refilled); Monte Carlo
+        targets as ``(observations, targets, starts)`` env by env."""
+        if self.target == "returns":
+            arrays = (buffer.observations, buffer.returns, buffer.episode_starts, buffer.values)
+            return tuple(a.copy() for a in arrays)
+        return self._completed_episodes(buffer, dones)
+
+    def _feed_held(self, policy: GPCriticMixin) -> dict[str, float]:
+        """Feed the held rollouts in one update; returns ``update_critic``'s statistics."""
+        held, self._held = self._held, []
+        joined = [np.concatenate(arrays) for arrays in zip(*held, strict=True)]
+        if self.target == "returns":
+            # Stacked in time, each env's steps of consecutive rollouts form one trajectory.
+            obs, returns, starts, values = joined
+            stats = policy.update_critic(*per_env(obs, returns, starts), env_major(values))
+        else:
+            stats = policy.update_critic(*joined)
+        self._fed[1] += len(joined[1])
+        self.update_seconds += 1e-3 * stats["update_ms"]
+        return stats
 
     def _warn_still(self) -> None:
         # Measured in docs/results.md ("The 200-step cut at 100,000 steps on Acrobot"): runs
@@ -308,6 +343,8 @@ class GPValueCallback(BaseCallback):
         )
 
     def _on_training_end(self) -> None:
+        if self._held:
+            self._feed_held(self._policy)
         rollouts, points = self._fed
         if rollouts and not points:
             # Monte Carlo targets wait for an episode's end or their horizon, and a new learn()

@@ -161,11 +161,13 @@ def check_train_args(args: argparse.Namespace, out: Path) -> None:
 
 
 def check_targets(args: argparse.Namespace) -> None:
-    """Raise :class:`UsageError` unless ``--target`` and ``--horizon`` can reach the critic."""
-    if args.critic == "mlp" and (args.target == "monte_carlo" or args.horizon is not None):
+    """Raise :class:`UsageError` unless ``--target``, ``--horizon`` and ``--feed-every`` can
+    reach the critic."""
+    gp_only = args.target == "monte_carlo" or args.horizon is not None or args.feed_every != 1
+    if args.critic == "mlp" and gp_only:
         raise UsageError(
-            "--target and --horizon choose what the GP critic learns; SB3's MLP critic learns "
-            "SB3's returns. Drop them, or pass a GP --critic"
+            "--target, --horizon and --feed-every choose what and when the GP critic learns; "
+            "SB3's MLP critic learns SB3's returns every rollout. Drop them, or pass a GP --critic"
         )
     check_target_arguments(args)
 
@@ -188,12 +190,13 @@ def _settings(args: argparse.Namespace) -> dict[str, Any]:
     settings = {k: v for k, v in vars(args).items() if k not in ("command", "out", "no_progress")}
     # What the critic is fed, as run directories made before its default moved record it.
     settings["target"], settings["horizon"] = fed(args.target, args.horizon, args.algo, args.critic)
-    # Unset, an option added after 0.20 is left out, so that older run directories still match.
-    return {k: v for k, v in settings.items() if not (k in _ADDED and v is None)}
+    # At its default, an option added after 0.20 is left out, so that older run directories
+    # still match.
+    return {k: v for k, v in settings.items() if not (k in _ADDED and v == _ADDED[k])}
 
 
-#: ``train`` options added after 0.20, recorded only when set.
-_ADDED = ("horizon",)
+#: ``train`` options added after 0.20 and their defaults, recorded only when set otherwise.
+_ADDED: dict[str, Any] = {"horizon": None, "feed_every": 1}
 
 
 def train(args: argparse.Namespace) -> Path:
@@ -233,7 +236,9 @@ def train(args: argparse.Namespace) -> Path:
             device=args.device,
             **algo_kwargs,
         )
-        callback = GPValueCallback(target=args.target, horizon=args.horizon)
+        callback = GPValueCallback(
+            target=args.target, horizon=args.horizon, feed_every=args.feed_every
+        )
     formats = ["stdout", "csv"]
     if importlib.util.find_spec("tensorboard") is not None:
         formats.append("tensorboard")

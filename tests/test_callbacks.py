@@ -142,6 +142,22 @@ class BufferRecorder(BaseCallback):
         self.logged.append(dict(self.logger.name_to_value))
 
 
+class ProbeRecorder(BaseCallback):
+    """The critic's values of fixed states at every rollout end (run it after GPValueCallback)."""
+
+    def __init__(self, probe: th.Tensor) -> None:
+        super().__init__()
+        self.probe = probe
+        self.values: list[np.ndarray] = []
+
+    def _on_step(self) -> bool:
+        return True
+
+    def _on_rollout_end(self) -> None:
+        with th.no_grad():
+            self.values.append(self.model.policy.predict_values(self.probe).numpy()[:, 0])
+
+
 # ------------------------------------------------------------------------------------------------
 # Pure target maths
 # ------------------------------------------------------------------------------------------------
@@ -410,6 +426,63 @@ def test_returns_target_is_the_buffer_returns_env_by_env() -> None:
                 if not ended:
                     y += GAMMA**k * PRIOR
                 assert targets[rows][i] == pytest.approx(y, rel=1e-5), (env, episode, t)
+
+
+def test_feed_every_feeds_the_held_rollouts_each_env_stitched_in_time() -> None:
+    """``feed_every=2`` under A2C: the GP sees nothing after odd rollouts (so their values come
+    from the critic of the last feed) and, after even ones, both rollouts' returns, each env's
+    eight steps in time order with one trajectory start; a fifth rollout, held when ``learn``
+    ends, is fed then."""
+    model = make_scripted(A2C, n_steps=4)
+    recorder = FeedRecorder(model.policy, keep_empty=False)
+    buffers = BufferRecorder()
+    probe = th.tensor([[0.0, 0.0, 1.0], [1.0, 2.0, 3.0]])
+    critics = ProbeRecorder(probe)
+    feed = GPValueCallback(feed_every=2)
+    model.learn(2 * 4 * 5, callback=CallbackList([feed, buffers, critics]))
+    assert [len(b[1]) for b in recorder.batches] == [0, 16, 0, 16, 0, 8]
+    fed = [b for b in recorder.batches if len(b[1])]
+    groups = [buffers.rollouts[0:2], buffers.rollouts[2:4], buffers.rollouts[4:]]
+    for (obs, targets, starts), group in zip(fed, groups, strict=True):
+        n = 4 * len(group)
+        for env in range(2):
+            rows = slice(n * env, n * env + n)
+            stacked = {k: np.concatenate([r[k][:, env] for r in group]) for k in group[0]}
+            np.testing.assert_array_equal(obs[rows], stacked["observations"])
+            np.testing.assert_array_equal(targets[rows], stacked["returns"])
+            expected_starts = stacked["episode_starts"].astype(bool)
+            expected_starts[0] = True
+            np.testing.assert_array_equal(starts[rows], expected_starts)
+    # The critic moves only where it is fed: after rollouts 1 and 3 (the fifth is fed later).
+    values = critics.values
+    np.testing.assert_array_equal(values[0], np.full(2, PRIOR, dtype=np.float32))
+    for held, fed_before in ((2, 1), (4, 3)):
+        np.testing.assert_array_equal(values[held], values[fed_before])
+        assert not np.allclose(values[fed_before], values[fed_before - 1])
+
+
+def test_feed_every_monte_carlo_feeds_what_every_rollout_would_have() -> None:
+    """Monte Carlo targets do not depend on when they are fed (an empty GP, so the time-limit
+    bootstraps are the prior on both sides): ``feed_every=3``'s batches are
+    ``feed_every=1``'s, three at a time."""
+    batches = []
+    for every in (1, 3):
+        model = make_scripted(PPO, n_steps=4)
+        recorder = FeedRecorder(model.policy, keep_empty=True)
+        model.learn(2 * 4 * 6, callback=GPValueCallback(target="monte_carlo", feed_every=every))
+        batches.append(recorder.batches)
+    every_rollout, every_third = batches
+    assert [len(b[1]) for b in every_third][0::3] == [0, 0]
+    for i, joined in enumerate(every_third[2::3]):
+        group = every_rollout[3 * i : 3 * i + 3]
+        for k in range(3):
+            np.testing.assert_array_equal(joined[k], np.concatenate([b[k] for b in group]))
+
+
+@pytest.mark.parametrize("bad", [0, -2, 1.5, True, "2"])
+def test_feed_every_must_be_a_positive_integer(bad: Any) -> None:
+    with pytest.raises(ValueError, match="feed_every must be a positive integer"):
+        GPValueCallback(feed_every=bad)
 
 
 @pytest.mark.parametrize("kernel", ["geodesic", "rbf"])

@@ -176,6 +176,8 @@ def test_version(capsys: pytest.CaptureFixture[str]) -> None:
         (["--target", "monte_carlo", "--horizon", "0"], "horizon=0 with target='monte_carlo'"),
         (["--critic", "mlp", "--target", "monte_carlo"], "SB3's MLP critic learns SB3's returns"),
         (["--critic", "mlp", "--horizon", "5"], "Drop them, or pass a GP --critic"),
+        (["--critic", "mlp", "--feed-every", "4"], "learns SB3's returns every rollout"),
+        (["--feed-every", "0"], "feed_every must be a positive integer, got 0"),
         pytest.param(
             ["--device", "cuda"],
             "torch sees no CUDA device here; use --device cpu",
@@ -208,12 +210,16 @@ def test_train_feeds_the_cut_monte_carlo_targets(
     monkeypatch.setattr(cli, "GPValueCallback", Recorded)
     out = tmp_path / "run"
     argv = ["train", "--algo", "a2c", "--env", "CartPole-v1", "--target", "monte_carlo"]
-    argv += ["--horizon", "7", "--timesteps", "64", "--out", str(out), "--no-progress"]
-    assert main(argv) == 0
+    argv += ["--horizon", "7", "--feed-every", "2", "--timesteps", "64", "--out", str(out)]
+    assert main([*argv, "--no-progress"]) == 0
     fed = [c for c in made if c.num_timesteps > 0]  # the check's own instance never trains
-    assert [(c.target, c.horizon) for c in fed] == [("monte_carlo", 7)]
+    assert [(c.target, c.horizon, c.feed_every) for c in fed] == [("monte_carlo", 7, 2)]
     settings = json.loads((out / "train_settings.json").read_text())
-    assert (settings["target"], settings["horizon"]) == ("monte_carlo", 7)
+    assert (settings["target"], settings["horizon"], settings["feed_every"]) == (
+        "monte_carlo",
+        7,
+        2,
+    )
 
 
 def test_unset_horizon_keeps_older_run_directories_valid(tmp_path: Path) -> None:
@@ -222,7 +228,8 @@ def test_unset_horizon_keeps_older_run_directories_valid(tmp_path: Path) -> None
     argv += ["--out", str(out), "--no-progress"]
     assert main(argv) == 0
     settings = json.loads((out / "train_settings.json").read_text())
-    assert "horizon" not in settings  # as 0.20 wrote it, so re-running there is accepted
+    # As 0.20 wrote it, so re-running there is accepted.
+    assert "horizon" not in settings and "feed_every" not in settings
     assert main(argv) == 0
 
 

@@ -241,8 +241,9 @@ def _hyperparams_files(items: list[str]) -> tuple[tuple[str, HyperparamsFile], .
 
 
 def add_target_arguments(parser: argparse.ArgumentParser) -> None:
-    """Add ``--target`` and ``--horizon``, what :class:`GPValueCallback` feeds the GP critics
-    (shared by ``sb3-geogp compare`` and ``sb3-geogp train``)."""
+    """Add ``--target``, ``--horizon`` and ``--feed-every``, what and when
+    :class:`GPValueCallback` feeds the GP critics (shared by ``sb3-geogp compare`` and
+    ``sb3-geogp train``)."""
     parser.add_argument(
         "--target",
         choices=("returns", "monte_carlo"),
@@ -261,16 +262,26 @@ def add_target_arguments(parser: argparse.ArgumentParser) -> None:
         "(GPValueCallback's horizon); unset: no cut there, and without --target each algorithm's "
         "default (under PPO cut after 200 steps where gamma**200 >= 0.5)",
     )
+    parser.add_argument(
+        "--feed-every",
+        type=int,
+        default=1,
+        metavar="K",
+        help="feed the GP critics every K-th rollout, with the K rollouts since the last feed "
+        "(GPValueCallback's feed_every; default 1: every rollout)",
+    )
 
 
 def check_target_arguments(args: argparse.Namespace) -> None:
-    """Raise :class:`UsageError` unless :class:`GPValueCallback` takes ``--target`` and
-    ``--horizon`` (its own check, before any work)."""
+    """Raise :class:`UsageError` unless :class:`GPValueCallback` takes ``--target``,
+    ``--horizon`` and ``--feed-every`` (its own check, before any work)."""
     try:
-        GPValueCallback(target=args.target, horizon=args.horizon)
+        GPValueCallback(target=args.target, horizon=args.horizon, feed_every=args.feed_every)
     except ValueError as err:
         target = args.target or "(default)"
-        raise UsageError(f"--target {target} --horizon {args.horizon}: {err}") from None
+        raise UsageError(
+            f"--target {target} --horizon {args.horizon} --feed-every {args.feed_every}: {err}"
+        ) from None
 
 
 def config_from_args(args: argparse.Namespace) -> SweepConfig:
@@ -327,6 +338,7 @@ def config_from_args(args: argparse.Namespace) -> SweepConfig:
     changes["target"] = args.target
     check_target_arguments(args)
     changes["horizon"] = args.horizon
+    changes["feed_every"] = args.feed_every
     config = dataclasses.replace(config, **changes)
     try:
         for env_id in envs:

@@ -154,7 +154,9 @@ def _train_and_measure(spec: RunSpec, recorders: Sequence[BaseCallback]) -> dict
     gp_callback: TimedGPValueCallback | None = None
     value_timer: ForwardTimer | None = None
     if isinstance(model.policy, GPActorCriticPolicy):
-        gp_callback = TimedGPValueCallback(target=spec.target, horizon=spec.horizon)
+        gp_callback = TimedGPValueCallback(
+            target=spec.target, horizon=spec.horizon, feed_every=spec.feed_every
+        )
         value_timer = ForwardTimer(model.policy.value_net)
     checkpoints = MeasureCallback(spec, eval_envs, probes, value_timer)
     callbacks: list[BaseCallback] = [checkpoints] if gp_callback is None else [gp_callback]

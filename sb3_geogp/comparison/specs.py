@@ -86,6 +86,8 @@ class RunSpec:
         for ``mlp``, which learns SB3's returns).
     horizon : int, optional
         ``GPValueCallback``'s ``horizon`` (with ``target="monte_carlo"``).
+    feed_every : int
+        ``GPValueCallback``'s ``feed_every`` (ignored for ``mlp``).
     hyperparams : dict
         The algorithm's hyperparameters, an entry in rl-baselines3-zoo's format
         (:func:`~sb3_geogp.comparison.hyperparams.algo_kwargs`).
@@ -110,6 +112,7 @@ class RunSpec:
     )
     target: Target = "returns"
     horizon: int | None = None
+    feed_every: int = 1
     hyperparams: dict[str, Any] = field(kw_only=True, hash=False)
     hyperparams_source: str = field(kw_only=True)
     threshold: float = field(kw_only=True)
@@ -126,8 +129,8 @@ class RunSpec:
 
         Without ``hyperparams``, ``hyperparams_source`` and ``threshold``: a result file
         records them beside the spec (``hyperparams``, ``threshold``). ``target`` only where it
-        is not ``"returns"`` and ``horizon`` only where set, so that the files of runs made
-        before they existed still match.
+        is not ``"returns"``, ``horizon`` only where set and ``feed_every`` only where not 1,
+        so that the files of runs made before they existed still match.
         """
         d = dataclasses.asdict(self)
         d["gp_kwargs"] = dict(self.gp_kwargs)
@@ -135,6 +138,8 @@ class RunSpec:
             del d["target"]
         if self.horizon is None:
             del d["horizon"]
+        if self.feed_every == 1:
+            del d["feed_every"]
         for recorded_beside in ("hyperparams", "hyperparams_source", "threshold"):
             del d[recorded_beside]
         return d
@@ -171,6 +176,8 @@ class SweepConfig:
     horizon : int, optional
         As :class:`RunSpec`. The MLP critic's runs, which learn SB3's returns, record
         ``target="returns"`` and no horizon whatever these are.
+    feed_every : int
+        As :class:`RunSpec`; the MLP critic's runs record 1.
     """
 
     algos: tuple[str, ...] = tuple(ALGOS)
@@ -186,6 +193,7 @@ class SweepConfig:
     gp_options: tuple[tuple[str, Any], ...] = ()
     target: Target | None = None
     horizon: int | None = None
+    feed_every: int = 1
     timesteps: int | None = None
     thresholds: tuple[tuple[str, float], ...] = ()
     hyperparams_files: tuple[tuple[str, HyperparamsFile], ...] = ()
@@ -244,6 +252,7 @@ class SweepConfig:
                                 gp_kwargs=gp_kwargs,
                                 target=target,
                                 horizon=horizon,
+                                feed_every=1 if critic == "mlp" else self.feed_every,
                                 hyperparams=hp.values,
                                 hyperparams_source=hp.source,
                                 threshold=level,

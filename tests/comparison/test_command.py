@@ -93,6 +93,21 @@ def test_target_reaches_every_gp_run_and_keeps_the_run_ids() -> None:
             config_from_args(_parse(*bad))
 
 
+def test_feed_every_reaches_every_gp_run_and_is_recorded_only_where_set() -> None:
+    """``--feed-every`` reaches the GP critics' runs and their result files' specs; SB3's MLP
+    critic's runs, fed by SB3 every rollout, record 1, as do the runs made before it existed."""
+    specs = config_from_args(_parse("--algos", "a2c", "--feed-every", "4")).specs()
+    default = config_from_args(_parse("--algos", "a2c")).specs()
+    assert [s.run_id for s in specs] == [s.run_id for s in default]
+    for spec, unset in zip(specs, default, strict=True):
+        assert unset.feed_every == 1 and "feed_every" not in unset.as_dict()
+        expected = 1 if spec.critic == "mlp" else 4
+        assert spec.feed_every == expected
+        assert spec.as_dict().get("feed_every", 1) == expected
+    with pytest.raises(UsageError, match="--feed-every 0: feed_every must be a positive"):
+        config_from_args(_parse("--feed-every", "0"))
+
+
 def test_gp_options_reach_every_gp_run_and_bad_ones_fail_early() -> None:
     specs = config_from_args(_parse("--algos", "a2c", "--gp-option", "forgetting=0.9")).specs()
     for spec in specs:
