@@ -155,7 +155,8 @@ class GPValueCallback(BaseCallback):
     Run it before other callbacks that read the rollout buffer at rollout end: until it has
     run, the deferred values are placeholders.
 
-    Logged at every rollout (SB3 logger, so stdout/CSV/TensorBoard):
+    Logged at every feed (every rollout unless ``feed_every > 1``; SB3 logger, so
+    stdout/CSV/TensorBoard):
 
     * ``gp/explained_variance``, ``gp/mse``: the GP's prediction of the targets it is about
       to be fed, before it absorbs them (out of sample; with ``target="returns"`` these are

@@ -1,0 +1,153 @@
+"""``GPValueCallback(feed_every=4)`` as A2C's default: the registered reading (session 48).
+
+``PREREGISTRATION.md`` fixes the runs (``run.sh``: ``every4_s<F>``, issue 13's seven A2C cells
+with the GP fed every fourth rollout) and the rule read here, on seeds 0-19: every4 − the
+default's stored runs not worse at 95 % in any cell, every4 − SB3's MLP critic not worse
+family-wise (the table's 42). The secondary readings take every seed finished, whole blocks of
+ten only. A partial primary sweep decides nothing.
+
+    python results/a2c_feed_every/read.py > results/a2c_feed_every/read.md
+    python results/a2c_feed_every/read.py --metric mean_return > results/a2c_feed_every/auc.md
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from sb3_geogp.comparison.results import pool_sweeps
+from sb3_geogp.toolbox.scripts import load_script
+
+HERE = Path(__file__).resolve().parent
+RESULTS = HERE.parent
+H200 = load_script(RESULTS / "ppo_horizon200" / "table.py", "ppo_horizon200")
+TABLE40 = H200.READING.TABLE40
+POOL30 = load_script(RESULTS / "replication_0_15" / "pool30.py", "pool30")
+PRIMARY = (0, 10)
+BLOCKS = (0, 10, 30, 70)
+A2C_CELLS = 7
+PARTIAL = "partial: not every run has finished, no decision"
+
+
+def every4_runs(blocks: tuple[int, ...]) -> list[dict[str, Any]]:
+    """every4's runs of the seed blocks given that have all their runs."""
+    folders = [HERE / f"every4_s{f}" for f in blocks]
+    done = [f for f in folders if f.is_dir() and len(list((f / "runs").glob("*.json"))) == 70]
+    return pool_sweeps(done) if done else []
+
+
+def published() -> tuple[list[dict[str, Any]], list[dict[str, Any]], list[dict[str, Any]]]:
+    """Issue 13's published table: its PPO runs, and its A2C default's and MLP critic's runs."""
+    runs, _, _ = H200.table_runs((H200.MCC,))
+    ppo = [r for r in runs if r["spec"]["algo"] == "ppo"]
+    a2c = [r for r in runs if r["spec"]["algo"] == "a2c"]
+    default = [r for r in a2c if r["spec"]["critic"] != "mlp"]
+    mlp = [r for r in a2c if r["spec"]["critic"] == "mlp"]
+    return ppo, default, mlp
+
+
+def n_seeds(runs: list[dict[str, Any]]) -> int:
+    return len({r["spec"]["seed"] for r in runs})
+
+
+def read(blocks: tuple[int, ...], metric: str, title: str) -> list[tuple[str, str]]:
+    """every4 − default and every4 − MLP on the seeds of ``blocks``; the rule's lines."""
+    _, default_all, mlp_all = published()
+    every4, default, mlp = TABLE40.on_common_seeds(every4_runs(blocks), default_all, mlp_all)
+    label = H200.READING.LABELS[metric]
+    print(f"## {title}: {n_seeds(every4)} seeds, {label}\n")
+    if not every4:
+        print("No finished block.\n")
+        return [("no finished block", PARTIAL)]
+    print(f"### every4 − default (family-wise over the {A2C_CELLS} A2C cells)\n")
+    against = POOL30.against_baseline(every4, default, metric, A2C_CELLS)
+    H200.print_table(against, label, "every4 − default")
+    print("\n### every4 − MLP and default − MLP, the table's rule (family-wise at 42)\n")
+    new = POOL30.mlp_rows(every4 + mlp, metric)
+    old = POOL30.mlp_rows(default + mlp, metric)
+    H200.print_table(new, label, "every4 − MLP")
+    print()
+    H200.print_table(old, label, "default − MLP")
+    print(f"\nCells (every4 / default against the MLP): {_counts(new)} / {_counts(old)}\n")
+    worse_default = [env for (env, _), c in against.items() if c["verdict"] == "worse"]
+    fw_worse = [env for (env, _), c in new.items() if c["fw_verdict"] == "worse"]
+    complete = len(against) == A2C_CELLS and n_seeds(every4) == 10 * len(blocks)
+    rules = [
+        ("1. every4 − default not worse at 95 % in any A2C cell", _holds(worse_default)),
+        ("2. every4 − MLP not worse family-wise in any A2C cell", _holds(fw_worse)),
+    ]
+    return [(text, state if complete else PARTIAL) for text, state in rules]
+
+
+def _counts(rows: dict[tuple[str, str], dict[str, Any]]) -> str:
+    verdicts = [c["verdict"] for c in rows.values()]
+    fw = sum(c["fw_verdict"] == "better" for c in rows.values())
+    better, same, worse = (verdicts.count(v) for v in ("better", "no difference", "worse"))
+    return f"{better} better ({fw} family-wise), {same} no different, {worse} worse"
+
+
+def full_table(metric: str) -> None:
+    """Issue 13's table with every4 as its A2C rows, where all four seed blocks finished."""
+    every4 = every4_runs(BLOCKS)
+    if n_seeds(every4) < 10 * len(BLOCKS):
+        print("\n## Issue 13's table with every4's A2C rows: not every block finished\n")
+        return
+    ppo, default, mlp = published()
+    label = H200.READING.LABELS[metric]
+    print(f"\n## Issue 13's table with every4's A2C rows (secondary), {label}\n")
+    rows = POOL30.mlp_rows(ppo + every4 + mlp, metric)
+    H200.print_table(rows, label)
+    today = POOL30.mlp_rows(ppo + default + mlp, metric)
+    print(f"\nCells: {_counts(rows)}; today's: {_counts(today)}")
+
+
+def critic_seconds() -> None:
+    """The GP critic's own seconds per run, every4 against the default's stored runs."""
+    _, default_all, _ = published()
+    every4, default = TABLE40.on_common_seeds(every4_runs(BLOCKS), default_all)
+    print("\n## The GP critic's seconds per run (median; stored runs of other sessions, "
+          "indicative only)\n")  # fmt: skip
+    print("| env | default | every4 | ratio |")
+    print("|---|---:|---:|---:|")
+    for env in sorted({r["spec"]["env_id"] for r in every4}):
+        a, b = (float(np.median([r["critic_seconds"] for r in runs if r["spec"]["env_id"] == env]))
+                for runs in (default, every4))  # fmt: skip
+        print(f"| {env} | {a:.1f} | {b:.1f} | {b / a:.2f} |")
+
+
+def _holds(failures: list[str]) -> str:
+    return "holds" if not failures else f"fails ({', '.join(failures)})"
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--metric", choices=("final_return", "mean_return"), default="final_return")
+    args = parser.parse_args()
+    rules = read(PRIMARY, args.metric, "Primary, seeds 0-19")
+    if args.metric == "final_return":
+        print("\n## The registered rule (final return, seeds 0-19)\n")
+        print("\n".join(f"- {text}: {state}" for text, state in rules))
+        states = [state for _, state in rules]
+        decision = (
+            "A2C keeps feeding every rollout" if any(s.startswith("fails") for s in states)
+            else "partial, nothing changes" if PARTIAL in states
+            else "adopt `feed_every=4` as A2C's default"
+        )  # fmt: skip
+        print(f"\n**Decision**: {decision}\n")
+    finished = tuple(f for f in BLOCKS if every4_runs((f,)))
+    if finished and finished != PRIMARY:
+        read(
+            finished,
+            args.metric,
+            f"Secondary, every finished block ({', '.join(map(str, finished))})",
+        )
+    full_table(args.metric)
+    if args.metric == "final_return":
+        critic_seconds()
+
+
+if __name__ == "__main__":
+    main()
