@@ -23,6 +23,7 @@ import scipy.stats as sps
 from sb3_geogp.comparison.results import load_results, pool_sweeps
 from sb3_geogp.toolbox.scripts import load_script
 from sb3_geogp.toolbox.stats import difference_ci, mean_ci
+from sb3_geogp.toolbox.tables import PARTIAL, registered_decision
 
 HERE = Path(__file__).resolve().parent
 RESULTS = HERE.parent
@@ -38,7 +39,6 @@ LONG_ENVS = ("CartPole-v1", "Acrobot-v1")
 #: The PPO cells better than SB3's MLP critic at 95 % in today's table.
 BETTER_TODAY = 4
 PPO_CELLS = 7
-PARTIAL = "partial: not every run has finished, no decision"
 #: A rule's text and its state: "holds", "fails ..." or :data:`PARTIAL`.
 Rule = tuple[str, str]
 
@@ -211,15 +211,8 @@ def main() -> None:
         return
     rules = read_fit() + read_table(args.metric) + read_long()
     print("\n## The registered rule\n")
-    print("\n".join(f"- {text}: {state}" for text, state in rules))
-    states = [state for _, state in rules]
-    # A rule that fails on all its runs fails whatever the unfinished ones show.
-    decision = (
-        "the default keeps `prior_sd=0.1`" if any(s.startswith("fails") for s in states)
-        else "partial, nothing changes" if PARTIAL in states
-        else "adopt `prior_sd=0.3` as PPO's default"
-    )  # fmt: skip
-    print(f"\n**Decision**: {decision}")
+    kept, adopted = "the default keeps `prior_sd=0.1`", "adopt `prior_sd=0.3` as PPO's default"
+    print(registered_decision(rules, kept, adopted))
 
 
 if __name__ == "__main__":

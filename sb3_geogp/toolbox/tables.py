@@ -1,5 +1,6 @@
-"""Tables of results: aligned plain text for the terminal, GitHub markdown for the reports, and
-the one rule for cells with confidence intervals (:func:`estimate_cell`)."""
+"""Tables of results: aligned plain text for the terminal, GitHub markdown for the reports, the
+one rule for cells with confidence intervals (:func:`estimate_cell`), and the decision of a
+registered reading (:func:`registered_decision`)."""
 
 from __future__ import annotations
 
@@ -100,3 +101,34 @@ def markdown_table(header: Sequence[str], rows: Iterable[Sequence[str]], align: 
 
 def _markdown_row(cells: Sequence[str]) -> str:
     return "| " + " | ".join(cells) + " |"
+
+
+#: The state of a registered rule whose runs have not all finished.
+PARTIAL = "partial: not every run has finished, no decision"
+
+
+def registered_decision(rules: Sequence[tuple[str, str]], kept: str, adopted: str) -> str:
+    """The registered rule's lines and its decision, as markdown.
+
+    Parameters
+    ----------
+    rules : sequence of (str, str)
+        Each rule's text and state: ``"holds"``, ``"fails ..."`` or :data:`PARTIAL`.
+    kept, adopted : str
+        The decision where a rule fails, and where every rule holds.
+
+    Returns
+    -------
+    str
+        One line per rule, then the decision: ``kept`` where any rule fails (a rule that fails
+        on the runs made fails whatever the unfinished ones show), else "partial, nothing
+        changes" where a rule is partial, else ``adopted``.
+    """
+    states = [state for _, state in rules]
+    decision = (
+        kept if any(s.startswith("fails") for s in states)
+        else "partial, nothing changes" if PARTIAL in states
+        else adopted
+    )  # fmt: skip
+    lines = "\n".join(f"- {text}: {state}" for text, state in rules)
+    return f"{lines}\n\n**Decision**: {decision}"
