@@ -479,7 +479,7 @@ def test_feed_every_monte_carlo_feeds_what_every_rollout_would_have() -> None:
             np.testing.assert_array_equal(joined[k], np.concatenate([b[k] for b in group]))
 
 
-@pytest.mark.parametrize("bad", [0, -2, 1.5, True, "2"])
+@pytest.mark.parametrize("bad", [0, -2, 1.5, 4.0, True, "2", None])
 def test_feed_every_must_be_a_positive_integer(bad: Any) -> None:
     with pytest.raises(ValueError, match="feed_every must be a positive integer"):
         GPValueCallback(feed_every=bad)
