@@ -474,9 +474,11 @@ def _critic_panel(ax: Axes, critic: CriticLog) -> None:
     handles, labels = ax.get_legend_handles_labels()
     if critic.n_basis is not None:
         twin = ax.twinx()
+        # Rollouts the GP was not fed (feed_every > 1) log no n_basis.
+        fed = np.isfinite(critic.n_basis)
         twin.step(
-            critic.timesteps,
-            critic.n_basis,
+            critic.timesteps[fed],
+            critic.n_basis[fed],
             where="post",
             color="tab:green",
             label="basis vectors (right axis)",

@@ -146,6 +146,19 @@ def test_learning_curve_without_critic_log_threshold_or_episodes() -> None:
     plt.close(fig)
 
 
+def test_learning_curve_draws_the_basis_of_the_fed_rollouts_only() -> None:
+    """With ``feed_every > 1`` the rollouts in between log no ``gp/n_basis``: the step line
+    joins the fed ones instead of breaking into pieces at each gap."""
+    plt = pytest.importorskip("matplotlib.pyplot")
+    steps = np.array([40.0, 80.0, 120.0, 160.0])
+    log = CriticLog(steps, np.array([np.nan, 0.5, np.nan, 0.7]), np.array([np.nan, 9, np.nan, 12]))
+    fig = learning_curve_figure(np.array([10, 20]), np.array([1.0, 2.0]), log)
+    (basis,) = fig.axes[-1].get_lines()
+    np.testing.assert_array_equal(basis.get_xdata(), [80.0, 160.0])
+    np.testing.assert_array_equal(basis.get_ydata(), [9, 12])
+    plt.close(fig)
+
+
 def test_parser_rejects_unknown_critic() -> None:
     with pytest.raises(SystemExit):
         build_parser().parse_args(["train", "--critic", "cnn"])
