@@ -44,15 +44,15 @@ def tables(metric: str) -> dict[str, dict[tuple[str, str], dict[str, Any]]]:
     published, _, _ = H200.table_runs((H200.MCC,))
     fresh = fresh_runs()
     return {
-        "40 seeds (published)": POOL30.mlp_rows(published, metric),
-        "10 fresh seeds": POOL30.mlp_rows(fresh, metric),
-        "50 seeds": POOL30.mlp_rows(published + fresh, metric),
+        "40": POOL30.mlp_rows(published, metric),
+        "fresh 10": POOL30.mlp_rows(fresh, metric),
+        "50": POOL30.mlp_rows(published + fresh, metric),
     }
 
 
 def plot(sets: dict[str, dict[tuple[str, str], dict[str, Any]]], metric: str, path: str) -> None:
     """Each cell's difference on the published seeds, the fresh ones and both."""
-    cells = sorted(sets["40 seeds (published)"], key=lambda k: (k[1], k[0]))
+    cells = sorted(sets["40"], key=lambda k: (k[1], k[0]))
     panels = [{"env": env, "algo": algo, **{k: t.get((env, algo)) for k, t in sets.items()}}
               for env, algo in cells]  # fmt: skip
     title = f"default GP critic − SB3's MLP critic, {metric}, issue 13's table"
@@ -66,14 +66,14 @@ def main() -> None:
     args = parser.parse_args()
     label = H200.READING.LABELS[args.metric]
     sets = tables(args.metric)
-    whole = len(sets["10 fresh seeds"])
+    whole = len(sets["fresh 10"])
     state = "" if whole == CELLS else f" (partial: {whole} of {CELLS} cells; replaces nothing)"
     print(f"## Issue 13's table on 50 seeds per cell, {label}{state}\n")
-    H200.print_table(sets["50 seeds"], label)
+    H200.print_table(sets["50"], label)
     print(f"\n## The 10 fresh seeds alone (570-579, secondary), {label}\n")
-    H200.print_table(sets["10 fresh seeds"], label)
+    H200.print_table(sets["fresh 10"], label)
     print(f"\n## The published 40 seeds, {label}\n")
-    H200.print_table(sets["40 seeds (published)"], label)
+    H200.print_table(sets["40"], label)
     if args.plot:
         plot(sets, label, args.plot)
 
