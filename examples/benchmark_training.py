@@ -111,8 +111,9 @@ SETTING_FLAGS: dict[str, dict[str, Any]] = {
 def callback_option(suffix: str) -> dict[str, Any] | None:
     """The ``GPValueCallback`` options one suffix sets (``None``: it sets none)."""
     name = suffix.rstrip("0123456789")
-    if name in CALLBACK_COUNTS and suffix != name and int(suffix[len(name) :]) >= 1:
-        return {CALLBACK_COUNTS[name]: int(suffix[len(name) :])}
+    count = int(suffix[len(name) :] or 0)
+    if name in CALLBACK_COUNTS and count >= 1:
+        return {CALLBACK_COUNTS[name]: count}
     return CALLBACK_SUFFIXES.get(suffix)
 
 

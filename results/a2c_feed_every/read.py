@@ -20,6 +20,7 @@ rollouts):
 from __future__ import annotations
 
 import argparse
+import functools
 from pathlib import Path
 from typing import Any
 
@@ -40,6 +41,7 @@ BLOCKS = (0, 10, 30, 70)
 A2C_CELLS = 7
 
 
+@functools.cache
 def every4_runs(blocks: tuple[int, ...]) -> list[dict[str, Any]]:
     """every4's runs of the seed blocks given that have all their runs."""
     folders = [HERE / f"every4_s{f}" for f in blocks]
@@ -47,6 +49,7 @@ def every4_runs(blocks: tuple[int, ...]) -> list[dict[str, Any]]:
     return pool_sweeps(done) if done else []
 
 
+@functools.cache
 def published() -> tuple[list[dict[str, Any]], list[dict[str, Any]], list[dict[str, Any]]]:
     """Issue 13's published table: its PPO runs, and its A2C default's and MLP critic's runs."""
     runs, _, _ = H200.table_runs((H200.MCC,))

@@ -54,6 +54,11 @@ def setting_differences(made: Any, asked: Any) -> str:
     return "; ".join(f"{k}: {shown(made, k)} there, {shown(asked, k)} now" for k in differ)
 
 
+#: :class:`RunSpec` fields added after result files existed, and the value that runs made
+#: before them had: a spec records them only where they differ from it.
+_RECORDED_WHERE_SET: dict[str, Any] = {"target": "returns", "horizon": None, "feed_every": 1}
+
+
 @dataclass(frozen=True)
 class RunSpec:
     """Everything that defines one run; equal specs give the same result file name.
@@ -134,12 +139,9 @@ class RunSpec:
         """
         d = dataclasses.asdict(self)
         d["gp_kwargs"] = dict(self.gp_kwargs)
-        if self.target == "returns":
-            del d["target"]
-        if self.horizon is None:
-            del d["horizon"]
-        if self.feed_every == 1:
-            del d["feed_every"]
+        for name, default in _RECORDED_WHERE_SET.items():
+            if d[name] == default:
+                del d[name]
         for recorded_beside in ("hyperparams", "hyperparams_source", "threshold"):
             del d[recorded_beside]
         return d
