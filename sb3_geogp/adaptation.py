@@ -370,13 +370,16 @@ def jittered_cholesky(A: Tensor, scale: float) -> tuple[Tensor, float]:
     FloatingPointError
         Only if ``A`` is not finite or not even ``A + 1e4 * scale * I`` factorises.
     """
+    L, info = torch.linalg.cholesky_ex(A)
+    if int(info) == 0:
+        return L, 0.0
     eye = torch.eye(A.shape[0], dtype=A.dtype, device=A.device)
-    jitter = 0.0
-    for _ in range(_JITTER_TRIES):
+    jitter = _JITTER_START * scale
+    for _ in range(_JITTER_TRIES - 1):
         L, info = torch.linalg.cholesky_ex(A + jitter * eye)
         if int(info) == 0:
             return L, jitter
-        jitter = max(10 * jitter, _JITTER_START * scale)
+        jitter *= 10
     raise FloatingPointError(
         f"a ({A.shape[0]}, {A.shape[0]}) matrix is not positive definite even with jitter "
         f"{jitter:.3g}"

@@ -756,10 +756,14 @@ class SparseOnlineGP(nn.Module):
         mean = rows.mean(basis)
         return mean, self._latent_variance(rows, basis)[1] if return_var else None
 
-    def _latent_variance(self, rows: Rows, basis: BasisMatrices) -> tuple[Tensor, Tensor]:
+    def _latent_variance(
+        self, rows: Rows, basis: BasisMatrices, kqk: Tensor | None = None
+    ) -> tuple[Tensor, Tensor]:
         """The basis's residual ``gamma = k(x, x) - k_x^T Q k_x`` and the latent variance
-        ``gamma + k_x^T P k_x`` of points with kernel rows ``rows``, shapes (n,), ``>= 0``."""
-        gamma = (self.kernel.variance - rows.kqk(basis)).clamp_min(0)
+        ``gamma + k_x^T P k_x`` of points with kernel rows ``rows``, shapes (n,), ``>= 0``
+        (``kqk``: ``k_x^T Q k_x`` where already known)."""
+        kqk = rows.kqk(basis) if kqk is None else kqk
+        gamma = (self.kernel.variance - kqk).clamp_min(0)
         return gamma, (gamma + rows.kpk(basis)).clamp_min(0)
 
     def forward(self, x: Tensor) -> Tensor:
@@ -830,7 +834,7 @@ class SparseOnlineGP(nn.Module):
         if not bool(self.initialized):
             self._initialize(x, y)
             self._cache = None
-        self._scaled(x)
+        xs = self._scaled(x)
         yn = self._standardised(x, y)
         if not bool(torch.isfinite(yn).all()):
             raise ValueError(
@@ -838,8 +842,13 @@ class SparseOnlineGP(nn.Module):
                 f"{float(self.y_scale):.3g} overflow; rescale the targets or pass "
                 "target_mean and target_scale"
             )
+        screen = _Screen()
+        scored: _BatchRows | None = None
         if self.adaptation is not None and self.n_basis > 0:
-            self.last_stats.update(self._out_of_sample(x, y))
+            stats, scored = self._out_of_sample(x, xs, y)
+            self.last_stats.update(stats)
+            if scored is not None and self.kernel.novelty_from_rows:
+                screen.keep(scored.version, 0, self._relative_novelty(scored.kqk))
             if self._snapshot_due(self.adaptation, x.shape[0]):
                 self._snapshot()
         lam = self.forgetting if self.adaptation is None else float(self.block_forgetting)
@@ -848,7 +857,6 @@ class SparseOnlineGP(nn.Module):
             self._forget(lam)
         n = x.shape[0]
         added_before = int(self.n_added)
-        screen = _Screen()
         # Rows [pending, i) wait to be absorbed in one block: non-novel rows and novel ones
         # whose BV row is rejected. Rows after the last inserted one may start a trajectory
         # (checked from ``linked`` on). At capacity a newcomer takes the spare slot and the
@@ -856,7 +864,7 @@ class SparseOnlineGP(nn.Module):
         # ends: the newcomer is judged with the support of the points absorbed after it.
         i = pending = linked = 0
         while i < n:
-            p = self._next_novel(x, i, screen)
+            p = self._next_novel(xs, i, screen)
             self._scale_floor(_FLOOR_STEP ** (-_DELETION_RATE * (p - i)))
             i = p + 1
             if p == n:
@@ -865,7 +873,7 @@ class SparseOnlineGP(nn.Module):
                 self.kernel.start_trajectory()
             linked = p + 1
             if pending < p:
-                self._absorb(x[pending:p], yn[pending:p])
+                self._absorb(xs, yn, pending, p, scored)
                 pending = p
             if self.n_basis > self.max_basis:
                 self._delete_least_informative()
@@ -879,7 +887,7 @@ class SparseOnlineGP(nn.Module):
             self._insert(plan, x[p], y[p])
             pending = p + 1
         if pending < n:
-            self._absorb(x[pending:], yn[pending:])
+            self._absorb(xs, yn, pending, n, scored)
         if self.n_basis > self.max_basis:
             self._delete_least_informative()
         if bool(starts[linked:].any()):
@@ -969,8 +977,9 @@ class SparseOnlineGP(nn.Module):
             return self.novelty_tol
         return max(float(self.novelty_floor), float(self._matrices().least_novelty))
 
-    def _next_novel(self, x: Tensor, start: int, screen: _Screen) -> int:
-        """Index of the first novel row of ``x`` at or after ``start`` (``len(x)`` if none).
+    def _next_novel(self, xs: Tensor, start: int, screen: _Screen) -> int:
+        """Index of the first novel row of ``xs`` (scaled inputs) at or after ``start``
+        (``len(xs)`` if none).
 
         Novelty depends only on the basis set, not on ``alpha`` or ``P``, so rows can be
         screened ahead of absorbing them, and a screened block stays valid until the basis
@@ -978,11 +987,11 @@ class SparseOnlineGP(nn.Module):
         that start small (a new basis is often followed by more new BVs, and each addition
         re-screens) and double while nothing is found.
         """
-        n, m = x.shape[0], self.n_basis
+        n, m = xs.shape[0], self.n_basis
         if m == 0:
             return start
         basis, threshold = self._matrices(), self._novelty_threshold()
-        version = (int(self.n_added), int(self.n_deleted))
+        version = self._basis_version()
         known = screen.novelty(version, start)
         if known is not None:
             novel = (known > threshold).nonzero()
@@ -991,9 +1000,8 @@ class SparseOnlineGP(nn.Module):
             start += known.shape[0]
         chunk = _MIN_CHUNK
         while start < n:
-            block = self.kernel.scale(x[start : start + chunk])
-            kqk = self.kernel.novelty_rows(block, basis.z).kqk(basis)
-            gamma = 1.0 - kqk / self.kernel.variance
+            block = xs[start : start + chunk]
+            gamma = self._relative_novelty(self.kernel.novelty_rows(block, basis.z).kqk(basis))
             screen.keep(version, start, gamma)
             novel = (gamma > threshold).nonzero()
             if novel.numel():
@@ -1002,8 +1010,20 @@ class SparseOnlineGP(nn.Module):
             chunk = min(2 * chunk, _MAX_CHUNK)
         return n
 
-    def _absorb(self, x: Tensor, yn: Tensor) -> None:
-        """Projected (sparse) update with a run of non-novel points, all at once.
+    def _basis_version(self) -> tuple[int, int]:
+        """Changes whenever a BV is added or deleted."""
+        return int(self.n_added), int(self.n_deleted)
+
+    def _relative_novelty(self, kqk: Tensor) -> Tensor:
+        """``gamma / k(x, x) = 1 - k_x^T Q k_x / sigma_f^2`` from ``kqk : (n,)``."""
+        return 1.0 - kqk / self.kernel.variance
+
+    def _absorb(
+        self, xs: Tensor, yn: Tensor, start: int, stop: int, scored: _BatchRows | None
+    ) -> None:
+        """Projected (sparse) update with the run ``start:stop`` of non-novel points (scaled
+        inputs ``xs : (n, d)``, standardised targets ``yn : (n,)``), all at once; their rows
+        are taken from ``scored`` while its basis is current.
 
         A sparse Csató–Opper update is the exact Bayesian update of the model
         ``y = e_x^T f_b + noise`` with ``e_x = Q k_x`` and noise variance
@@ -1018,30 +1038,34 @@ class SparseOnlineGP(nn.Module):
         m = self.n_basis
         basis = self._matrices()
         basis.posterior_changed()
-        mixed = self.kernel.rows(self.kernel.scale(x), basis.z)
+        known = None if scored is None else scored.run(start, stop, self._basis_version())
+        if known is None:
+            mixed = self.kernel.rows(xs[start:stop], basis.z)
+            known = mixed, mixed.kqk(basis)
+        mixed, kqk = known
         rows = mixed.dense(basis)
-        noise = self.noise_var + (self.kernel.variance - mixed.kqk(basis)).clamp_min(0)
-        resid = yn - rows @ self.alpha[:m]
+        noise = self.noise_var + (self.kernel.variance - kqk).clamp_min(0)
+        resid = yn[start:stop] - rows @ self.alpha[:m]
         # In float64 whatever the state's dtype (a no-op for float64): with a float32 state,
         # a dense Laplacian basis (novelty_tol=0.1) and 2,048-point rollouts this update made
         # P indefinite within ten batches (smallest eigenvalue -1.6x the largest), and with
         # long fitted lengthscales the observation form's S failed to factorise.
         dtype = self.P.dtype
         P, rows, noise, resid = (t.double() for t in (self.P[:m, :m], rows, noise, resid))
-        if x.shape[0] < m:
+        if stop - start < m:
             PK = P @ rows.T
             S = rows @ PK + torch.diag(noise)
             L, _ = jittered_cholesky(_sym(S), float(noise.mean()))
             gain = torch.cholesky_solve(PK.T, L)  # S^{-1} K_x P, shape (n, m)
             self.alpha[:m] += (gain.T @ resid).to(dtype)
-            self.P[:m, :m] = _sym(P - PK @ gain).to(dtype)
+            _store_sym(self.P[:m, :m], P - PK @ gain)
             return
         weighted = rows.T / noise
         system = torch.eye(m, dtype=P.dtype, device=P.device) + P @ (weighted @ rows)
         rhs = torch.cat([P, (P @ (weighted @ resid))[:, None]], dim=1)
         sol = torch.linalg.solve(system, rhs).to(dtype)
         self.alpha[:m] += sol[:, m]
-        self.P[:m, :m] = _sym(sol[:, :m])
+        _store_sym(self.P[:m, :m], sol[:, :m])
 
     def _plan_insertion(self, x: Tensor, yn: Tensor) -> _Insertion | None:
         """The full update that would make ``x : (d,)`` the next BV, or ``None`` if its row
@@ -1158,19 +1182,18 @@ class SparseOnlineGP(nn.Module):
         If rounding has made the Gram matrix numerically indefinite, the nuggets grow by a
         jitter (10x per try, from 1e-6 of the signal variance) until its Cholesky exists.
         """
-        m = self.n_basis
-        K = self._matrices().K
-        self._matrices().Q_changed()
-        L, jitter = jittered_cholesky(K + torch.diag(self.nugget[:m]), float(self.kernel.variance))
+        m, basis = self.n_basis, self._matrices()
+        L, jitter = jittered_cholesky(basis.K_nugget, float(self.kernel.variance))
         self.nugget[:m] += jitter
-        self.Q[:m, :m] = _sym(torch.cholesky_inverse(L))
+        _store_sym(self.Q[:m, :m], torch.cholesky_inverse(L))
+        basis.Q_changed()
 
     def _check_finite(self) -> None:
         m = self.n_basis
         blocks = {"alpha": self.alpha[:m], "P": self.P[:m, :m], "Q": self.Q[:m, :m]}
         # One reduction first: a NaN or inf anywhere makes its block's sum non-finite (a sum
         # can also overflow, so a non-finite sum is only a suspicion, checked block by block).
-        if bool(torch.isfinite(torch.stack([b.sum() for b in blocks.values()])).all()):
+        if math.isfinite(float(sum(b.sum() for b in blocks.values()))):
             return
         bad = [name for name, b in blocks.items() if not bool(torch.isfinite(b).all())]
         if not bad:
@@ -1270,8 +1293,7 @@ class SparseOnlineGP(nn.Module):
         if x.shape[0] == 0:
             return
         m = self.n_basis
-        index, count = thinned(x.shape[0], self.adaptation.fold_points, x.device)
-        x, y, batch = x[index], y[index], batch[index]
+        (x, y, batch), count, _ = _thin(self.adaptation.fold_points, x, y, batch)
         Kzz, Kxz = self._basis_covariances(x)
         w = self._age_weights(batch, float(self.block_forgetting)).to(y) * count.to(y)
         yn = self._standardised(x, y)
@@ -1391,23 +1413,27 @@ class SparseOnlineGP(nn.Module):
     def _basis_covariances(self, x: Tensor) -> tuple[Tensor, Tensor]:
         """``K_zz`` (with the nuggets), shape (m, m), and ``K_xz`` of ``x : (n, d)``, (n, m)."""
         basis = self._matrices()
-        Kzz = basis.K + torch.diag(self.nugget[: self.n_basis])
-        return Kzz, self.kernel.rows(self.kernel.scale(x), basis.z).dense(basis)
+        return basis.K_nugget, self.kernel.rows(self.kernel.scale(x), basis.z).dense(basis)
 
-    def _out_of_sample(self, x: Tensor, y: Tensor) -> dict[str, float]:
-        """NLPD and explained variance of a batch under the posterior before it is absorbed;
+    def _out_of_sample(
+        self, x: Tensor, xs: Tensor, y: Tensor
+    ) -> tuple[dict[str, float], _BatchRows | None]:
+        """NLPD and explained variance of a batch (inputs ``x``, scaled ``xs``) under the
+        posterior before it is absorbed;
         scores the forgetting candidates on it (:meth:`_score_forgetting`, or
         :meth:`_lagged_scores`) and adds it to the open block's sums. All use at most
-        ``Adaptation.score_points`` points of the batch (:func:`~sb3_geogp.adaptation.thinned`)."""
+        ``Adaptation.score_points`` points of the batch (:func:`~sb3_geogp.adaptation.thinned`);
+        where that is all of them, their rows are returned for the rest of the update."""
         assert self.adaptation is not None
         n = x.shape[0]
-        index, count = thinned(n, self.adaptation.score_points, x.device)
-        x, y = x[index], y[index]
+        (x, xs, y), count, whole = _thin(self.adaptation.score_points, x, xs, y)
+        count = count.to(y)
         basis = self._matrices()
-        rows = self.kernel.rows(self._scaled(x), basis.z)
+        rows = self.kernel.rows(xs, basis.z)
+        kqk = rows.kqk(basis)
         mean = rows.mean(basis)
-        gamma, var = self._latent_variance(rows, basis)
-        yn, count = self._standardised(x, y), count.to(y)
+        gamma, var = self._latent_variance(rows, basis, kqk)
+        yn = self._standardised(x, y)
         if self.adaptation.forgetting_score == "lagged":
             batch = (rows.dense(basis), gamma, yn, count)
             self.forgetting_scores += self._lagged_scores(*(t.double() for t in batch)).to(y)
@@ -1423,7 +1449,8 @@ class SparseOnlineGP(nn.Module):
         var = (var + self.noise_var) * self.y_scale**2
         spread = float(y.var()) if y.shape[0] > 1 else 0.0
         explained = 1.0 - float((y - mean).var()) / spread if spread > 0 else math.nan
-        return {"nlpd": nlpd(mean, var, y), "explained_variance": explained, **stats}
+        stats = {"nlpd": nlpd(mean, var, y), "explained_variance": explained, **stats}
+        return stats, _BatchRows(self._basis_version(), rows, kqk) if whole else None
 
     def _average_spreads(self, sigma: Tensor, error: Tensor) -> None:
         """Average into :attr:`bonus_spreads` the standard deviations of a batch's latent
@@ -1704,8 +1731,29 @@ def _kqk(K: Tensor, Q: Tensor, nugget: Tensor) -> Tensor:
     return K - torch.diag(nugget) + nugget[:, None] * Q * nugget
 
 
+def _thin(cap: int | None, *batch: Tensor) -> tuple[tuple[Tensor, ...], Tensor, bool]:
+    """The points of ``batch`` (tensors of ``n`` rows) that :func:`~sb3_geogp.adaptation.
+    thinned` keeps under ``cap``, the length of the run each stands for, and whether that is
+    every point (then ``batch`` itself, not a copy)."""
+    n, device = batch[0].shape[0], batch[0].device
+    if cap is None or n <= cap:
+        return batch, torch.ones(n, dtype=torch.long, device=device), True
+    index, runs = thinned(n, cap, device)
+    return tuple(t[index] for t in batch), runs, False
+
+
 def _sym(M: Tensor) -> Tensor:
     return 0.5 * (M + M.T)
+
+
+def _store_sym(dest: Tensor, M: Tensor) -> None:
+    """``dest <- (M + M^T) / 2`` in ``dest``'s dtype; where the dtypes agree without (m, m)
+    temporaries (the same rounding: the sum, then its half)."""
+    if dest.dtype != M.dtype:
+        dest.copy_(_sym(M))
+        return
+    torch.add(M, M.T, out=dest)
+    dest.mul_(0.5)
 
 
 def _upgrade_v02_state(state: dict[str, Any], prefix: str, gp: SparseOnlineGP) -> None:
@@ -1772,6 +1820,24 @@ class _Insertion(NamedTuple):
     e_ext: Tensor
     s: Tensor
     alpha_new: Tensor
+
+
+class _BatchRows(NamedTuple):
+    """A batch's kernel rows over the basis of ``version`` and their ``k_x^T Q k_x``, formed
+    once to score the batch (:meth:`SparseOnlineGP._out_of_sample`), and used again by its
+    screening and absorption while no BV has been added or deleted. Each row is formed on
+    its own, so those of a run of points are a slice of them."""
+
+    version: tuple[int, int]
+    rows: Rows
+    kqk: Tensor
+
+    def run(self, start: int, stop: int, version: tuple[int, int]) -> tuple[Rows, Tensor] | None:
+        """Rows and ``k_x^T Q k_x`` of points ``start:stop``; ``None`` if the basis is no
+        longer that of ``version``."""
+        if version != self.version:
+            return None
+        return self.rows.take(slice(start, stop)), self.kqk[start:stop]
 
 
 class _Screen:
@@ -1883,7 +1949,7 @@ class _PosteriorMatrices:
 
     def Q_changed(self) -> None:
         """``Q`` (or the nuggets) changed."""
-        for name in ("KQK", "least_novelty", "S"):
+        for name in ("KQK", "least_novelty", "S", "K_nugget"):
             self._values.pop(name, None)
 
     def basis_grew(self, k: Tensor, variance: Tensor) -> None:
@@ -1927,6 +1993,11 @@ class _PosteriorMatrices:
         return self._get("K", lambda: self._gp.kernel.gram(self.z))
 
     @property
+    def K_nugget(self) -> Tensor:
+        """``K`` with the nuggets on its diagonal, ``K_zz`` of the posterior."""
+        return self._get("K_nugget", lambda: self.K + torch.diag(self._gp.nugget[: self._m]))
+
+    @property
     def K_alpha(self) -> Tensor:
         return self._get("K_alpha", lambda: self.K @ self.alpha)
 
@@ -1954,8 +2025,7 @@ class _PosteriorMatrices:
         L = self.P_cholesky
 
         def whitened() -> Tensor:
-            K = self.K + torch.diag(self._gp.nugget[: self._m])
-            return whitened_prior(L, K.double())
+            return whitened_prior(L, self.K_nugget.double())
 
         return L, self._get("S", whitened)
 

@@ -1390,7 +1390,12 @@ def test_projected_newcomers_are_absorbed_in_blocks(monkeypatch) -> None:
     gp = SparseOnlineGP(3, max_basis=32)
     calls: list[int] = []
     absorb = gp._absorb
-    monkeypatch.setattr(gp, "_absorb", lambda x, yn: (calls.append(len(x)), absorb(x, yn)))
+
+    def spy(xs, yn, start, stop, scored):  # type: ignore[no-untyped-def]
+        calls.append(stop - start)
+        absorb(xs, yn, start, stop, scored)
+
+    monkeypatch.setattr(gp, "_absorb", spy)
     z = np.zeros(3)
     for _ in range(30):
         x = z + np.cumsum(rng.normal(scale=0.05, size=(256, 3)), 0)
@@ -1627,3 +1632,47 @@ def test_trend_state_round_trips_and_is_refused_without_trend(trend: str) -> Non
     with pytest.raises(ValueError, match=f"trend='{trend}'"):
         other.load_state_dict(gp.state_dict())
     assert_same_state(before, other.state_dict())
+
+
+@pytest.mark.parametrize(
+    "kernel, options",
+    [
+        ("rbf", {}),
+        ("laplacian", {"novelty_tol": 0.1}),
+        (make_kernel("geodesic"), {}),
+        (make_kernel("geodesic", attach="nearest"), {}),
+    ],
+    ids=["rbf", "laplacian", "geodesic", "geodesic-nearest"],
+)
+def test_rows_shared_by_scoring_screening_and_absorbing_change_nothing(
+    kernel: Any, options: dict[str, Any], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """An adapting GP forms a batch's rows once, to score it, and screens and absorbs from
+    them while the basis is unchanged. Against the same updates with every stage forming its
+    own rows (scoring hands none on): the same state, bit for bit, through insertions and
+    deletions at capacity, with fewer rows formed."""
+    stream = list(drifting_stream(1200, 40, step=0.1, seed=3))
+    gps = [SparseOnlineGP(3, copy.deepcopy(kernel), max_basis=24, adapt=True, **options)]
+    gps.append(copy.deepcopy(gps[0]))
+    formed = [0, 0]
+    for i, gp in enumerate(gps):
+        rows = gp.kernel.rows
+
+        def counted(x: Tensor, z: Tensor, i: int = i, rows: Any = rows) -> Any:
+            formed[i] += x.shape[0]
+            return rows(x, z)
+
+        with monkeypatch.context() as patch:
+            patch.setattr(gp.kernel, "rows", counted)
+            if i == 1:
+                patch.setattr(gp, "_out_of_sample", _scoring_without_rows(gp._out_of_sample))
+            for batch in stream:
+                gp.update(batch.x, batch.y, batch.starts)
+    assert int(gps[0].n_deleted) > 0
+    assert_same_state(snapshot(gps[1]), snapshot(gps[0]))
+    assert formed[0] < formed[1]
+
+
+def _scoring_without_rows(score: Callable[..., Any]) -> Callable[..., Any]:
+    """``SparseOnlineGP._out_of_sample`` handing no rows on to the rest of the update."""
+    return lambda *args: (score(*args)[0], None)

@@ -83,6 +83,10 @@ class DenseRows(NamedTuple):
         """The rows, shape (n, m)."""
         return self.rows
 
+    def take(self, index: slice) -> DenseRows:
+        """The rows ``index`` of these."""
+        return DenseRows(self.rows[index])
+
     def mean(self, basis: BasisMatrices) -> Tensor:
         """``k_x^T alpha``, shape (n,)."""
         return self.rows @ basis.alpha
@@ -116,6 +120,10 @@ class MixedRows(NamedTuple):
     def dense(self, basis: HasGram) -> Tensor:
         """The rows, shape (n, m), from the basis Gram matrix."""
         return torch.einsum("nk,nkm->nm", self.w, basis.K[self.idx])
+
+    def take(self, index: slice) -> MixedRows:
+        """The rows ``index`` of these."""
+        return MixedRows(self.idx[index], self.w[index])
 
     def mean(self, basis: BasisMatrices) -> Tensor:
         """``k_x^T alpha = sum_j w_j (K alpha)[idx_j]``, shape (n,)."""
@@ -270,6 +278,12 @@ class Kernel(nn.Module):
     def novelty_rows(self, x: Tensor, z: Tensor) -> Rows:
         """Rows on which a point's novelty is judged (by default its prediction rows)."""
         return self.rows(x, z)
+
+    @property
+    def novelty_from_rows(self) -> bool:
+        """Whether :meth:`novelty_rows` are :meth:`rows` (the GP then judges the novelty of a
+        batch it has just scored from the scoring's rows)."""
+        return True
 
     def insertion_rows(self, x: Tensor, z: Tensor) -> tuple[Tensor, Sequence[Any]]:
         """Rows ``k(x_i, BV)`` that points would get if each became the next basis vector.

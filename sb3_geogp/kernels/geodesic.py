@@ -177,6 +177,10 @@ class GeodesicKernel(Kernel):
         w, i = distances(x, z).min(dim=1)
         return DenseRows(self(w[:, None] + self.tree.basis_distances()[i]))
 
+    @property
+    def novelty_from_rows(self) -> bool:
+        return self.attach != "interpolate"
+
     def rows(self, x: Tensor, z: Tensor) -> Rows:
         if self.attach == "interpolate":
             return MixedRows(*shepard_weights(distances(x, z), self.n_neighbors))
