@@ -15,6 +15,9 @@ refit every 4 blocks instead of 16 (``screen_every4_gap4``, the default's refit 
 rollouts):
 
     python results/a2c_feed_every/read.py --screens > results/a2c_feed_every/screens.md
+
+The reading serves any A2C arm registered against the default and the MLP critic on these
+seeds (:class:`Arm`, :func:`reading`): ``results/a2c_basis128/read.py`` reads its arm with it.
 """
 
 from __future__ import annotations
@@ -22,7 +25,7 @@ from __future__ import annotations
 import argparse
 import functools
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -41,12 +44,27 @@ BLOCKS = (0, 10, 30, 70)
 A2C_CELLS = 7
 
 
+class Arm(NamedTuple):
+    """A registered A2C arm: its name in the tables, its folder, and what its adoption
+    would make the default."""
+
+    name: str
+    folder: Path
+    adopted: str
+
+    def runs(self, blocks: tuple[int, ...]) -> list[dict[str, Any]]:
+        """The arm's runs of the seed blocks given (``<name>_s<F>``) that have all their runs."""
+        return _block_runs(self.folder, self.name, blocks)
+
+
 @functools.cache
-def every4_runs(blocks: tuple[int, ...]) -> list[dict[str, Any]]:
-    """every4's runs of the seed blocks given that have all their runs."""
-    folders = [HERE / f"every4_s{f}" for f in blocks]
+def _block_runs(folder: Path, name: str, blocks: tuple[int, ...]) -> list[dict[str, Any]]:
+    folders = [folder / f"{name}_s{f}" for f in blocks]
     done = [f for f in folders if f.is_dir() and len(list((f / "runs").glob("*.json"))) == 70]
     return pool_sweeps(done) if done else []
+
+
+EVERY4 = Arm("every4", HERE, "adopt `feed_every=4` as A2C's default")
 
 
 @functools.cache
@@ -64,31 +82,31 @@ def n_seeds(runs: list[dict[str, Any]]) -> int:
     return len({r["spec"]["seed"] for r in runs})
 
 
-def read(blocks: tuple[int, ...], metric: str, title: str) -> list[tuple[str, str]]:
-    """every4 − default and every4 − MLP on the seeds of ``blocks``; the rule's lines."""
+def read(arm: Arm, blocks: tuple[int, ...], metric: str, title: str) -> list[tuple[str, str]]:
+    """arm − default and arm − MLP on the seeds of ``blocks``; the rule's lines."""
     _, default_all, mlp_all = published()
-    every4, default, mlp = TABLE40.on_common_seeds(every4_runs(blocks), default_all, mlp_all)
-    label = H200.READING.LABELS[metric]
-    print(f"## {title}: {n_seeds(every4)} seeds, {label}\n")
-    if not every4:
+    runs, default, mlp = TABLE40.on_common_seeds(arm.runs(blocks), default_all, mlp_all)
+    label, name = H200.READING.LABELS[metric], arm.name
+    print(f"## {title}: {n_seeds(runs)} seeds, {label}\n")
+    if not runs:
         print("No finished block.\n")
         return [("no finished block", PARTIAL)]
-    print(f"### every4 − default (family-wise over the {A2C_CELLS} A2C cells)\n")
-    against = POOL30.against_baseline(every4, default, metric, A2C_CELLS)
-    H200.print_table(against, label, "every4 − default")
-    print("\n### every4 − MLP and default − MLP, the table's rule (family-wise at 42)\n")
-    new = POOL30.mlp_rows(every4 + mlp, metric)
+    print(f"### {name} − default (family-wise over the {A2C_CELLS} A2C cells)\n")
+    against = POOL30.against_baseline(runs, default, metric, A2C_CELLS)
+    H200.print_table(against, label, f"{name} − default")
+    print(f"\n### {name} − MLP and default − MLP, the table's rule (family-wise at 42)\n")
+    new = POOL30.mlp_rows(runs + mlp, metric)
     old = POOL30.mlp_rows(default + mlp, metric)
-    H200.print_table(new, label, "every4 − MLP")
+    H200.print_table(new, label, f"{name} − MLP")
     print()
     H200.print_table(old, label, "default − MLP")
-    print(f"\nCells (every4 / default against the MLP): {_counts(new)} / {_counts(old)}\n")
+    print(f"\nCells ({name} / default against the MLP): {_counts(new)} / {_counts(old)}\n")
     worse_default = [env for (env, _), c in against.items() if c["verdict"] == "worse"]
     fw_worse = [env for (env, _), c in new.items() if c["fw_verdict"] == "worse"]
-    complete = len(against) == A2C_CELLS and n_seeds(every4) == 10 * len(blocks)
+    complete = len(against) == A2C_CELLS and n_seeds(runs) == 10 * len(blocks)
     rules = [
-        ("1. every4 − default not worse at 95 % in any A2C cell", _holds(worse_default)),
-        ("2. every4 − MLP not worse family-wise in any A2C cell", _holds(fw_worse)),
+        (f"1. {name} − default not worse at 95 % in any A2C cell", _holds(worse_default)),
+        (f"2. {name} − MLP not worse family-wise in any A2C cell", _holds(fw_worse)),
     ]
     return [(text, state if complete else PARTIAL) for text, state in rules]
 
@@ -100,16 +118,16 @@ def _counts(rows: dict[tuple[str, str], dict[str, Any]]) -> str:
     return f"{better} better ({fw} family-wise), {same} no different, {worse} worse"
 
 
-def full_table(metric: str) -> None:
-    """Issue 13's table with every4 as its A2C rows, where all four seed blocks finished."""
-    every4 = every4_runs(BLOCKS)
-    if n_seeds(every4) < 10 * len(BLOCKS):
-        print("\n## Issue 13's table with every4's A2C rows: not every block finished\n")
+def full_table(arm: Arm, metric: str) -> None:
+    """Issue 13's table with the arm as its A2C rows, where all four seed blocks finished."""
+    runs = arm.runs(BLOCKS)
+    if n_seeds(runs) < 10 * len(BLOCKS):
+        print(f"\n## Issue 13's table with {arm.name}'s A2C rows: not every block finished\n")
         return
     ppo, default, mlp = published()
     label = H200.READING.LABELS[metric]
-    print(f"\n## Issue 13's table with every4's A2C rows (secondary), {label}\n")
-    rows = POOL30.mlp_rows(ppo + every4 + mlp, metric)
+    print(f"\n## Issue 13's table with {arm.name}'s A2C rows (secondary), {label}\n")
+    rows = POOL30.mlp_rows(ppo + runs + mlp, metric)
     H200.print_table(rows, label)
     today = POOL30.mlp_rows(ppo + default + mlp, metric)
     print(f"\nCells: {_counts(rows)}; today's: {_counts(today)}")
@@ -118,7 +136,7 @@ def full_table(metric: str) -> None:
 def critic_seconds() -> None:
     """The GP critic's update seconds per run, every4 against the default's stored runs."""
     _, default_all, _ = published()
-    every4, default = TABLE40.on_common_seeds(every4_runs(BLOCKS), default_all)
+    every4, default = TABLE40.on_common_seeds(EVERY4.runs(BLOCKS), default_all)
     print("\n## The GP's update seconds per run (median; the default's runs were made in "
           "session 36 on a machine about 4x slower, so the ratio is not a measurement: "
           "docs/benchmarks.md's interleaved one is)\n")  # fmt: skip
@@ -157,27 +175,34 @@ def _holds(failures: list[str]) -> str:
     return "holds" if not failures else f"fails ({', '.join(failures)})"
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+def reading(arm: Arm, kept: str, metric: str) -> None:
+    """The registered reading of ``arm`` (``kept``: what the default keeps if it fails)."""
+    rules = read(arm, PRIMARY, metric, "Primary, seeds 0-19")
+    if metric == "final_return":
+        print("\n## The registered rule (final return, seeds 0-19)\n")
+        print(registered_decision(rules, kept, arm.adopted) + "\n")
+    finished = tuple(f for f in BLOCKS if arm.runs((f,)))
+    if finished and finished != PRIMARY:
+        blocks = ", ".join(map(str, finished))
+        read(arm, finished, metric, f"Secondary, every finished block ({blocks})")
+    full_table(arm, metric)
+
+
+def arguments(description: str, screens: bool = False) -> argparse.Namespace:
+    """``--metric`` (and ``--screens``) of a reading script."""
+    parser = argparse.ArgumentParser(description=description)
     parser.add_argument("--metric", choices=("final_return", "mean_return"), default="final_return")
-    parser.add_argument("--screens", action="store_true", help="the CartPole-v1 screens only")
-    args = parser.parse_args()
+    if screens:
+        parser.add_argument("--screens", action="store_true", help="the CartPole-v1 screens only")
+    return parser.parse_args()
+
+
+def main() -> None:
+    args = arguments(__doc__.split("\n\n")[0], screens=True)
     if args.screens:
         screens()
         return
-    rules = read(PRIMARY, args.metric, "Primary, seeds 0-19")
-    if args.metric == "final_return":
-        print("\n## The registered rule (final return, seeds 0-19)\n")
-        kept, adopted = "A2C keeps feeding every rollout", "adopt `feed_every=4` as A2C's default"
-        print(registered_decision(rules, kept, adopted) + "\n")
-    finished = tuple(f for f in BLOCKS if every4_runs((f,)))
-    if finished and finished != PRIMARY:
-        read(
-            finished,
-            args.metric,
-            f"Secondary, every finished block ({', '.join(map(str, finished))})",
-        )
-    full_table(args.metric)
+    reading(EVERY4, "A2C keeps feeding every rollout", args.metric)
     if args.metric == "final_return":
         critic_seconds()
 
