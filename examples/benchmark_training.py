@@ -22,7 +22,8 @@ after ``+adapt`` or ``+cheap`` by other adaptation settings (``+gapN``: ``max_ga
 ``settle=False``; ``+snapshot``: ``summary="snapshot"``; ``+lagged``:
 ``forgetting_score="lagged"``; and anywhere ``+returns``, ``GPValueCallback(target="returns")``,
 SB3's returns as the GP's targets instead of the algorithm's default, and ``+everyN``,
-``GPValueCallback(feed_every=N)``, the GP fed every N-th rollout); settings after
+``GPValueCallback(feed_every=N)``, the GP fed every N-th rollout, and ``+basisN``,
+``max_basis=N`` for this critic); settings after
 ``+adapt`` start from :class:`~sb3_geogp.Adaptation`'s defaults, so ``laplacian+adapt+gap1+f1``
 is PPO's critic before 0.10, a refit every block, ``+adapt+score256`` folds every point, and
 ``laplacian+adapt+gap16+nosettle+score256+fold256+floor80+snapshot+f1`` is 0.13's PPO critic,
@@ -95,6 +96,9 @@ SETTING_SUFFIXES: dict[str, tuple[tuple[str, ...], int]] = {
     "floor": (("fit_floor",), 100),
     "prior": (("prior_sd",), 100),
 }
+#: Suffixes with a count anywhere after the kernel, and the GP option the count sets:
+#: ``+basis128`` (``max_basis=128``, for this critic instead of ``--max-basis``).
+GP_COUNTS: dict[str, str] = {"basis": "max_basis"}
 #: Suffixes that configure ``GPValueCallback`` instead of the GP, and its options they set.
 CALLBACK_SUFFIXES: dict[str, dict[str, Any]] = {"returns": {"target": "returns"}}
 #: Suffixes with a count that configure ``GPValueCallback``, and the option the count sets:
@@ -135,6 +139,8 @@ def gp_kwargs_of(suffixes: Sequence[str]) -> dict[str, Any] | None:
         count = suffix[len(name) :]
         if suffix in SUFFIXES:
             options.update(SUFFIXES[suffix])
+        elif name in GP_COUNTS and count:
+            options[GP_COUNTS[name]] = int(count)
         elif suffix in SETTING_FLAGS:
             settings.update(SETTING_FLAGS[suffix])
         elif name in SETTING_SUFFIXES and count:
@@ -158,9 +164,11 @@ def critic_name(text: str) -> str:
     known = kernel in ALL_CRITICS and (kernel != "mlp" or not suffixes)
     if not known or gp_kwargs_of(suffixes) is None:
         counted = " +".join([*(f"{k}N" for k in SETTING_SUFFIXES), *SETTING_FLAGS])
+        counts = (f"{k}N" for k in (*GP_COUNTS, *CALLBACK_COUNTS))
+        anywhere = [*SUFFIXES, *CALLBACK_SUFFIXES, *counts]
         raise argparse.ArgumentTypeError(
             f"unknown critic {text!r}: use one of {ALL_CRITICS}, a GP kernel optionally followed "
-            f"by +{' +'.join([*SUFFIXES, *CALLBACK_SUFFIXES, *(f'{k}N' for k in CALLBACK_COUNTS)])}"
+            f"by +{' +'.join(anywhere)}"
             ", and after +adapt or +cheap by "
             f"+{counted} (e.g. "
             "geodesic+adapt+shared, geodesic+adapt+thin512+gap4)"

@@ -78,6 +78,8 @@ def test_benchmark_training_setting_suffixes_build_those_settings() -> None:
     assert bench.gp_kwargs_of(["adapt"]) == {"adapt": True}
     assert bench.gp_kwargs_of(["adapt", "notrend"]) == {"adapt": True, "trend": "none"}
     assert bench.gp_kwargs_of(["adapt", "f1"]) == {"adapt": True, "forgetting": 1.0}
+    assert bench.gp_kwargs_of(["adapt", "basis128"]) == {"adapt": True, "max_basis": 128}
+    assert bench.gp_kwargs_of(["basis"]) is None  # a count suffix needs its count
     # +returns configures the callback, not the GP: 0.23's targets.
     assert bench.gp_kwargs_of(["adapt", "returns"]) == {"adapt": True}
     assert bench.callback_kwargs_of(["adapt", "returns"]) == {"target": "returns"}
