@@ -15,10 +15,12 @@ from sb3_geogp.kernels import (
     GeodesicKernel,
     Gram,
     KernelName,
+    LaplacianKernel,
     RBFKernel,
     make_kernel,
     shepard_weights,
 )
+from sb3_geogp.kernels.base import DenseRows
 
 
 # -- independent references ---------------------------------------------------------------------
@@ -306,3 +308,20 @@ def test_kernel_names_are_the_kernels_make_kernel_builds() -> None:
     assert set(typing.get_args(KernelName)) == set(KERNELS)
     for name in typing.get_args(KernelName):
         assert type(make_kernel(name)) is KERNELS[name]
+
+
+def test_novelty_from_rows_only_where_the_screening_rows_are_the_prediction_rows() -> None:
+    """An adapting GP screens a scored batch from its prediction rows only where the kernel's
+    novelty rows are those rows: by default, not for a kernel that overrides ``novelty_rows``
+    (its own screening is kept), and for the geodesic kernel only with ``attach="nearest"``
+    (its ``rows`` are then its ``novelty_rows``; the GP's bit-for-bit check of the shared rows
+    runs both geodesic settings, tests/test_sparse_gp.py)."""
+
+    class OwnScreening(RBFKernel):
+        def novelty_rows(self, x: torch.Tensor, z: torch.Tensor) -> DenseRows:
+            return DenseRows(self.cross(x, z) ** 2)
+
+    assert RBFKernel().novelty_from_rows and LaplacianKernel().novelty_from_rows
+    assert not OwnScreening().novelty_from_rows
+    assert not GeodesicKernel().novelty_from_rows
+    assert GeodesicKernel(attach="nearest").novelty_from_rows

@@ -282,8 +282,10 @@ class Kernel(nn.Module):
     @property
     def novelty_from_rows(self) -> bool:
         """Whether :meth:`novelty_rows` are :meth:`rows` (the GP then judges the novelty of a
-        batch it has just scored from the scoring's rows)."""
-        return True
+        batch it has just scored from the scoring's rows): where a subclass does not override
+        :meth:`novelty_rows`; one that does, with rows equal to its prediction rows, may say
+        so by overriding this too."""
+        return type(self).novelty_rows is Kernel.novelty_rows
 
     def insertion_rows(self, x: Tensor, z: Tensor) -> tuple[Tensor, Sequence[Any]]:
         """Rows ``k(x_i, BV)`` that points would get if each became the next basis vector.
