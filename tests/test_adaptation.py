@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import copy
+import math
 
 import numpy as np
 import pytest
@@ -111,6 +112,21 @@ def test_jittered_cholesky_repairs_a_singular_matrix() -> None:
     torch.testing.assert_close(L @ L.T, A + jitter * torch.eye(6, dtype=A.dtype))
     L, jitter = jittered_cholesky(A + torch.eye(6, dtype=A.dtype), 1.0)
     assert jitter == 0.0
+
+
+def test_jittered_cholesky_takes_the_first_jitter_of_its_ladder_that_works() -> None:
+    """The jitters tried are 0, then 1e-6 scale growing 10x: the one returned factorises and
+    the step below it does not (checked directly); a matrix no jitter repairs raises."""
+    eye = torch.eye(5, dtype=torch.float64)
+    A = torch.diag(torch.tensor([1.0, 1.0, 1.0, 1.0, -3e-3], dtype=torch.float64))
+    scale = 2.0
+    _, jitter = jittered_cholesky(A, scale)
+    steps = math.log10(jitter / (1e-6 * scale))
+    assert abs(steps - round(steps)) < 1e-9
+    assert int(torch.linalg.cholesky_ex(A + jitter * eye).info) == 0
+    assert int(torch.linalg.cholesky_ex(A + jitter / 10 * eye).info) != 0
+    with pytest.raises(FloatingPointError, match="not positive definite"):
+        jittered_cholesky(A - 1e6 * eye, 1.0)
 
 
 @pytest.mark.parametrize("n", [40, 12])  # more than twice the 9 inducing points, and fewer
