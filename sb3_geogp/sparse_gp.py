@@ -1419,10 +1419,9 @@ class SparseOnlineGP(nn.Module):
         self, x: Tensor, xs: Tensor, y: Tensor
     ) -> tuple[dict[str, float], _BatchRows | None]:
         """NLPD and explained variance of a batch (inputs ``x``, scaled ``xs``) under the
-        posterior before it is absorbed;
-        scores the forgetting candidates on it (:meth:`_score_forgetting`, or
-        :meth:`_lagged_scores`) and adds it to the open block's sums. All use at most
-        ``Adaptation.score_points`` points of the batch (:func:`~sb3_geogp.adaptation.thinned`);
+        posterior before it is absorbed; scores the forgetting candidates on it
+        (:meth:`_score_forgetting`, or :meth:`_lagged_scores`) and adds it to the open block's
+        sums. All use at most ``Adaptation.score_points`` points of the batch (:func:`_thin`);
         where that is all of them, their rows are returned for the rest of the update."""
         assert self.adaptation is not None
         n = x.shape[0]
@@ -1499,8 +1498,8 @@ class SparseOnlineGP(nn.Module):
         kept = int(last.sum())
         if kept == 0:  # nothing of the previous batch retained: every candidate scores alike
             return torch.zeros_like(candidates)
-        index, runs = thinned(kept, a.score_points, yn.device)
-        px, py = wx[last][index].to(self.y_mean), wy[last][index].to(self.y_mean)
+        (px, py), runs, _ = _thin(a.score_points, wx[last], wy[last])
+        px, py = px.to(self.y_mean), py.to(self.y_mean)
         weight = runs.to(torch.float64) * max(1.0, int(self.last_batch_points) / kept)
         noise = float(self.noise_var)
         basis = self._matrices()
