@@ -25,6 +25,10 @@ from sb3_geogp.kernels.base import (
     distances,
 )
 
+#: Distance given to the pairs :meth:`GeodesicKernel.blocked` forbids, in lengthscale units:
+#: every profile vanishes there (``exp(-1e4)`` underflows to 0) while Shepard weights stay finite.
+BLOCKED_DISTANCE = 1e4
+
 Profile = Literal["laplacian", "gaussian"]
 Attach = Literal["interpolate", "nearest"]
 Edges = Literal["trajectory", "nearest"]
@@ -56,6 +60,11 @@ class GeodesicKernel(Kernel):
 
     Novelty is always judged on the row the point would have as a leaf of its nearest basis
     vector (an interpolated row lies in the span of the BV rows and is never novel).
+
+    Every "nearest" above is Euclidean, so a point beside an obstacle can be attached to basis
+    vectors on its far side. :meth:`blocked` names pairs that may not be attached (none by
+    default); a subclass that knows the obstacles (an oracle, as in the wall study) makes every
+    attachment, parent and novelty judgement respect them.
 
     A new basis vector joins the tree as a leaf of its parent (:meth:`insertion_rows`): the
     previous basis vector of its own trajectory with ``edges="trajectory"`` when there is one
@@ -167,14 +176,14 @@ class GeodesicKernel(Kernel):
     def _leaf_factors(self, x: Tensor, z: Tensor) -> MixedRows:
         # As a leaf of the nearest BV b_i at distance w, the Laplacian row is
         # variance * exp(-(w + SP(b_i, .))) = exp(-w) * K_b[i]: a scaled copy of one BV row.
-        w, i = distances(x, z).min(dim=1)
+        w, i = self.attach_distances(x, z).min(dim=1)
         return MixedRows(i[:, None], torch.exp(-w)[:, None])
 
     def novelty_rows(self, x: Tensor, z: Tensor) -> Rows:
         if self.profile_name == "laplacian":
             return self._leaf_factors(x, z)
         # Leaf of the nearest BV: r(x, b_j) = ||x - b_i|| + SP(b_i, b_j).
-        w, i = distances(x, z).min(dim=1)
+        w, i = self.attach_distances(x, z).min(dim=1)
         return DenseRows(self(w[:, None] + self.tree.basis_distances()[i]))
 
     @property
@@ -183,7 +192,7 @@ class GeodesicKernel(Kernel):
 
     def rows(self, x: Tensor, z: Tensor) -> Rows:
         if self.attach == "interpolate":
-            return MixedRows(*shepard_weights(distances(x, z), self.n_neighbors))
+            return MixedRows(*shepard_weights(self.attach_distances(x, z), self.n_neighbors))
         return self.novelty_rows(x, z)
 
     def cross(self, x: Tensor, z: Tensor) -> Tensor:
@@ -208,7 +217,36 @@ class GeodesicKernel(Kernel):
             return None
         if self.edges == "trajectory" and int(self.traj_node) >= 0:
             return self.traj_node.expand(x.shape[0])
-        return self.tree.basis_nodes[distances(x, z).argmin(dim=1)]
+        return self.tree.basis_nodes[self.attach_distances(x, z).argmin(dim=1)]
+
+    def blocked(self, x: Tensor, z: Tensor) -> Tensor | None:
+        """Pairs that may not be attached to each other (none by default).
+
+        Parameters
+        ----------
+        x : Tensor, shape (n, d)
+            Points, scaled by the lengthscale.
+        z : Tensor, shape (m, d)
+            Basis vectors, scaled by the lengthscale.
+
+        Returns
+        -------
+        Tensor of bool, shape (n, m), or None
+            ``True`` where ``x_i`` may not see ``z_j``; ``None``: every pair may.
+        """
+        return None
+
+    def attach_distances(self, x: Tensor, z: Tensor, stretch: Tensor | None = None) -> Tensor:
+        """Euclidean distances by which points are attached, shape (n, m): those of
+        :meth:`blocked` pairs set to :data:`BLOCKED_DISTANCE`.
+
+        ``x : (n, d)`` and ``z : (m, d)`` are scaled by the lengthscale; ``stretch : (d,)``
+        rescales them further (a lengthscale fit's trial factors) for the distances, not for
+        :meth:`blocked`.
+        """
+        d = distances(x, z) if stretch is None else distances(x * stretch, z * stretch)
+        mask = self.blocked(x, z)
+        return d if mask is None else d.masked_fill(mask, BLOCKED_DISTANCE)
 
     # -- the basis life cycle ------------------------------------------------------------------
     def on_insert(self, x: Tensor, attachment: Any) -> None:
@@ -251,7 +289,7 @@ class GeodesicKernel(Kernel):
             stretch = torch.exp(-log_factor)
             length = paths.length * edge_stretch(paths.delta, log_factor)
             base = tree_distances(R, R, length)
-            near = distances(xs * stretch, zs * stretch)
+            near = self.attach_distances(xs, zs, stretch)
             R_zz = torch.where(same, self.profile(base), torch.zeros_like(base))
             if self.attach == "interpolate":
                 idx, w = shepard_weights(near, self.n_neighbors)

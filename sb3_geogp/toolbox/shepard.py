@@ -5,11 +5,14 @@ modified Shepard weights. Applied to a Euclidean GP, the same rule separates the
 that attachment from the effect of the graph distance, so both studies compare each kernel
 under two prediction rules (:data:`PredictionRule`): the GP's own posterior mean (``"gp"``)
 and the Shepard interpolation of its posterior means at the basis vectors (``"shepard"``).
-Training is the same under both rules; only the prediction differs.
+Training is the same under both rules; only the prediction differs. Either Shepard function
+takes ``blocked``, pairs of points and basis vectors that may not be interpolated between (an
+oracle that knows the obstacles, as :class:`~sb3_geogp.GeodesicKernel`'s ``blocked``).
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Literal
 
 import numpy as np
@@ -17,13 +20,21 @@ import torch
 from torch import Tensor
 
 from sb3_geogp.kernels import distances, shepard_weights
+from sb3_geogp.kernels.geodesic import BLOCKED_DISTANCE
 from sb3_geogp.sparse_gp import SparseOnlineGP
 
 PredictionRule = Literal["gp", "shepard"]
+#: ``blocked(x, b) -> mask``: points ``x : (n, d)`` and basis vectors ``b : (m, d)`` in input
+#: units to a bool mask, shape (n, m), ``True`` where ``b_j`` may not be interpolated to ``x_i``.
+Blocked = Callable[[Tensor, Tensor], Tensor]
 
 
 def shepard_interpolate(
-    gp: SparseOnlineGP, values: Tensor, x: Tensor, n_neighbors: int = 4
+    gp: SparseOnlineGP,
+    values: Tensor,
+    x: Tensor,
+    n_neighbors: int = 4,
+    blocked: Blocked | None = None,
 ) -> Tensor:
     """Interpolate ``values`` given at ``gp``'s basis vectors to ``x``, as the geodesic kernel does.
 
@@ -39,6 +50,9 @@ def shepard_interpolate(
     values : Tensor, shape (n_basis,)
     x : Tensor, shape (n, d)
     n_neighbors : int
+    blocked : callable, optional
+        Pairs left out of the interpolation (:data:`Blocked`): given the distance
+        :data:`~sb3_geogp.kernels.geodesic.BLOCKED_DISTANCE`, as the geodesic kernel does.
 
     Returns
     -------
@@ -46,11 +60,20 @@ def shepard_interpolate(
     """
     scale = gp.lengthscale
     bv = gp.basis_inputs
-    idx, w = shepard_weights(distances(x.to(bv.dtype) / scale, bv / scale), n_neighbors)
+    x = x.to(bv.dtype)
+    dist = distances(x / scale, bv / scale)
+    if blocked is not None:
+        dist = dist.masked_fill(blocked(x, bv), BLOCKED_DISTANCE)
+    idx, w = shepard_weights(dist, n_neighbors)
     return (w * values.to(w.dtype)[idx]).sum(dim=1)
 
 
-def shepard_mean(gp: SparseOnlineGP, x: np.ndarray | Tensor, n_neighbors: int = 4) -> Tensor:
+def shepard_mean(
+    gp: SparseOnlineGP,
+    x: np.ndarray | Tensor,
+    n_neighbors: int = 4,
+    blocked: Blocked | None = None,
+) -> Tensor:
     """The Shepard rule's prediction: ``gp``'s posterior means at its basis vectors, interpolated.
 
     ``mean(x) = sum_i w_i(x) mean(b_i)`` (:func:`shepard_interpolate`). Without basis vectors
@@ -61,6 +84,8 @@ def shepard_mean(gp: SparseOnlineGP, x: np.ndarray | Tensor, n_neighbors: int = 
     gp : SparseOnlineGP
     x : ndarray or Tensor, shape (n, d)
     n_neighbors : int
+    blocked : callable, optional
+        As :func:`shepard_interpolate`.
 
     Returns
     -------
@@ -69,11 +94,15 @@ def shepard_mean(gp: SparseOnlineGP, x: np.ndarray | Tensor, n_neighbors: int = 
     if gp.n_basis == 0:
         return gp.predict(x, return_var=False)[0]
     bv_mean = gp.predict(gp.basis_inputs, return_var=False)[0]
-    return shepard_interpolate(gp, bv_mean, torch.as_tensor(x), n_neighbors)
+    return shepard_interpolate(gp, bv_mean, torch.as_tensor(x), n_neighbors, blocked)
 
 
 def predict_mean(
-    gp: SparseOnlineGP, x: np.ndarray, rule: PredictionRule = "gp", chunk: int | None = None
+    gp: SparseOnlineGP,
+    x: np.ndarray,
+    rule: PredictionRule = "gp",
+    chunk: int | None = None,
+    blocked: Blocked | None = None,
 ) -> np.ndarray:
     """Posterior mean at ``x`` under a prediction rule.
 
@@ -86,6 +115,8 @@ def predict_mean(
     chunk : int, optional
         Predict this many points at a time (bounds the memory of the interpolation on large
         grids); ``None``: all at once.
+    blocked : callable, optional
+        With ``rule="shepard"``, as :func:`shepard_interpolate`; the ``"gp"`` rule takes none.
 
     Returns
     -------
@@ -93,9 +124,11 @@ def predict_mean(
     """
     if rule not in ("gp", "shepard"):
         raise ValueError(f"rule must be 'gp' or 'shepard', got {rule!r}")
+    if blocked is not None and rule != "shepard":
+        raise ValueError("blocked applies to the 'shepard' rule only (the GP attaches by its kernel)")
     step = chunk or max(len(x), 1)
     parts = [
-        shepard_mean(gp, x[i : i + step])
+        shepard_mean(gp, x[i : i + step], blocked=blocked)
         if rule == "shepard"
         else gp.predict(x[i : i + step], return_var=False)[0]
         for i in range(0, len(x), step)

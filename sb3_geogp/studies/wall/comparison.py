@@ -15,7 +15,10 @@ Models (:data:`MODELS`):
   interpolation of the basis-vector posterior means (the ``"shepard"`` prediction rule of
   :mod:`sb3_geogp.toolbox.shepard`): a control for the attachment as well;
 * ``geo_*``: :class:`~sb3_geogp.GeodesicKernel` variants, ``geo_default`` being its defaults
-  (Laplacian profile, Shepard interpolation, trajectory edges).
+  (Laplacian profile, Shepard interpolation, trajectory edges);
+* the oracle (:mod:`~sb3_geogp.studies.wall.oracle`): ``geo_wall_aware``, ``geo_default``
+  whose attachments never cross the wall, and its Euclidean control ``euclid_lap_shepard_wall``,
+  ``euclid_lap_shepard`` predicting from the basis vectors on its own side of the wall.
 """
 
 from __future__ import annotations
@@ -32,6 +35,7 @@ import numpy as np
 
 from sb3_geogp import GeodesicKernel, RBFKernel, SparseOnlineGP
 from sb3_geogp.kernels import Kernel, LaplacianKernel
+from sb3_geogp.studies.wall.oracle import WallAwareGeodesicKernel, blocked_pairs
 from sb3_geogp.studies.wall.rooms import TwoRooms, WalkData, goal_walks
 from sb3_geogp.toolbox.shepard import PredictionRule, predict_mean
 from sb3_geogp.toolbox.stats import mean_ci
@@ -48,25 +52,34 @@ PREDICT_CHUNK = 2048
 
 
 class ModelSpec(NamedTuple):
-    """How to build and query one compared model: a kernel factory (taking the lengthscale)
-    and the prediction rule."""
+    """How to build and query one compared model: a kernel factory (taking the lengthscale and
+    the rooms), the prediction rule, and whether that rule's Shepard neighbours may not cross
+    the wall (the oracle)."""
 
-    kernel: Callable[[float], Kernel]
+    kernel: Callable[[float, TwoRooms], Kernel]
     rule: PredictionRule = "gp"
+    wall_aware: bool = False
+
+
+def _blind(factory: Callable[[float], Kernel]) -> Callable[[float, TwoRooms], Kernel]:
+    """A kernel factory that does not know the rooms (every model but the oracle's)."""
+    return lambda lengthscale, rooms: factory(lengthscale)
 
 
 #: Model name -> specification.
 MODELS: dict[str, ModelSpec] = {
-    "rbf": ModelSpec(RBFKernel),
-    "euclid_laplacian": ModelSpec(LaplacianKernel),
-    "euclid_lap_shepard": ModelSpec(LaplacianKernel, "shepard"),
-    "geo_default": ModelSpec(GeodesicKernel),
-    "geo_lap_nearest": ModelSpec(functools.partial(GeodesicKernel, attach="nearest")),
-    "geo_gauss_interp": ModelSpec(functools.partial(GeodesicKernel, profile="gaussian")),
+    "rbf": ModelSpec(_blind(RBFKernel)),
+    "euclid_laplacian": ModelSpec(_blind(LaplacianKernel)),
+    "euclid_lap_shepard": ModelSpec(_blind(LaplacianKernel), "shepard"),
+    "geo_default": ModelSpec(_blind(GeodesicKernel)),
+    "geo_lap_nearest": ModelSpec(_blind(functools.partial(GeodesicKernel, attach="nearest"))),
+    "geo_gauss_interp": ModelSpec(_blind(functools.partial(GeodesicKernel, profile="gaussian"))),
     "geo_gauss_nearest": ModelSpec(
-        functools.partial(GeodesicKernel, profile="gaussian", attach="nearest")
+        _blind(functools.partial(GeodesicKernel, profile="gaussian", attach="nearest"))
     ),
-    "geo_nn_edges": ModelSpec(functools.partial(GeodesicKernel, edges="nearest")),
+    "geo_nn_edges": ModelSpec(_blind(functools.partial(GeodesicKernel, edges="nearest"))),
+    "geo_wall_aware": ModelSpec(WallAwareGeodesicKernel),
+    "euclid_lap_shepard_wall": ModelSpec(_blind(LaplacianKernel), "shepard", wall_aware=True),
 }
 
 METRICS = (
@@ -145,6 +158,7 @@ def fit_gp(
     max_basis: int,
     settings: FitSettings,
     episodes_per_batch: int | None = None,
+    rooms: TwoRooms | None = None,
 ) -> SparseOnlineGP:
     """Fit one model to the walks in a single on-line pass (with episode starts).
 
@@ -158,14 +172,16 @@ def fit_gp(
     settings : FitSettings
     episodes_per_batch : int, optional
         Walks per ``update`` call (as an RL critic would see rollouts); ``None`` = one call.
+    rooms : TwoRooms, optional
+        The geometry the walks ran in (the oracle's wall); ``TwoRooms()`` if ``None``.
 
     Returns
     -------
     SparseOnlineGP
-        Query it with the model's prediction rule, ``MODELS[model].rule``.
+        Query it as :func:`evaluate` does, with the model's prediction rule.
     """
     return fit_online(
-        MODELS[model].kernel(settings.lengthscale),
+        MODELS[model].kernel(settings.lengthscale, rooms or TwoRooms()),
         data.states,
         data.targets,
         data.episode_starts,
@@ -200,16 +216,19 @@ def evaluate(
     grid: np.ndarray,
     band: float,
     rule: PredictionRule = "gp",
+    wall_aware: bool = False,
 ) -> dict[str, float]:
     """Error metrics of a fitted GP on the grid (all of :data:`METRICS` but ``seconds``).
 
-    ``mse`` and ``mse_wall`` are the squared errors of its predictions under ``rule`` against
+    ``mse`` and ``mse_wall`` are the squared errors of its predictions under ``rule`` (its
+    Shepard neighbours kept on the query's side of the wall if ``wall_aware``) against
     the exact value over the grid and over its near-wall band. ``wall_across_frac`` is the
     fraction of band points whose nearest basis vector lies across the wall,
     ``wall_across_err_share`` their share of the band's summed squared error;
     ``shortcut_frac`` is :func:`shortcut_fraction`.
     """
-    err2 = (predict_mean(gp, grid, rule, PREDICT_CHUNK) - rooms.value(grid)) ** 2
+    blocked = functools.partial(blocked_pairs, rooms) if wall_aware else None
+    err2 = (predict_mean(gp, grid, rule, PREDICT_CHUNK, blocked) - rooms.value(grid)) ** 2
     near = rooms.near_wall(grid, band)
     band_pts, band_err2 = grid[near], err2[near]
     bv = gp.basis_inputs.cpu().numpy()
@@ -282,8 +301,9 @@ def run_comparison(
         if seed not in data:
             data[seed] = walks.generate(rooms, seed)
         start = time.perf_counter()
-        gp = fit_gp(model, data[seed], max_basis[i], fit, episodes_per_batch)
-        metrics = evaluate(gp, rooms, grid, band, MODELS[model].rule)
+        spec = MODELS[model]
+        gp = fit_gp(model, data[seed], max_basis[i], fit, episodes_per_batch, rooms)
+        metrics = evaluate(gp, rooms, grid, band, spec.rule, spec.wall_aware)
         metrics["seconds"] = time.perf_counter() - start
         for key in METRICS:
             result.values[model][key][i].append(metrics[key])
