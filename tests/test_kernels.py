@@ -325,3 +325,51 @@ def test_novelty_from_rows_only_where_the_screening_rows_are_the_prediction_rows
     assert not OwnScreening().novelty_from_rows
     assert not GeodesicKernel().novelty_from_rows
     assert GeodesicKernel(attach="nearest").novelty_from_rows
+
+
+# -- geodesic kernel: blocked attachments -------------------------------------------------------
+CUT = 1.2  # splits ``small_tree``'s 12 nodes 6 / 6
+
+
+class HalfPlanes(GeodesicKernel):
+    """Blocks every pair on opposite sides of the line ``x_0 = CUT`` (scaled inputs)."""
+
+    def blocked(self, x: torch.Tensor, z: torch.Tensor) -> torch.Tensor:
+        return (x[:, :1] > CUT) != (z[:, 0] > CUT)[None, :]
+
+
+def test_blocked_pairs_are_never_attached(small_tree, shepard_dense) -> None:
+    """Against the unblocked kernel's definitions applied to each point's own side only:
+    Shepard rows over the visible basis vectors, the nearest visible one for a leaf and for a
+    parent."""
+    graph, pos, sp = small_tree
+    x = np.random.default_rng(4).normal(size=(30, 2))
+    same = (x[:, :1] > CUT) == (pos[:, 0] > CUT)[None, :]
+    assert same.sum(axis=1).min() >= 5  # every point sees more than its 4 neighbours
+    dist = np.where(same, cdist(x, pos), np.inf)
+    nearest = dist.argmin(axis=1)
+    xt = torch.as_tensor(x)
+
+    kernel = HalfPlanes(lengthscale=1.0)
+    z = on_tree(kernel, graph, pos)
+    expected = np.stack(
+        [shepard_dense(d[s][None], 4)[0] @ np.exp(-sp[s]) for d, s in zip(dist, same, strict=True)]
+    )
+    np.testing.assert_allclose(kernel.cross(xt, z).numpy(), expected, rtol=1e-10, atol=1e-14)
+    leaf = np.exp(-(dist[np.arange(len(x)), nearest][:, None] + sp[nearest]))
+    got = kernel.novelty_rows(xt, z).dense(Gram(kernel.gram(z))).numpy()
+    np.testing.assert_allclose(got, leaf, rtol=1e-12)
+    rows, parents = kernel.insertion_rows(xt, z)
+    assert list(parents) == nearest.tolist()
+    np.testing.assert_allclose(rows.numpy(), leaf, rtol=1e-12)
+
+
+def test_a_point_that_sees_no_basis_vector_is_uncorrelated() -> None:
+    """Every pair blocked: the leaf row vanishes (the point is as novel as without a basis)."""
+    graph, pos, _ = random_tree(np.random.default_rng(5), 6, dim=2)
+    pos[:, 0] = np.abs(pos[:, 0]) + CUT + 0.1  # every basis vector right of the line
+    kernel = HalfPlanes(lengthscale=1.0)
+    z = on_tree(kernel, graph, pos)
+    left = torch.tensor([[-0.5, 0.0], [-2.0, 1.0]], dtype=torch.float64)
+    novelty = kernel.novelty_rows(left, z).dense(Gram(kernel.gram(z)))
+    assert bool((novelty == 0).all())

@@ -125,7 +125,9 @@ def predict_mean(
     if rule not in ("gp", "shepard"):
         raise ValueError(f"rule must be 'gp' or 'shepard', got {rule!r}")
     if blocked is not None and rule != "shepard":
-        raise ValueError("blocked applies to the 'shepard' rule only (the GP attaches by its kernel)")
+        raise ValueError(
+            "blocked applies to the 'shepard' rule only (the GP attaches by its kernel)"
+        )
     step = chunk or max(len(x), 1)
     parts = [
         shepard_mean(gp, x[i : i + step], blocked=blocked)

@@ -7,6 +7,7 @@ import pytest
 import torch
 
 from sb3_geogp import GeodesicKernel, RBFKernel, SparseOnlineGP
+from sb3_geogp.kernels import distances, shepard_weights
 from sb3_geogp.toolbox.shepard import predict_mean, shepard_interpolate, shepard_mean
 
 
@@ -54,3 +55,29 @@ def test_shepard_mean_without_basis_vectors_is_the_prior_mean() -> None:
     gp = SparseOnlineGP(2, RBFKernel(lengthscale=[0.2, 0.4]), max_basis=20)
     x = np.zeros((3, 2))
     torch.testing.assert_close(shepard_mean(gp, x), gp.predict(x, return_var=False)[0])
+
+
+def test_blocked_basis_vectors_are_left_out_of_the_interpolation() -> None:
+    """With ``blocked``, the interpolation is the one over the unblocked basis vectors alone:
+    the same rule on a GP-free reference, the weights over each point's own side."""
+    gp = fitted_gp(RBFKernel(lengthscale=[0.2, 0.4]))
+    bv = gp.basis_inputs
+    values = torch.linspace(-1.0, 1.0, gp.n_basis, dtype=torch.float64)
+    x = torch.rand(40, 2, dtype=torch.float64, generator=torch.Generator().manual_seed(5))
+
+    def blocked(a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
+        return (a[:, :1] > 0.5) != (b[:, 0] > 0.5)[None, :]
+
+    got = shepard_interpolate(gp, values, x, blocked=blocked)
+    for i in range(len(x)):
+        side = ~blocked(x[i : i + 1], bv)[0]
+        assert int(side.sum()) > 4
+        own = shepard_weights(
+            distances(x[i : i + 1] / gp.lengthscale, bv[side] / gp.lengthscale), 4
+        )
+        expected = (own[1] * values[side][own[0]]).sum()
+        torch.testing.assert_close(got[i], expected, atol=1e-12, rtol=0)
+    both = predict_mean(gp, x.numpy(), "shepard", blocked=blocked)
+    np.testing.assert_allclose(both, shepard_mean(gp, x, blocked=blocked).numpy(), atol=1e-12)
+    with pytest.raises(ValueError, match="blocked"):
+        predict_mean(gp, x.numpy(), blocked=blocked)
