@@ -8,6 +8,7 @@ import pytest
 from gymnasium.utils.env_checker import check_env
 
 from sb3_geogp.envs.wall_maze import (
+    DOOR_LAYOUT,
     MAX_EPISODE_STEPS,
     WALL_MAZE_CORNER_ID,
     WALL_MAZE_DISCRETE_ID,
@@ -266,3 +267,15 @@ def test_door_layout_value_jumps_across_the_wall() -> None:
     detour = np.hypot(0.35, 0.02) + np.hypot(0.1, 0.35) - np.hypot(0.45, 0.33)
     assert abs((below - above) - detour / layout.max_step) <= 1
     assert below - above >= 3
+
+
+@pytest.mark.parametrize("layout", [MazeLayout(), DOOR_LAYOUT])
+def test_crosses_wall_is_the_move_test_on_every_pair(layout: MazeLayout) -> None:
+    """Batched over pairs, against the independent orientation test, wall by wall."""
+    rng = np.random.default_rng(0)
+    a, b = rng.uniform(0, layout.size, (60, 2)), rng.uniform(0, layout.size, (50, 2))
+    got = layout.crosses_wall(a[:, None], b[None])
+    walls = np.asarray(layout.walls, dtype=np.float64)
+    expected = np.array([[any(crosses(p, q, w) for w in walls) for q in b] for p in a])
+    assert got.shape == (60, 50) and got.any() and not got.all()
+    np.testing.assert_array_equal(got, expected)

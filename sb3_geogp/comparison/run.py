@@ -53,6 +53,7 @@ from sb3_geogp.comparison.evaluation import (
 from sb3_geogp.comparison.hyperparams import ALGOS, ALL_CRITICS, DEVIATIONS, algo_kwargs
 from sb3_geogp.comparison.measurement import ForwardTimer, MeasureCallback, TimedGPValueCallback
 from sb3_geogp.comparison.specs import RunSpec
+from sb3_geogp.kernels import Kernel
 from sb3_geogp.policies import GPActorCriticPolicy
 from sb3_geogp.toolbox.provenance import provenance
 from sb3_geogp.toolbox.stats import steps_to_threshold
@@ -86,7 +87,10 @@ def _finite_or_none(x: float) -> float | None:
 
 
 def run_one(
-    spec: RunSpec, out_dir: str | Path, recorders: Sequence[BaseCallback] = ()
+    spec: RunSpec,
+    out_dir: str | Path,
+    recorders: Sequence[BaseCallback] = (),
+    kernel: Kernel | None = None,
 ) -> dict[str, Any]:
     """Train one model, measure it, write its result file atomically; return the result.
 
@@ -98,6 +102,9 @@ def run_one(
     recorders : sequence of BaseCallback
         Callbacks that watch the run without changing it (e.g. per-rollout diagnostics of a
         published run, re-run exactly): they come after the GP callback and the measurements.
+    kernel : Kernel, optional
+        The GP critic's kernel in place of the one ``spec.critic`` names (a study's own kernel,
+        e.g. one that knows the walls); the result records its class as ``"kernel"``.
 
     Returns
     -------
@@ -111,7 +118,7 @@ def run_one(
             # The zoo's PPO settings for MountainCarContinuous-v0 (batch_size 256 > n_steps 8)
             # make SB3 warn about a truncated mini-batch at every construction; expected here.
             warnings.filterwarnings("ignore", message=".*mini-batch size.*", category=UserWarning)
-            result = _train_and_measure(spec, recorders)
+            result = _train_and_measure(spec, recorders, kernel)
     finally:
         th.set_num_threads(threads)
     result["warnings"] = list(dict.fromkeys(f"{w.category.__name__}: {w.message}" for w in caught))
@@ -119,22 +126,27 @@ def run_one(
     return result
 
 
-def build_model(spec: RunSpec) -> OnPolicyAlgorithm:
+def build_model(spec: RunSpec, kernel: Kernel | None = None) -> OnPolicyAlgorithm:
     """The model of ``spec`` on its training environments, built as a user would build it.
 
     SB3's ``"MlpPolicy"`` for the ``mlp`` critic, else :class:`~sb3_geogp.GPActorCriticPolicy`
     with the spec's GP options and the same ``policy_kwargs``: its actor starts from the MLP
-    policy's parameters for the same seed. Close ``model.get_env()`` when done.
+    policy's parameters for the same seed. ``kernel``, if given, replaces the kernel
+    ``spec.critic`` names (a GP critic's only). Close ``model.get_env()`` when done.
     """
     if spec.critic not in ALL_CRITICS:
         raise ValueError(f"critic must be one of {ALL_CRITICS}, got {spec.critic!r}")
+    if kernel is not None and spec.critic == "mlp":
+        raise ValueError("a kernel is for a GP critic; the spec's critic is 'mlp'")
     n_envs, kwargs, policy_kwargs = algo_kwargs(spec.algo, spec.hyperparams)
     env = make_vec_env(spec.env_id, n_envs=n_envs, seed=spec.seed)
     if spec.critic == "mlp":
         return ALGOS[spec.algo](
             "MlpPolicy", env, seed=spec.seed, policy_kwargs=policy_kwargs, device="cpu", **kwargs
         )
-    policy_kwargs["gp_kwargs"] = dict(kernel=spec.critic, **dict(spec.gp_kwargs))
+    policy_kwargs["gp_kwargs"] = dict(
+        kernel=spec.critic if kernel is None else kernel, **dict(spec.gp_kwargs)
+    )
     return ALGOS[spec.algo](
         GPActorCriticPolicy,
         env,
@@ -145,10 +157,12 @@ def build_model(spec: RunSpec) -> OnPolicyAlgorithm:
     )
 
 
-def _train_and_measure(spec: RunSpec, recorders: Sequence[BaseCallback]) -> dict[str, Any]:
+def _train_and_measure(
+    spec: RunSpec, recorders: Sequence[BaseCallback], kernel: Kernel | None
+) -> dict[str, Any]:
     eval_envs = [gym.make(spec.env_id) for _ in range(spec.n_eval_episodes)]
     probes = ProbeStates.build(spec.env_id, spec.n_probe_states)
-    model = build_model(spec)  # last: it seeds the global random streams training uses
+    model = build_model(spec, kernel)  # last: it seeds the global random streams training uses
     env = model.get_env()
     assert env is not None
     gp_callback: TimedGPValueCallback | None = None
@@ -231,6 +245,8 @@ def _train_and_measure(spec: RunSpec, recorders: Sequence[BaseCallback]) -> dict
         provenance=provenance(stable_baselines3, gym),
         finished_at=time.strftime("%Y-%m-%dT%H:%M:%S%z"),
     )
+    if kernel is not None:
+        result["kernel"] = f"{type(kernel).__module__}.{type(kernel).__qualname__}"
     return result
 
 

@@ -130,6 +130,35 @@ class MazeLayout:
         border = [(0.0, 0.0, s, 0.0), (s, 0.0, s, s), (s, s, 0.0, s), (0.0, s, 0.0, 0.0)]
         return np.array([*self.walls, *border], dtype=np.float64)
 
+    def crosses_wall(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        """Whether the straight segments ``a -> b`` meet an interior wall (closed segments).
+
+        The visibility an oracle attachment needs (``sb3_geogp/studies/wall/oracle.py``);
+        the arena's sides are left out (both ends lie inside it). A segment parallel to a wall
+        (angle below ``1e-12`` rad) counts as missing it.
+
+        Parameters
+        ----------
+        a, b : ndarray, shape (..., 2)
+            Start and end points (broadcast against each other).
+
+        Returns
+        -------
+        ndarray of bool, shape (...)
+        """
+        a, b = np.broadcast_arrays(np.asarray(a, np.float64), np.asarray(b, np.float64))
+        walls = np.asarray(self.walls, dtype=np.float64).reshape(-1, 4)
+        p, r = walls[:, 0:2], walls[:, 2:4] - walls[:, 0:2]  # (W, 2)
+        d = (b - a)[..., None, :]  # (..., 1, 2)
+        qp = p - a[..., None, :]  # (..., W, 2)
+        denom = _cross(d[..., 0], d[..., 1], r[:, 0], r[:, 1])  # (..., W)
+        scale = np.hypot(d[..., 0], d[..., 1]) * np.hypot(r[:, 0], r[:, 1])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = _cross(qp[..., 0], qp[..., 1], r[:, 0], r[:, 1]) / denom
+            u = _cross(qp[..., 0], qp[..., 1], d[..., 0], d[..., 1]) / denom
+        hit = (np.abs(denom) > _COLLINEAR_TOL * scale) & (t >= 0) & (t <= 1) & (u >= 0) & (u <= 1)
+        return hit.any(axis=-1)
+
     def in_goal(self, pos: np.ndarray) -> np.ndarray:
         """Whether positions ``pos : (..., 2)`` lie in the goal disk, shape (...)."""
         d = np.asarray(pos, dtype=np.float64) - np.asarray(self.goal)

@@ -7,26 +7,38 @@ whose straight segment passes through the wall, :meth:`TwoRooms.crosses_wall`: e
 nearest-basis-vector choice (a training point's Shepard neighbours and novelty leaf, the parent
 of a walk's first basis vector, a prediction's neighbours) then stays on its own side or sees
 through the door. A learner cannot have it; it bounds what a wall-aware attachment could give.
+Any geometry with a ``crosses_wall`` test serves (:class:`Obstacles`): the two rooms, or a
+WallMaze layout (:meth:`~sb3_geogp.envs.wall_maze.MazeLayout.crosses_wall`).
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any
+from typing import Any, Protocol
 
+import numpy as np
 import torch
 from torch import Tensor
 
 from sb3_geogp.kernels import GeodesicKernel
-from sb3_geogp.studies.wall.rooms import TwoRooms
 
 
-def blocked_pairs(rooms: TwoRooms, x: Tensor, b: Tensor) -> Tensor:
-    """Whether the straight segment from each point to each basis vector crosses the wall.
+class Obstacles(Protocol):
+    """A geometry that says which straight segments pass through its walls."""
+
+    def crosses_wall(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        """Whether the segments ``a -> b`` (``(..., 2)`` each, broadcast) meet a wall."""
+        ...
+
+
+def blocked_pairs(rooms: Obstacles, x: Tensor, b: Tensor) -> Tensor:
+    """Whether the straight segment from each point to each basis vector crosses a wall.
 
     Parameters
     ----------
-    rooms : TwoRooms
+    rooms : Obstacles
+        :class:`~sb3_geogp.studies.wall.rooms.TwoRooms` or a
+        :class:`~sb3_geogp.envs.wall_maze.MazeLayout`.
     x : Tensor, shape (n, 2)
         Points, in state units.
     b : Tensor, shape (m, 2)
@@ -43,7 +55,7 @@ def blocked_pairs(rooms: TwoRooms, x: Tensor, b: Tensor) -> Tensor:
 
 
 class WallAwareGeodesicKernel(GeodesicKernel):
-    """:class:`~sb3_geogp.GeodesicKernel` whose attachments never cross the wall of ``rooms``.
+    """:class:`~sb3_geogp.GeodesicKernel` whose attachments never cross the walls of ``rooms``.
 
     Identical to the geodesic kernel except :meth:`blocked`: a pair is blocked where
     :func:`blocked_pairs` says so (the kernel's inputs are scaled, so they are taken back to
@@ -52,14 +64,14 @@ class WallAwareGeodesicKernel(GeodesicKernel):
     Parameters
     ----------
     lengthscale : float, sequence of float or None
-    rooms : TwoRooms
-        The geometry whose wall attachments may not cross.
+    rooms : Obstacles
+        The geometry whose walls attachments may not cross.
     **options
         Further :class:`~sb3_geogp.GeodesicKernel` options.
     """
 
     def __init__(
-        self, lengthscale: float | Sequence[float] | None, rooms: TwoRooms, **options: Any
+        self, lengthscale: float | Sequence[float] | None, rooms: Obstacles, **options: Any
     ) -> None:
         super().__init__(lengthscale, **options)
         self.rooms = rooms
