@@ -64,6 +64,31 @@ def test_benchmark_training_critics_option(tmp_path: Path, monkeypatch: pytest.M
             bench.main([*argv, "--critics", bad])
 
 
+def test_benchmark_training_adapting_a2c_critic_is_the_drop_ins() -> None:
+    """The A2C workload's ``rbf+adapt`` is the critic ``A2C(GPActorCriticPolicy, env)`` builds
+    (the same forgetting and adaptation); only a critic that does not adapt gets the fixed
+    ``forgetting=0.9``."""
+    from stable_baselines3 import A2C
+    from stable_baselines3.common.env_util import make_vec_env
+
+    from sb3_geogp import GPActorCriticPolicy
+
+    bench = load_script("benchmark_training")
+    workload = "A2C CartPole-v1"
+    env = make_vec_env("CartPole-v1", n_envs=2, seed=0)
+    default = A2C(GPActorCriticPolicy, env, seed=0).policy.gp
+    gp_kwargs = bench.critic_gp_kwargs(workload, "rbf+adapt", 256)
+    benched = A2C(
+        GPActorCriticPolicy, env, seed=0, policy_kwargs={"gp_kwargs": gp_kwargs}
+    ).policy.gp
+    assert type(benched.kernel) is type(default.kernel)
+    assert benched.forgetting == default.forgetting
+    assert benched.adaptation == default.adaptation
+    assert bench.critic_gp_kwargs(workload, "rbf", 256)["forgetting"] == 0.9
+    assert bench.critic_gp_kwargs(workload, "rbf+adapt+f1", 256)["forgetting"] == 1.0
+    env.close()
+
+
 def test_benchmark_training_setting_suffixes_build_those_settings() -> None:
     import dataclasses
 

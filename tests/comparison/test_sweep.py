@@ -31,7 +31,7 @@ from sb3_geogp.comparison.results import (
 from sb3_geogp.comparison.run import build_model, result_path, run_one
 from sb3_geogp.comparison.specs import SweepConfig
 from sb3_geogp.comparison.sweep import pending_runs, run_sweep
-from sb3_geogp.kernels import KERNELS
+from sb3_geogp.kernels import KERNELS, GeodesicKernel
 
 TINY = SweepConfig(
     algos=("a2c",),
@@ -302,3 +302,24 @@ def test_a_warning_of_every_run_is_shown_once(
     assert len(run_sweep(config, tmp_path, workers=1, progress=True)) == 2
     assert capsys.readouterr().err.count(WARNING) == 1
     assert all(f"UserWarning: {WARNING}" in r["warnings"] for r in load_results(tmp_path))
+
+
+def test_a_kernel_instance_replaces_the_named_kernel(tmp_path: Path) -> None:
+    """``run_one(..., kernel=K)`` trains with a copy of ``K`` and records its class; a kernel
+    instance equal to the named one gives the named run's results exactly."""
+    spec = next(s for s in TINY.specs() if s.critic == "geodesic")
+    named = run_one(spec, tmp_path / "named")
+    given = run_one(spec, tmp_path / "given", kernel=GeodesicKernel())
+    for key in ("eval", "final_return", "critic_accuracy", "gp_n_basis"):
+        assert given[key] == named[key], key
+    assert given["kernel"] == "sb3_geogp.kernels.geodesic.GeodesicKernel" and "kernel" not in named
+    short = GeodesicKernel(lengthscale=0.01)
+    model = build_model(spec, kernel=short)
+    assert type(model.policy.gp.kernel) is GeodesicKernel and model.policy.gp.kernel is not short
+    assert torch.allclose(
+        model.policy.gp.kernel.lengthscale, torch.tensor(0.01, dtype=torch.float64)
+    )
+    model.get_env().close()
+    mlp = next(s for s in TINY.specs() if s.critic == "mlp")
+    with pytest.raises(ValueError, match="kernel is for a GP critic"):
+        build_model(mlp, kernel=GeodesicKernel())
