@@ -88,7 +88,7 @@ def plot(data: dict[str, dict[str, dict[int, dict[str, Any]]]], path: str) -> No
             ):  # fmt: skip
                 y = np.array([r[key[0]][key[1]] for r in found], dtype=float)
                 x = np.array(found[0][steps[0]][steps[1]], dtype=float)
-                mean, half = mean_ci(y, nan_policy="propagate")
+                mean, half = mean_ci(y.T, nan_policy="propagate")  # over seeds
                 ax = axes[row, col]
                 (line,) = ax.plot(x, mean, marker="o", ms=3, label=f"{arm} ({len(found)} seeds)")
                 ax.fill_between(x, mean - half, mean + half, color=line.get_color(), alpha=0.15)
