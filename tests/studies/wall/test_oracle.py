@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import functools
+from pathlib import Path
 
 import numpy as np
 import torch
@@ -58,3 +59,26 @@ def test_the_oracle_gp_predicts_as_the_oracle_shepard_rule() -> None:
     np.testing.assert_allclose(predict_mean(gp, grid, "shepard", blocked=blocked), own, atol=1e-8)
     blind = predict_mean(gp, grid, "shepard")
     assert np.abs(blind - own).max() > 0.05  # the wall changes predictions near it
+
+
+def test_a_policy_with_a_blocking_kernel_saves_and_loads_bit_for_bit(tmp_path: Path) -> None:
+    """A subclass of the geodesic kernel (``blocked`` overridden) given to the drop-in survives
+    SB3's save/load: the same kernel class, basis and values."""
+    from stable_baselines3 import PPO
+
+    import sb3_geogp.envs  # noqa: F401  (registers WallMaze)
+    from sb3_geogp import GPActorCriticPolicy, GPValueCallback
+    from sb3_geogp.envs.wall_maze import WALL_MAZE_ID, MazeLayout
+
+    kernel = WallAwareGeodesicKernel(None, MazeLayout())
+    model = PPO(
+        GPActorCriticPolicy, WALL_MAZE_ID, n_steps=64, batch_size=64, seed=0,
+        policy_kwargs=dict(gp_kwargs=dict(kernel=kernel)),
+    )  # fmt: skip
+    model.learn(256, callback=GPValueCallback())
+    model.save(tmp_path / "model.zip")
+    loaded = PPO.load(tmp_path / "model.zip")
+    assert type(loaded.policy.gp.kernel) is WallAwareGeodesicKernel
+    assert loaded.policy.gp.n_basis == model.policy.gp.n_basis > 0
+    obs = torch.as_tensor(np.random.default_rng(0).uniform(0, 1, (40, 2)), dtype=torch.float32)
+    assert torch.equal(loaded.policy.predict_values(obs), model.policy.predict_values(obs))
