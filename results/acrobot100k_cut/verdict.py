@@ -51,15 +51,18 @@ def median_steps(s: np.ndarray) -> str:
     return f"{median:,.0f}" if np.isfinite(median) else "–"
 
 
-def print_steps() -> None:
-    """Steps to the threshold, the default GP critic against SB3's MLP critic, by cell."""
-    runs, _, _ = H200.table_runs((H200.MCC,))
+def print_steps(runs: list[dict[str, Any]] | None = None, seeds: str = "40 seeds") -> None:
+    """Steps to the threshold, the default GP critic against SB3's MLP critic, by cell
+    (``runs``: the published table's by default)."""
+    if runs is None:
+        runs, _, _ = H200.table_runs((H200.MCC,))
     cells: dict[tuple[str, str], dict[str, list[dict[str, Any]]]] = {}
     for r in runs:
         spec = r["spec"]
         arm = "mlp" if spec["critic"] == "mlp" else "gp"
         cells.setdefault((spec["algo"], spec["env_id"]), {}).setdefault(arm, []).append(r)
-    print("## Issue 13's table: steps to the threshold (secondary, defined after the runs)\n")
+    print(f"## Issue 13's table, {seeds}: steps to the threshold (secondary, defined after the "
+          "runs)\n")  # fmt: skip
     print("| algo | env | threshold | reached: GP / MLP | median steps: GP / MLP | "
           "Mann-Whitney p (two-sided) | faster at 95 % | family-wise |")  # fmt: skip
     print("|---|---|---:|---:|---:|---:|---|---|")

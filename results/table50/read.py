@@ -9,6 +9,11 @@ all 10 seeds) are pooled; a partial sweep replaces nothing.
 
     python results/table50/read.py --plot results/table50/table.png > results/table50/table.md
     python results/table50/read.py --metric mean_return > results/table50/auc.md
+    python results/table50/read.py --steps > results/table50/steps.md
+
+``--steps`` (session 50) reads the 50 seeds' steps to the threshold as
+``results/acrobot100k_cut/verdict.py --steps`` reads the published 40 (a secondary reading
+defined after those runs).
 """
 
 from __future__ import annotations
@@ -26,6 +31,7 @@ HERE = Path(__file__).resolve().parent
 RESULTS = HERE.parent
 H200 = load_script(RESULTS / "ppo_horizon200" / "table.py", "ppo_horizon200")
 POOL30 = load_script(RESULTS / "replication_0_15" / "pool30.py", "pool30")
+VERDICT = load_script(RESULTS / "acrobot100k_cut" / "verdict.py", "acrobot100k_cut_verdict")
 FRESH_SEEDS = set(range(570, 580))
 CELLS = 14
 
@@ -63,7 +69,12 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--metric", choices=("final_return", "mean_return"), default="final_return")
     parser.add_argument("--plot", metavar="PNG", help="draw each cell: 40, fresh 10, 50 seeds")
+    parser.add_argument("--steps", action="store_true", help="steps to the threshold, 50 seeds")
     args = parser.parse_args()
+    if args.steps:
+        published, _, _ = H200.table_runs((H200.MCC,))
+        VERDICT.print_steps(published + fresh_runs(), "50 seeds")
+        return
     label = H200.READING.LABELS[args.metric]
     sets = tables(args.metric)
     whole = len(sets["fresh 10"])
