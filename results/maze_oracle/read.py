@@ -3,6 +3,8 @@ oracle − laplacian, critic RMSE (primary), final return and area under the cur
 
     python results/maze_oracle/read.py --plot results/maze_oracle/screen.png \\
         > results/maze_oracle/read.md
+
+``--under confirm --arms oracle blind`` reads the confirmation (``run.py``'s docstring).
 """
 
 from __future__ import annotations
@@ -40,11 +42,14 @@ METRICS: dict[str, tuple[Metric, str]] = {
 }
 
 
-def runs() -> dict[str, dict[str, dict[int, dict[str, Any]]]]:
+Runs = dict[str, dict[str, dict[int, dict[str, Any]]]]
+
+
+def runs(under: str = "", arms: tuple[str, ...] = ARMS) -> Runs:
     """``runs[arm][env][seed]``."""
-    out: dict[str, dict[str, dict[int, dict[str, Any]]]] = {}
-    for arm in ARMS:
-        folder = HERE / arm
+    out: Runs = {}
+    for arm in arms:
+        folder = HERE / under / arm
         found = load_results(folder) if folder.is_dir() else []
         out[arm] = {
             env: {r["spec"]["seed"]: r for r in found if r["spec"]["env_id"] == env} for env in ENVS
@@ -57,28 +62,31 @@ def paired(a: np.ndarray, b: np.ndarray) -> str:
     return f"{mean:+.2f} [{mean - half:+.2f}, {mean + half:+.2f}]"
 
 
-def table(data: dict[str, dict[str, dict[int, dict[str, Any]]]]) -> None:
+def table(data: Runs) -> None:
+    """Per metric and task: each arm's mean and the oracle's paired difference from the others."""
+    arms, others = list(data), [a for a in data if a != "oracle"]
     for name, (metric, sense) in METRICS.items():
         print(f"\n### {name} ({sense})\n")
-        print("| task | seeds | oracle | blind | laplacian | oracle − blind [95 % t] | "
-              "oracle − laplacian [95 % t] |")  # fmt: skip
-        print("|---|---:|---:|---:|---:|---|---|")
+        diffs = "".join(f" oracle − {a} [95 % t] |" for a in others)
+        print(f"| task | seeds |{''.join(f' {a} |' for a in arms)}{diffs}")
+        print("|---|---:|" + "---:|" * len(arms) + "---|" * len(others))
         for env in ENVS:
-            seeds = sorted(set.intersection(*(set(data[arm][env]) for arm in ARMS)))
+            seeds = sorted(set.intersection(*(set(data[arm][env]) for arm in arms)))
             if not seeds:
                 continue
-            v = {arm: np.array([metric(data[arm][env][s]) for s in seeds]) for arm in ARMS}
-            means = " | ".join(f"{v[arm].mean():.2f}" for arm in ARMS)
-            print(
-                f"| `{env.split('/')[-1]}` | {len(seeds)} | {means} | "
-                f"{paired(v['oracle'], v['blind'])} | {paired(v['oracle'], v['laplacian'])} |"
-            )
+            v = {arm: np.array([metric(data[arm][env][s]) for s in seeds]) for arm in arms}
+            means = "".join(f" {v[arm].mean():.2f} |" for arm in arms)
+            pairs = "".join(f" {paired(v['oracle'], v[a])} |" for a in others)
+            print(f"| `{env.split('/')[-1]}` | {len(seeds)} |{means}{pairs}")
 
 
-def plot(data: dict[str, dict[str, dict[int, dict[str, Any]]]], path: str) -> None:
-    fig, axes = plt.subplots(2, len(ENVS), figsize=(5.5 * len(ENVS), 7), layout="constrained")
-    for col, env in enumerate(ENVS):
-        for arm in ARMS:
+def plot(data: Runs, path: str) -> None:
+    envs = [env for env in ENVS if any(data[arm][env] for arm in data)]
+    fig, axes = plt.subplots(
+        2, len(envs), figsize=(5.5 * len(envs), 7), layout="constrained", squeeze=False
+    )
+    for col, env in enumerate(envs):
+        for arm in data:
             found = list(data[arm][env].values())
             if not found:
                 continue
@@ -105,9 +113,13 @@ def plot(data: dict[str, dict[str, dict[int, dict[str, Any]]]], path: str) -> No
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--plot", metavar="PNG")
+    parser.add_argument("--under", default="", help="subfolder of the arms' folders")
+    parser.add_argument("--arms", nargs="+", choices=ARMS, default=list(ARMS))
     args = parser.parse_args()
-    data = runs()
-    print("## Maze oracle screen (session 50, exploratory): PPO, 30,000 steps, seeds 580-589")
+    data = runs(args.under, tuple(args.arms))
+    seeds = sorted({s for arm in data.values() for env in arm.values() for s in env})
+    print(f"## Maze oracle {args.under or 'screen'} (session 50, exploratory): PPO, 30,000 "
+          f"steps, seeds {seeds[0]}-{seeds[-1]}")  # fmt: skip
     table(data)
     if args.plot:
         plot(data, args.plot)

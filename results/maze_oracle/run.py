@@ -10,6 +10,13 @@ before the runs: ``PLAN.md``.
 
     python results/maze_oracle/run.py            # resumes: finished runs are kept
     python results/maze_oracle/read.py > results/maze_oracle/read.md
+
+The confirmation on fresh seeds (``PLAN.md``'s addendum)::
+
+    python results/maze_oracle/run.py --under confirm --envs sb3_geogp/WallMaze-v0 \
+        --seeds 590 591 592 593 594 595 596 597 598 599 --arms oracle blind
+    python results/maze_oracle/read.py --under confirm --arms oracle blind \
+        --plot results/maze_oracle/confirm/screen.png > results/maze_oracle/confirm/read.md
 """
 
 from __future__ import annotations
@@ -39,29 +46,37 @@ ARMS = {
 }
 
 
-def specs(critic: str) -> list[RunSpec]:
-    return SweepConfig(algos=("ppo",), critics=(critic,), envs=ENVS, seeds=SEEDS).specs()
+def specs(
+    critic: str, envs: tuple[str, ...] = ENVS, seeds: tuple[int, ...] = SEEDS
+) -> list[RunSpec]:
+    return SweepConfig(algos=("ppo",), critics=(critic,), envs=envs, seeds=seeds).specs()
 
 
-def one(arm: str, spec: RunSpec) -> str:
+def one(arm: str, spec: RunSpec, out: Path) -> str:
     oracle = ARMS[arm][1]
     kernel = WallAwareGeodesicKernel(None, MazeLayout()) if oracle else None
-    run_one(spec, HERE / arm, kernel=kernel)
+    run_one(spec, out, kernel=kernel)
     return f"{arm} {spec.run_id}"
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--under", default="", help="subfolder of the arms' folders")
+    parser.add_argument("--envs", nargs="+", default=list(ENVS))
+    parser.add_argument("--seeds", nargs="+", type=int, default=list(SEEDS))
+    parser.add_argument("--arms", nargs="+", choices=list(ARMS), default=list(ARMS))
     args = parser.parse_args()
+    folder = {arm: HERE / args.under / arm for arm in args.arms}
+    config = (tuple(args.envs), tuple(args.seeds))
     jobs = [
         (arm, s)
-        for arm, (critic, _) in ARMS.items()
-        for s in pending_runs(specs(critic), HERE / arm)
+        for arm in args.arms
+        for s in pending_runs(specs(ARMS[arm][0], *config), folder[arm])
     ]
     context = multiprocessing.get_context("spawn")
     with cf.ProcessPoolExecutor(args.workers, mp_context=context) as pool:
-        futures = [pool.submit(one, arm, spec) for arm, spec in jobs]
+        futures = [pool.submit(one, arm, spec, folder[arm]) for arm, spec in jobs]
         for future in tqdm(cf.as_completed(futures), total=len(futures), desc="runs", unit="run"):
             future.result()
 
