@@ -29,7 +29,7 @@ ENVS = ("sb3_geogp/WallMaze-v0", "sb3_geogp/WallMazeDiscrete-v0")
 
 Metric = Callable[[dict[str, Any]], float]
 METRICS: dict[str, tuple[Metric, str]] = {
-    "critic RMSE, mean over checkpoints (primary)": (
+    "critic RMSE, mean over checkpoints": (
         lambda r: float(np.mean(r["critic_accuracy"]["rmse"][1:])),
         "lower is better",
     ),
@@ -106,7 +106,9 @@ def plot(data: Runs, path: str) -> None:
         for ax in axes[:, col]:
             ax.grid(alpha=0.3)
             ax.legend(fontsize=8)
-    fig.suptitle("PPO, geodesic critic with and without the wall oracle (mean, 95 % t band)")
+    fig.suptitle(
+        "PPO, geodesic critic with and without the wall oracle\n(mean over seeds, 95 % t band)"
+    )
     fig.savefig(path, dpi=110)
 
 
