@@ -1,11 +1,11 @@
 """Where the oracle's agents lose time on WallMaze-v0: moves stopped by walls (PLAN.md's
-second addendum).
+second addendum) and exploration (its third).
 
 Re-runs the screen's WallMaze-v0 runs of ``oracle`` and ``blind`` (seeds 580-589) with a
 recorder that reads each rollout from SB3's buffer without changing the run (each re-run must
 reproduce its stored final return exactly), and reads, per run, the mean over the rollouts
-after ``LATE`` steps of the share of moves a wall stopped and of states next to an interior
-wall; ``oracle − blind`` paired by seed.
+after ``LATE`` steps of the share of moves a wall stopped, of states next to an interior wall,
+and of the policy's log standard deviation; ``oracle − blind`` paired by seed.
 
     python results/maze_oracle/contacts.py > results/maze_oracle/contacts.md
 """
@@ -34,10 +34,17 @@ ARMS = ("oracle", "blind")
 LATE = 15_000
 #: States this close to an interior wall count as next to it (one step is 0.05 at most).
 NEAR = 0.05
+#: What each run is read for: recorder key -> row label.
+SHARES = {
+    "stopped": "share of moves stopped by a wall",
+    "near_wall": f"share of states within {NEAR} of an interior wall",
+    "log_std": "policy's log standard deviation (mean over action dimensions)",
+}
 
 
 class Contacts(RolloutRecorder):
-    """Per rollout: the share of moves a wall stopped and of states next to an interior wall."""
+    """Per rollout: the share of moves a wall stopped and of states next to an interior wall,
+    and the policy's mean log standard deviation (its exploration; PLAN.md's third addendum)."""
 
     def __init__(self, layout: MazeLayout) -> None:
         super().__init__()
@@ -58,6 +65,7 @@ class Contacts(RolloutRecorder):
             "timesteps": int(self.num_timesteps),
             "stopped": float(stopped.sum() / max(same_episode.sum(), 1)),
             "near_wall": float(near.mean()),
+            "log_std": float(self.model.policy.log_std.mean()),
         }
 
 
@@ -80,7 +88,7 @@ def one(arm: str, seed: int) -> dict[str, Any]:
     return {
         "arm": arm,
         "seed": seed,
-        **{k: float(np.mean([r[k] for r in late])) for k in ("stopped", "near_wall")},
+        **{k: float(np.mean([r[k] for r in late])) for k in SHARES},
     }
 
 
@@ -91,12 +99,9 @@ def main() -> None:
     by = {(r["arm"], r["seed"]): r for r in rows}
     print(f"## Where the oracle's agents lose time: WallMaze-v0, seeds 580-589, rollouts after "
           f"{LATE:,} steps (re-runs reproduce the stored runs)\n")  # fmt: skip
-    print("| share | oracle | blind | oracle − blind [95 % t] |")
+    print("| per rollout | oracle | blind | oracle − blind [95 % t] |")
     print("|---|---:|---:|---|")
-    for key, name in (
-        ("stopped", "moves stopped by a wall"),
-        ("near_wall", f"states within {NEAR} of an interior wall"),
-    ):
+    for key, name in SHARES.items():
         v = {arm: np.array([by[(arm, s)][key] for s in RUN.SEEDS]) for arm in ARMS}
         mean, half = (float(x) for x in mean_ci(v["oracle"] - v["blind"], nan_policy="propagate"))
         print(f"| {name} | {v['oracle'].mean():.3f} | {v['blind'].mean():.3f} | "
