@@ -23,13 +23,12 @@ import numpy as np
 
 from sb3_geogp.comparison.measurement import RolloutRecorder
 from sb3_geogp.comparison.run import result_path, run_one
-from sb3_geogp.envs.wall_maze import WALL_MAZE_ID, MazeLayout
-from sb3_geogp.studies.wall.oracle import WallAwareGeodesicKernel
+from sb3_geogp.envs.wall_maze import WALL_MAZE_ID, MazeLayout, distance_to_walls
 from sb3_geogp.toolbox.scripts import load_script
-from sb3_geogp.toolbox.stats import mean_ci
 
 HERE = Path(__file__).resolve().parent
 RUN = load_script(HERE / "run.py", "maze_oracle_run")
+READ = load_script(HERE / "read.py", "maze_oracle_read")
 ARMS = ("oracle", "blind")
 LATE = 15_000
 #: States this close to an interior wall count as next to it (one step is 0.05 at most).
@@ -60,7 +59,7 @@ class Contacts(RolloutRecorder):
         same_episode = ~np.asarray(buffer.episode_starts[1:], dtype=bool)
         stopped = (moved < 0.5 * commanded) & same_episode
         walls = np.asarray(self.layout.walls, dtype=np.float64)
-        near = np.array([[_distance(p, walls) < NEAR for p in row] for row in obs])
+        near = np.array([[distance_to_walls(p, walls) < NEAR for p in row] for row in obs])
         return {
             "timesteps": int(self.num_timesteps),
             "stopped": float(stopped.sum() / max(same_episode.sum(), 1)),
@@ -69,18 +68,11 @@ class Contacts(RolloutRecorder):
         }
 
 
-def _distance(p: np.ndarray, walls: np.ndarray) -> float:
-    a, ab = walls[:, 0:2], walls[:, 2:4] - walls[:, 0:2]
-    t = np.clip(np.einsum("wi,wi->w", p - a, ab) / np.einsum("wi,wi->w", ab, ab), 0.0, 1.0)
-    return float(np.min(np.linalg.norm(p - (a + t[:, None] * ab), axis=1)))
-
-
 def one(arm: str, seed: int) -> dict[str, Any]:
     spec = next(s for s in RUN.specs(RUN.ARMS[arm][0], (WALL_MAZE_ID,), (seed,)))
-    kernel = WallAwareGeodesicKernel(None, MazeLayout()) if RUN.ARMS[arm][1] else None
     recorder = Contacts(MazeLayout())
     with tempfile.TemporaryDirectory() as tmp:
-        result = run_one(spec, tmp, recorders=[recorder], kernel=kernel)
+        result = run_one(spec, tmp, recorders=[recorder], kernel=RUN.arm_kernel(arm))
     stored = json.loads(result_path(HERE / arm, spec).read_text())
     if result["final_return"] != stored["final_return"] or result["eval"] != stored["eval"]:
         raise RuntimeError(f"{arm} seed {seed} did not reproduce its stored run")
@@ -103,9 +95,8 @@ def main() -> None:
     print("|---|---:|---:|---|")
     for key, name in SHARES.items():
         v = {arm: np.array([by[(arm, s)][key] for s in RUN.SEEDS]) for arm in ARMS}
-        mean, half = (float(x) for x in mean_ci(v["oracle"] - v["blind"], nan_policy="propagate"))
         print(f"| {name} | {v['oracle'].mean():.3f} | {v['blind'].mean():.3f} | "
-              f"{mean:+.3f} [{mean - half:+.3f}, {mean + half:+.3f}] |")  # fmt: skip
+              f"{READ.paired(v['oracle'], v['blind'], 3)} |")  # fmt: skip
     (HERE / "contacts.json").write_text(json.dumps(rows, indent=1))
 
 

@@ -57,9 +57,10 @@ def runs(under: str = "", arms: tuple[str, ...] = ARMS) -> Runs:
     return out
 
 
-def paired(a: np.ndarray, b: np.ndarray) -> str:
+def paired(a: np.ndarray, b: np.ndarray, digits: int = 2) -> str:
+    """Mean of ``a - b`` (paired by seed) with its 95 % Student-t interval."""
     mean, half = (float(v) for v in mean_ci(a - b, nan_policy="propagate"))
-    return f"{mean:+.2f} [{mean - half:+.2f}, {mean + half:+.2f}]"
+    return f"{mean:+.{digits}f} [{mean - half:+.{digits}f}, {mean + half:+.{digits}f}]"
 
 
 def table(data: Runs) -> None:

@@ -32,6 +32,7 @@ from sb3_geogp.comparison.run import run_one
 from sb3_geogp.comparison.specs import RunSpec, SweepConfig
 from sb3_geogp.comparison.sweep import pending_runs
 from sb3_geogp.envs.wall_maze import WALL_MAZE_DISCRETE_ID, WALL_MAZE_ID, MazeLayout
+from sb3_geogp.kernels import Kernel
 from sb3_geogp.studies.wall.oracle import WallAwareGeodesicKernel
 
 HERE = Path(__file__).resolve().parent
@@ -52,10 +53,13 @@ def specs(
     return SweepConfig(algos=("ppo",), critics=(critic,), envs=envs, seeds=seeds).specs()
 
 
+def arm_kernel(arm: str) -> Kernel | None:
+    """The kernel ``run_one`` gives an arm's critic: the oracle's, or ``None`` (the named one)."""
+    return WallAwareGeodesicKernel(None, MazeLayout()) if ARMS[arm][1] else None
+
+
 def one(arm: str, spec: RunSpec, out: Path) -> str:
-    oracle = ARMS[arm][1]
-    kernel = WallAwareGeodesicKernel(None, MazeLayout()) if oracle else None
-    run_one(spec, out, kernel=kernel)
+    run_one(spec, out, kernel=arm_kernel(arm))
     return f"{arm} {spec.run_id}"
 
 

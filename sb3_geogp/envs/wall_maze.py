@@ -148,16 +148,9 @@ class MazeLayout:
         """
         a, b = np.broadcast_arrays(np.asarray(a, np.float64), np.asarray(b, np.float64))
         walls = np.asarray(self.walls, dtype=np.float64).reshape(-1, 4)
-        p, r = walls[:, 0:2], walls[:, 2:4] - walls[:, 0:2]  # (W, 2)
-        d = (b - a)[..., None, :]  # (..., 1, 2)
-        qp = p - a[..., None, :]  # (..., W, 2)
-        denom = _cross(d[..., 0], d[..., 1], r[:, 0], r[:, 1])  # (..., W)
-        scale = np.hypot(d[..., 0], d[..., 1]) * np.hypot(r[:, 0], r[:, 1])
-        with np.errstate(divide="ignore", invalid="ignore"):
-            t = _cross(qp[..., 0], qp[..., 1], r[:, 0], r[:, 1]) / denom
-            u = _cross(qp[..., 0], qp[..., 1], d[..., 0], d[..., 1]) / denom
-        hit = (np.abs(denom) > _COLLINEAR_TOL * scale) & (t >= 0) & (t <= 1) & (u >= 0) & (u <= 1)
-        return hit.any(axis=-1)
+        t, u, parallel = _line_crossings(a, b - a, walls)
+        meets = ~parallel & (t >= 0) & (t <= 1) & (u >= 0) & (u <= 1)
+        return np.asarray(meets.any(axis=-1))
 
     def in_goal(self, pos: np.ndarray) -> np.ndarray:
         """Whether positions ``pos : (..., 2)`` lie in the goal disk, shape (...)."""
@@ -273,6 +266,24 @@ def _cross(ax: Any, ay: Any, bx: Any, by: Any) -> Any:
     return ax * by - ay * bx
 
 
+def _line_crossings(
+    a: np.ndarray, d: np.ndarray, walls: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Where moves ``a -> a + d`` (``(..., 2)`` each, broadcast) cross the lines of ``walls :
+    (W, 4)``: ``t`` along each move and ``u`` along each wall, shape (..., W), and whether the
+    two are parallel (angle below ``1e-12`` rad), where ``t`` and ``u`` mean nothing. A move
+    meets a wall's interior-or-end where it is not parallel and both lie in ``[0, 1]``."""
+    p, r = walls[:, 0:2], walls[:, 2:4] - walls[:, 0:2]  # (W, 2)
+    d = np.asarray(d)[..., None, :]  # (..., 1, 2)
+    qp = p - np.asarray(a)[..., None, :]  # (..., W, 2)
+    denom = _cross(d[..., 0], d[..., 1], r[:, 0], r[:, 1])  # (..., W)
+    scale = np.hypot(d[..., 0], d[..., 1]) * np.hypot(r[:, 0], r[:, 1])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = _cross(qp[..., 0], qp[..., 1], r[:, 0], r[:, 1]) / denom
+        u = _cross(qp[..., 0], qp[..., 1], d[..., 0], d[..., 1]) / denom
+    return t, u, np.abs(denom) <= _COLLINEAR_TOL * scale
+
+
 def first_contact(pos: np.ndarray, delta: np.ndarray, walls: np.ndarray) -> float | None:
     """Smallest ``t`` in ``[0, 1]`` where ``pos + t * delta`` meets a wall (closed segments),
     ``None`` if it meets none (:func:`first_hit` without the wall)."""
@@ -298,19 +309,13 @@ def first_hit(pos: np.ndarray, delta: np.ndarray, walls: np.ndarray) -> tuple[fl
         then ``t`` is the start of the overlap. Of walls met at the same ``t`` (a corner),
         the first in ``walls``.
     """
-    p = walls[:, 0:2]
-    r = walls[:, 2:4] - p
-    len_d = float(np.hypot(delta[0], delta[1]))
-    len_r = np.hypot(r[:, 0], r[:, 1])
-    denom = _cross(delta[0], delta[1], r[:, 0], r[:, 1])  # (W,)
-    qp = p - pos  # (W, 2)
-    parallel = np.abs(denom) <= _COLLINEAR_TOL * len_d * len_r
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t = _cross(qp[:, 0], qp[:, 1], r[:, 0], r[:, 1]) / denom
-        u = _cross(qp[:, 0], qp[:, 1], delta[0], delta[1]) / denom
+    t, u, parallel = _line_crossings(pos, delta, walls)  # (W,) each
     hits = ~parallel & (t >= 0.0) & (t <= 1.0) & (u >= 0.0) & (u <= 1.0)
     candidates = [(float(t[w]), int(w)) for w in np.flatnonzero(hits)]
     # Collinear: the wall's start lies on the move's line; overlap of the projections.
+    r = walls[:, 2:4] - walls[:, 0:2]
+    qp = walls[:, 0:2] - pos  # (W, 2)
+    len_d = float(np.hypot(delta[0], delta[1]))
     offline = np.abs(_cross(qp[:, 0], qp[:, 1], delta[0], delta[1])) / len_d
     for w in np.flatnonzero(parallel & (offline <= _COLLINEAR_TOL)):
         t0 = float(qp[w] @ delta) / len_d**2
