@@ -18,6 +18,7 @@ from sb3_geogp.envs.wall_maze import (
     WallMaze,
     WallMazeDiscrete,
     distance_to_walls,
+    distances_to_walls,
     register_wall_maze,
 )
 
@@ -112,6 +113,31 @@ def test_random_actions_never_cross_a_wall(cls: type[WallMaze], slide: bool) -> 
             if terminated:
                 break
     assert n_collisions > 100  # the property was exercised against walls
+
+
+@pytest.mark.parametrize("layout", [MazeLayout(), DOOR_LAYOUT], ids=["stop", "slide"])
+def test_a_batch_of_moves_is_each_move_alone(layout: MazeLayout) -> None:
+    """``moves`` (what Monte Carlo value estimates step thousands of agents with) gives every
+    agent the end point its own ``move`` gives, bit for bit, and crosses no wall."""
+    rng = np.random.default_rng(3)
+    walls = layout.segments()
+    pos = rng.uniform(0.0, 1.0, size=(3000, 2))
+    pos = pos[[min(point_segment_distance(p, w) for w in walls) >= layout.margin for p in pos]]
+    delta = rng.normal(0.0, 0.1, size=pos.shape)
+    delta[::7] = 0.0  # standing still
+    delta[1::5, 1] = 0.0  # parallel to the horizontal walls
+    pushed = layout.moves(pos, 10 * delta)  # pressed against walls
+    start = np.concatenate([pos, pushed])
+    step = np.concatenate([delta, delta])
+    batch = layout.moves(start, step)
+    alone = np.array([layout.move(p, d) for p, d in zip(start, step, strict=True)])
+    assert np.array_equal(batch, alone)
+    stopped = np.hypot(*(batch - start - step).T) > 1e-9
+    assert stopped.sum() > 300  # walls were met
+    for a, b in zip(start, batch, strict=True):
+        assert not any(crosses(a, b, w) for w in walls)
+    distances = np.array([min(point_segment_distance(p, w) for w in walls) for p in batch])
+    np.testing.assert_allclose(distances_to_walls(batch, walls), distances, rtol=1e-12)
 
 
 def test_move_stops_at_the_wall() -> None:

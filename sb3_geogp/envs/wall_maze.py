@@ -180,16 +180,30 @@ class MazeLayout:
             on from there by the rest of ``delta`` projected onto the wall it met, stopped in
             the same way (once: no second slide).
         """
+        return self.moves(np.reshape(pos, (1, 2)), np.reshape(delta, (1, 2)))[0]
+
+    def moves(self, pos: np.ndarray, delta: np.ndarray) -> np.ndarray:
+        """:meth:`move` for many agents at once (the same arithmetic, agent by agent).
+
+        Parameters
+        ----------
+        pos, delta : ndarray, shape (N, 2)
+
+        Returns
+        -------
+        ndarray, shape (N, 2)
+        """
         pos = np.asarray(pos, dtype=np.float64)
         delta = np.asarray(delta, dtype=np.float64)
         walls = self.segments()
-        end, hit = _straight_move(pos, delta, walls, self.margin)
-        if not self.slide or hit is None:
-            return end
-        along = walls[hit, 2:4] - walls[hit, 0:2]
-        rest = pos + delta - end
-        slide = along * float(rest @ along) / float(along @ along)
-        return _straight_move(end, slide, walls, self.margin)[0]
+        end, hit = _straight_moves(pos, delta, walls, self.margin)
+        slid = np.flatnonzero(hit >= 0) if self.slide else np.empty(0, dtype=np.intp)
+        if slid.size:
+            along = walls[hit[slid], 2:4] - walls[hit[slid], 0:2]
+            rest = pos[slid] + delta[slid] - end[slid]
+            slide = along * _dot(rest, along)[:, None] / _dot(along, along)[:, None]
+            end[slid] = _straight_moves(end[slid], slide, walls, self.margin)[0]
+        return end
 
     def optimal_steps(self, pos: np.ndarray) -> np.ndarray:
         """Steps along the shortest wall-avoiding path at full speed, ``ceil(L / max_step)``.
@@ -244,22 +258,36 @@ class MazeLayout:
         return math.inf
 
 
-def _straight_move(
+def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Row-wise dot products of two ``(N, 2)`` arrays, shape (N,).
+
+    ``matmul`` rounds as a single ``a @ b`` does (``einsum`` does not, bit for bit), so one
+    agent's move is the same alone and in a batch."""
+    return (a[:, None, :] @ b[:, :, None])[:, 0, 0]
+
+
+def _straight_moves(
     pos: np.ndarray, delta: np.ndarray, walls: np.ndarray, margin: float
-) -> tuple[np.ndarray, int | None]:
-    """:meth:`MazeLayout.move` without sliding: the end point, and the index of the wall that
-    stopped the move (``None`` if none did)."""
-    length = float(np.hypot(delta[0], delta[1]))
-    if length == 0.0:
-        return pos.copy(), None
-    hit = first_hit(pos, delta, walls)
-    scale, wall = (1.0, None) if hit is None else (max(0.0, hit[0] - 2 * margin / length), hit[1])
+) -> tuple[np.ndarray, np.ndarray]:
+    """:meth:`MazeLayout.moves` without sliding: the end points, shape (N, 2), and the index
+    of the wall that stopped each move (``-1`` where none did), shape (N,)."""
+    length = np.hypot(delta[:, 0], delta[:, 1])
+    t, wall = first_hits(pos, delta, walls)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        scale = np.where(wall >= 0, np.maximum(0.0, t - 2 * margin / length), 1.0)
+    end = pos.copy()
+    pending = np.flatnonzero(length > 0.0)
     for _ in range(64):
-        end = pos + scale * delta
-        if distance_to_walls(end, walls) >= margin and not segment_hits_walls(pos, end, walls):
-            return end, wall
-        scale *= 0.5
-    return pos.copy(), wall
+        if not pending.size:
+            break
+        trial = pos[pending] + scale[pending, None] * delta[pending]
+        ok = (distances_to_walls(trial, walls) >= margin) & ~segments_hit_walls(
+            pos[pending], trial, walls
+        )
+        end[pending[ok]] = trial[ok]
+        pending = pending[~ok]
+        scale[pending] *= 0.5
+    return end, np.where(length > 0.0, wall, -1)
 
 
 def _cross(ax: Any, ay: Any, bx: Any, by: Any) -> Any:
@@ -293,7 +321,7 @@ def first_contact(pos: np.ndarray, delta: np.ndarray, walls: np.ndarray) -> floa
 
 def first_hit(pos: np.ndarray, delta: np.ndarray, walls: np.ndarray) -> tuple[float, int] | None:
     """Smallest ``t`` in ``[0, 1]`` where ``pos + t * delta`` meets a wall (closed segments),
-    and the index of that wall.
+    and the index of that wall (:func:`first_hits` for one move).
 
     Parameters
     ----------
@@ -304,26 +332,57 @@ def first_hit(pos: np.ndarray, delta: np.ndarray, walls: np.ndarray) -> tuple[fl
     Returns
     -------
     (float, int) or None
-        ``None`` if the move meets no wall. A move parallel to a wall (angle below
-        ``1e-12`` rad) meets it only if it runs along the wall's own line and overlaps it;
-        then ``t`` is the start of the overlap. Of walls met at the same ``t`` (a corner),
-        the first in ``walls``.
+        ``None`` if the move meets no wall.
     """
-    t, u, parallel = _line_crossings(pos, delta, walls)  # (W,) each
+    t, wall = first_hits(np.reshape(pos, (1, 2)), np.reshape(delta, (1, 2)), walls)
+    return None if wall[0] < 0 else (float(t[0]), int(wall[0]))
+
+
+def first_hits(
+    pos: np.ndarray, delta: np.ndarray, walls: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Smallest ``t`` in ``[0, 1]`` where each move ``pos + t * delta`` meets a wall (closed
+    segments), and the index of that wall.
+
+    Parameters
+    ----------
+    pos, delta : ndarray, shape (N, 2)
+        Moves of non-zero length.
+    walls : ndarray, shape (W, 4)
+        Segments ``(x0, y0, x1, y1)``.
+
+    Returns
+    -------
+    t : ndarray, shape (N,)
+        ``inf`` where the move meets no wall.
+    wall : ndarray of int, shape (N,)
+        ``-1`` where the move meets no wall. A move parallel to a wall (angle below ``1e-12``
+        rad) meets it only if it runs along the wall's own line and overlaps it; then ``t`` is
+        the start of the overlap. Of walls met at the same ``t`` (a corner), the first in
+        ``walls``.
+    """
+    pos, delta = np.asarray(pos, np.float64), np.asarray(delta, np.float64)
+    t, u, parallel = _line_crossings(pos, delta, walls)  # (N, W) each
     hits = ~parallel & (t >= 0.0) & (t <= 1.0) & (u >= 0.0) & (u <= 1.0)
-    candidates = [(float(t[w]), int(w)) for w in np.flatnonzero(hits)]
+    candidates = np.where(hits, t, np.inf)
     # Collinear: the wall's start lies on the move's line; overlap of the projections.
-    r = walls[:, 2:4] - walls[:, 0:2]
-    qp = walls[:, 0:2] - pos  # (W, 2)
-    len_d = float(np.hypot(delta[0], delta[1]))
-    offline = np.abs(_cross(qp[:, 0], qp[:, 1], delta[0], delta[1])) / len_d
-    for w in np.flatnonzero(parallel & (offline <= _COLLINEAR_TOL)):
-        t0 = float(qp[w] @ delta) / len_d**2
-        t1 = float((qp[w] + r[w]) @ delta) / len_d**2
+    r = walls[:, 2:4] - walls[:, 0:2]  # (W, 2)
+    qp = walls[:, 0:2] - pos[:, None, :]  # (N, W, 2)
+    dx, dy = delta[:, None, 0], delta[:, None, 1]  # (N, 1)
+    len_d = np.hypot(dx, dy)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        offline = np.abs(_cross(qp[..., 0], qp[..., 1], dx, dy)) / len_d
+    collinear = parallel & (offline <= _COLLINEAR_TOL)
+    for n, w in zip(*np.nonzero(collinear), strict=True):  # rare: a loop, in Python floats
+        squared = float(len_d[n, 0]) ** 2
+        t0 = float(qp[n, w] @ delta[n]) / squared
+        t1 = float((qp[n, w] + r[w]) @ delta[n]) / squared
         lo, hi = max(0.0, min(t0, t1)), min(1.0, max(t0, t1))
         if lo <= hi:
-            candidates.append((lo, int(w)))
-    return min(candidates) if candidates else None
+            candidates[n, w] = lo
+    wall = np.argmin(candidates, axis=1)
+    first = candidates[np.arange(len(pos)), wall]
+    return first, np.where(np.isfinite(first), wall, -1)
 
 
 def segment_hits_walls(a: np.ndarray, b: np.ndarray, walls: np.ndarray) -> bool:
@@ -334,10 +393,18 @@ def segment_hits_walls(a: np.ndarray, b: np.ndarray, walls: np.ndarray) -> bool:
     a, b : ndarray, shape (2,)
     walls : ndarray, shape (W, 4)
     """
-    delta = np.asarray(b, dtype=np.float64) - np.asarray(a, dtype=np.float64)
-    if not np.any(delta):
-        return False
-    return first_contact(np.asarray(a, dtype=np.float64), delta, walls) is not None
+    return bool(segments_hit_walls(np.reshape(a, (1, 2)), np.reshape(b, (1, 2)), walls)[0])
+
+
+def segments_hit_walls(a: np.ndarray, b: np.ndarray, walls: np.ndarray) -> np.ndarray:
+    """:func:`segment_hits_walls` for segments ``a -> b : (N, 2)`` each, shape (N,)."""
+    a = np.asarray(a, dtype=np.float64)
+    delta = np.asarray(b, dtype=np.float64) - a
+    moving = np.any(delta != 0, axis=1)
+    hit = np.zeros(len(a), dtype=bool)
+    if moving.any():
+        hit[moving] = first_hits(a[moving], delta[moving], walls)[1] >= 0
+    return hit
 
 
 def _blocked(a: np.ndarray, b: np.ndarray, walls: np.ndarray) -> bool:
@@ -487,11 +554,17 @@ class WallMazeDiscrete(WallMaze):
 
 def distance_to_walls(p: np.ndarray, walls: np.ndarray) -> float:
     """Euclidean distance from ``p : (2,)`` to the nearest segment of ``walls : (W, 4)``."""
+    return float(distances_to_walls(np.reshape(p, (1, 2)), walls)[0])
+
+
+def distances_to_walls(p: np.ndarray, walls: np.ndarray) -> np.ndarray:
+    """:func:`distance_to_walls` for points ``p : (N, 2)``, shape (N,)."""
     a = walls[:, 0:2]
     ab = walls[:, 2:4] - a
-    t = np.clip(np.einsum("wi,wi->w", p - a, ab) / np.einsum("wi,wi->w", ab, ab), 0.0, 1.0)
-    nearest = a + t[:, None] * ab
-    return float(np.min(np.hypot(*(p - nearest).T)))
+    pa = np.asarray(p, dtype=np.float64)[:, None, :] - a  # (N, W, 2)
+    t = np.clip(np.einsum("nwi,wi->nw", pa, ab) / np.einsum("wi,wi->w", ab, ab), 0.0, 1.0)
+    gap = np.asarray(p, dtype=np.float64)[:, None, :] - (a + t[..., None] * ab)
+    return np.min(np.hypot(gap[..., 0], gap[..., 1]), axis=1)
 
 
 #: The layout of ``sb3_geogp/WallMazeCorner-v0``: the default walls, speed and starts, moves
