@@ -22,11 +22,11 @@ without its evaluations.
 runs with other options belong in another ``--out``. The score is the same for every target:
 the rollout's values against SB3's GAE returns, which are computed from those values.
 
-``--ceiling N`` also scores, on every scored rollout of CartPole-v1 or Acrobot-v1, the policy's
-own value function ``V^pi`` (Monte Carlo, ``N`` rollouts from every state;
-:mod:`sb3_geogp.studies.value_ceiling`): what the exact critic would score, by the goal's
-reading and on targets no critic shapes, and how far the critic's values are from it. The run
-itself is unchanged.
+``--ceiling N`` also scores, on every scored rollout of CartPole-v1, Acrobot-v1 or a WallMaze
+variant, the policy's own value function ``V^pi`` (Monte Carlo, ``N`` rollouts from every
+state; :mod:`sb3_geogp.studies.value_ceiling`): what the exact critic would score, by the
+goal's reading and on targets no critic shapes, and how far the critic's values are from it.
+The run itself is unchanged.
 
     python examples/critic_fit.py --envs CartPole-v1 Acrobot-v1 --critics mlp laplacian \
         --seeds 0 1 2 3 4 5 6 7 8 9 --workers 2 --ceiling 32 --out docs/critic_fit_ceiling
@@ -170,7 +170,8 @@ class WithCeiling(ExplainedVariance):
             dist = policy.get_distribution(
                 th.as_tensor(obs, dtype=th.float32, device=policy.device)
             )
-            return dist.get_actions().cpu().numpy().reshape(len(obs))
+            actions = dist.get_actions().cpu().numpy()
+        return actions.reshape(len(obs), *self.model.action_space.shape)
 
     def rollout(self) -> Rollout:
         """The rollout that just ended, as :func:`~sb3_geogp.studies.value_ceiling.ceiling`
@@ -185,16 +186,26 @@ class WithCeiling(ExplainedVariance):
             truncations=self.truncations,
         )
 
-    def ceiling(self) -> dict[str, Any]:
-        model, buffer, rollout = self.model, self.model.rollout_buffer, self.rollout()
-        gamma, lam = float(model.gamma), float(model.gae_lambda)
-        states = rollout.states()
+    def monte_carlo(self) -> tuple[Rollout, np.ndarray]:
+        """The rollout that just ended and the policy's Monte Carlo returns from each of its
+        states (:meth:`Rollout.states`), shape (m, ``n_rollouts``)."""
+        gamma, rollout = float(self.model.gamma), self.rollout()
         with th.random.fork_rng(devices=[]):
             th.manual_seed(self.seed * 1000 + len(self.rows))
             mc = policy_returns(
-                self._act, self.task, states, gamma, horizon(gamma, self.tail), self.n_rollouts
-            )
-        result = ceiling(rollout, mc, gamma, lam, critic=buffer.values.ravel())
+                self._act, self.task, rollout.states(), gamma, horizon(gamma, self.tail),
+                self.n_rollouts,
+            )  # fmt: skip
+        return rollout, mc
+
+    def ceiling(self) -> dict[str, Any]:
+        model, buffer = self.model, self.model.rollout_buffer
+        gamma, lam = float(model.gamma), float(model.gae_lambda)
+        rollout, mc = self.monte_carlo()
+        result = ceiling(
+            rollout, mc, gamma, lam, critic=buffer.values.ravel(),
+            advantages=buffer.advantages.ravel(),
+        )  # fmt: skip
         if self.with_capacity:
             values = mc.mean(axis=1)
             result["capacity"] = capacity(

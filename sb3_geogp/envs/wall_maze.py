@@ -482,7 +482,7 @@ class WallMaze(gym.Env[np.ndarray, np.ndarray]):
 
     def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         """Move by ``action``; returns the gymnasium 5-tuple (never truncates by itself)."""
-        delta = self._displacement(action)
+        delta = self.displacements(np.reshape(action, (1, *(self.action_space.shape or ()))))[0]
         start = self.position
         self.position = self.layout.move(start, delta)
         terminated = bool(self.layout.in_goal(self.position))
@@ -511,14 +511,47 @@ class WallMaze(gym.Env[np.ndarray, np.ndarray]):
         return img
 
     # -- helpers ---------------------------------------------------------------------------
-    def _displacement(self, action: np.ndarray) -> np.ndarray:
-        v = np.clip(np.asarray(action, dtype=np.float64).reshape(2), -1.0, 1.0)
-        norm = float(np.hypot(v[0], v[1]))
-        return self.layout.max_step * v / max(1.0, norm)
+    def displacements(self, actions: np.ndarray) -> np.ndarray:
+        """The moves a batch of actions commands.
+
+        Parameters
+        ----------
+        actions : ndarray, shape (N, 2)
+
+        Returns
+        -------
+        ndarray, shape (N, 2)
+        """
+        v = np.clip(np.asarray(actions, dtype=np.float64).reshape(-1, 2), -1.0, 1.0)
+        norm = np.hypot(v[:, 0], v[:, 1])
+        return self.layout.max_step * v / np.maximum(1.0, norm)[:, None]
+
+    def transitions(
+        self, positions: np.ndarray, actions: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`step` for a batch of agents, without the environment's own state: what a
+        Monte Carlo estimate of a policy's value restarts from any position.
+
+        Parameters
+        ----------
+        positions : ndarray, shape (N, 2)
+        actions : ndarray, shape (N, 2) (continuous) or (N,) (discrete)
+
+        Returns
+        -------
+        next_positions : ndarray, shape (N, 2)
+        terminated : ndarray of bool, shape (N,)
+        """
+        end = self.layout.moves(positions, self.displacements(actions))
+        return end, self.layout.in_goal(end)
+
+    def observe(self, positions: np.ndarray) -> np.ndarray:
+        """The observations of positions ``(..., 2)``: float32, clipped to the arena."""
+        obs = np.asarray(positions, dtype=np.float64).astype(np.float32)
+        return np.clip(obs, np.float32(0.0), np.float32(self.layout.size))
 
     def _obs(self) -> np.ndarray:
-        obs = self.position.astype(np.float32)
-        return np.clip(obs, np.float32(0.0), np.float32(self.layout.size))
+        return self.observe(self.position)
 
     def _sample_start(self) -> np.ndarray:
         lay = self.layout
@@ -545,10 +578,11 @@ class WallMazeDiscrete(WallMaze):
         super().__init__(layout, render_mode)
         self.action_space = spaces.Discrete(8)
 
-    def _displacement(self, action: np.ndarray) -> np.ndarray:
-        k = int(np.asarray(action).reshape(()))
-        if not 0 <= k < 8:
-            raise ValueError(f"action must be in 0..7, got {k}")
+    def displacements(self, actions: np.ndarray) -> np.ndarray:
+        """The moves of a batch of actions ``(N,)`` in ``0..7``, shape (N, 2)."""
+        k = np.asarray(actions).reshape(-1).astype(np.int64)
+        if np.any((k < 0) | (k >= 8)):
+            raise ValueError(f"actions must be in 0..7, got {k[(k < 0) | (k >= 8)][0]}")
         return self.layout.max_step * self.DIRECTIONS[k]
 
 

@@ -33,6 +33,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from sb3_geogp.toolbox.stats import correlation
+
 #: CartPole-v1's constants (gymnasium ``CartPoleEnv``).
 GRAVITY, MASS_CART, MASS_POLE, HALF_LENGTH, FORCE, TAU = 9.8, 1.0, 0.1, 0.5, 10.0, 0.02
 X_LIMIT, THETA_LIMIT = 2.4, 12 * 2 * math.pi / 360
@@ -226,12 +228,11 @@ def gap_scores(gap: np.ndarray, stderr: np.ndarray, estimate: np.ndarray) -> dic
     agree = np.sign(estimate) == np.sign(gap)
     decisive = np.abs(gap) > 2 * stderr
     weight = np.abs(gap)
-    constant = gap.std() == 0 or estimate.std() == 0
     return dict(
         sign_accuracy=float(agree[decisive].mean()) if decisive.any() else math.nan,
         weighted_sign_accuracy=float((weight * agree).sum() / weight.sum())
         if weight.sum() > 0
         else math.nan,
-        correlation=math.nan if constant else float(np.corrcoef(gap, estimate)[0, 1]),
+        correlation=correlation(gap, estimate),
         n_decisive=int(decisive.sum()),
     )

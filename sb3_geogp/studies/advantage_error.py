@@ -21,12 +21,12 @@ actor), and the root-mean-square error of the critic's values at the rollout's s
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 
 import numpy as np
 
 from sb3_geogp.envs.pendulum import PendulumParams, dynamics_step, reward
+from sb3_geogp.toolbox.stats import correlation
 
 #: ``act(obs, step) -> torque``: a stochastic policy for a batch of observations, shapes
 #: (n, 2) -> (n,); ``step`` counts the steps since the rollouts started (for noise that is
@@ -139,10 +139,8 @@ def advantage_scores(
         standardisation the two differ by ``sqrt(2 (1 - correlation))`` in root mean square)
         and ``value_rmse``.
     """
-    reference, advantages = np.asarray(reference, float), np.asarray(advantages, float)
-    constant = reference.std() == 0 or advantages.std() == 0
     error = np.asarray(values, float) - np.asarray(true_values, float)
     return dict(
-        correlation=math.nan if constant else float(np.corrcoef(reference, advantages)[0, 1]),
+        correlation=correlation(reference, advantages),
         value_rmse=float(np.sqrt(np.mean(error**2))),
     )

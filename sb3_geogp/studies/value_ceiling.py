@@ -19,13 +19,15 @@ returns bootstrapped with ``V^pi``; there ``V^pi``'s score bounds every critic's
 Carlo noise.
 
 ``V^pi`` is estimated at every state of the rollout by Monte Carlo (:func:`policy_returns`):
-CartPole-v1 and Acrobot-v1 have deterministic dynamics and observations that are their states
-(Acrobot's angles through their cosines and sines), so every state is restarted exactly, up to
-the float32 rounding of the observation; only the policy's draws are sampled. The rollouts
+CartPole-v1, Acrobot-v1 and the WallMaze variants have deterministic dynamics and observations
+that are their states (Acrobot's angles through their cosines and sines, a maze's position), so
+every state is restarted exactly, up to the float32 rounding of the observation; only the
+policy's draws are sampled. The rollouts
 run without a time limit, as the bootstrapped targets assume, and are cut after
 :func:`horizon`'s steps, which leaves out at most ``tail`` of the return (rewards are at most 1
 in size). The batch dynamics are the gymnasium equations in vectorised numpy
-(:func:`acrobot_step`; CartPole's :func:`~sb3_geogp.studies.action_gap.cartpole_step`).
+(:func:`acrobot_step`; CartPole's :func:`~sb3_geogp.studies.action_gap.cartpole_step`; the
+mazes' :meth:`~sb3_geogp.envs.wall_maze.WallMaze.transitions`).
 Monte Carlo noise in ``V^pi`` lowers the estimated ceiling; :func:`ceiling` also scores each
 half of the rollouts, whose difference from the whole measures that bias (it shrinks as
 ``1 / n_rollouts``), and checks the estimate against the rollout's own returns.
@@ -50,13 +52,23 @@ import numpy as np
 import torch
 from scipy.spatial import cKDTree
 
+from sb3_geogp.envs.wall_maze import (
+    CORNER_LAYOUT,
+    DOOR_LAYOUT,
+    WALL_MAZE_CORNER_ID,
+    WALL_MAZE_DISCRETE_ID,
+    WALL_MAZE_DOOR_ID,
+    WALL_MAZE_ID,
+    WallMaze,
+    WallMazeDiscrete,
+)
 from sb3_geogp.studies.action_gap import cartpole_step
 from sb3_geogp.studies.advantage_error import gae
 from sb3_geogp.targets import env_major, per_env
-from sb3_geogp.toolbox.stats import explained_variance, moments
+from sb3_geogp.toolbox.stats import correlation, explained_variance, moments
 
 #: ``act(obs) -> actions``: a stochastic policy's draws for a batch of observations,
-#: shape (n, obs_dim) -> (n,).
+#: shape (n, obs_dim) -> (n,) (discrete actions) or (n, action_dim).
 Act = Callable[[np.ndarray], np.ndarray]
 
 #: ``predict(z) -> values``: a fitted value model, shape (m, obs_dim) -> (m,).
@@ -175,6 +187,16 @@ def _identity(x: np.ndarray) -> np.ndarray:
     return np.asarray(x, dtype=np.float64)
 
 
+def _maze_task(env: WallMaze) -> RestartableTask:
+    """A WallMaze variant: its state is its position, which the observation holds in float32
+    (restarts are off by at most that rounding); reward ``step_reward`` for every step, the one
+    that reaches the goal included."""
+    reward = env.layout.step_reward
+    return RestartableTask(
+        _identity, env.observe, env.transitions, lambda done: np.full(done.shape, reward)
+    )
+
+
 #: The tasks :func:`policy_returns` can restart, by gymnasium id.
 TASKS: dict[str, RestartableTask] = {
     # reward 1 for every step, the one that ends the episode included
@@ -183,6 +205,10 @@ TASKS: dict[str, RestartableTask] = {
     "Acrobot-v1": RestartableTask(
         _acrobot_state, _acrobot_observe, acrobot_step, lambda done: np.where(done, 0.0, -1.0)
     ),
+    WALL_MAZE_ID: _maze_task(WallMaze()),
+    WALL_MAZE_DISCRETE_ID: _maze_task(WallMazeDiscrete()),
+    WALL_MAZE_CORNER_ID: _maze_task(WallMaze(CORNER_LAYOUT)),
+    WALL_MAZE_DOOR_ID: _maze_task(WallMaze(DOOR_LAYOUT)),
 }
 
 
@@ -305,6 +331,7 @@ def ceiling(
     gamma: float,
     gae_lambda: float,
     critic: np.ndarray | None = None,
+    advantages: np.ndarray | None = None,
 ) -> dict[str, Any]:
     """The score of ``V^pi`` on the rollout, with ``V^pi`` the Monte Carlo mean, and with
     ``critic`` that critic's distance from it.
@@ -323,6 +350,8 @@ def ceiling(
     gamma, gae_lambda : float
     critic : ndarray, shape (T n_envs,), optional
         The critic's values at the rollout's steps (its ``values``, flattened).
+    advantages : ndarray, shape (T n_envs,), optional
+        The advantages the actor learned from with that critic (the buffer's, flattened).
 
     Returns
     -------
@@ -337,6 +366,10 @@ def ceiling(
         variance of ``G``. With ``critic``: ``mc_critic`` (``mc_critic_moments``), the
         critic's explained variance of ``G``, and ``value_rmse``, ``value_bias`` (mean of
         critic - ``V^pi``), ``truth_sd`` (``V^pi``'s standard deviation) at the rollout's steps.
+        With ``advantages``: ``advantage_correlation``, their Pearson correlation with
+        :func:`reference_advantages` (NaN if either is constant), and
+        ``advantage_reliability``, the correlation of the two halves' reference advantages:
+        Monte Carlo noise caps the first near the second.
     """
     n = rollout.rewards.size
 
@@ -371,7 +404,35 @@ def ceiling(
             value_bias=float(np.mean(v - truth)),
             truth_sd=float(truth.std()),
         )
+    if advantages is not None:
+        halves_reference = [
+            reference_advantages(rollout, mc_returns[:, k::2], gamma, gae_lambda) for k in (0, 1)
+        ]
+        result.update(
+            advantage_correlation=correlation(
+                reference_advantages(rollout, mc_returns, gamma, gae_lambda), advantages
+            ),
+            advantage_reliability=correlation(*halves_reference),
+        )
     return result
+
+
+def reference_advantages(
+    rollout: Rollout, mc_returns: np.ndarray, gamma: float, gae_lambda: float
+) -> np.ndarray:
+    """The GAE advantages of the rollout with ``V^pi`` (the Monte Carlo mean) as the critic:
+    what the exact critic would give the actor, shape (T n_envs,).
+
+    Parameters
+    ----------
+    rollout : Rollout
+    mc_returns : ndarray, shape (m, n_rollouts)
+        :func:`policy_returns` from :meth:`Rollout.states`.
+    gamma, gae_lambda : float
+    """
+    values = mc_returns.mean(axis=1)
+    own = values[: rollout.rewards.size]
+    return rollout.returns(values, gamma, gae_lambda).ravel() - own
 
 
 def value_r2(values: np.ndarray, truth: np.ndarray) -> float:

@@ -226,6 +226,15 @@ def steps_to_threshold(timesteps: np.ndarray, curve: np.ndarray, threshold: floa
     return np.where(np.any(reached, axis=-1), t[first], np.inf)
 
 
+def correlation(a: np.ndarray, b: np.ndarray) -> float:
+    """Pearson's correlation of ``a`` and ``b`` (shape (n,) each), NaN where either is
+    constant."""
+    a, b = np.ravel(a).astype(np.float64), np.ravel(b).astype(np.float64)
+    if a.std() == 0 or b.std() == 0:
+        return float("nan")
+    return float(np.corrcoef(a, b)[0, 1])
+
+
 def explained_variance(returns: np.ndarray, values: np.ndarray) -> float:
     """``1 - Var(R - V) / Var(R)``, the formula of SB3's ``explained_variance`` with the
     division in float64; NaN where the returns do not vary.

@@ -23,6 +23,7 @@ from sb3_geogp.studies.value_ceiling import (
     mlp_fit,
     own_value_weight,
     policy_returns,
+    reference_advantages,
     value_r2,
 )
 
@@ -69,19 +70,39 @@ def test_horizon_leaves_at_most_the_tail() -> None:
         horizon(1.0, 0.1)
 
 
-def _gym_return(env_id: str, obs: np.ndarray, policy: int, gamma: float, steps: int) -> float:
+def _restart(env_id: str, obs: np.ndarray) -> gym.Env:  # type: ignore[type-arg]
+    """gymnasium's env (no time limit) restarted from the observation's state."""
+    env = gym.make(env_id).unwrapped
+    state = TASKS[env_id].state(obs[None])[0]
+    if env_id.startswith("sb3_geogp/"):
+        env.reset(seed=0, options={"start": state})
+    else:
+        env.reset(seed=0)
+        env.state = state
+    return env
+
+
+def _gym_return(
+    env_id: str, obs: np.ndarray, action: np.ndarray, gamma: float, steps: int
+) -> float:
     """Brute force: gymnasium's env restarted from the observation's state, one action always,
     no time limit."""
-    env = gym.make(env_id).unwrapped
-    env.reset(seed=0)
-    env.state = TASKS[env_id].state(obs[None])[0]
+    env = _restart(env_id, obs)
     total = 0.0
     for t in range(steps):
-        _, reward, terminated, _, _ = env.step(policy)
+        _, reward, terminated, _, _ = env.step(action)
         total += gamma**t * reward
         if terminated:
             break
     return total
+
+
+def _two_actions(env_id: str) -> tuple[np.ndarray, np.ndarray]:
+    space = gym.make(env_id).action_space
+    if isinstance(space, gym.spaces.Discrete):
+        return np.array(0), np.array(1)
+    # out of the box and inside it: the maze clips, then bounds the speed
+    return np.array([-1.4, 0.6], np.float32), np.array([0.2, 0.9], np.float32)
 
 
 @pytest.mark.parametrize("env_id", sorted(TASKS))
@@ -91,9 +112,14 @@ def test_policy_returns_match_gymnasium_for_a_fixed_action(env_id: str) -> None:
     gamma, steps = 0.99, 300
     env = gym.make(env_id)
     obs = np.array([env.reset(seed=s)[0] for s in range(6)], dtype=np.float64)
-    for action in (0, 1):
+    for action in _two_actions(env_id):
         returns = policy_returns(
-            lambda o, a=action: np.full(len(o), a), TASKS[env_id], obs, gamma, steps, 3
+            lambda o, a=action: np.repeat(a[None], len(o), axis=0),
+            TASKS[env_id],
+            obs,
+            gamma,
+            steps,
+            3,
         )
         assert returns.shape == (6, 3) and np.all(returns == returns[:, :1])
         want = [_gym_return(env_id, o, action, gamma, steps) for o in obs]
@@ -198,6 +224,29 @@ def test_the_ceiling_of_certain_returns_is_one_and_of_a_guess_below() -> None:
     assert ceiling(rollout, noisy, gamma, lam)["explained"] < 0.99
     # values one too high: the rollout's own returns fall short of them
     assert ceiling(rollout, mc + 1, gamma, lam)["check_mean"] < -0.1
+
+
+def test_reference_advantages_vanish_where_returns_are_certain() -> None:
+    """Bellman: with a deterministic policy and ``V^pi`` exact, every TD error is 0, so the
+    reference advantages are 0, at falls and time-limit cuts too. With ``V^pi`` off by noise
+    they are not, and a critic's advantages are scored by their correlation with them."""
+    rollout = _always_right_rollout(60, 4)
+    task, gamma, lam = TASKS["CartPole-v1"], 0.97, 0.9
+    right = lambda o: np.ones(len(o), dtype=np.int64)  # noqa: E731
+    mc = policy_returns(right, task, rollout.states(), gamma, horizon(gamma, 1e-12), 2)
+    np.testing.assert_allclose(reference_advantages(rollout, mc, gamma, lam), 0.0, atol=1e-9)
+    rng = np.random.default_rng(1)
+    same_noise = mc + rng.normal(0, 1, (len(mc), 1))  # both halves alike
+    reference = reference_advantages(rollout, same_noise, gamma, lam)
+    assert reference.std() > 0.1
+    scores = ceiling(rollout, same_noise, gamma, lam, advantages=3 * reference - 2)
+    assert scores["advantage_correlation"] == pytest.approx(1.0)
+    assert scores["advantage_reliability"] == pytest.approx(1.0)
+    noise = mc + rng.normal(0, 1, mc.shape)  # the halves disagree
+    scores = ceiling(rollout, noise, gamma, lam, advantages=-reference)
+    assert scores["advantage_reliability"] < 0.9
+    flat = ceiling(rollout, noise, gamma, lam, advantages=np.ones_like(reference))
+    assert np.isnan(flat["advantage_correlation"])
 
 
 @pytest.mark.parametrize(("gamma", "lam"), [(0.98, 0.8), (0.99, 0.94), (0.9, 0.95)])
