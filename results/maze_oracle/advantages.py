@@ -1,0 +1,172 @@
+"""The advantages the oracle's and the blind critic's actors learned from on WallMaze-v0,
+against the GAE advantages with the policy's own value function (PLAN.md's fourth addendum).
+
+Re-runs the screen's WallMaze-v0 runs of ``oracle`` and ``blind`` (seeds 580-589) with a
+recorder that, every ``EVERY``-th rollout, estimates ``V^pi`` at the rollout's states by Monte
+Carlo in a forked random stream (each re-run must reproduce its stored final return and
+evaluation curve exactly) and scores the buffer's advantages against the reference ones;
+``oracle − blind`` paired by seed. Finished runs are kept in ``advantages.json`` (an
+interrupted call resumes); the table goes to stdout, the figure to ``advantages.png``.
+
+    python results/maze_oracle/advantages.py > results/maze_oracle/advantages.md
+"""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import json
+import multiprocessing
+import tempfile
+from pathlib import Path
+from typing import Any
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+import numpy as np
+from tqdm.auto import tqdm
+
+from sb3_geogp.comparison.run import result_path, run_one
+from sb3_geogp.envs.wall_maze import WALL_MAZE_ID, MazeLayout, distances_to_walls
+from sb3_geogp.studies.value_ceiling import ceiling, reference_advantages
+from sb3_geogp.toolbox.scripts import load_script
+from sb3_geogp.toolbox.stats import correlation
+
+HERE = Path(__file__).resolve().parent
+ROOT = HERE.parents[1]
+RUN = load_script(HERE / "run.py", "maze_oracle_run")
+READ = load_script(HERE / "read.py", "maze_oracle_read")
+CRITIC_FIT = load_script(ROOT / "examples" / "critic_fit.py", "critic_fit")
+ARMS = ("oracle", "blind")
+#: Every this many rollouts one is measured (the 3rd, 6th, ...).
+EVERY = 3
+#: Monte Carlo rollouts per state, and the return left out at the cut (rewards are -1).
+N_ROLLOUTS, TAIL = 16, 1.0
+#: Steps that start this close to an interior wall count as next to it (exploratory split).
+NEAR = 0.1
+#: Per-run readings: key -> (row label, prediction's direction or "" for exploratory).
+READINGS = {
+    "advantage_correlation": "advantage correlation with V^pi's (primary)",
+    "value_rmse": "value RMSE against V^pi at the rollout's states",
+    "advantage_reliability": "reliability of the reference (halves' correlation)",
+    "near_correlation": f"advantage correlation, steps within {NEAR} of an interior wall",
+    "far_correlation": "advantage correlation, the other steps",
+    "value_bias": "mean value bias V - V^pi",
+    "mc_se": "Monte Carlo standard error of V^pi (root mean square)",
+}
+OUT = HERE / "advantages.json"
+
+
+class Advantages(CRITIC_FIT.WithCeiling):  # type: ignore[name-defined,misc]
+    """Every ``EVERY``-th rollout: the buffer's advantages and values against ``V^pi``'s."""
+
+    def __init__(self, seed: int) -> None:
+        super().__init__(WALL_MAZE_ID, first=0, n_rollouts=N_ROLLOUTS, tail=TAIL, seed=seed)
+        self.walls = np.asarray(MazeLayout().walls, dtype=np.float64)
+
+    def row(self) -> dict[str, Any]:
+        row: dict[str, Any] = {"timesteps": int(self.num_timesteps)}
+        if (len(self.rows) + 1) % EVERY:
+            return row
+        model, buffer = self.model, self.model.rollout_buffer
+        gamma, lam = float(model.gamma), float(model.gae_lambda)
+        rollout, mc = self.monte_carlo()
+        advantages = buffer.advantages.ravel()
+        scores = ceiling(
+            rollout, mc, gamma, lam, critic=buffer.values.ravel(), advantages=advantages
+        )
+        reference = reference_advantages(rollout, mc, gamma, lam)
+        near = distances_to_walls(buffer.observations.reshape(-1, 2), self.walls) < NEAR
+        row.update({k: scores[k] for k in READINGS if k in scores})
+        row["near_correlation"] = correlation(reference[near], advantages[near])
+        row["far_correlation"] = correlation(reference[~near], advantages[~near])
+        row["near_share"] = float(near.mean())
+        return row
+
+
+def one(arm: str, seed: int) -> dict[str, Any]:
+    spec = next(s for s in RUN.specs(RUN.ARMS[arm][0], (WALL_MAZE_ID,), (seed,)))
+    recorder = Advantages(seed)
+    with tempfile.TemporaryDirectory() as tmp:
+        result = run_one(spec, tmp, recorders=[recorder], kernel=RUN.arm_kernel(arm))
+    stored = json.loads(result_path(HERE / arm, spec).read_text())
+    if result["final_return"] != stored["final_return"] or result["eval"] != stored["eval"]:
+        raise RuntimeError(f"{arm} seed {seed} did not reproduce its stored run")
+    return {"arm": arm, "seed": seed, "rollouts": recorder.rows}
+
+
+def run_all() -> list[dict[str, Any]]:
+    done = json.loads(OUT.read_text()) if OUT.exists() else []
+    have = {(r["arm"], r["seed"]) for r in done}
+    jobs = [(arm, seed) for arm in ARMS for seed in RUN.SEEDS if (arm, seed) not in have]
+    context = multiprocessing.get_context("spawn")
+    with cf.ProcessPoolExecutor(2, mp_context=context) as pool:
+        futures = [pool.submit(one, arm, seed) for arm, seed in jobs]
+        for future in tqdm(cf.as_completed(futures), total=len(futures), desc="runs"):
+            done.append(future.result())
+            OUT.write_text(json.dumps(sorted(done, key=lambda r: (r["arm"], r["seed"]))))
+    return sorted(done, key=lambda r: (r["arm"], r["seed"]))
+
+
+def measured(run: dict[str, Any]) -> list[dict[str, Any]]:
+    return [r for r in run["rollouts"] if "advantage_correlation" in r]
+
+
+def per_run(runs: list[dict[str, Any]], key: str) -> dict[str, np.ndarray]:
+    """Per arm, the run means over measured rollouts (NaN rollouts left out), in seed order."""
+    return {
+        arm: np.array(
+            [np.nanmean([r[key] for r in measured(run)]) for run in runs if run["arm"] == arm]
+        )
+        for arm in ARMS
+    }
+
+
+def table(runs: list[dict[str, Any]]) -> str:
+    lines = [
+        "## The advantages PPO learned from: WallMaze-v0, seeds 580-589, every third rollout "
+        f"(re-runs reproduce the stored runs; V^pi by Monte Carlo, {N_ROLLOUTS} rollouts per "
+        "state)\n",
+        "| per run, mean over measured rollouts | oracle | blind | oracle − blind [95 % t] |",
+        "|---|---:|---:|---|",
+    ]
+    for key, name in READINGS.items():
+        v = per_run(runs, key)
+        lines.append(
+            f"| {name} | {v['oracle'].mean():.3f} | {v['blind'].mean():.3f} | "
+            f"{READ.paired(v['oracle'], v['blind'], 3)} |"
+        )
+    share = np.mean([r["near_share"] for run in runs for r in measured(run)])
+    lines.append(f"\nShare of steps within {NEAR} of an interior wall: {share:.3f}.")
+    return "\n".join(lines)
+
+
+def plot(runs: list[dict[str, Any]], path: Path) -> None:
+    keys = ("advantage_correlation", "value_rmse", "advantage_reliability")
+    fig, axes = plt.subplots(1, len(keys), figsize=(4.2 * len(keys), 3.4))
+    for ax, key in zip(axes, keys, strict=True):
+        for arm, colour in zip(ARMS, ("tab:red", "tab:blue"), strict=True):
+            rows = [measured(run) for run in runs if run["arm"] == arm]
+            t = np.array([r["timesteps"] for r in rows[0]])
+            y = np.array([[r[key] for r in run] for run in rows], dtype=np.float64)
+            mean = np.nanmean(y, axis=0)
+            half = 1.96 * np.nanstd(y, axis=0, ddof=1) / np.sqrt(np.sum(~np.isnan(y), axis=0))
+            ax.plot(t, mean, color=colour, label=arm)
+            ax.fill_between(t, mean - half, mean + half, color=colour, alpha=0.2)
+        ax.set(xlabel="timesteps", title=READINGS[key].split(" (")[0])
+        ax.grid(alpha=0.3)
+    axes[0].legend()
+    fig.suptitle("WallMaze-v0, PPO, seeds 580-589: mean over seeds, 95 % normal band")
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+
+
+def main() -> None:
+    runs = run_all()
+    print(table(runs))
+    plot(runs, HERE / "advantages.png")
+
+
+if __name__ == "__main__":
+    main()
