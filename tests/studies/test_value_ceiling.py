@@ -4,6 +4,7 @@ returns against SB3's buffer, and the ceiling of a policy whose returns are cert
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
@@ -319,3 +320,32 @@ def test_knn_and_mlp_fits_recover_a_smooth_function() -> None:
     predict = mlp_fit(steps=800)(x[:400], y[:400], starts[:400])
     assert value_r2(predict(x[400:]), y[400:]) > 0.95
     assert math.isnan(value_r2(np.zeros(3), np.ones(3)))
+
+
+def test_the_maze_ceiling_leaves_ppo_as_it_was_and_its_returns_agree() -> None:
+    """On WallMaze-v0 (continuous 2-D actions, time-limit cuts) the recorder's Monte Carlo runs
+    in a forked random stream: PPO's parameters end bit for bit as without it. The restarted
+    rollouts are the task's and the policy's: the rollout's own returns, bootstrapped with
+    ``V^pi``, average ``V^pi`` within their sampling error."""
+    from stable_baselines3 import PPO
+
+    from tests.test_examples_training import load_script
+
+    critic_fit = load_script("critic_fit")
+    env_id = "sb3_geogp/WallMaze-v0"
+
+    def train(callbacks: list[Any]) -> PPO:
+        env = make_vec_env(env_id, n_envs=4, seed=1, env_kwargs=dict(max_episode_steps=25))
+        model = PPO("MlpPolicy", env, n_steps=48, batch_size=64, gamma=0.9, seed=1)
+        return model.learn(4 * 192, callback=callbacks)
+
+    recorder = critic_fit.WithCeiling(env_id, first=0, n_rollouts=16, tail=0.1, seed=1)
+    with_ceiling, plain = train([recorder]), train([])
+    for a, b in zip(with_ceiling.policy.parameters(), plain.policy.parameters(), strict=True):
+        assert th.equal(a, b)
+    rows = [r["ceiling"] for r in recorder.rows]
+    assert len(rows) == 4
+    for row in rows:
+        assert -1.0 <= row["advantage_correlation"] <= 1.0
+        assert row["truth_sd"] > 0 and row["mc_se"] > 0
+        assert abs(row["check_mean"]) <= 4 * row["check_se"] + 0.05
