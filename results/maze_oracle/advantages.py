@@ -1,22 +1,27 @@
-"""The advantages the oracle's and the blind critic's actors learned from on WallMaze-v0,
-against the GAE advantages with the policy's own value function (PLAN.md's fourth addendum).
+"""The advantages PPO's actor learned from on WallMaze-v0, against the GAE advantages with the
+policy's own value function (PLAN.md's fourth and fifth addenda).
 
-Re-runs the screen's WallMaze-v0 runs of ``oracle`` and ``blind`` (seeds 580-589) with a
-recorder that, every ``EVERY``-th rollout, estimates ``V^pi`` at the rollout's states by Monte
-Carlo in a forked random stream (each re-run must reproduce its stored final return and
-evaluation curve exactly) and scores the buffer's advantages against the reference ones;
-``oracle − blind`` paired by seed. Finished runs are kept in ``advantages.json`` (an
-interrupted call resumes); the table goes to stdout, the figure to ``advantages.png``.
+Re-runs stored WallMaze-v0 runs of two arms with a recorder that, every ``EVERY``-th
+rollout, estimates ``V^pi`` at the rollout's states by Monte Carlo in a forked random stream
+(each re-run must reproduce its stored final return and evaluation curve exactly) and scores
+the buffer's advantages against the reference ones; the first arm minus the second, paired by
+seed. ``--compare oracle`` (default, the fourth addendum): the screen's ``oracle`` and
+``blind`` runs, seeds 580-589; ``--compare mlp`` (the fifth): issue 13's table's ``laplacian``
+and ``mlp`` runs, seeds 570-579. Finished runs are kept in ``advantages[_mlp].json`` (an
+interrupted call resumes); the table goes to stdout, the figure to ``advantages[_mlp].png``.
 
     python results/maze_oracle/advantages.py > results/maze_oracle/advantages.md
+    python results/maze_oracle/advantages.py --compare mlp > results/maze_oracle/advantages_mlp.md
 """
 
 from __future__ import annotations
 
+import argparse
 import concurrent.futures as cf
 import json
 import multiprocessing
 import tempfile
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -38,7 +43,34 @@ ROOT = HERE.parents[1]
 RUN = load_script(HERE / "run.py", "maze_oracle_run")
 READ = load_script(HERE / "read.py", "maze_oracle_read")
 CRITIC_FIT = load_script(ROOT / "examples" / "critic_fit.py", "critic_fit")
-ARMS = ("oracle", "blind")
+
+
+@dataclass(frozen=True)
+class Arm:
+    """Where an arm's stored runs are, its critic, and whether its kernel is the oracle's."""
+
+    folder: Path
+    critic: str
+    oracle: bool = False
+
+
+TABLE = ROOT / "results" / "table50" / "ppo_s570"
+#: ``--compare`` -> (arms, first minus second; seeds; suffix of the output files).
+COMPARISONS: dict[str, tuple[dict[str, Arm], tuple[int, ...], str]] = {
+    "oracle": (
+        {
+            "oracle": Arm(HERE / "oracle", "geodesic", True),
+            "blind": Arm(HERE / "blind", "geodesic"),
+        },
+        RUN.SEEDS,
+        "",
+    ),
+    "mlp": (
+        {"laplacian": Arm(TABLE, "laplacian"), "mlp": Arm(TABLE, "mlp")},
+        tuple(range(570, 580)),
+        "_mlp",
+    ),
+}
 #: Every this many rollouts one is measured (the 3rd, 6th, ...).
 EVERY = 3
 #: Monte Carlo rollouts per state, and the return left out at the cut (rewards are -1).
@@ -55,7 +87,6 @@ READINGS = {
     "value_bias": "mean value bias V - V^pi",
     "mc_se": "Monte Carlo standard error of V^pi (root mean square)",
 }
-OUT = HERE / "advantages.json"
 
 
 class Advantages(CRITIC_FIT.WithCeiling):  # type: ignore[name-defined,misc]
@@ -85,27 +116,30 @@ class Advantages(CRITIC_FIT.WithCeiling):  # type: ignore[name-defined,misc]
         return row
 
 
-def one(arm: str, seed: int) -> dict[str, Any]:
-    spec = next(s for s in RUN.specs(RUN.ARMS[arm][0], (WALL_MAZE_ID,), (seed,)))
+def one(arm: Arm, seed: int) -> list[dict[str, Any]]:
+    """The recorder's rows of one re-run, checked against its stored run."""
+    spec = next(s for s in RUN.specs(arm.critic, (WALL_MAZE_ID,), (seed,)))
     recorder = Advantages(seed)
+    kernel = RUN.arm_kernel("oracle") if arm.oracle else None
     with tempfile.TemporaryDirectory() as tmp:
-        result = run_one(spec, tmp, recorders=[recorder], kernel=RUN.arm_kernel(arm))
-    stored = json.loads(result_path(HERE / arm, spec).read_text())
+        result = run_one(spec, tmp, recorders=[recorder], kernel=kernel)
+    stored = json.loads(result_path(arm.folder, spec).read_text())
     if result["final_return"] != stored["final_return"] or result["eval"] != stored["eval"]:
-        raise RuntimeError(f"{arm} seed {seed} did not reproduce its stored run")
-    return {"arm": arm, "seed": seed, "rollouts": recorder.rows}
+        raise RuntimeError(f"{spec.run_id} did not reproduce its stored run")
+    return recorder.rows
 
 
-def run_all() -> list[dict[str, Any]]:
-    done = json.loads(OUT.read_text()) if OUT.exists() else []
+def run_all(arms: dict[str, Arm], seeds: tuple[int, ...], out: Path) -> list[dict[str, Any]]:
+    done = json.loads(out.read_text()) if out.exists() else []
     have = {(r["arm"], r["seed"]) for r in done}
-    jobs = [(arm, seed) for arm in ARMS for seed in RUN.SEEDS if (arm, seed) not in have]
+    jobs = [(name, seed) for name in arms for seed in seeds if (name, seed) not in have]
     context = multiprocessing.get_context("spawn")
     with cf.ProcessPoolExecutor(2, mp_context=context) as pool:
-        futures = [pool.submit(one, arm, seed) for arm, seed in jobs]
+        futures = {pool.submit(one, arms[name], seed): (name, seed) for name, seed in jobs}
         for future in tqdm(cf.as_completed(futures), total=len(futures), desc="runs"):
-            done.append(future.result())
-            OUT.write_text(json.dumps(sorted(done, key=lambda r: (r["arm"], r["seed"]))))
+            name, seed = futures[future]
+            done.append({"arm": name, "seed": seed, "rollouts": future.result()})
+            out.write_text(json.dumps(sorted(done, key=lambda r: (r["arm"], r["seed"]))))
     return sorted(done, key=lambda r: (r["arm"], r["seed"]))
 
 
@@ -113,59 +147,85 @@ def measured(run: dict[str, Any]) -> list[dict[str, Any]]:
     return [r for r in run["rollouts"] if "advantage_correlation" in r]
 
 
-def per_run(runs: list[dict[str, Any]], key: str) -> dict[str, np.ndarray]:
+def per_run(runs: list[dict[str, Any]], names: list[str], key: str) -> dict[str, np.ndarray]:
     """Per arm, the run means over measured rollouts (NaN rollouts left out), in seed order."""
     return {
-        arm: np.array(
-            [np.nanmean([r[key] for r in measured(run)]) for run in runs if run["arm"] == arm]
+        name: np.array(
+            [np.nanmean([r[key] for r in measured(run)]) for run in runs if run["arm"] == name]
         )
-        for arm in ARMS
+        for name in names
     }
 
 
-def table(runs: list[dict[str, Any]]) -> str:
+def stored(arms: dict[str, Arm], seeds: tuple[int, ...]) -> dict[str, dict[str, np.ndarray]]:
+    """Per reading and arm, the stored runs' area under the curve and final return."""
+    results = {
+        name: [
+            json.loads(result_path(arm.folder, spec).read_text())
+            for spec in RUN.specs(arm.critic, (WALL_MAZE_ID,), seeds)
+        ]
+        for name, arm in arms.items()
+    }
+    return {
+        "area under the learning curve (stored runs)": {
+            name: np.array([np.mean(r["eval"]["mean_return"]) for r in rs])
+            for name, rs in results.items()
+        },
+        "final return (stored runs)": {
+            name: np.array([r["final_return"] for r in rs]) for name, rs in results.items()
+        },
+    }
+
+
+def table(runs: list[dict[str, Any]], arms: dict[str, Arm], seeds: tuple[int, ...]) -> str:
+    first, second = arms
+    span = f"{seeds[0]}-{seeds[-1]}"
     lines = [
-        "## The advantages PPO learned from: WallMaze-v0, seeds 580-589, every third rollout "
+        f"## The advantages PPO learned from: WallMaze-v0, seeds {span}, every third rollout "
         f"(re-runs reproduce the stored runs; V^pi by Monte Carlo, {N_ROLLOUTS} rollouts per "
         "state)\n",
-        "| per run, mean over measured rollouts | oracle | blind | oracle − blind [95 % t] |",
+        f"| per run, mean over measured rollouts | {first} | {second} | "
+        f"{first} − {second} [95 % t] |",
         "|---|---:|---:|---|",
     ]
-    for key, name in READINGS.items():
-        v = per_run(runs, key)
+    rows = {name: per_run(runs, [first, second], key) for key, name in READINGS.items()}
+    for name, v in {**rows, **stored(arms, seeds)}.items():
         lines.append(
-            f"| {name} | {v['oracle'].mean():.3f} | {v['blind'].mean():.3f} | "
-            f"{READ.paired(v['oracle'], v['blind'], 3)} |"
+            f"| {name} | {v[first].mean():.3f} | {v[second].mean():.3f} | "
+            f"{READ.paired(v[first], v[second], 3)} |"
         )
     share = np.mean([r["near_share"] for run in runs for r in measured(run)])
     lines.append(f"\nShare of steps within {NEAR} of an interior wall: {share:.3f}.")
     return "\n".join(lines)
 
 
-def plot(runs: list[dict[str, Any]], path: Path) -> None:
+def plot(runs: list[dict[str, Any]], names: list[str], title: str, path: Path) -> None:
     keys = ("advantage_correlation", "value_rmse", "advantage_reliability")
     fig, axes = plt.subplots(1, len(keys), figsize=(4.2 * len(keys), 3.4))
     for ax, key in zip(axes, keys, strict=True):
-        for arm, colour in zip(ARMS, ("tab:red", "tab:blue"), strict=True):
-            rows = [measured(run) for run in runs if run["arm"] == arm]
+        for name, colour in zip(names, ("tab:red", "tab:blue"), strict=True):
+            rows = [measured(run) for run in runs if run["arm"] == name]
             t = np.array([r["timesteps"] for r in rows[0]])
             y = np.array([[r[key] for r in run] for run in rows], dtype=np.float64)
             mean = np.nanmean(y, axis=0)
             half = 1.96 * np.nanstd(y, axis=0, ddof=1) / np.sqrt(np.sum(~np.isnan(y), axis=0))
-            ax.plot(t, mean, color=colour, label=arm)
+            ax.plot(t, mean, color=colour, label=name)
             ax.fill_between(t, mean - half, mean + half, color=colour, alpha=0.2)
         ax.set(xlabel="timesteps", title=READINGS[key].split(" (")[0])
         ax.grid(alpha=0.3)
     axes[0].legend()
-    fig.suptitle("WallMaze-v0, PPO, seeds 580-589: mean over seeds, 95 % normal band")
+    fig.suptitle(f"WallMaze-v0, PPO, {title}: mean over seeds, 95 % normal band")
     fig.tight_layout()
     fig.savefig(path, dpi=120)
 
 
 def main() -> None:
-    runs = run_all()
-    print(table(runs))
-    plot(runs, HERE / "advantages.png")
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--compare", choices=list(COMPARISONS), default="oracle")
+    arms, seeds, suffix = COMPARISONS[parser.parse_args().compare]
+    runs = run_all(arms, seeds, HERE / f"advantages{suffix}.json")
+    print(table(runs, arms, seeds))
+    plot(runs, list(arms), f"seeds {seeds[0]}-{seeds[-1]}", HERE / f"advantages{suffix}.png")
 
 
 if __name__ == "__main__":
