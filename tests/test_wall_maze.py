@@ -140,6 +140,18 @@ def test_a_batch_of_moves_is_each_move_alone(layout: MazeLayout) -> None:
     np.testing.assert_allclose(distances_to_walls(batch, walls), distances, rtol=1e-12)
 
 
+def test_batches_of_the_wrong_shape_are_refused() -> None:
+    layout, env = MazeLayout(), WallMaze()
+    with pytest.raises(ValueError, match=r"one shape \(N, 2\)"):
+        layout.moves(np.full((3, 2), 0.2), np.zeros((1, 2)))
+    with pytest.raises(ValueError, match="for one agent use move"):
+        layout.moves(np.array([0.2, 0.2]), np.zeros(2))
+    with pytest.raises(ValueError, match="one action per position"):
+        env.transitions(np.full((3, 2), 0.2), np.zeros((2, 2)))
+    with pytest.raises(ValueError, match=r"in 0\.\.7"):
+        WallMazeDiscrete().transitions(np.full((2, 2), 0.2), np.array([1, 8]))
+
+
 def test_move_stops_at_the_wall() -> None:
     lay = MazeLayout()
     # Straight up into the upper wall (y = 0.5) from 0.02 below it: stops just short of it.

@@ -195,6 +195,11 @@ class MazeLayout:
         """
         pos = np.asarray(pos, dtype=np.float64)
         delta = np.asarray(delta, dtype=np.float64)
+        if pos.ndim != 2 or pos.shape[1] != 2 or delta.shape != pos.shape:
+            raise ValueError(
+                f"moves needs positions and displacements of one shape (N, 2), got {pos.shape} "
+                f"and {delta.shape}; for one agent use move"
+            )
         walls = self.segments()
         end, hit = _straight_moves(pos, delta, walls, self.margin)
         slid = np.flatnonzero(hit >= 0) if self.slide else np.empty(0, dtype=np.intp)
@@ -542,7 +547,13 @@ class WallMaze(gym.Env[np.ndarray, np.ndarray]):
         next_positions : ndarray, shape (N, 2)
         terminated : ndarray of bool, shape (N,)
         """
-        end = self.layout.moves(positions, self.displacements(actions))
+        delta = self.displacements(actions)
+        if len(delta) != len(positions):
+            raise ValueError(
+                f"transitions needs one action per position, got {len(delta)} actions for "
+                f"{len(positions)} positions"
+            )
+        end = self.layout.moves(positions, delta)
         return end, self.layout.in_goal(end)
 
     def observe(self, positions: np.ndarray) -> np.ndarray:
