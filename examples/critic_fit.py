@@ -479,12 +479,14 @@ def ceiling_table(results: list[dict[str, Any]], critics: Sequence[str]) -> list
         "Monte Carlo noise); mean over seeds [min, max], seeds with a ceiling of at least "
         f"{GOAL} (goal's reading); both pooled; both on G, the rollouts' own returns "
         "bootstrapped with V^pi (lambda = 1, the same targets for both), pooled, over the runs "
-        "whose V^pi varies; the critic's values against V^pi at the scored states:",
+        "whose V^pi varies; the critic's values against V^pi at the scored states; the "
+        "correlation of the advantages the actor learned from with the GAE advantages with V^pi "
+        "(– where the runs predate it):",
         "",
         "| env | critic | critic's score | ceiling | ceiling, halves | pooled: critic | pooled: "
         "ceiling | on G, pooled: critic | on G, pooled: V^pi | value RMSE to V^pi | "
-        "mean value − V^pi | V^pi's sd |",
-        "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
+        "mean value − V^pi | V^pi's sd | advantages: correlation |",
+        "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
     ]
     for env_id in dict.fromkeys(r["env_id"] for r in results):
         for critic in critics:
@@ -571,8 +573,15 @@ def _ceiling_cells(runs: list[dict[str, Any]]) -> list[str]:
         defined = [v for v in values if v is not None]  # a critic's score may be undefined
         return f"{np.mean(defined):{fmt}}" if defined else "–"
 
-    def per_rollout(key: str) -> list[float]:
-        return [float(np.mean([c[key] for c in r["ceiling"]["rollouts"]])) for r in runs]
+    def per_rollout(key: str) -> list[float | None]:
+        """Each run's mean over its scored rollouts (NaN ones left out); ``None`` where the
+        run's rollouts lack ``key`` or have no defined value."""
+        means = []
+        for r in runs:
+            values = [c.get(key) for c in r["ceiling"]["rollouts"]]
+            defined = [v for v in values if v is not None and not np.isnan(v)]
+            means.append(float(np.mean(defined)) if defined else None)
+        return means
 
     reached = sum(c >= GOAL for c in ceilings)
     return [
@@ -585,6 +594,7 @@ def _ceiling_cells(runs: list[dict[str, Any]]) -> list[str]:
         mean(per_rollout("value_rmse"), ".2f"),
         mean(per_rollout("value_bias"), "+.2f"),
         mean(per_rollout("truth_sd"), ".2f"),
+        mean(per_rollout("advantage_correlation")),
     ]
 
 

@@ -260,7 +260,9 @@ def test_critic_fit_ceiling_leaves_the_run_as_it_was(tmp_path: Path) -> None:
     ceilings = with_ceiling["ceiling"]["rollouts"]
     assert len(ceilings) == plain["tail_rollouts"] and "ceiling" not in plain
     assert all(c["explained"] <= 1 and c["truth_sd"] > 0 for c in ceilings)
-    assert "The ceiling" in (tmp_path / "ceiling" / "critic_fit.md").read_text()
+    assert all(-1 <= c["advantage_correlation"] <= 1 for c in ceilings)
+    summary = (tmp_path / "ceiling" / "critic_fit.md").read_text()
+    assert "The ceiling" in summary and "advantages: correlation |" in summary
     assert (tmp_path / "ceiling" / "ceiling.png").stat().st_size > 0
     with pytest.raises(ValueError, match="another --ceiling"):
         critic_fit.main([*argv, "--out", str(tmp_path / "plain"), "--ceiling", "4"])
