@@ -148,6 +148,8 @@ def test_batches_of_the_wrong_shape_are_refused() -> None:
         layout.moves(np.array([0.2, 0.2]), np.zeros(2))
     with pytest.raises(ValueError, match="one action per position"):
         env.transitions(np.full((3, 2), 0.2), np.zeros((2, 2)))
+    with pytest.raises(ValueError, match=r"shape \(N, 2\), got \(2, 3\)"):
+        env.displacements(np.zeros((2, 3)))
     with pytest.raises(ValueError, match=r"in 0\.\.7"):
         WallMazeDiscrete().transitions(np.full((2, 2), 0.2), np.array([1, 8]))
 

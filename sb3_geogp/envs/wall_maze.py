@@ -352,7 +352,7 @@ def first_hits(
     Parameters
     ----------
     pos, delta : ndarray, shape (N, 2)
-        Moves of non-zero length.
+        Moves; one of zero length meets no wall.
     walls : ndarray, shape (W, 4)
         Segments ``(x0, y0, x1, y1)``.
 
@@ -527,7 +527,10 @@ class WallMaze(gym.Env[np.ndarray, np.ndarray]):
         -------
         ndarray, shape (N, 2)
         """
-        v = np.clip(np.asarray(actions, dtype=np.float64).reshape(-1, 2), -1.0, 1.0)
+        v = np.asarray(actions, dtype=np.float64)
+        if v.ndim != 2 or v.shape[1] != 2:
+            raise ValueError(f"actions must have shape (N, 2), got {v.shape}")
+        v = np.clip(v, -1.0, 1.0)
         norm = np.hypot(v[:, 0], v[:, 1])
         return self.layout.max_step * v / np.maximum(1.0, norm)[:, None]
 
@@ -591,7 +594,10 @@ class WallMazeDiscrete(WallMaze):
 
     def displacements(self, actions: np.ndarray) -> np.ndarray:
         """The moves of a batch of actions ``(N,)`` in ``0..7``, shape (N, 2)."""
-        k = np.asarray(actions).reshape(-1).astype(np.int64)
+        k = np.asarray(actions)
+        if k.ndim != 1:
+            raise ValueError(f"actions must have shape (N,), got {k.shape}")
+        k = k.astype(np.int64)
         if np.any((k < 0) | (k >= 8)):
             raise ValueError(f"actions must be in 0..7, got {k[(k < 0) | (k >= 8)][0]}")
         return self.layout.max_step * self.DIRECTIONS[k]
