@@ -22,10 +22,9 @@ Carlo noise.
 CartPole-v1, Acrobot-v1 and the WallMaze variants have deterministic dynamics and observations
 that are their states (Acrobot's angles through their cosines and sines, a maze's position), so
 every state is restarted exactly, up to the float32 rounding of the observation; only the
-policy's draws are sampled. The rollouts
-run without a time limit, as the bootstrapped targets assume, and are cut after
-:func:`horizon`'s steps, which leaves out at most ``tail`` of the return (rewards are at most 1
-in size). The batch dynamics are the gymnasium equations in vectorised numpy
+policy's draws are sampled. The rollouts run without a time limit, as the bootstrapped targets
+assume, and are cut after :func:`horizon`'s steps, which leaves out at most ``tail`` of the
+return (rewards are at most 1 in size). The batch dynamics are the gymnasium equations in vectorised numpy
 (:func:`acrobot_step`; CartPole's :func:`~sb3_geogp.studies.action_gap.cartpole_step`; the
 mazes' :meth:`~sb3_geogp.envs.wall_maze.WallMaze.transitions`).
 Monte Carlo noise in ``V^pi`` lowers the estimated ceiling; :func:`ceiling` also scores each
@@ -368,8 +367,10 @@ def ceiling(
         critic - ``V^pi``), ``truth_sd`` (``V^pi``'s standard deviation) at the rollout's steps.
         With ``advantages``: ``advantage_correlation``, their Pearson correlation with
         :func:`reference_advantages` (NaN if either is constant), and
-        ``advantage_reliability``, the correlation of the two halves' reference advantages:
-        Monte Carlo noise caps the first near the second.
+        ``advantage_reliability``, the correlation ``r`` of the two halves' reference
+        advantages. Monte Carlo noise lowers every critic's correlation alike: the whole
+        reference's reliability is about ``2 r / (1 + r)`` (Spearman-Brown), and a critic's
+        correlation is not expected above its square root.
     """
     n = rollout.rewards.size
 
