@@ -24,9 +24,10 @@ that are their states (Acrobot's angles through their cosines and sines, a maze'
 every state is restarted exactly, up to the float32 rounding of the observation; only the
 policy's draws are sampled. The rollouts run without a time limit, as the bootstrapped targets
 assume, and are cut after :func:`horizon`'s steps, which leaves out at most ``tail`` of the
-return (rewards are at most 1 in size). The batch dynamics are the gymnasium equations in vectorised numpy
-(:func:`acrobot_step`; CartPole's :func:`~sb3_geogp.studies.action_gap.cartpole_step`; the
-mazes' :meth:`~sb3_geogp.envs.wall_maze.WallMaze.transitions`).
+return (rewards are at most 1 in size). The batch dynamics are the gymnasium equations in
+vectorised numpy (:func:`acrobot_step`; CartPole's
+:func:`~sb3_geogp.studies.action_gap.cartpole_step`; the mazes'
+:meth:`~sb3_geogp.envs.wall_maze.WallMaze.transitions`).
 Monte Carlo noise in ``V^pi`` lowers the estimated ceiling; :func:`ceiling` also scores each
 half of the rollouts, whose difference from the whole measures that bias (it shrinks as
 ``1 / n_rollouts``), and checks the estimate against the rollout's own returns.
