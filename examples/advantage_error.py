@@ -20,10 +20,16 @@ advantages themselves (:mod:`sb3_geogp.studies.advantage_error`):
    their correlation, and the critic's value RMSE at the rollout's states.
 
 Writes ``OUT/results.json``, ``OUT/table.md`` (per actor and critic the mean over seeds, and
-the paired difference from the MLP shadow with a 95 % t interval) and
-``OUT/advantage_error.png``. A finished actor and seed is kept in ``OUT/runs/``.
+the paired difference from the MLP shadow, or from the critic ``--against`` names, with a 95 %
+t interval) and ``OUT/advantage_error.png``. A finished actor and seed is kept in
+``OUT/runs/``.
 
     python examples/advantage_error.py --seeds 0 1 2 3 4 --out docs/advantage_error
+
+``--env`` runs the same design on a WallMaze task (30,000 steps, as the pendulum), whose states
+restart from their observations (:data:`~sb3_geogp.studies.value_ceiling.TASKS`); there the
+Monte Carlo rollouts run until at most 1 of a return is left (``--horizon`` overrides it) and
+``--critics`` names the GP shadows (the defaults are the pendulum's).
 """
 
 from __future__ import annotations
@@ -35,6 +41,7 @@ from typing import Any
 
 import numpy as np
 import torch as th
+from gymnasium import spaces
 from stable_baselines3.common.callbacks import BaseCallback
 
 from sb3_geogp.callbacks import time_limit_truncations
@@ -49,10 +56,17 @@ from sb3_geogp.comparison.shadow import (
     run_study,
     study_parser,
 )
+from sb3_geogp.envs.wall_maze import WALL_MAZE_DISCRETE_ID, WALL_MAZE_ID
 from sb3_geogp.studies.advantage_error import advantage_scores, gae, policy_returns
+from sb3_geogp.studies.value_ceiling import TASKS, horizon
+from sb3_geogp.studies.value_ceiling import policy_returns as task_returns
 from sb3_geogp.toolbox.stats import mean_ci
 
 ENV = "sb3_geogp/PaperPendulum-v0"
+#: ``--env`` choices: the pendulum and the mazes with its budget (30,000 steps).
+ENVS = (ENV, WALL_MAZE_ID, WALL_MAZE_DISCRETE_ID)
+#: Steps of a pendulum Monte Carlo rollout unless ``--horizon`` says otherwise.
+PENDULUM_HORIZON = 80
 #: The critics that train the agent by default, one PPO run each per seed.
 ACTORS = ("mlp", "laplacian")
 #: GP shadow critics by default (settings as :func:`~sb3_geogp.comparison.shadow.ppo_spec`).
@@ -84,7 +98,8 @@ class AdvantageCheckpoints(BaseCallback):
         return True
 
     def _act(self, obs: np.ndarray, step: int) -> np.ndarray:
-        """The policy's stochastic torque, its gSDE noise resampled as in training."""
+        """The policy's stochastic actions, shaped by its action space and clipped to a box,
+        its gSDE noise resampled as in training."""
         model = self.model
         policy = model.policy
         resample = step == 0 or (model.sde_sample_freq > 0 and step % model.sde_sample_freq == 0)
@@ -92,9 +107,12 @@ class AdvantageCheckpoints(BaseCallback):
             policy.reset_noise(len(obs))
         with th.no_grad():
             dist = policy.get_distribution(th.as_tensor(obs, dtype=th.float32, device=model.device))
-            actions = dist.get_actions().cpu().numpy().reshape(len(obs), -1)
-        low, high = model.action_space.low, model.action_space.high  # type: ignore[union-attr]
-        return np.clip(actions, low, high)[:, 0].astype(np.float64)
+            actions = dist.get_actions().cpu().numpy()
+        space = model.action_space
+        actions = actions.reshape(len(obs), *space.shape)  # type: ignore[misc]
+        if isinstance(space, spaces.Box):
+            actions = np.clip(actions, space.low, space.high).astype(np.float64)
+        return actions
 
     def _returns(self, states: np.ndarray) -> np.ndarray:
         """Monte Carlo returns from ``states``, shape (n, rollouts), the policy's noise drawn
@@ -105,11 +123,19 @@ class AdvantageCheckpoints(BaseCallback):
             k: getattr(dist, k, None)
             for k in ("exploration_mat", "exploration_matrices", "weights_dist")
         }
+        gamma, env, steps = float(self.model.gamma), self.args.env, self.args.horizon
         with th.random.fork_rng(devices=[]):
             th.manual_seed(self.seed * 1000 + len(self.rows))
-            returns = policy_returns(
-                self._act, states, float(self.model.gamma), self.args.horizon, self.args.rollouts
-            )
+            if env == ENV:
+                torque = lambda o, t: self._act(o, t)[:, 0]  # noqa: E731
+                returns = policy_returns(
+                    torque, states, gamma, steps or PENDULUM_HORIZON, self.args.rollouts
+                )
+            else:
+                # gSDE is the pendulum's alone: one draw per step, no step count needed
+                act = lambda o: self._act(o, 1)  # noqa: E731
+                steps = steps or horizon(gamma, 1.0)
+                returns = task_returns(act, TASKS[env], states, gamma, steps, self.args.rollouts)
         for k, v in saved.items():
             setattr(dist, k, v)
         return returns
@@ -157,10 +183,10 @@ class AdvantageCheckpoints(BaseCallback):
 def run(actor: str, seed: int, args: argparse.Namespace) -> dict[str, Any]:
     """One PPO run with ``actor``'s critic and the shadow critics; every rollout's scores."""
     th.set_num_threads(1)
-    model = build_model(ppo_spec(ENV, seed, args.timesteps, {"kernel": actor}))
+    model = build_model(ppo_spec(args.env, seed, args.timesteps, {"kernel": actor}))
     scorer = learn_with_shadows(
         model,
-        ENV,
+        args.env,
         seed,
         args.timesteps,
         args.critics,
@@ -181,10 +207,10 @@ def per_seed(runs: list[dict[str, Any]], metric: str, skip: int) -> dict[str, np
     }
 
 
-def table(results: dict[str, dict[int, Any]], skip: int) -> str:
+def table(results: dict[str, dict[int, Any]], skip: int, against: str = MLP) -> str:
     """Markdown: per actor and critic, each metric's mean over seeds and its paired difference
-    from the MLP shadow [95 % t interval]."""
-    head = " | ".join(f"{m} | − MLP shadow [95 % CI]" for m in METRICS)
+    from the critic ``against`` (the MLP shadow by default) [95 % t interval]."""
+    head = " | ".join(f"{m} | − {against} [95 % CI]" for m in METRICS)
     lines = [
         f"| actor's critic | critic | {head} | seeds |",
         "|---|---|" + "---:|---|" * len(METRICS) + "---:|",
@@ -195,9 +221,13 @@ def table(results: dict[str, dict[int, Any]], skip: int) -> str:
         for name in scores[METRICS[0]]:
             cells = []
             for m in METRICS:
-                values, diff = scores[m][name], scores[m][name] - scores[m][MLP]
+                values, diff = scores[m][name], scores[m][name] - scores[m][against]
                 mean, half = (float(v) for v in mean_ci(diff, nan_policy="omit"))
-                ci = "–" if name == MLP else f"{mean:+.3f} [{mean - half:+.3f}, {mean + half:+.3f}]"
+                ci = (
+                    "–"
+                    if name == against
+                    else f"{mean:+.3f} [{mean - half:+.3f}, {mean + half:+.3f}]"
+                )
                 cells.append(f"{np.nanmean(values):.3f} | {ci}")
             lines.append(f"| {actor} | {name} | {' | '.join(cells)} | {len(runs)} |")
         ceiling = np.mean([np.sqrt(r["reliability"]) for run in runs for r in run["rows"][skip:]])
@@ -207,7 +237,7 @@ def table(results: dict[str, dict[int, Any]], skip: int) -> str:
     return "\n".join(lines) + "\n"
 
 
-def plot(results: dict[str, dict[int, Any]], path: Path) -> None:
+def plot(results: dict[str, dict[int, Any]], path: Path, env: str = ENV) -> None:
     """Per rollout, mean over seeds: advantage correlation (top) and value RMSE (bottom), a
     column per actor."""
     import matplotlib
@@ -243,9 +273,7 @@ def plot(results: dict[str, dict[int, Any]], path: Path) -> None:
         for ax in axes[:, col]:
             ax.grid(alpha=0.3)
     axes[0][-1].legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0))
-    fig.suptitle(
-        "PaperPendulum PPO: each critic's GAE advantages against those of V^pi (Monte Carlo)"
-    )
+    fig.suptitle(f"{env} PPO: each critic's GAE advantages against those of V^pi (Monte Carlo)")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
@@ -255,11 +283,31 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = study_parser(
         __doc__.split("\n\n")[0], ACTORS, TIMESTEPS[ENV], CRITICS, Path("runs/advantage_error")
     )
+    parser.add_argument("--env", choices=ENVS, default=ENV)
     parser.add_argument("--rollouts", type=int, default=16, help="Monte Carlo rollouts per state")
-    parser.add_argument("--horizon", type=int, default=80, help="steps per Monte Carlo rollout")
+    parser.add_argument(
+        "--horizon",
+        type=int,
+        default=None,
+        help=f"steps per Monte Carlo rollout (default: {PENDULUM_HORIZON} on the pendulum; on a "
+        "maze until at most 1 of a return is left)",
+    )
     parser.add_argument("--skip", type=int, default=1, help="first rollouts left out of the table")
+    parser.add_argument(
+        "--against",
+        default=MLP,
+        help=f"the critic of the paired differences (default: {MLP!r}; or a --critics name)",
+    )
     args = parser.parse_args(argv)
-    run_study(args, run, lambda results: table(results, args.skip), plot, "advantage_error.png")
+    if args.against not in (OWN, MLP, *args.critics):
+        parser.error(f"--against {args.against!r} is none of {[OWN, MLP, *args.critics]}")
+    run_study(
+        args,
+        run,
+        lambda results: table(results, args.skip, args.against),
+        lambda results, path: plot(results, path, args.env),
+        "advantage_error.png",
+    )
     return 0
 
 

@@ -480,6 +480,30 @@ def test_advantage_error_scores_every_critic_against_the_same_reference(tmp_path
     assert_study_resumes(study, argv, tmp_path, "laplacian", "advantage_error.png")
 
 
+def test_advantage_error_runs_on_a_maze_and_pairs_against_the_critic_asked_for(
+    tmp_path: Path,
+) -> None:
+    """On WallMaze-v0 (2-D actions, restarted by ``value_ceiling.TASKS``) a Laplacian GP shadow
+    fed the run's rollouts scores exactly as the Laplacian run's own critic, and ``--against``
+    pairs the table with the critic it names."""
+    study = load_script("advantage_error")
+    critics = {"Laplacian GP": {"kernel": "laplacian"}, "geodesic GP": {"kernel": "geodesic"}}
+    argv = ["--env", "sb3_geogp/WallMaze-v0", "--actors", "laplacian", "--seeds", "0"]
+    argv += ["--timesteps", "2048", "--rollouts", "2", "--horizon", "30", "--skip", "0"]
+    argv += ["--critics", json.dumps(critics), "--against", "geodesic GP"]
+    assert study.main([*argv, "--out", str(tmp_path)]) == 0
+    rows = json.loads((tmp_path / "results.json").read_text())["results"]["laplacian"]["0"]["rows"]
+    assert [r["step"] for r in rows] == [1024, 2048]
+    for row in rows:
+        assert row[study.OWN] == row["Laplacian GP"]
+        for name in (study.MLP, *critics):
+            assert -1 <= row[name]["correlation"] <= 1 and row[name]["value_rmse"] > 0
+    text = (tmp_path / "table.md").read_text()
+    assert "| − geodesic GP [95 % CI] |" in text and "| laplacian | geodesic GP | " in text
+    with pytest.raises(SystemExit):
+        study.main([*argv[:-1], "no such critic", "--out", str(tmp_path / "bad")])
+
+
 def test_same_policy_separates_a_changed_function_from_a_fixed_one() -> None:
     """On batches of one fixed function, fitting other environments of the same batch first
     predicts the held-out half no better than the past batches did; when the function flips
