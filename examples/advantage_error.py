@@ -29,7 +29,10 @@ t interval) and ``OUT/advantage_error.png``. A finished actor and seed is kept i
 ``--env`` runs the same design on a WallMaze task (30,000 steps, as the pendulum), whose states
 restart from their observations (:data:`~sb3_geogp.studies.value_ceiling.TASKS`); there the
 Monte Carlo rollouts run until at most 1 of a return is left (``--horizon`` overrides it) and
-``--critics`` names the GP shadows (the defaults are the pendulum's).
+``--critics`` names the GP shadows (the defaults are the pendulum's); a geodesic shadow with
+``"walls": true`` in its setting gets the wall study's oracle kernel for the maze's layout
+(:class:`~sb3_geogp.studies.wall.oracle.WallAwareGeodesicKernel`: no attachment across an
+interior wall).
 """
 
 from __future__ import annotations
@@ -39,6 +42,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+import gymnasium as gym
 import numpy as np
 import torch as th
 from gymnasium import spaces
@@ -57,9 +61,11 @@ from sb3_geogp.comparison.shadow import (
     study_parser,
 )
 from sb3_geogp.envs.wall_maze import WALL_MAZE_DISCRETE_ID, WALL_MAZE_ID
+from sb3_geogp.kernels import Kernel
 from sb3_geogp.studies.advantage_error import advantage_scores, gae, policy_returns
 from sb3_geogp.studies.value_ceiling import TASKS, horizon
 from sb3_geogp.studies.value_ceiling import policy_returns as task_returns
+from sb3_geogp.studies.wall.oracle import WallAwareGeodesicKernel
 from sb3_geogp.toolbox.stats import mean_ci
 
 ENV = "sb3_geogp/PaperPendulum-v0"
@@ -180,17 +186,34 @@ class AdvantageCheckpoints(BaseCallback):
         self.rows.append(row)
 
 
+def oracle_kernels(env_id: str, critics: dict[str, dict[str, Any]]) -> dict[str, Kernel]:
+    """The oracle kernels of the shadows whose setting says ``"walls": true`` (geodesic ones,
+    on a maze), by name."""
+    walled = [name for name, setting in critics.items() if setting.get("walls")]
+    if not walled:
+        return {}
+    if env_id not in TASKS or any(critics[n].get("kernel") != "geodesic" for n in walled):
+        raise ValueError('"walls": true is for geodesic shadows on a maze')
+    layout = gym.make(env_id).unwrapped.layout  # type: ignore[attr-defined]
+    return {name: WallAwareGeodesicKernel(None, layout) for name in walled}
+
+
 def run(actor: str, seed: int, args: argparse.Namespace) -> dict[str, Any]:
     """One PPO run with ``actor``'s critic and the shadow critics; every rollout's scores."""
     th.set_num_threads(1)
     model = build_model(ppo_spec(args.env, seed, args.timesteps, {"kernel": actor}))
+    settings = {
+        name: {k: v for k, v in setting.items() if k != "walls"}
+        for name, setting in args.critics.items()
+    }
     scorer = learn_with_shadows(
         model,
         args.env,
         seed,
         args.timesteps,
-        args.critics,
+        settings,
         lambda values: AdvantageCheckpoints(values, args, seed),
+        oracle_kernels(args.env, args.critics),
     )
     assert isinstance(scorer, AdvantageCheckpoints)
     return dict(actor=actor, seed=seed, rows=scorer.rows)
@@ -301,6 +324,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.against not in (OWN, MLP, *args.critics):
         parser.error(f"--against {args.against!r} is none of {[OWN, MLP, *args.critics]}")
+    try:
+        oracle_kernels(args.env, args.critics)
+    except ValueError as error:
+        parser.error(str(error))
     run_study(
         args,
         run,

@@ -487,7 +487,11 @@ def test_advantage_error_runs_on_a_maze_and_pairs_against_the_critic_asked_for(
     fed the run's rollouts scores exactly as the Laplacian run's own critic, and ``--against``
     pairs the table with the critic it names."""
     study = load_script("advantage_error")
-    critics = {"Laplacian GP": {"kernel": "laplacian"}, "geodesic GP": {"kernel": "geodesic"}}
+    critics = {
+        "Laplacian GP": {"kernel": "laplacian"},
+        "geodesic GP": {"kernel": "geodesic"},
+        "oracle GP": {"kernel": "geodesic", "walls": True},
+    }
     argv = ["--env", "sb3_geogp/WallMaze-v0", "--actors", "laplacian", "--seeds", "0"]
     argv += ["--timesteps", "2048", "--rollouts", "2", "--horizon", "30", "--skip", "0"]
     argv += ["--critics", json.dumps(critics), "--against", "geodesic GP"]
@@ -502,6 +506,10 @@ def test_advantage_error_runs_on_a_maze_and_pairs_against_the_critic_asked_for(
     assert "| − geodesic GP [95 % CI] |" in text and "| laplacian | geodesic GP | " in text
     with pytest.raises(SystemExit):
         study.main([*argv[:-1], "no such critic", "--out", str(tmp_path / "bad")])
+    kernels = study.oracle_kernels("sb3_geogp/WallMaze-v0", critics)
+    assert list(kernels) == ["oracle GP"] and kernels["oracle GP"].blocked is not None
+    with pytest.raises(ValueError, match="geodesic shadows on a maze"):
+        study.oracle_kernels("sb3_geogp/WallMaze-v0", {"x": {"kernel": "rbf", "walls": True}})
 
 
 def test_same_policy_separates_a_changed_function_from_a_fixed_one() -> None:

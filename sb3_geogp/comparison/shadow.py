@@ -37,6 +37,7 @@ from tqdm.auto import tqdm
 from sb3_geogp.callbacks import GPValueCallback
 from sb3_geogp.comparison.run import build_model, write_json_atomic
 from sb3_geogp.comparison.specs import RunSpec, SweepConfig
+from sb3_geogp.kernels import Kernel
 from sb3_geogp.policies import GPActorCriticPolicy
 from sb3_geogp.sparse_gp import SparseOnlineGP
 from sb3_geogp.targets import per_env
@@ -82,13 +83,14 @@ def ppo_spec(env_id: str, seed: int, timesteps: int, setting: dict[str, Any]) ->
     return spec
 
 
-def built_model(spec: RunSpec) -> OnPolicyAlgorithm:
-    """``spec``'s model with its training environments closed: a shadow needs its critic only.
+def built_model(spec: RunSpec, kernel: Kernel | None = None) -> OnPolicyAlgorithm:
+    """``spec``'s model (with ``kernel`` in place of the one ``spec.critic`` names, if given)
+    with its training environments closed: a shadow needs its critic only.
 
     Sets torch's thread count to 1 for the process, as the comparison's runs do.
     """
     th.set_num_threads(1)
-    model = build_model(spec)
+    model = build_model(spec, kernel)
     env = model.get_env()
     assert env is not None
     env.close()
@@ -102,10 +104,11 @@ def gp_critic(model: OnPolicyAlgorithm) -> SparseOnlineGP:
     return model.policy.gp
 
 
-def gp_shadow(spec: RunSpec) -> SparseOnlineGP:
-    """A fresh GP critic of ``spec`` (``spec.critic`` a kernel name), built as its policy builds
-    it: same observation bounds and options. Feed it with ``update(x, y, episode_starts)``."""
-    return gp_critic(built_model(spec))
+def gp_shadow(spec: RunSpec, kernel: Kernel | None = None) -> SparseOnlineGP:
+    """A fresh GP critic of ``spec`` (``spec.critic`` a kernel name, which ``kernel``, an
+    instance, may replace), built as its policy builds it: same observation bounds and options.
+    Feed it with ``update(x, y, episode_starts)``."""
+    return gp_critic(built_model(spec, kernel))
 
 
 class MLPShadow:
@@ -209,10 +212,12 @@ def learn_with_shadows(
     timesteps: int,
     settings: Mapping[str, dict[str, Any]],
     checkpoints: Callable[[dict[str, NumpyValue]], BaseCallback],
+    kernels: Mapping[str, Kernel] | None = None,
 ) -> BaseCallback:
     """Train ``model`` (a comparison run of ``env_id`` and ``seed``) for ``timesteps`` with
     shadow critics learning from its rollouts: :class:`MLPShadow` and a :func:`gp_shadow` per
-    entry of ``settings`` (name -> :func:`ppo_spec` setting).
+    entry of ``settings`` (name -> :func:`ppo_spec` setting), with the kernel instance that
+    ``kernels`` gives the same name, if any.
 
     ``checkpoints(values)`` builds the callback that scores the critics: ``values`` maps
     :data:`OWN`, :data:`MLP` and each name of ``settings`` to the critic's values
@@ -226,7 +231,11 @@ def learn_with_shadows(
         The callback ``checkpoints`` built, after training.
     """
     mlp = MLPShadow(env_id, seed)
-    gps = {name: gp_shadow(ppo_spec(env_id, seed, 1, s)) for name, s in settings.items()}
+    kernels = kernels or {}
+    gps = {
+        name: gp_shadow(ppo_spec(env_id, seed, 1, s), kernels.get(name))
+        for name, s in settings.items()
+    }
     values: dict[str, NumpyValue] = {OWN: own_value(model), MLP: numpy_value(mlp.predict)}
     values.update({name: posterior_mean(gp) for name, gp in gps.items()})
 
