@@ -378,12 +378,12 @@ def ceiling(
     def returns(values: np.ndarray) -> np.ndarray:
         return rollout.returns(values, gamma, gae_lambda).ravel()
 
-    def score(values: np.ndarray) -> float:
-        return explained_variance(returns(values), values[:n])
-
     values = mc_returns.mean(axis=1)
     truth, own = values[:n], returns(values)
-    halves = [score(mc_returns[:, k::2].mean(axis=1)) for k in (0, 1)]
+    # each half's GAE returns once, for its ceiling and for its reference advantages
+    half_values = [mc_returns[:, k::2].mean(axis=1) for k in (0, 1)]
+    half_truth, half_own = [h[:n] for h in half_values], [returns(h) for h in half_values]
+    halves = [explained_variance(o, t) for o, t in zip(half_own, half_truth, strict=True)]
     se = mc_returns[:n].std(axis=1, ddof=1) / math.sqrt(mc_returns.shape[1])
     targets = rollout.returns(values, gamma, 1.0).ravel()
     check = (targets - truth).reshape(rollout.rewards.shape).mean(axis=0)
@@ -407,14 +407,12 @@ def ceiling(
             truth_sd=float(truth.std()),
         )
     if advantages is not None:
-        halves_reference = [
-            reference_advantages(rollout, mc_returns[:, k::2], gamma, gae_lambda) for k in (0, 1)
-        ]
+        # own - truth is reference_advantages(rollout, mc_returns, ...), already at hand
         result.update(
-            advantage_correlation=correlation(
-                reference_advantages(rollout, mc_returns, gamma, gae_lambda), advantages
+            advantage_correlation=correlation(own - truth, advantages),
+            advantage_reliability=correlation(
+                *(o - t for o, t in zip(half_own, half_truth, strict=True))
             ),
-            advantage_reliability=correlation(*halves_reference),
         )
     return result
 
