@@ -45,7 +45,6 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 import torch as th
-from gymnasium import spaces
 from stable_baselines3.common.callbacks import BaseCallback
 
 from sb3_geogp.callbacks import time_limit_truncations
@@ -62,9 +61,8 @@ from sb3_geogp.comparison.shadow import (
 )
 from sb3_geogp.envs.wall_maze import WALL_MAZE_DISCRETE_ID, WALL_MAZE_ID
 from sb3_geogp.kernels import Kernel
-from sb3_geogp.studies.advantage_error import advantage_scores, gae, policy_returns
-from sb3_geogp.studies.value_ceiling import TASKS, horizon
-from sb3_geogp.studies.value_ceiling import policy_returns as task_returns
+from sb3_geogp.studies.advantage_error import advantage_scores, gae
+from sb3_geogp.studies.value_ceiling import TASKS, horizon, model_returns
 from sb3_geogp.studies.wall.oracle import WallAwareGeodesicKernel
 from sb3_geogp.toolbox.stats import mean_ci
 
@@ -103,48 +101,15 @@ class AdvantageCheckpoints(BaseCallback):
         self.truncations += time_limit_truncations(self.model, self.locals)
         return True
 
-    def _act(self, obs: np.ndarray, step: int) -> np.ndarray:
-        """The policy's stochastic actions, shaped by its action space and clipped to a box,
-        its gSDE noise resampled as in training."""
-        model = self.model
-        policy = model.policy
-        resample = step == 0 or (model.sde_sample_freq > 0 and step % model.sde_sample_freq == 0)
-        if model.use_sde and resample:
-            policy.reset_noise(len(obs))
-        with th.no_grad():
-            dist = policy.get_distribution(th.as_tensor(obs, dtype=th.float32, device=model.device))
-            actions = dist.get_actions().cpu().numpy()
-        space = model.action_space
-        actions = actions.reshape(len(obs), *space.shape)  # type: ignore[misc]
-        if isinstance(space, spaces.Box):
-            actions = np.clip(actions, space.low, space.high).astype(np.float64)
-        return actions
-
     def _returns(self, states: np.ndarray) -> np.ndarray:
         """Monte Carlo returns from ``states``, shape (n, rollouts), the policy's noise drawn
         from its own generator: the run's random streams and exploration matrices stay as
         they were."""
-        dist = self.model.policy.action_dist
-        saved = {
-            k: getattr(dist, k, None)
-            for k in ("exploration_mat", "exploration_matrices", "weights_dist")
-        }
-        gamma, env, steps = float(self.model.gamma), self.args.env, self.args.horizon
-        with th.random.fork_rng(devices=[]):
-            th.manual_seed(self.seed * 1000 + len(self.rows))
-            if env == ENV:
-                torque = lambda o, t: self._act(o, t)[:, 0]  # noqa: E731
-                returns = policy_returns(
-                    torque, states, gamma, steps or PENDULUM_HORIZON, self.args.rollouts
-                )
-            else:
-                # gSDE is the pendulum's alone: one draw per step, no step count needed
-                act = lambda o: self._act(o, 1)  # noqa: E731
-                steps = steps or horizon(gamma, 1.0)
-                returns = task_returns(act, TASKS[env], states, gamma, steps, self.args.rollouts)
-        for k, v in saved.items():
-            setattr(dist, k, v)
-        return returns
+        env, steps = self.args.env, self.args.horizon
+        if steps is None:
+            steps = PENDULUM_HORIZON if env == ENV else horizon(float(self.model.gamma), 1.0)
+        seed = self.seed * 1000 + len(self.rows)
+        return model_returns(self.model, TASKS[env], states, steps, self.args.rollouts, seed)
 
     def _on_rollout_end(self) -> None:
         model = self.model

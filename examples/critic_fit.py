@@ -22,11 +22,11 @@ without its evaluations.
 runs with other options belong in another ``--out``. The score is the same for every target:
 the rollout's values against SB3's GAE returns, which are computed from those values.
 
-``--ceiling N`` also scores, on every scored rollout of CartPole-v1, Acrobot-v1 or a WallMaze
-variant, the policy's own value function ``V^pi`` (Monte Carlo, ``N`` rollouts from every
-state; :mod:`sb3_geogp.studies.value_ceiling`): what the exact critic would score, by the
-goal's reading and on targets no critic shapes, and how far the critic's values are from it.
-The run itself is unchanged.
+``--ceiling N`` also scores, on every scored rollout of CartPole-v1, Acrobot-v1, the paper's
+pendulum or a WallMaze variant, the policy's own value function ``V^pi`` (Monte Carlo, ``N``
+rollouts from every state; :mod:`sb3_geogp.studies.value_ceiling`): what the exact critic would
+score, by the goal's reading and on targets no critic shapes, and how far the critic's values
+are from it. The run itself is unchanged.
 
     python examples/critic_fit.py --envs CartPole-v1 Acrobot-v1 --critics mlp laplacian \
         --seeds 0 1 2 3 4 5 6 7 8 9 --workers 2 --ceiling 32 --out docs/critic_fit_ceiling
@@ -84,7 +84,7 @@ from sb3_geogp.studies.value_ceiling import (
     horizon,
     knn_fit,
     mlp_fit,
-    policy_returns,
+    model_returns,
 )
 from sb3_geogp.toolbox.provenance import provenance
 from sb3_geogp.toolbox.stats import mean_ci, moments, pooled_explained_variance
@@ -164,15 +164,6 @@ class WithCeiling(ExplainedVariance):
             row["ceiling"] = self.ceiling()
         return row
 
-    def _act(self, obs: np.ndarray) -> np.ndarray:
-        policy = self.model.policy
-        with th.no_grad():
-            dist = policy.get_distribution(
-                th.as_tensor(obs, dtype=th.float32, device=policy.device)
-            )
-            actions = dist.get_actions().cpu().numpy()
-        return actions.reshape(len(obs), *self.model.action_space.shape)
-
     def rollout(self) -> Rollout:
         """The rollout that just ended, as :func:`~sb3_geogp.studies.value_ceiling.ceiling`
         reads it."""
@@ -189,13 +180,9 @@ class WithCeiling(ExplainedVariance):
     def monte_carlo(self) -> tuple[Rollout, np.ndarray]:
         """The rollout that just ended and the policy's Monte Carlo returns from each of its
         states (:meth:`Rollout.states`), shape (m, ``n_rollouts``)."""
-        gamma, rollout = float(self.model.gamma), self.rollout()
-        with th.random.fork_rng(devices=[]):
-            th.manual_seed(self.seed * 1000 + len(self.rows))
-            mc = policy_returns(
-                self._act, self.task, rollout.states(), gamma, horizon(gamma, self.tail),
-                self.n_rollouts,
-            )  # fmt: skip
+        rollout, steps = self.rollout(), horizon(float(self.model.gamma), self.tail)
+        seed = self.seed * 1000 + len(self.rows)
+        mc = model_returns(self.model, self.task, rollout.states(), steps, self.n_rollouts, seed)
         return rollout, mc
 
     def ceiling(self) -> dict[str, Any]:

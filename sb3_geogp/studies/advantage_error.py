@@ -10,9 +10,10 @@ through the TD errors
 that fits the returns well on average can still give advantages that order the actions of a
 rollout badly. The reference here is the advantage that the rollout's rewards give with the
 *policy's true value function* ``V^pi`` in place of ``V``, estimated by Monte Carlo
-(:func:`policy_returns`): the paper's pendulum (:mod:`sb3_geogp.envs.pendulum`) has
-deterministic dynamics and its observation is its state, so every rollout state can be
-restarted exactly; only the policy's noise is sampled.
+(:func:`~sb3_geogp.studies.value_ceiling.policy_returns`): the paper's pendulum
+(:mod:`sb3_geogp.envs.pendulum`) and the wall mazes have deterministic dynamics and
+observations that are their states, so every rollout state can be restarted exactly; only the
+policy's noise is sampled.
 
 :func:`advantage_scores` compares a critic's advantages with the reference on one rollout:
 the correlation (PPO standardises advantages per minibatch, so their scale does not reach the
@@ -21,17 +22,9 @@ actor), and the root-mean-square error of the critic's values at the rollout's s
 
 from __future__ import annotations
 
-from collections.abc import Callable
-
 import numpy as np
 
-from sb3_geogp.envs.pendulum import PendulumParams, dynamics_step, reward
 from sb3_geogp.toolbox.stats import correlation
-
-#: ``act(obs, step) -> torque``: a stochastic policy for a batch of observations, shapes
-#: (n, 2) -> (n,); ``step`` counts the steps since the rollouts started (for noise that is
-#: resampled every few steps, as gSDE's).
-Policy = Callable[[np.ndarray, int], np.ndarray]
 
 
 def gae(
@@ -73,51 +66,6 @@ def gae(
         advantages[t] = running
         next_values, next_alive = values[t], 1.0 - starts[t]
     return advantages
-
-
-def policy_returns(
-    act: Policy,
-    states: np.ndarray,
-    gamma: float,
-    horizon: int,
-    n_rollouts: int,
-    params: PendulumParams | None = None,
-) -> np.ndarray:
-    """Discounted returns of the policy on the paper's pendulum from each state: their mean
-    over the rollouts is ``V^pi`` by Monte Carlo.
-
-    ``n_rollouts`` rollouts of ``horizon`` steps start from each state, all stepped together;
-    no time limit (SB3 bootstraps the value at a truncation, so the critic's target is the
-    untruncated return). The tail left out is at most ``gamma^horizon / (1 - gamma)``.
-
-    Parameters
-    ----------
-    act : callable
-        The policy (:data:`Policy`), called once per step on all rollouts.
-    states : ndarray, shape (n, 2)
-        ``(theta, omega)``.
-    gamma : float
-    horizon : int
-    n_rollouts : int
-        At least 2 (for a standard error, or halves to compare).
-    params : PendulumParams, optional
-
-    Returns
-    -------
-    ndarray, shape (n, n_rollouts)
-    """
-    if n_rollouts < 2:
-        raise ValueError(f"n_rollouts must be >= 2, got {n_rollouts}")
-    params = params or PendulumParams()
-    s = np.repeat(np.asarray(states, dtype=np.float64), n_rollouts, axis=0)
-    theta, omega = s[:, 0], s[:, 1]
-    total, discount = np.zeros(len(s)), 1.0
-    for step in range(horizon):
-        total += discount * reward(theta)
-        obs = np.stack([theta, omega], axis=1)
-        theta, omega = dynamics_step(theta, omega, act(obs, step), params)
-        discount *= gamma
-    return total.reshape(-1, n_rollouts)
 
 
 def advantage_scores(

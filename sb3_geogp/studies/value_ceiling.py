@@ -18,15 +18,17 @@ critic on the same targets, which no critic shapes: ``G``, the rollout's own dis
 returns bootstrapped with ``V^pi``; there ``V^pi``'s score bounds every critic's, up to Monte
 Carlo noise.
 
-``V^pi`` is estimated at every state of the rollout by Monte Carlo (:func:`policy_returns`):
-CartPole-v1, Acrobot-v1 and the WallMaze variants have deterministic dynamics and observations
-that are their states (Acrobot's angles through their cosines and sines, a maze's position), so
-every state is restarted exactly, up to the float32 rounding of the observation; only the
-policy's draws are sampled. The rollouts run without a time limit, as the bootstrapped targets
-assume, and are cut after :func:`horizon`'s steps, which leaves out at most ``tail`` of the
-return (rewards are at most 1 in size). The batch dynamics are the gymnasium equations in
-vectorised numpy (:func:`acrobot_step`; CartPole's
-:func:`~sb3_geogp.studies.action_gap.cartpole_step`; the mazes'
+``V^pi`` is estimated at every state of the rollout by Monte Carlo (:func:`policy_returns`;
+:func:`model_returns` for an SB3 model's policy, its training left as it was):
+CartPole-v1, Acrobot-v1, the paper's pendulum and the WallMaze variants (:data:`TASKS`) have
+deterministic dynamics and observations that are their states (Acrobot's angles through their
+cosines and sines, a maze's position), so every state is restarted exactly, up to the float32
+rounding of the observation; only the policy's draws are sampled. The rollouts run without a
+time limit, as the bootstrapped targets assume, and are cut after :func:`horizon`'s steps,
+which leaves out at most ``tail`` of the return (rewards are at most 1 in size). The batch
+dynamics are the gymnasium equations in vectorised numpy (:func:`acrobot_step`; CartPole's
+:func:`~sb3_geogp.studies.action_gap.cartpole_step`; the pendulum's
+:func:`~sb3_geogp.envs.pendulum.dynamics_step`; the mazes'
 :meth:`~sb3_geogp.envs.wall_maze.WallMaze.transitions`).
 Monte Carlo noise in ``V^pi`` lowers the estimated ceiling; :func:`ceiling` also scores each
 half of the rollouts, whose difference from the whole measures that bias (it shrinks as
@@ -50,8 +52,13 @@ from typing import Any
 
 import numpy as np
 import torch
+from gymnasium import spaces
 from scipy.spatial import cKDTree
+from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
 
+from sb3_geogp.envs import PAPER_PENDULUM_ID
+from sb3_geogp.envs.pendulum import PendulumParams, dynamics_step
+from sb3_geogp.envs.pendulum import reward as pendulum_reward
 from sb3_geogp.envs.wall_maze import (
     CORNER_LAYOUT,
     DOOR_LAYOUT,
@@ -67,9 +74,10 @@ from sb3_geogp.studies.advantage_error import gae
 from sb3_geogp.targets import env_major, per_env
 from sb3_geogp.toolbox.stats import correlation, explained_variance, moments
 
-#: ``act(obs) -> actions``: a stochastic policy's draws for a batch of observations,
-#: shape (n, obs_dim) -> (n,) (discrete actions) or (n, action_dim).
-Act = Callable[[np.ndarray], np.ndarray]
+#: ``act(obs, step) -> actions``: a stochastic policy's draws for a batch of observations,
+#: shape (n, obs_dim) -> (n,) (discrete actions) or (n, action_dim); ``step`` counts the steps
+#: since the rollouts started (for noise resampled every few steps, as gSDE's).
+Act = Callable[[np.ndarray, int], np.ndarray]
 
 #: ``predict(z) -> values``: a fitted value model, shape (m, obs_dim) -> (m,).
 Predict = Callable[[np.ndarray], np.ndarray]
@@ -161,13 +169,14 @@ class RestartableTask:
     step : callable
         ``(states, actions) -> (next states, terminated)``.
     reward : callable
-        ``terminated -> reward`` of the step, shape (n,) -> (n,).
+        ``(states, terminated) -> rewards`` of the steps from ``states : (n, state_dim)``,
+        shape (n,).
     """
 
     state: Callable[[np.ndarray], np.ndarray]
     observe: Callable[[np.ndarray], np.ndarray]
     step: Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]
-    reward: Callable[[np.ndarray], np.ndarray]
+    reward: Callable[[np.ndarray, np.ndarray], np.ndarray]
 
 
 def _acrobot_state(obs: np.ndarray) -> np.ndarray:
@@ -193,18 +202,33 @@ def _maze_task(env: WallMaze) -> RestartableTask:
     that reaches the goal included."""
     reward = env.layout.step_reward
     return RestartableTask(
-        _identity, env.observe, env.transitions, lambda done: np.full(done.shape, reward)
+        _identity, env.observe, env.transitions, lambda _, done: np.full(done.shape, reward)
     )
+
+
+def _pendulum_task(params: PendulumParams) -> RestartableTask:
+    """The paper's pendulum: its observation ``(theta, omega)`` is its state (float32, so
+    restarts are off by that rounding), it never terminates, and a step's reward is
+    ``cos(theta)`` of the state it starts from."""
+
+    def step(s: np.ndarray, torque: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        theta, omega = dynamics_step(s[:, 0], s[:, 1], torque[:, 0], params)
+        return np.stack([theta, omega], axis=1), np.zeros(len(s), dtype=bool)
+
+    return RestartableTask(_identity, _identity, step, lambda s, _: pendulum_reward(s[:, 0]))
 
 
 #: The tasks :func:`policy_returns` can restart, by gymnasium id.
 TASKS: dict[str, RestartableTask] = {
     # reward 1 for every step, the one that ends the episode included
-    "CartPole-v1": RestartableTask(_identity, _identity, cartpole_step, np.ones_like),
+    "CartPole-v1": RestartableTask(
+        _identity, _identity, cartpole_step, lambda _, done: np.ones(done.shape)
+    ),
     # reward -1 for every step but the one that reaches the goal
     "Acrobot-v1": RestartableTask(
-        _acrobot_state, _acrobot_observe, acrobot_step, lambda done: np.where(done, 0.0, -1.0)
+        _acrobot_state, _acrobot_observe, acrobot_step, lambda _, done: np.where(done, 0.0, -1.0)
     ),
+    PAPER_PENDULUM_ID: _pendulum_task(PendulumParams()),
     WALL_MAZE_ID: _maze_task(WallMaze()),
     WALL_MAZE_DISCRETE_ID: _maze_task(WallMazeDiscrete()),
     WALL_MAZE_CORNER_ID: _maze_task(WallMaze(CORNER_LAYOUT)),
@@ -234,7 +258,8 @@ def policy_returns(
     Parameters
     ----------
     act : callable
-        The policy (:data:`Act`), called once per step on the rollouts still running.
+        The policy (:data:`Act`), called once per step on the rollouts still running, with
+        the step's index.
     task : RestartableTask
     obs : ndarray, shape (n, obs_dim)
     gamma : float
@@ -252,14 +277,75 @@ def policy_returns(
     total = np.zeros(len(state))
     running = np.arange(len(state))
     discount = 1.0
-    for _ in range(steps):
+    for step in range(steps):
         if not len(running):
             break
-        state, done = task.step(state, act(task.observe(state)))
-        total[running] += discount * task.reward(done)
+        after, done = task.step(state, act(task.observe(state), step))
+        total[running] += discount * task.reward(state, done)
         discount *= gamma
-        state, running = state[~done], running[~done]
+        state, running = after[~done], running[~done]
     return total.reshape(-1, n_rollouts)
+
+
+#: What gSDE's ``reset_noise`` replaces in SB3's state-dependent noise distribution.
+_GSDE_STATE = ("exploration_mat", "exploration_matrices", "weights_dist")
+
+
+def model_returns(
+    model: OnPolicyAlgorithm,
+    task: RestartableTask,
+    obs: np.ndarray,
+    steps: int,
+    n_rollouts: int,
+    seed: int,
+) -> np.ndarray:
+    """:func:`policy_returns` of an SB3 model's current policy at its discount, leaving its
+    training as it was.
+
+    The actions are draws of the policy's distribution shaped by its action space (clipped to
+    a box), its gSDE noise resampled as in training (at the start and every
+    ``sde_sample_freq`` steps), all inside a torch random stream forked and seeded by ``seed``;
+    the policy's gSDE exploration matrices are put back afterwards, so that training draws
+    what it would have drawn without this call.
+
+    Parameters
+    ----------
+    model : OnPolicyAlgorithm
+    task : RestartableTask
+    obs : ndarray, shape (n, obs_dim)
+    steps, n_rollouts : int
+        As :func:`policy_returns`.
+    seed : int
+
+    Returns
+    -------
+    ndarray, shape (n, n_rollouts)
+    """
+    policy, space = model.policy, model.action_space
+    shape = space.shape or ()
+
+    def act(o: np.ndarray, step: int) -> np.ndarray:
+        every = model.sde_sample_freq
+        if model.use_sde and (step == 0 or (every > 0 and step % every == 0)):
+            policy.reset_noise(len(o))
+        with torch.no_grad():
+            dist = policy.get_distribution(
+                torch.as_tensor(o, dtype=torch.float32, device=policy.device)
+            )
+            actions = dist.get_actions().cpu().numpy().reshape(len(o), *shape)
+        if isinstance(space, spaces.Box):
+            actions = np.clip(actions, space.low, space.high).astype(np.float64)
+        return actions
+
+    noise = policy.action_dist
+    saved = {k: getattr(noise, k) for k in _GSDE_STATE if hasattr(noise, k)}
+    try:
+        with torch.random.fork_rng(devices=[]):
+            torch.manual_seed(seed)
+            return policy_returns(act, task, obs, float(model.gamma), steps, n_rollouts)
+    finally:
+        for k, v in saved.items():
+            setattr(noise, k, v)
 
 
 @dataclass(frozen=True)

@@ -12,6 +12,8 @@ import pytest
 import torch as th
 from stable_baselines3.common.env_util import make_vec_env
 
+from sb3_geogp.envs import PAPER_PENDULUM_ID
+from sb3_geogp.envs.pendulum import PaperPendulum
 from sb3_geogp.studies.advantage_error import gae
 from sb3_geogp.studies.value_ceiling import (
     TASKS,
@@ -22,6 +24,7 @@ from sb3_geogp.studies.value_ceiling import (
     horizon,
     knn_fit,
     mlp_fit,
+    model_returns,
     own_value_weight,
     policy_returns,
     reference_advantages,
@@ -51,7 +54,8 @@ def test_acrobot_step_is_gymnasiums() -> None:
         env.state = s.copy()
         obs, reward, gym_done, _, _ = env.step(int(a))
         np.testing.assert_allclose(env.state, want, rtol=0, atol=1e-12)
-        assert gym_done == done and reward == TASKS["Acrobot-v1"].reward(np.array([done]))[0]
+        assert gym_done == done
+        assert reward == TASKS["Acrobot-v1"].reward(s[None], np.array([done]))[0]
         np.testing.assert_allclose(TASKS["Acrobot-v1"].observe(want[None])[0], obs, atol=1e-6)
     assert 0 < terminated.sum() < len(terminated)
 
@@ -75,7 +79,9 @@ def _restart(env_id: str, obs: np.ndarray) -> gym.Env:  # type: ignore[type-arg]
     """gymnasium's env (no time limit) restarted from the observation's state."""
     env = gym.make(env_id).unwrapped
     state = TASKS[env_id].state(obs[None])[0]
-    if env_id.startswith("sb3_geogp/"):
+    if env_id == PAPER_PENDULUM_ID:
+        env.reset(seed=0, options={"state": state})
+    elif env_id.startswith("sb3_geogp/"):
         env.reset(seed=0, options={"start": state})
     else:
         env.reset(seed=0)
@@ -102,8 +108,9 @@ def _two_actions(env_id: str) -> tuple[np.ndarray, np.ndarray]:
     space = gym.make(env_id).action_space
     if isinstance(space, gym.spaces.Discrete):
         return np.array(0), np.array(1)
-    # out of the box and inside it: the maze clips, then bounds the speed
-    return np.array([-1.4, 0.6], np.float32), np.array([0.2, 0.9], np.float32)
+    # out of the box and inside it: the maze clips, then bounds the speed; the pendulum clips
+    n = space.shape[0]
+    return tuple(np.array(a[:n], np.float32) * space.high for a in ([-1.4, 0.6], [0.2, 0.9]))
 
 
 @pytest.mark.parametrize("env_id", sorted(TASKS))
@@ -115,7 +122,7 @@ def test_policy_returns_match_gymnasium_for_a_fixed_action(env_id: str) -> None:
     obs = np.array([env.reset(seed=s)[0] for s in range(6)], dtype=np.float64)
     for action in _two_actions(env_id):
         returns = policy_returns(
-            lambda o, a=action: np.repeat(a[None], len(o), axis=0),
+            lambda o, t, a=action: np.repeat(a[None], len(o), axis=0),
             TASKS[env_id],
             obs,
             gamma,
@@ -130,8 +137,73 @@ def test_policy_returns_match_gymnasium_for_a_fixed_action(env_id: str) -> None:
 def test_policy_returns_need_two_rollouts() -> None:
     with pytest.raises(ValueError, match="n_rollouts"):
         policy_returns(
-            lambda o: np.zeros(len(o)), TASKS["CartPole-v1"], np.zeros((1, 4)), 0.9, 5, 1
+            lambda o, t: np.zeros(len(o)), TASKS["CartPole-v1"], np.zeros((1, 4)), 0.9, 5, 1
         )
+
+
+def test_pendulum_returns_at_rest_hanging_are_the_geometric_sum() -> None:
+    """Closed form: without torque the hanging pendulum at rest stays there (a stable
+    equilibrium), earning ``cos(pi) = -1`` each step: ``-(1 - gamma^H) / (1 - gamma)``."""
+    gamma, steps = 0.9, 50
+    still = lambda o, t: np.zeros((len(o), 1))  # noqa: E731
+    task = TASKS[PAPER_PENDULUM_ID]
+    returns = policy_returns(still, task, np.array([[-math.pi, 0.0]]), gamma, steps, 3)
+    np.testing.assert_allclose(returns, -(1 - gamma**steps) / (1 - gamma), rtol=1e-10)
+
+
+def test_policy_returns_pass_the_step_to_the_policy() -> None:
+    """Brute force: a deterministic feedback policy that depends on the step index, stepped
+    through ``PaperPendulum`` itself from each start state; every rollout of a deterministic
+    policy is the same."""
+    gamma, steps = 0.9, 40
+    states = np.array([[0.3, -1.0], [-2.5, 4.0], [3.0, 0.5]])
+
+    def act(obs: np.ndarray, step: int) -> np.ndarray:
+        return (-2.0 * obs[:, 1] + 0.1 * step)[:, None]
+
+    returns = policy_returns(act, TASKS[PAPER_PENDULUM_ID], states, gamma, steps, 2)
+    env = PaperPendulum()
+    for state, got in zip(states, returns, strict=True):
+        env.reset(options={"state": state})
+        total = 0.0
+        for step in range(steps):
+            _, r, *_ = env.step(act(env.state[None], step)[0])
+            total += gamma**step * r
+        np.testing.assert_allclose(got, total, rtol=1e-12)
+
+
+def test_model_returns_leave_gsde_training_as_it_was() -> None:
+    """PPO with gSDE on the paper's pendulum, its noise resampled every 4 steps: Monte Carlo
+    returns of its policy taken in the middle of those 4 steps (gSDE resampled in them as in
+    training) leave its parameters bit for bit as without them; the same seed gives the same
+    returns, another seed others."""
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    taken: list[np.ndarray] = []
+
+    class Take(BaseCallback):
+        def _on_step(self) -> bool:
+            if self.n_calls % 16 == 2:  # the next step draws with the exploration matrices
+                obs = np.asarray(self.locals["new_obs"], dtype=np.float64)
+                taken.extend(
+                    model_returns(self.model, TASKS[PAPER_PENDULUM_ID], obs, 12, 2, seed)
+                    for seed in (7, 7, 8)
+                )
+            return True
+
+    def train(callbacks: list[BaseCallback]) -> PPO:
+        env = make_vec_env(PAPER_PENDULUM_ID, n_envs=2, seed=3)
+        model = PPO("MlpPolicy", env, n_steps=32, batch_size=32, use_sde=True, sde_sample_freq=4,
+                    seed=3)  # fmt: skip
+        return model.learn(3 * 64, callback=callbacks)
+
+    with_returns, plain = train([Take()]), train([])
+    for a, b in zip(with_returns.policy.parameters(), plain.policy.parameters(), strict=True):
+        assert th.equal(a, b)
+    assert len(taken) == 18 and all(r.shape == (2, 2) for r in taken)
+    for same, again, other in zip(taken[::3], taken[1::3], taken[2::3], strict=True):
+        assert np.array_equal(same, again) and not np.array_equal(same, other)
 
 
 def _ppo_rollout_with_truncations():  # type: ignore[no-untyped-def]
@@ -207,7 +279,7 @@ def test_the_ceiling_of_certain_returns_is_one_and_of_a_guess_below() -> None:
     task, gamma, lam = TASKS["CartPole-v1"], 0.97, 0.9
     ends, truncations = rollout.episode_starts[1:].sum(), len(rollout.truncations)
     assert ends > truncations > 0  # episodes fall and are cut
-    right = lambda o: np.ones(len(o), dtype=np.int64)  # noqa: E731
+    right = lambda o, t: np.ones(len(o), dtype=np.int64)  # noqa: E731
     mc = policy_returns(right, task, rollout.states(), gamma, horizon(gamma, 1e-12), 2)
     scores = ceiling(rollout, mc, gamma, lam)
     assert scores["explained"] == pytest.approx(1.0, abs=1e-9)
@@ -233,7 +305,7 @@ def test_reference_advantages_vanish_where_returns_are_certain() -> None:
     they are not, and a critic's advantages are scored by their correlation with them."""
     rollout = _always_right_rollout(60, 4)
     task, gamma, lam = TASKS["CartPole-v1"], 0.97, 0.9
-    right = lambda o: np.ones(len(o), dtype=np.int64)  # noqa: E731
+    right = lambda o, t: np.ones(len(o), dtype=np.int64)  # noqa: E731
     mc = policy_returns(right, task, rollout.states(), gamma, horizon(gamma, 1e-12), 2)
     np.testing.assert_allclose(reference_advantages(rollout, mc, gamma, lam), 0.0, atol=1e-9)
     rng = np.random.default_rng(1)
