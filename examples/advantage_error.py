@@ -11,7 +11,10 @@ advantages themselves (:mod:`sb3_geogp.studies.advantage_error`):
    critic, ``mlp`` with SB3's MLP critic.
 2. Beside it, shadow critics learn from every rollout the run's critic learns from: SB3's MLP
    critic trained as PPO trains it (:class:`~sb3_geogp.comparison.shadow.MLPShadow`) and GP
-   critics with the settings of ``--critics``.
+   critics with the settings of ``--critics``. All of them learn SB3's returns of each rollout
+   (the run's own GP critic too); with ``--target monte_carlo`` all learn the returns of
+   completed episodes instead, as PPO's default feed gives them to a GP critic
+   (:class:`~sb3_geogp.comparison.shadow.TeeFeed`; the run's own critic must be a GP).
 3. At every rollout's end, before any critic learns from it: ``V^pi`` of the current policy at
    every state of the rollout (and the states after its last step and at its truncations), by
    Monte Carlo (``--rollouts`` rollouts of ``--horizon`` steps from each, the policy's gSDE
@@ -179,6 +182,7 @@ def run(actor: str, seed: int, args: argparse.Namespace) -> dict[str, Any]:
         settings,
         lambda values: AdvantageCheckpoints(values, args, seed),
         oracle_kernels(args.env, args.critics),
+        args.target,
     )
     assert isinstance(scorer, AdvantageCheckpoints)
     return dict(actor=actor, seed=seed, rows=scorer.rows)
@@ -282,6 +286,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     parser.add_argument("--skip", type=int, default=1, help="first rollouts left out of the table")
     parser.add_argument(
+        "--target",
+        choices=("returns", "monte_carlo"),
+        default="returns",
+        help="what every critic learns: SB3's returns of each rollout (default), or the "
+        "returns of completed episodes, as PPO's default feed gives them to a GP critic (the "
+        "run's own critic must be a GP)",
+    )
+    parser.add_argument(
         "--against",
         default=MLP,
         help=f"the critic of the paired differences (default: {MLP!r}; or a --critics name)",
@@ -293,6 +305,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         oracle_kernels(args.env, args.critics)
     except ValueError as error:
         parser.error(str(error))
+    if args.target == "monte_carlo" and "mlp" in args.actors:
+        parser.error("--target monte_carlo feeds what the run's GP critic is fed: no mlp actor")
     run_study(
         args,
         run,

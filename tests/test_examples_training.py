@@ -484,8 +484,9 @@ def test_advantage_error_runs_on_a_maze_and_pairs_against_the_critic_asked_for(
     tmp_path: Path,
 ) -> None:
     """On WallMaze-v0 (2-D actions, restarted by ``value_ceiling.TASKS``) a Laplacian GP shadow
-    fed the run's rollouts scores exactly as the Laplacian run's own critic, and ``--against``
-    pairs the table with the critic it names."""
+    fed the run's rollouts scores exactly as the Laplacian run's own critic, with SB3's returns
+    and with Monte Carlo targets, and ``--against`` pairs the table with the critic it
+    names."""
     study = load_script("advantage_error")
     critics = {
         "Laplacian GP": {"kernel": "laplacian"},
@@ -506,6 +507,14 @@ def test_advantage_error_runs_on_a_maze_and_pairs_against_the_critic_asked_for(
     assert "| − geodesic GP [95 % CI] |" in text and "| laplacian | geodesic GP | " in text
     with pytest.raises(SystemExit):
         study.main([*argv[:-1], "no such critic", "--out", str(tmp_path / "bad")])
+    # Monte Carlo targets: the run's own GP critic's feed, teed to the shadows
+    mc = [*argv[:-4], "--critics", json.dumps({"Laplacian GP": critics["Laplacian GP"]})]
+    assert study.main([*mc, "--target", "monte_carlo", "--out", str(tmp_path / "mc")]) == 0
+    mc_rows = json.loads((tmp_path / "mc" / "results.json").read_text())["results"]["laplacian"]
+    assert all(row[study.OWN] == row["Laplacian GP"] for row in mc_rows["0"]["rows"])
+    assert mc_rows["0"]["rows"][-1][study.OWN] != rows[-1][study.OWN]  # other targets
+    with pytest.raises(SystemExit):  # an MLP critic has no such feed
+        study.main([*mc, "--actors", "mlp", "--target", "monte_carlo", "--out", str(tmp_path)])
     kernels = study.oracle_kernels("sb3_geogp/WallMaze-v0", critics)
     assert list(kernels) == ["oracle GP"] and kernels["oracle GP"].blocked is not None
     with pytest.raises(ValueError, match="geodesic shadows on a maze"):

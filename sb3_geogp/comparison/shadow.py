@@ -11,6 +11,8 @@ that differs) feeds every batch the run's critic learns from to other critics to
 * :class:`ShadowFeed`: the callback that gives them every rollout of a run (SB3's returns,
   which SB3's MLP critic learns; the run's own GP critic is fed those too, as 0.23's default
   fed it, not the PPO family's default target since 0.24, Monte Carlo returns);
+* :class:`TeeFeed`: the run's GP critic's feed, which gives every batch it feeds (Monte Carlo
+  returns, the PPO family's default) to the shadows too;
 * :func:`learn_with_shadows`: a run trained with an MLP shadow and GP shadows beside it, each
   critic's values (the run's own too) given to a callback that scores them at rollout ends;
 * :func:`study_parser`, :func:`run_study`: the command line and the resumable loop over actors
@@ -34,11 +36,11 @@ from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
 from torch import Tensor
 from tqdm.auto import tqdm
 
-from sb3_geogp.callbacks import GPValueCallback
+from sb3_geogp.callbacks import GPValueCallback, Target
 from sb3_geogp.comparison.run import build_model, write_json_atomic
 from sb3_geogp.comparison.specs import RunSpec, SweepConfig
 from sb3_geogp.kernels import Kernel
-from sb3_geogp.policies import GPActorCriticPolicy
+from sb3_geogp.policies import GPActorCriticPolicy, GPCriticMixin
 from sb3_geogp.sparse_gp import SparseOnlineGP
 from sb3_geogp.targets import per_env
 from sb3_geogp.toolbox.provenance import provenance
@@ -187,6 +189,32 @@ class ShadowFeed(BaseCallback):
             learn(th.as_tensor(x), th.as_tensor(y), th.as_tensor(starts))
 
 
+class TeeFeed(GPValueCallback):
+    """:class:`~sb3_geogp.GPValueCallback` that gives every batch it feeds the run's GP critic
+    to shadow critics too, right after it: with ``target="monte_carlo"`` (PPO's default feed)
+    the shadows learn the same completed episodes' returns, when the run's critic does.
+
+    Parameters
+    ----------
+    learners : sequence of callables
+        Each called with ``(x, y, episode_starts)`` per batch (:data:`Learner`).
+    target : {"returns", "monte_carlo"}
+    """
+
+    def __init__(self, learners: Sequence[Learner], target: Target) -> None:
+        super().__init__(target=target)
+        self.learners = list(learners)
+
+    def _feed_held(self, policy: GPCriticMixin) -> dict[str, float]:
+        joined = [np.concatenate(arrays) for arrays in zip(*self._held, strict=True)]
+        stats = super()._feed_held(policy)
+        # SB3's returns are held time-major, Monte Carlo targets env by env already
+        x, y, starts = per_env(*joined[:3]) if self.target == "returns" else joined
+        for learn in self.learners:
+            learn(th.as_tensor(x), th.as_tensor(y), th.as_tensor(starts))
+        return stats
+
+
 def numpy_value(fn: Callable[[Tensor], Tensor]) -> NumpyValue:
     """``fn`` (values of float64 states) as a function of numpy arrays."""
     return lambda s: fn(th.as_tensor(s, dtype=th.float64)).double().cpu().numpy()
@@ -213,6 +241,7 @@ def learn_with_shadows(
     settings: Mapping[str, dict[str, Any]],
     checkpoints: Callable[[dict[str, NumpyValue]], BaseCallback],
     kernels: Mapping[str, Kernel] | None = None,
+    target: Target = "returns",
 ) -> BaseCallback:
     """Train ``model`` (a comparison run of ``env_id`` and ``seed``) for ``timesteps`` with
     shadow critics learning from its rollouts: :class:`MLPShadow` and a :func:`gp_shadow` per
@@ -225,11 +254,28 @@ def learn_with_shadows(
     rollout (the run's own GP critic's values of the rollout are placeholders until then, read
     them through ``values``). The training environments are closed afterwards.
 
+    ``target``: what every critic learns. ``"returns"``: SB3's returns of each rollout (the run's
+    own GP critic is fed them too, by :class:`ShadowFeed`'s side). ``"monte_carlo"``: the
+    returns of completed episodes, uncut, as :class:`TeeFeed` feeds the run's GP critic (which
+    it must have) and gives them to the shadows; the MLP shadow then learns them too.
+
+    Raises
+    ------
+    ValueError
+        ``target="monte_carlo"`` for a model without a GP critic, or another ``target``.
+
     Returns
     -------
     BaseCallback
         The callback ``checkpoints`` built, after training.
     """
+    if target not in ("returns", "monte_carlo"):
+        raise ValueError(f"target must be 'returns' or 'monte_carlo', got {target!r}")
+    if target == "monte_carlo" and not isinstance(model.policy, GPActorCriticPolicy):
+        raise ValueError(
+            "target='monte_carlo' feeds the shadows what the run's GP critic is fed: train "
+            "the run with a GP critic, or use target='returns'"
+        )
     mlp = MLPShadow(env_id, seed)
     kernels = kernels or {}
     gps = {
@@ -244,10 +290,13 @@ def learn_with_shadows(
 
     learners: list[Learner] = [learn_mlp, *(gp.update for gp in gps.values())]
     scorer = checkpoints(values)
-    own_feed = (
-        [GPValueCallback(target="returns")] if isinstance(model.policy, GPActorCriticPolicy) else []
-    )
-    model.learn(timesteps, callback=CallbackList([scorer, *own_feed, ShadowFeed(learners)]))
+    if target == "monte_carlo":
+        feeds: list[BaseCallback] = [TeeFeed(learners, target)]
+    elif isinstance(model.policy, GPActorCriticPolicy):
+        feeds = [GPValueCallback(target="returns"), ShadowFeed(learners)]
+    else:
+        feeds = [ShadowFeed(learners)]
+    model.learn(timesteps, callback=CallbackList([scorer, *feeds]))
     env = model.get_env()
     assert env is not None
     env.close()

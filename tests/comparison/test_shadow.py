@@ -5,12 +5,24 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
+import pytest
 import torch as th
-from stable_baselines3.common.callbacks import CallbackList
+from stable_baselines3 import PPO
+from stable_baselines3.common.callbacks import BaseCallback, CallbackList
 
 from sb3_geogp import GPValueCallback
+from sb3_geogp.callbacks import Target
 from sb3_geogp.comparison.run import build_model
-from sb3_geogp.comparison.shadow import MLPShadow, ShadowFeed, gp_critic, gp_shadow, ppo_spec
+from sb3_geogp.comparison.shadow import (
+    MLPShadow,
+    ShadowFeed,
+    TeeFeed,
+    gp_critic,
+    gp_shadow,
+    learn_with_shadows,
+    ppo_spec,
+)
+from tests.test_callbacks import FeedRecorder, expected_monte_carlo, make_scripted
 
 
 def test_ppo_spec_names_the_critic_and_its_options() -> None:
@@ -39,6 +51,49 @@ def test_a_shadow_with_the_runs_settings_reproduces_the_runs_critic() -> None:
         same.predict(probe, return_var=False)[0], own.predict(probe, return_var=False)[0]
     )
     assert other.n_basis <= 8 < own.n_basis
+
+
+@pytest.mark.parametrize("target", ["monte_carlo", "returns"])
+def test_tee_feed_gives_the_shadows_what_the_runs_critic_learns(target: Target) -> None:
+    """On the scripted env (episodes span rollouts, one terminates, one is truncated) the
+    shadows get every batch the run's GP critic is fed, as it is fed: with Monte Carlo targets
+    the hand-computed returns of completed episodes; and a GP shadow built as the run's critic
+    ends bit for bit where it ends."""
+    model = make_scripted(PPO, n_steps=4)
+    recorder = FeedRecorder(model.policy, keep_empty=False)
+    seen: list[tuple[np.ndarray, ...]] = []
+    shadow = gp_critic(make_scripted(PPO, n_steps=4))
+    tee = TeeFeed([lambda *batch: seen.append(tuple(b.numpy() for b in batch)), shadow.update],
+                  target)  # fmt: skip
+    model.learn(4 * 8, callback=tee)
+    fed = [b for b in recorder.batches if len(b[1])]
+    assert len(fed) == len(seen) > 0
+    checked = 0
+    for (x, y, starts), (sx, sy, s_starts) in zip(fed, seen, strict=True):
+        np.testing.assert_array_equal(sx, x)
+        np.testing.assert_array_equal(sy, y)
+        np.testing.assert_array_equal(s_starts, starts)
+        if target == "monte_carlo":  # env 0's episodes end by termination: no bootstrap
+            for (env_id, _, t), value in zip(x, y, strict=True):
+                if env_id == 0:
+                    assert value == pytest.approx(expected_monte_carlo(0, int(t)), rel=1e-6)
+                    checked += 1
+    assert checked == (15 if target == "monte_carlo" else 0)  # 16 steps: 5 episodes of 3
+    probe = th.as_tensor(np.concatenate([x for x, _, _ in fed]), dtype=th.float64)
+    own = gp_critic(model)
+    assert th.equal(
+        shadow.predict(probe, return_var=False)[0], own.predict(probe, return_var=False)[0]
+    )
+
+
+def test_monte_carlo_shadows_need_a_gp_critic() -> None:
+    model = build_model(dataclasses.replace(ppo_spec("CartPole-v1", 0, 64, {}), critic="mlp"))
+    with pytest.raises(ValueError, match="GP critic"):
+        learn_with_shadows(
+            model, "CartPole-v1", 0, 64, {}, lambda v: BaseCallback(), None, "monte_carlo"
+        )
+    with pytest.raises(ValueError, match="target must be"):
+        learn_with_shadows(model, "CartPole-v1", 0, 64, {}, lambda v: BaseCallback(), None, "td")  # type: ignore[arg-type]
 
 
 def test_mlp_shadow_learns_its_targets_and_its_step_size() -> None:
