@@ -8,11 +8,11 @@ that differs) feeds every batch the run's critic learns from to other critics to
 * :func:`gp_shadow`: a fresh GP critic built exactly as that run's policy builds it;
 * :class:`MLPShadow`: SB3's MLP critic of the comparison's ``mlp`` run, trained on the
   batches as PPO trains its critic;
-* :class:`ShadowFeed`: the callback that gives them every rollout of a run (SB3's returns,
-  which SB3's MLP critic learns; the run's own GP critic is fed those too, as 0.23's default
-  fed it, not the PPO family's default target since 0.24, Monte Carlo returns);
-* :class:`TeeFeed`: the run's GP critic's feed, which gives every batch it feeds (Monte Carlo
-  returns, the PPO family's default) to the shadows too;
+* :class:`ShadowFeed`: the callback that gives them every rollout of a run of SB3's MLP
+  critic (SB3's returns, which SB3's MLP critic learns);
+* :class:`TeeFeed`: a run's GP critic's feed, which hands every batch it feeds to the shadows
+  too (SB3's returns, as 0.23's default fed the GP critic, or the PPO family's default since
+  0.24, Monte Carlo returns);
 * :func:`learn_with_shadows`: a run trained with an MLP shadow and GP shadows beside it, each
   critic's values (the run's own too) given to a callback that scores them at rollout ends;
 * :func:`study_parser`, :func:`run_study`: the command line and the resumable loop over actors
@@ -254,10 +254,11 @@ def learn_with_shadows(
     rollout (the run's own GP critic's values of the rollout are placeholders until then, read
     them through ``values``). The training environments are closed afterwards.
 
-    ``target``: what every critic learns. ``"returns"``: SB3's returns of each rollout (the run's
-    own GP critic is fed them too, by :class:`ShadowFeed`'s side). ``"monte_carlo"``: the
-    returns of completed episodes, uncut, as :class:`TeeFeed` feeds the run's GP critic (which
-    it must have) and gives them to the shadows; the MLP shadow then learns them too.
+    ``target``: what every critic learns. ``"returns"``: SB3's returns of each rollout.
+    ``"monte_carlo"``: the returns of completed episodes, uncut, as PPO's default feed gives
+    them to a GP critic (the run's must be one); the MLP shadow then learns them too. A run's
+    own GP critic is fed by :class:`TeeFeed`, which hands each batch to the shadows; a run
+    with SB3's MLP critic, by :class:`ShadowFeed`.
 
     Raises
     ------
@@ -290,13 +291,12 @@ def learn_with_shadows(
 
     learners: list[Learner] = [learn_mlp, *(gp.update for gp in gps.values())]
     scorer = checkpoints(values)
-    if target == "monte_carlo":
-        feeds: list[BaseCallback] = [TeeFeed(learners, target)]
-    elif isinstance(model.policy, GPActorCriticPolicy):
-        feeds = [GPValueCallback(target="returns"), ShadowFeed(learners)]
-    else:
-        feeds = [ShadowFeed(learners)]
-    model.learn(timesteps, callback=CallbackList([scorer, *feeds]))
+    feed: BaseCallback = (
+        TeeFeed(learners, target)
+        if isinstance(model.policy, GPActorCriticPolicy)
+        else ShadowFeed(learners)
+    )
+    model.learn(timesteps, callback=CallbackList([scorer, feed]))
     env = model.get_env()
     assert env is not None
     env.close()
