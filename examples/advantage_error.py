@@ -199,6 +199,14 @@ def per_seed(runs: list[dict[str, Any]], metric: str, skip: int) -> dict[str, np
     }
 
 
+def correlation_ceiling(rows: list[dict[str, Any]]) -> np.ndarray:
+    """Per rollout, the highest correlation a critic's advantages can reach with a reference
+    of the rollout's reliability ``r`` (attenuation by its Monte Carlo noise): ``sqrt(r)``, 0
+    where the split halves disagree (``r <= 0``), NaN where the reference is constant."""
+    reliability = np.array([r["reliability"] for r in rows], dtype=float)
+    return np.sqrt(np.clip(reliability, 0.0, None))
+
+
 def table(results: dict[str, dict[int, Any]], skip: int, against: str = MLP) -> str:
     """Markdown: per actor and critic, each metric's mean over seeds and its paired difference
     from the critic ``against`` (the MLP shadow by default) [95 % t interval]."""
@@ -222,7 +230,7 @@ def table(results: dict[str, dict[int, Any]], skip: int, against: str = MLP) -> 
                 )
                 cells.append(f"{np.nanmean(values):.3f} | {ci}")
             lines.append(f"| {actor} | {name} | {' | '.join(cells)} | {len(runs)} |")
-        ceiling = np.mean([np.sqrt(r["reliability"]) for run in runs for r in run["rows"][skip:]])
+        ceiling = np.nanmean(np.concatenate([correlation_ceiling(r["rows"][skip:]) for r in runs]))
         lines.append(
             f"| {actor} | ceiling of the correlation (Monte Carlo noise) | {ceiling:.3f} | | | | |"
         )
@@ -250,9 +258,7 @@ def plot(results: dict[str, dict[int, Any]], path: Path, env: str = ENV) -> None
                 axes[row][col].plot(
                     steps, np.nanmean(vals, axis=0), color=f"C{k}", label=name, **style
                 )
-        ceiling = np.mean(
-            [[np.sqrt(r["reliability"]) for r in run["rows"]] for run in runs], axis=0
-        )
+        ceiling = np.nanmean([correlation_ceiling(run["rows"]) for run in runs], axis=0)
         axes[0][col].plot(steps, ceiling, "k:", lw=1.2, label="ceiling (Monte Carlo noise)")
         axes[0][col].set(
             title=f"PPO with the {actor} critic", ylabel="advantage correlation with V^pi's"

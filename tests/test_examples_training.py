@@ -480,6 +480,16 @@ def test_advantage_error_scores_every_critic_against_the_same_reference(tmp_path
     assert_study_resumes(study, argv, tmp_path, "laplacian", "advantage_error.png")
 
 
+def test_advantage_error_ceiling_of_the_correlation_is_zero_where_halves_disagree() -> None:
+    """Attenuation: a reference of reliability ``r`` caps a correlation at ``sqrt(r)``; split
+    halves that disagree (``r < 0``, which Monte Carlo noise gives) cap it at 0, not NaN."""
+    study = load_script("advantage_error")
+    rows = [{"reliability": r} for r in (0.81, -0.04, 1.0, float("nan"))]
+    got = study.correlation_ceiling(rows)
+    np.testing.assert_array_equal(got[:3], [0.9, 0.0, 1.0])
+    assert np.isnan(got[3])
+
+
 def test_advantage_error_runs_on_a_maze_and_pairs_against_the_critic_asked_for(
     tmp_path: Path,
 ) -> None:
