@@ -10,8 +10,15 @@ seed. ``--compare oracle`` (default, the fourth addendum): the screen's ``oracle
 and ``mlp`` runs, seeds 570-579. Finished runs are kept in ``advantages[_mlp].json`` (an
 interrupted call resumes); the table goes to stdout, the figure to ``advantages[_mlp].png``.
 
-    python results/maze_oracle/advantages.py > results/maze_oracle/advantages.md
-    python results/maze_oracle/advantages.py --compare mlp > results/maze_oracle/advantages_mlp.md
+    python results/maze_oracle/advantages.py --stem advantages > results/maze_oracle/advantages.md
+    python results/maze_oracle/advantages.py --stem advantages --compare mlp \
+        > results/maze_oracle/advantages_mlp.md
+
+Addendum 6 adds the policy-gradient readings (:func:`gradient_cosines`) in new runs:
+
+    python results/maze_oracle/advantages.py > results/maze_oracle/advantages_gradient.md
+    python results/maze_oracle/advantages.py --compare mlp \
+        > results/maze_oracle/advantages_gradient_mlp.md
 """
 
 from __future__ import annotations
@@ -30,6 +37,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
+import torch
 from tqdm.auto import tqdm
 
 from sb3_geogp.comparison.run import result_path, run_one
@@ -86,6 +94,9 @@ READINGS = {
     "far_correlation": "advantage correlation, the other steps",
     "value_bias": "mean value bias V - V^pi",
     "mc_se": "Monte Carlo standard error of V^pi (root mean square)",
+    "gradient_cosine": "policy-gradient cosine, critic's vs V^pi's advantages (addendum 6)",
+    "gradient_cosine_mean": "the same, action mean's parameters only (without log std)",
+    "gradient_reliability": "policy-gradient cosine between the halves' references",
 }
 
 
@@ -113,7 +124,54 @@ class Advantages(CRITIC_FIT.WithCeiling):  # type: ignore[name-defined,misc]
         row["near_correlation"] = correlation(reference[near], advantages[near])
         row["far_correlation"] = correlation(reference[~near], advantages[~near])
         row["near_share"] = float(near.mean())
+        halves = [reference_advantages(rollout, mc[:, k::2], gamma, lam) for k in (0, 1)]
+        row.update(gradient_cosines(model.policy, buffer, advantages, reference, halves))
         return row
+
+
+def policy_gradients(
+    policy: Any, buffer: Any, advantages: list[np.ndarray]
+) -> tuple[list[torch.Tensor], list[torch.Tensor]]:
+    """Per advantage vector (one per rollout step, flattened as the buffer), the first policy
+    gradient of PPO's update, ``mean_t A_t grad log pi(a_t | s_t)`` with the advantages
+    normalised as PPO normalises them (here over the whole rollout), flattened over all the
+    actor's parameters; and the same without the log standard deviation. Gradients by
+    ``torch.autograd.grad``: no parameter, ``.grad`` or random stream is touched."""
+    n = buffer.rewards.size
+    obs = torch.as_tensor(buffer.observations.reshape(n, -1), device=policy.device)
+    actions = torch.as_tensor(buffer.actions.reshape(n, -1), device=policy.device)
+    log_prob = policy.get_distribution(obs).log_prob(actions)
+    params = [p for p in policy.parameters() if p.requires_grad]
+    log_std = getattr(policy, "log_std", None)
+    full, mean_only = [], []
+    for a in advantages:
+        adv = torch.as_tensor(a, dtype=log_prob.dtype, device=policy.device)
+        adv = (adv - adv.mean()) / (adv.std() + 1e-8)
+        grads = torch.autograd.grad((adv * log_prob).mean(), params, retain_graph=True,
+                                    allow_unused=True)  # fmt: skip
+        used = [(p, g) for p, g in zip(params, grads, strict=True) if g is not None]
+        full.append(torch.cat([g.ravel() for _, g in used]).double())
+        mean_only.append(torch.cat([g.ravel() for p, g in used if p is not log_std]).double())
+    return full, mean_only
+
+
+def gradient_cosines(
+    policy: Any,
+    buffer: Any,
+    advantages: np.ndarray,
+    reference: np.ndarray,
+    halves: list[np.ndarray],
+) -> dict[str, float]:
+    """Addendum 6's readings: the cosine between the policy gradients with the critic's and
+    with the reference advantages (all actor parameters, and without the log std), and
+    between those with the two halves' references."""
+    full, mean_only = policy_gradients(policy, buffer, [advantages, reference, *halves])
+    cos = torch.nn.functional.cosine_similarity
+    return {
+        "gradient_cosine": float(cos(full[0], full[1], dim=0)),
+        "gradient_cosine_mean": float(cos(mean_only[0], mean_only[1], dim=0)),
+        "gradient_reliability": float(cos(full[2], full[3], dim=0)),
+    }
 
 
 def one(arm: Arm, seed: int) -> list[dict[str, Any]]:
@@ -188,7 +246,8 @@ def table(runs: list[dict[str, Any]], arms: dict[str, Arm], seeds: tuple[int, ..
         f"{first} − {second} [95 % t] |",
         "|---|---:|---:|---|",
     ]
-    rows = {name: per_run(runs, [first, second], key) for key, name in READINGS.items()}
+    present = [key for key in READINGS if key in measured(runs[0])[0]]
+    rows = {READINGS[key]: per_run(runs, [first, second], key) for key in present}
     for name, v in {**rows, **stored(arms, seeds)}.items():
         lines.append(
             f"| {name} | {v[first].mean():.3f} | {v[second].mean():.3f} | "
@@ -200,7 +259,11 @@ def table(runs: list[dict[str, Any]], arms: dict[str, Arm], seeds: tuple[int, ..
 
 
 def plot(runs: list[dict[str, Any]], names: list[str], title: str, path: Path) -> None:
-    keys = ("advantage_correlation", "value_rmse", "advantage_reliability")
+    keys = tuple(
+        k
+        for k in ("advantage_correlation", "value_rmse", "advantage_reliability", "gradient_cosine")
+        if k in measured(runs[0])[0]
+    )
     fig, axes = plt.subplots(1, len(keys), figsize=(4.2 * len(keys), 3.4))
     for ax, key in zip(axes, keys, strict=True):
         for name, colour in zip(names, ("tab:red", "tab:blue"), strict=True):
@@ -222,10 +285,17 @@ def plot(runs: list[dict[str, Any]], names: list[str], title: str, path: Path) -
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--compare", choices=list(COMPARISONS), default="oracle")
-    arms, seeds, suffix = COMPARISONS[parser.parse_args().compare]
-    runs = run_all(arms, seeds, HERE / f"advantages{suffix}.json")
+    parser.add_argument(
+        "--stem",
+        default="advantages_gradient",
+        help="name of the runs' JSON and the figure (addenda 4-5: advantages, made before "
+        "the gradient readings)",
+    )
+    args = parser.parse_args()
+    arms, seeds, suffix = COMPARISONS[args.compare]
+    runs = run_all(arms, seeds, HERE / f"{args.stem}{suffix}.json")
     print(table(runs, arms, seeds))
-    plot(runs, list(arms), f"seeds {seeds[0]}-{seeds[-1]}", HERE / f"advantages{suffix}.png")
+    plot(runs, list(arms), f"seeds {seeds[0]}-{seeds[-1]}", HERE / f"{args.stem}{suffix}.png")
 
 
 if __name__ == "__main__":
