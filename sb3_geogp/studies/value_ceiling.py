@@ -48,13 +48,12 @@ import itertools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import torch
 from gymnasium import spaces
 from scipy.spatial import cKDTree
-from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
 
 from sb3_geogp.envs import PAPER_PENDULUM_ID
 from sb3_geogp.envs.pendulum import PendulumParams, dynamics_step
@@ -73,6 +72,9 @@ from sb3_geogp.studies.action_gap import cartpole_step
 from sb3_geogp.studies.advantage_error import gae
 from sb3_geogp.targets import env_major, per_env
 from sb3_geogp.toolbox.stats import correlation, explained_variance, moments
+
+if TYPE_CHECKING:  # the studies import without stable-baselines3 (tests/toolbox/test_layers.py)
+    from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
 
 #: ``act(obs, step) -> actions``: a stochastic policy's draws for a batch of observations,
 #: shape (n, obs_dim) -> (n,) (discrete actions) or (n, action_dim); ``step`` counts the steps
