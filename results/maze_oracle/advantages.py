@@ -94,7 +94,7 @@ READINGS = {
     "far_correlation": "advantage correlation, the other steps",
     "value_bias": "mean value bias V - V^pi",
     "mc_se": "Monte Carlo standard error of V^pi (root mean square)",
-    "gradient_cosine": "policy-gradient cosine, critic's vs V^pi's advantages (addendum 6)",
+    "gradient_cosine": "policy-gradient cosine, critic against V^pi (addendum 6)",
     "gradient_cosine_mean": "the same, action mean's parameters only (without log std)",
     "gradient_reliability": "policy-gradient cosine between the halves' references",
 }
