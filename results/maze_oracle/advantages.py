@@ -7,8 +7,8 @@ rollout, estimates ``V^pi`` at the rollout's states by Monte Carlo in a forked r
 the buffer's advantages against the reference ones; the first arm minus the second, paired by
 seed. ``--compare oracle`` (default, the fourth addendum): the screen's ``oracle`` and
 ``blind`` runs, seeds 580-589; ``--compare mlp`` (the fifth): issue 13's table's ``laplacian``
-and ``mlp`` runs, seeds 570-579. Finished runs are kept in ``advantages[_mlp].json`` (an
-interrupted call resumes); the table goes to stdout, the figure to ``advantages[_mlp].png``.
+and ``mlp`` runs, seeds 570-579. Finished runs are kept in ``<stem>[_mlp].json`` (an
+interrupted call resumes); the table goes to stdout, the figure to ``<stem>[_mlp].png``.
 
     python results/maze_oracle/advantages.py --stem advantages > results/maze_oracle/advantages.md
     python results/maze_oracle/advantages.py --stem advantages --compare mlp \
@@ -19,6 +19,11 @@ Addendum 6 adds the policy-gradient readings (:func:`gradient_cosines`) in new r
     python results/maze_oracle/advantages.py > results/maze_oracle/advantages_gradient.md
     python results/maze_oracle/advantages.py --compare mlp \
         > results/maze_oracle/advantages_gradient_mlp.md
+
+and addendum 7 what each PPO update achieved (``Advantages._score_update``):
+
+    python results/maze_oracle/advantages.py --stem advantages_update \
+        > results/maze_oracle/advantages_update.md
 """
 
 from __future__ import annotations
@@ -97,6 +102,9 @@ READINGS = {
     "gradient_cosine": "policy-gradient cosine, critic against V^pi (addendum 6)",
     "gradient_cosine_mean": "the same, action mean's parameters only (without log std)",
     "gradient_reliability": "policy-gradient cosine between the halves' references",
+    "update_improvement": "true surrogate improvement of the update, mean r A* (addendum 7)",
+    "update_surrogate": "the same with the critic's advantages (what PPO optimised)",
+    "update_step": "mean absolute log ratio of the update",
 }
 
 
@@ -106,6 +114,31 @@ class Advantages(CRITIC_FIT.WithCeiling):  # type: ignore[name-defined,misc]
     def __init__(self, seed: int) -> None:
         super().__init__(WALL_MAZE_ID, first=0, n_rollouts=N_ROLLOUTS, tail=TAIL, seed=seed)
         self.walls = np.asarray(MazeLayout().walls, dtype=np.float64)
+        # A measured rollout waiting for PPO's update on it: its row, states, actions, log
+        # probabilities under the rollout policy and both advantages (addendum 7).
+        self.pending: tuple[dict[str, Any], torch.Tensor, torch.Tensor, torch.Tensor,
+                            list[np.ndarray]] | None = None  # fmt: skip
+
+    def _on_rollout_start(self) -> None:
+        super()._on_rollout_start()
+        self._score_update()
+
+    def _on_training_end(self) -> None:
+        self._score_update()
+
+    def _score_update(self) -> None:
+        """Addendum 7's readings of the pending rollout, once PPO has trained on it."""
+        if self.pending is None:
+            return
+        row, obs, actions, old, advantages = self.pending
+        self.pending = None
+        with torch.no_grad():
+            log_ratio = self.model.policy.get_distribution(obs).log_prob(actions) - old
+        ratio = log_ratio.exp().double().cpu().numpy()
+        critic, reference = ((a - a.mean()) / (a.std(ddof=1) + 1e-8) for a in advantages)
+        row["update_improvement"] = float(np.mean(ratio * reference))
+        row["update_surrogate"] = float(np.mean(ratio * critic))
+        row["update_step"] = float(log_ratio.abs().mean())
 
     def row(self) -> dict[str, Any]:
         row: dict[str, Any] = {"timesteps": int(self.num_timesteps)}
@@ -126,6 +159,12 @@ class Advantages(CRITIC_FIT.WithCeiling):  # type: ignore[name-defined,misc]
         row["near_share"] = float(near.mean())
         halves = [reference_advantages(rollout, mc[:, k::2], gamma, lam) for k in (0, 1)]
         row.update(gradient_cosines(model.policy, buffer, advantages, reference, halves))
+        n = buffer.rewards.size
+        obs = torch.as_tensor(buffer.observations.reshape(n, -1), device=model.policy.device)
+        actions = torch.as_tensor(buffer.actions.reshape(n, -1), device=model.policy.device)
+        with torch.no_grad():
+            old = model.policy.get_distribution(obs).log_prob(actions)
+        self.pending = (row, obs, actions, old, [advantages.copy(), reference])
         return row
 
 
