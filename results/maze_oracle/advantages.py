@@ -102,7 +102,7 @@ READINGS = {
     "gradient_cosine": "policy-gradient cosine, critic against V^pi (addendum 6)",
     "gradient_cosine_mean": "the same, action mean's parameters only (without log std)",
     "gradient_reliability": "policy-gradient cosine between the halves' references",
-    "update_improvement": "true surrogate improvement of the update, mean r A* (addendum 7)",
+    "update_improvement": "true gain of the update, mean r A* (addendum 7)",
     "update_surrogate": "the same with the critic's advantages (what PPO optimised)",
     "update_step": "mean absolute log ratio of the update",
 }
@@ -300,7 +300,13 @@ def table(runs: list[dict[str, Any]], arms: dict[str, Arm], seeds: tuple[int, ..
 def plot(runs: list[dict[str, Any]], names: list[str], title: str, path: Path) -> None:
     keys = tuple(
         k
-        for k in ("advantage_correlation", "value_rmse", "advantage_reliability", "gradient_cosine")
+        for k in (
+            "advantage_correlation",
+            "value_rmse",
+            "advantage_reliability",
+            "gradient_cosine",
+            "update_improvement",
+        )
         if k in measured(runs[0])[0]
     )
     fig, axes = plt.subplots(1, len(keys), figsize=(4.2 * len(keys), 3.4))
