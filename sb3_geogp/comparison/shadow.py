@@ -210,8 +210,9 @@ class TeeFeed(GPValueCallback):
         stats = super()._feed_held(policy)
         # SB3's returns are held time-major, Monte Carlo targets env by env already
         x, y, starts = per_env(*joined[:3]) if self.target == "returns" else joined
-        for learn in self.learners:
-            learn(th.as_tensor(x), th.as_tensor(y), th.as_tensor(starts))
+        if len(y):  # no episode completed: the run's critic learnt nothing either
+            for learn in self.learners:
+                learn(th.as_tensor(x), th.as_tensor(y), th.as_tensor(starts))
         return stats
 
 

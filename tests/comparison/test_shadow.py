@@ -53,21 +53,28 @@ def test_a_shadow_with_the_runs_settings_reproduces_the_runs_critic() -> None:
     assert other.n_basis <= 8 < own.n_basis
 
 
-@pytest.mark.parametrize("target", ["monte_carlo", "returns"])
-def test_tee_feed_gives_the_shadows_what_the_runs_critic_learns(target: Target) -> None:
+@pytest.mark.parametrize(
+    ("target", "n_steps"), [("monte_carlo", 4), ("monte_carlo", 2), ("returns", 4)]
+)
+def test_tee_feed_gives_the_shadows_what_the_runs_critic_learns(
+    target: Target, n_steps: int
+) -> None:
     """On the scripted env (episodes span rollouts, one terminates, one is truncated) the
     shadows get every batch the run's GP critic is fed, as it is fed: with Monte Carlo targets
-    the hand-computed returns of completed episodes; and a GP shadow built as the run's critic
-    ends bit for bit where it ends."""
-    model = make_scripted(PPO, n_steps=4)
+    the hand-computed returns of completed episodes (none from a rollout in which no episode
+    ends: 2 steps, episodes of 3 and 5); and a GP shadow built as the run's critic ends bit for
+    bit where it ends."""
+    model = make_scripted(PPO, n_steps=n_steps)
     recorder = FeedRecorder(model.policy, keep_empty=False)
     seen: list[tuple[np.ndarray, ...]] = []
-    shadow = gp_critic(make_scripted(PPO, n_steps=4))
+    shadow = gp_critic(make_scripted(PPO, n_steps=n_steps))
     tee = TeeFeed([lambda *batch: seen.append(tuple(b.numpy() for b in batch)), shadow.update],
                   target)  # fmt: skip
     model.learn(4 * 8, callback=tee)
     fed = [b for b in recorder.batches if len(b[1])]
     assert len(fed) == len(seen) > 0
+    if n_steps == 2:  # rollouts in which no episode ended came, and were not passed on
+        assert len(recorder.batches) > len(fed)
     checked = 0
     for (x, y, starts), (sx, sy, s_starts) in zip(fed, seen, strict=True):
         np.testing.assert_array_equal(sx, x)
