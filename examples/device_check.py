@@ -11,8 +11,8 @@ Three checks, each printed as it runs:
    and the lagged forgetting score (``lagged``, an option). Both run in float64, so their
    posteriors should agree to round-off: the largest gap in predictive mean and variance is
    printed.
-2. **Training.** PPO (Pendulum-v1, the default Laplacian critic) and A2C (CartPole-v1, the
-   default geodesic critic) with ``GPActorCriticPolicy``, on the CPU and on ``--device``, wall
+2. **Training.** PPO (Pendulum-v1, PPO's default Laplacian critic) and A2C (CartPole-v1,
+   A2C's default RBF critic) with ``GPActorCriticPolicy``, on the CPU and on ``--device``, wall
    clock side by side; every value the critic predicts on the collected observations must be
    finite.
 3. **Save/load across devices.** Each trained model is saved, loaded on the CPU, and its critic's

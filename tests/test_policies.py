@@ -214,7 +214,7 @@ def test_optimistic_critic_gives_the_upper_confidence_bound_and_survives_save_lo
         A2C, env_id="CartPole-v1", n_envs=2, trend="level", optimism=1.0, optimism_cap=cap
     )
     model.learn(256, callback=feed())
-    obs = flat_obs(model)
+    obs = flat_obs(model).to(model.device)
     mean, var = model.policy.gp.predict(obs.double())
     assert var is not None and float(var.min()) >= 0
     scale = model.policy.gp.bonus_scale()

@@ -306,9 +306,9 @@ def model_returns(
 
     The actions are draws of the policy's distribution shaped by its action space (clipped to
     a box), its gSDE noise resampled as in training (at the start and every
-    ``sde_sample_freq`` steps), all inside a torch random stream forked and seeded by ``seed``;
-    the policy's gSDE exploration matrices are put back afterwards, so that training draws
-    what it would have drawn without this call.
+    ``sde_sample_freq`` steps), all inside torch random streams (the CPU's and every CUDA
+    device's) forked and seeded by ``seed``; the policy's gSDE exploration matrices are put
+    back afterwards, so that training draws what it would have drawn without this call.
 
     Parameters
     ----------
@@ -342,7 +342,8 @@ def model_returns(
     noise = policy.action_dist
     saved = {k: getattr(noise, k) for k in _GSDE_STATE if hasattr(noise, k)}
     try:
-        with torch.random.fork_rng(devices=[]):
+        # Every device's stream: manual_seed re-seeds CUDA's too, and a policy there draws from it.
+        with torch.random.fork_rng():
             torch.manual_seed(seed)
             return policy_returns(act, task, obs, float(model.gamma), steps, n_rollouts)
     finally:
@@ -628,7 +629,7 @@ def mlp_fit(hidden: tuple[int, ...] = (64, 64), steps: int = 1500, lr: float = 3
     to convergence rather than PPO's few epochs."""
 
     def fit(x: np.ndarray, y: np.ndarray, episode_starts: np.ndarray) -> Predict:
-        with torch.random.fork_rng(devices=[]):
+        with torch.random.fork_rng():
             torch.manual_seed(0)
             sizes = (x.shape[1], *hidden)
             layers: list[torch.nn.Module] = []

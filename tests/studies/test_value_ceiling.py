@@ -224,8 +224,8 @@ def _ppo_rollout_with_truncations():  # type: ignore[no-untyped-def]
         def _on_rollout_end(self) -> None:
             rollout = recorder.rollout()
             with th.no_grad():
-                states = th.as_tensor(rollout.states(), dtype=th.float32)
-                values = self.model.policy.predict_values(states)
+                states = th.as_tensor(rollout.states(), dtype=th.float32, device=self.model.device)
+                values = self.model.policy.predict_values(states).cpu()
             seen.append((rollout, values.numpy()[:, 0], self.model.rollout_buffer.returns.copy()))
 
     env = make_vec_env("CartPole-v1", n_envs=3, seed=0, env_kwargs=dict(max_episode_steps=12))
