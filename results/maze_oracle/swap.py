@@ -140,6 +140,7 @@ def read(at: int, plot: Path | None) -> None:
     print(f"Seeds read: {len(seeds)} ({seeds[0]}-{seeds[-1]}); switch at {at:,} steps.\n")
     readings = {
         "area under the curve, second half (primary)": lambda r: half_mean(r, at, True),
+        "area under the curve, whole run": whole_run,
         "area under the curve, first half": lambda r: half_mean(r, at, False),
         "final return": lambda r: float(r["final_return"]),
         "critic RMSE, final": lambda r: float(r["critic_accuracy"]["rmse"][-1]),
@@ -156,8 +157,41 @@ def read(at: int, plot: Path | None) -> None:
         print(f"| {name} | {means} | {interval(late)} | {interval(early)} | {pure} |")
     print("\nEffects: the mean over the other half's two settings of (oracle − blind) in the")
     print("named half, paired by seed, 95 % Student-t.")
+    sets()
     if plot is not None:
         draw(data, seeds, at, plot)
+
+
+def whole_run(result: dict[str, Any]) -> float:
+    """Area under the curve: the mean evaluation return over every checkpoint."""
+    return float(np.mean(result["eval"]["mean_return"]))
+
+
+def areas(folder: Path) -> dict[int, float]:
+    """Seed -> whole-run area under the curve of the WallMaze-v0 runs in ``folder``."""
+    found = load_results(folder)
+    return {r["spec"]["seed"]: whole_run(r) for r in found if r["spec"]["env_id"] == WALL_MAZE_ID}
+
+
+def sets() -> None:
+    """``oracle − blind`` over the whole run in every set of WallMaze-v0 seeds run so far, and
+    pooled (a reading chosen after seeing this design's, so printed apart)."""
+    folders = {
+        "580-589 (the screen, where the slowdown was noticed)": HERE.parent,
+        "590-599 (the confirmation)": HERE.parent / "confirm",
+        "618-637 (this design)": HERE,
+    }
+    diffs = {}
+    for name, folder in folders.items():
+        oracle, blind = (areas(folder / arm) for arm in ("oracle", "blind"))
+        diffs[name] = np.array([oracle[s] - blind[s] for s in sorted(set(oracle) & set(blind))])
+    later = np.concatenate(list(diffs.values())[1:])
+    pooled = {"590-599 and 618-637 (the seeds not used to notice it)": later}
+    pooled["all"] = np.concatenate(list(diffs.values()))
+    print("\n| WallMaze-v0, oracle − blind, whole run | seeds | area under the curve [95 % t] |")
+    print("|---|---:|---|")
+    for name, diff in {**diffs, **pooled}.items():
+        print(f"| {name} | {len(diff)} | {interval(diff)} |")
 
 
 def draw(data: dict[str, dict[int, dict[str, Any]]], seeds: list[int], at: int, path: Path) -> None:
