@@ -17,8 +17,11 @@ Three checks, each printed as it runs:
    finite.
 3. **Save/load across devices.** Each trained model is saved, loaded on the CPU, and its critic's
    values on the last rollout's observations are compared with the original's.
+4. **Determinism.** Each training run is repeated with the same seed on the same device: its
+   last rollout and its critic's values must be identical.
 
-The script exits with status 1 if a check fails (gap above ``--tol``, a non-finite value).
+The script exits with status 1 if a check fails (gap above ``--tol``, a non-finite value, a
+seed that does not reproduce its run).
 """
 
 from __future__ import annotations
@@ -112,6 +115,7 @@ def values(model: BaseAlgorithm, obs: np.ndarray) -> np.ndarray:
 def training_check(algo: str, device: str, timesteps: int) -> dict[str, Any]:
     model, obs, seconds = train(algo, device, timesteps)
     before = values(model, obs)
+    twin, twin_obs, _ = train(algo, device, timesteps)
     with tempfile.TemporaryDirectory() as tmp:
         model.save(Path(tmp) / "model.zip")
         loaded = type(model).load(Path(tmp) / "model.zip", device="cpu")
@@ -123,6 +127,8 @@ def training_check(algo: str, device: str, timesteps: int) -> dict[str, Any]:
         "basis": model.policy.gp.n_basis,
         "finite": bool(np.isfinite(before).all()),
         "load_gap": float(np.max(np.abs(before - after))),
+        "same_rollout": bool(np.array_equal(obs, twin_obs)),
+        "repeat_gap": float(np.max(np.abs(before - values(twin, obs)))),
         "value_range": [float(before.min()), float(before.max())],
     }
 
@@ -157,6 +163,8 @@ def main(argv: list[str] | None = None) -> int:
         scale = max(1.0, *map(abs, res["value_range"]))
         if not (math.isfinite(res["load_gap"]) and res["load_gap"] <= 1e-5 * scale):
             failed.append(f"train {algo} on {where}: values change when loaded on the CPU")
+        if not (res["same_rollout"] and res["repeat_gap"] == 0.0):
+            failed.append(f"train {algo} on {where}: the same seed trained another model")
     report["failed"] = failed
     if args.out is not None:
         args.out.write_text(json.dumps(report, indent=2))

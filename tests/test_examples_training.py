@@ -598,6 +598,7 @@ def test_device_check_on_the_cpu_passes_and_writes_its_figures(tmp_path: Path) -
     engines = [f"engine_{k}_{a}" for k in device_check.KERNELS for a in device_check.ADAPTATIONS]
     assert {report[e]["mean_gap"] for e in engines} == {0.0}
     assert report["train_ppo_cpu"]["finite"] and report["train_a2c_cpu"]["load_gap"] == 0.0
+    assert all(report[f"train_{a}_cpu"]["same_rollout"] for a in ("ppo", "a2c"))
 
 
 def test_acrobot_stall_height_is_gymnasiums_and_a_tiny_run_writes_its_figures(
