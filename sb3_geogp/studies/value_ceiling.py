@@ -272,9 +272,14 @@ def policy_returns(
     Returns
     -------
     ndarray, shape (n, n_rollouts)
+
+    Raises
+    ------
+    ValueError
+        For ``obs`` not of shape (n, obs_dim) or not finite, ``steps < 1``, ``gamma`` outside
+        [0, 1] or ``n_rollouts < 2``.
     """
-    if n_rollouts < 2:
-        raise ValueError(f"n_rollouts must be >= 2, got {n_rollouts}")
+    _check_returns_arguments(obs, gamma, steps, n_rollouts)
     state = np.repeat(task.state(obs), n_rollouts, axis=0)
     total = np.zeros(len(state))
     running = np.arange(len(state))
@@ -287,6 +292,20 @@ def policy_returns(
         discount *= gamma
         state, running = after[~done], running[~done]
     return total.reshape(-1, n_rollouts)
+
+
+def _check_returns_arguments(obs: np.ndarray, gamma: float, steps: int, n_rollouts: int) -> None:
+    o = np.asarray(obs)
+    if o.ndim != 2:
+        raise ValueError(f"obs must have shape (n, obs_dim), got {o.shape}; stack the states")
+    if not np.isfinite(o).all():
+        raise ValueError("obs contains NaN or inf; pass the states the returns start from")
+    if steps < 1:
+        raise ValueError(f"steps must be >= 1, got {steps}")
+    if not 0.0 <= gamma <= 1.0:
+        raise ValueError(f"gamma must be in [0, 1], got {gamma}")
+    if n_rollouts < 2:
+        raise ValueError(f"n_rollouts must be >= 2, got {n_rollouts}")
 
 
 #: What gSDE's ``reset_noise`` replaces in SB3's state-dependent noise distribution.
@@ -322,7 +341,18 @@ def model_returns(
     Returns
     -------
     ndarray, shape (n, n_rollouts)
+
+    Raises
+    ------
+    ValueError
+        As :func:`policy_returns`, and for observations not shaped as the model's.
     """
+    expected = model.observation_space.shape or ()
+    if np.ndim(obs) != 1 + len(expected) or np.shape(obs)[1:] != expected:
+        raise ValueError(
+            f"obs must have shape (n, {', '.join(map(str, expected))}) as the model's "
+            f"observations, got {np.shape(obs)}"
+        )
     policy, space = model.policy, model.action_space
     shape = space.shape or ()
 

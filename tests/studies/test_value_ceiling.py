@@ -134,11 +134,40 @@ def test_policy_returns_match_gymnasium_for_a_fixed_action(env_id: str) -> None:
         np.testing.assert_allclose(returns[:, 0], want, rtol=1e-10)
 
 
-def test_policy_returns_need_two_rollouts() -> None:
-    with pytest.raises(ValueError, match="n_rollouts"):
-        policy_returns(
-            lambda o, t: np.zeros(len(o)), TASKS["CartPole-v1"], np.zeros((1, 4)), 0.9, 5, 1
-        )
+@pytest.mark.parametrize(
+    ("obs", "gamma", "steps", "n_rollouts", "named"),
+    [
+        (np.zeros((1, 4)), 0.9, 5, 1, "n_rollouts"),
+        (np.zeros(4), 0.9, 5, 2, "shape"),
+        (np.full((2, 4), np.nan), 0.9, 5, 2, "NaN"),
+        (np.zeros((2, 4)), 0.9, 0, 2, "steps"),
+        (np.zeros((2, 4)), 1.5, 5, 2, "gamma"),
+    ],
+)
+def test_policy_returns_refuse_bad_arguments_before_acting(
+    obs: np.ndarray, gamma: float, steps: int, n_rollouts: int, named: str
+) -> None:
+    calls: list[int] = []
+
+    def act(o: np.ndarray, step: int) -> np.ndarray:
+        calls.append(step)
+        return np.zeros(len(o), dtype=np.int64)
+
+    with pytest.raises(ValueError, match=named):
+        policy_returns(act, TASKS["CartPole-v1"], obs, gamma, steps, n_rollouts)
+    assert calls == []
+
+
+def test_model_returns_refuse_observations_not_shaped_as_the_models() -> None:
+    """A CartPole model asked about 3-wide states: a ValueError naming both shapes, and no
+    random stream drawn from."""
+    from stable_baselines3 import PPO
+
+    model = PPO("MlpPolicy", "CartPole-v1", n_steps=32, batch_size=32, seed=0, device="cpu")
+    before = th.get_rng_state()
+    with pytest.raises(ValueError, match=r"\(n, 4\).*\(2, 3\)"):
+        model_returns(model, TASKS["CartPole-v1"], np.zeros((2, 3)), 5, 2, seed=0)
+    assert th.equal(th.get_rng_state(), before)
 
 
 def test_pendulum_returns_at_rest_hanging_are_the_geometric_sum() -> None:
