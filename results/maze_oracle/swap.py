@@ -20,6 +20,7 @@ from __future__ import annotations
 import argparse
 import concurrent.futures as cf
 import multiprocessing
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -32,17 +33,18 @@ from stable_baselines3.common.callbacks import BaseCallback
 from torch import Tensor
 from tqdm import tqdm
 
-from sb3_geogp.comparison.results import load_results
 from sb3_geogp.comparison.run import run_one
 from sb3_geogp.comparison.specs import RunSpec, SweepConfig
 from sb3_geogp.comparison.sweep import pending_runs
 from sb3_geogp.envs.wall_maze import WALL_MAZE_ID, MazeLayout
-from sb3_geogp.kernels import GeodesicKernel
 from sb3_geogp.policies import GPActorCriticPolicy
-from sb3_geogp.studies.wall.oracle import blocked_pairs
+from sb3_geogp.studies.wall.oracle import WallAwareGeodesicKernel
+from sb3_geogp.toolbox.scripts import load_script
 from sb3_geogp.toolbox.stats import mean_ci
 
 HERE = Path(__file__).resolve().parent / "swap"
+READ = load_script(HERE.parent / "read.py", "maze_oracle_read")
+AREA = "area under the curve (mean return over checkpoints)"
 SEEDS = tuple(range(618, 638))
 AT = 15_360
 #: Arm -> whether the kernel knows the walls (first half, second half).
@@ -54,18 +56,15 @@ ARMS = {
 }
 
 
-class SwitchedKernel(GeodesicKernel):
-    """:class:`~sb3_geogp.studies.wall.oracle.WallAwareGeodesicKernel` whose knowledge of the
-    walls can be switched off (``knows``); with it on, the same attachments."""
+class SwitchedKernel(WallAwareGeodesicKernel):
+    """The oracle's kernel whose knowledge of the walls can be switched off (``knows``)."""
 
     def __init__(self, rooms: MazeLayout, knows: bool) -> None:
-        super().__init__(None)
-        self.rooms, self.knows = rooms, knows
+        super().__init__(None, rooms)
+        self.knows = knows
 
     def blocked(self, x: Tensor, z: Tensor) -> Tensor | None:
-        if not self.knows:
-            return None
-        return blocked_pairs(self.rooms, x * self.lengthscale, z * self.lengthscale)
+        return super().blocked(x, z) if self.knows else None
 
 
 class Switch(BaseCallback):
@@ -116,11 +115,6 @@ def train(seeds: tuple[int, ...], arms: list[str], at: int, workers: int) -> Non
 
 
 # -- the reading -------------------------------------------------------------------------------
-def curves(arm: str) -> dict[int, dict[str, Any]]:
-    """Seed -> stored result of one arm."""
-    return {r["spec"]["seed"]: r for r in load_results(HERE / arm)}
-
-
 def half_mean(result: dict[str, Any], at: int, second: bool) -> float:
     """Mean evaluation return over the checkpoints after ``at`` steps (``second``), or over
     those up to it."""
@@ -129,69 +123,60 @@ def half_mean(result: dict[str, Any], at: int, second: bool) -> float:
     return float(returns[steps > at].mean() if second else returns[steps <= at].mean())
 
 
-def interval(diff: np.ndarray) -> str:
-    mean, half = (float(v) for v in mean_ci(diff, nan_policy="propagate"))
-    return f"{mean:+.2f} [{mean - half:+.2f}, {mean + half:+.2f}]"
-
-
 def read(at: int, plot: Path | None) -> None:
-    data = {arm: curves(arm) for arm in ARMS}
+    data = {arm: runs[WALL_MAZE_ID] for arm, runs in READ.runs("swap", tuple(ARMS)).items()}
     seeds = sorted(set.intersection(*(set(d) for d in data.values())))
     print(f"Seeds read: {len(seeds)} ({seeds[0]}-{seeds[-1]}); switch at {at:,} steps.\n")
+    metric = {name: fn for name, (fn, _) in READ.METRICS.items()}
     readings = {
         "area under the curve, second half (primary)": lambda r: half_mean(r, at, True),
-        "area under the curve, whole run": whole_run,
+        "area under the curve, whole run": metric[AREA],
         "area under the curve, first half": lambda r: half_mean(r, at, False),
-        "final return": lambda r: float(r["final_return"]),
-        "critic RMSE, final": lambda r: float(r["critic_accuracy"]["rmse"][-1]),
+        "final return": metric["final return"],
+        "critic RMSE, final": metric["critic RMSE, final"],
     }
     print("| reading | " + " | ".join(ARMS) + " | second half's oracle (late effect) "
           "| first half's oracle (early effect) | oracle − blind |")  # fmt: skip
     print("|---|" + "---:|" * len(ARMS) + "---|---|---|")
     for name, fn in readings.items():
         v = {arm: np.array([fn(data[arm][s]) for s in seeds]) for arm in ARMS}
-        late = (v["oracle"] + v["late"] - v["early"] - v["blind"]) / 2
-        early = (v["oracle"] + v["early"] - v["late"] - v["blind"]) / 2
+        late = READ.paired((v["oracle"] + v["late"]) / 2, (v["early"] + v["blind"]) / 2)
+        early = READ.paired((v["oracle"] + v["early"]) / 2, (v["late"] + v["blind"]) / 2)
         means = " | ".join(f"{v[arm].mean():.2f}" for arm in ARMS)
-        pure = interval(v["oracle"] - v["blind"])
-        print(f"| {name} | {means} | {interval(late)} | {interval(early)} | {pure} |")
+        pure = READ.paired(v["oracle"], v["blind"])
+        print(f"| {name} | {means} | {late} | {early} | {pure} |")
     print("\nEffects: the mean over the other half's two settings of (oracle − blind) in the")
     print("named half, paired by seed, 95 % Student-t.")
-    sets()
+    sets(metric[AREA])
     if plot is not None:
         draw(data, seeds, at, plot)
 
 
-def whole_run(result: dict[str, Any]) -> float:
-    """Area under the curve: the mean evaluation return over every checkpoint."""
-    return float(np.mean(result["eval"]["mean_return"]))
-
-
-def areas(folder: Path) -> dict[int, float]:
-    """Seed -> whole-run area under the curve of the WallMaze-v0 runs in ``folder``."""
-    found = load_results(folder)
-    return {r["spec"]["seed"]: whole_run(r) for r in found if r["spec"]["env_id"] == WALL_MAZE_ID}
-
-
-def sets() -> None:
+def sets(area: Callable[[dict[str, Any]], float]) -> None:
     """``oracle − blind`` over the whole run in every set of WallMaze-v0 seeds run so far, and
     pooled (a reading chosen after seeing this design's, so printed apart)."""
     folders = {
-        "580-589 (the screen, where the slowdown was noticed)": HERE.parent,
-        "590-599 (the confirmation)": HERE.parent / "confirm",
-        "618-637 (this design)": HERE,
+        "580-589 (the screen, where the slowdown was noticed)": "",
+        "590-599 (the confirmation)": "confirm",
+        "618-637 (this design)": "swap",
     }
-    diffs = {}
-    for name, folder in folders.items():
-        oracle, blind = (areas(folder / arm) for arm in ("oracle", "blind"))
-        diffs[name] = np.array([oracle[s] - blind[s] for s in sorted(set(oracle) & set(blind))])
-    later = np.concatenate(list(diffs.values())[1:])
-    pooled = {"590-599 and 618-637 (the seeds not used to notice it)": later}
-    pooled["all"] = np.concatenate(list(diffs.values()))
+    pairs = {}
+    for name, under in folders.items():
+        found = READ.runs(under, ("oracle", "blind"))
+        oracle, blind = (found[arm][WALL_MAZE_ID] for arm in ("oracle", "blind"))
+        seeds = sorted(set(oracle) & set(blind))
+        pairs[name] = tuple(np.array([area(arm[s]) for s in seeds]) for arm in (oracle, blind))
+
+    def pool(names: list[str]) -> tuple[np.ndarray, ...]:
+        return tuple(np.concatenate([pairs[n][i] for n in names]) for i in (0, 1))
+
+    names = list(pairs)
+    pairs["590-599 and 618-637 (the seeds not used to notice it)"] = pool(names[1:])
+    pairs["all"] = pool(names)
     print("\n| WallMaze-v0, oracle − blind, whole run | seeds | area under the curve [95 % t] |")
     print("|---|---:|---|")
-    for name, diff in {**diffs, **pooled}.items():
-        print(f"| {name} | {len(diff)} | {interval(diff)} |")
+    for name, (a, b) in pairs.items():
+        print(f"| {name} | {len(a)} | {READ.paired(a, b)} |")
 
 
 def draw(data: dict[str, dict[int, dict[str, Any]]], seeds: list[int], at: int, path: Path) -> None:

@@ -76,5 +76,5 @@ class WallAwareGeodesicKernel(GeodesicKernel):
         super().__init__(lengthscale, **options)
         self.rooms = rooms
 
-    def blocked(self, x: Tensor, z: Tensor) -> Tensor:
+    def blocked(self, x: Tensor, z: Tensor) -> Tensor | None:  # a subclass may know no walls
         return blocked_pairs(self.rooms, x * self.lengthscale, z * self.lengthscale)
