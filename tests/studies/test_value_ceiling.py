@@ -427,7 +427,9 @@ def test_the_maze_ceiling_leaves_ppo_as_it_was_and_its_returns_agree() -> None:
     """On WallMaze-v0 (continuous 2-D actions, time-limit cuts) the recorder's Monte Carlo runs
     in a forked random stream: PPO's parameters end bit for bit as without it. The restarted
     rollouts are the task's and the policy's: the rollout's own returns, bootstrapped with
-    ``V^pi``, average ``V^pi`` within their sampling error."""
+    ``V^pi``, average ``V^pi`` within their sampling error and the Monte Carlo horizon's cut
+    (at most ``tail``, as every reward is -1). The four rollouts are pooled: each one's standard
+    error rests on 4 environments only, too few for a 4-sigma bound per rollout."""
     from stable_baselines3 import PPO
 
     from tests.test_examples_training import load_script
@@ -440,7 +442,8 @@ def test_the_maze_ceiling_leaves_ppo_as_it_was_and_its_returns_agree() -> None:
         model = PPO("MlpPolicy", env, n_steps=48, batch_size=64, gamma=0.9, seed=1)
         return model.learn(4 * 192, callback=callbacks)
 
-    recorder = critic_fit.WithCeiling(env_id, first=0, n_rollouts=16, tail=0.1, seed=1)
+    tail = 0.001
+    recorder = critic_fit.WithCeiling(env_id, first=0, n_rollouts=16, tail=tail, seed=1)
     with_ceiling, plain = train([recorder]), train([])
     for a, b in zip(with_ceiling.policy.parameters(), plain.policy.parameters(), strict=True):
         assert th.equal(a, b)
@@ -449,4 +452,6 @@ def test_the_maze_ceiling_leaves_ppo_as_it_was_and_its_returns_agree() -> None:
     for row in rows:
         assert -1.0 <= row["advantage_correlation"] <= 1.0
         assert row["truth_sd"] > 0 and row["mc_se"] > 0
-        assert abs(row["check_mean"]) <= 4 * row["check_se"] + 0.05
+    check_mean = np.mean([row["check_mean"] for row in rows])
+    check_se = math.sqrt(sum(row["check_se"] ** 2 for row in rows)) / len(rows)
+    assert abs(check_mean) <= 4 * check_se + tail
