@@ -406,7 +406,13 @@ class GPCriticMixin(_PolicyBase):
         actions : Tensor, shape (N, *action_shape)
         values : Tensor, shape (N, 1), float32; zeros while :attr:`defer_values`
         log_prob : Tensor, shape (N,)
+
+        Raises
+        ------
+        ValueError
+            If an observation holds NaN or inf, naming its environment, before anything changes.
         """
+        self._check_observations(obs)
         self._awaiting_feed = True
         with self._placeholder_values(self.defer_values):
             return super().forward(obs, *args, **kwargs)
@@ -470,7 +476,13 @@ class GPCriticMixin(_PolicyBase):
         -------
         Tensor, shape (N, 1), float32, on the policy's device
             Zeros before the GP has been fed (``optimism`` prior standard deviations with it).
+
+        Raises
+        ------
+        ValueError
+            If an observation holds NaN or inf, naming its environment.
         """
+        self._check_observations(obs)
         return super().predict_values(obs)
 
     @property
@@ -487,6 +499,22 @@ class GPCriticMixin(_PolicyBase):
                 "(from sb3_geogp import GPValueCallback); combine it with other callbacks in "
                 "a list"
             )
+
+    def _check_observations(self, obs: PyTorchObs) -> None:
+        # SB3 passes the environments' observations through unchecked: a NaN would otherwise
+        # surface as a torch distribution's constraint error or the engine's, neither naming
+        # the environment that produced it.
+        obs = th.as_tensor(obs)  # Dict observations are refused at construction
+        if bool(th.isfinite(obs).all()):
+            return
+        bad = ~th.isfinite(obs.reshape(len(obs), -1)).all(dim=1)
+        env = int(bad.nonzero()[0, 0])
+        raise ValueError(
+            f"{type(self).__name__}: the observation of env {env} holds NaN or inf "
+            f"({int(bad.sum())} of {len(obs)} observations do); the critic and the actor "
+            "cannot use it. Check the environment or its observation wrappers "
+            "(SB3's VecCheckNan wrapper finds the step that produced it)"
+        )
 
     @contextlib.contextmanager
     def _placeholder_values(self, enabled: bool) -> Iterator[None]:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import io
 import re
@@ -19,7 +20,7 @@ from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.callbacks import BaseCallback, CallbackList
 from stable_baselines3.common.env_util import make_vec_env
 from stable_baselines3.common.logger import configure
-from stable_baselines3.common.vec_env import SubprocVecEnv
+from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 
 import sb3_geogp
 from sb3_geogp import (
@@ -721,6 +722,63 @@ def test_fed_then_unfed_rollout_raises() -> None:
     model.learn(128, callback=feed())
     with pytest.raises(RuntimeError, match="GPValueCallback"):
         model.learn(128, reset_num_timesteps=False)
+
+
+class NaNObservation(gym.Wrapper):
+    """Pendulum-v1 whose ``at``-th step returns an observation holding a NaN."""
+
+    def __init__(self, at: int) -> None:
+        super().__init__(gym.make("Pendulum-v1"))
+        self.at, self.steps = at, 0
+
+    def step(self, action: Any) -> tuple[Any, ...]:
+        obs, *rest = self.env.step(action)
+        self.steps += 1
+        if self.steps == self.at:
+            obs = obs.copy()
+            obs[1] = np.nan
+        return (obs, *rest)
+
+
+class GPStateAtRolloutStart(BaseCallback):
+    """The GP's state as each rollout starts, copied."""
+
+    def _on_rollout_start(self) -> None:
+        self.state = copy.deepcopy(self.model.policy.gp.state_dict())
+
+    def _on_step(self) -> bool:
+        return True
+
+
+@pytest.mark.parametrize("algo", ALGOS)
+def test_a_nan_observation_raises_naming_its_env_and_leaves_the_critic_as_it_was(
+    algo: type[BaseAlgorithm],
+) -> None:
+    """A NaN in env 1's third rollout stops training with an error naming env 1 (without the
+    check PPO fails inside torch's distribution, A2C inside the engine, neither naming it);
+    the GP is as that rollout found it, and values of a batch with a NaN row are refused."""
+    n_steps = algo_kwargs(algo, 2)["n_steps"]
+    env = DummyVecEnv([lambda: gym.make("Pendulum-v1"), lambda: NaNObservation(2 * n_steps + 3)])
+    model = algo(
+        GPActorCriticPolicy,
+        env,
+        policy_kwargs=dict(gp_kwargs=dict(max_basis=64)),
+        seed=0,
+        **algo_kwargs(algo, 2),
+    )
+    probe = GPStateAtRolloutStart()
+    with pytest.raises(ValueError, match=r"observation of env 1 holds NaN or inf.*VecCheckNan"):
+        model.learn(10 * n_steps * 2, callback=[feed(), probe])
+    assert model.num_timesteps == 2 * (2 * n_steps + 3)  # the NaN came from the last step
+    state = model.policy.gp.state_dict()
+    assert bool(model.policy.gp.initialized) and state.keys() == probe.state.keys()
+    for name, value in probe.state.items():
+        other = state[name]
+        assert th.equal(other, value) if isinstance(value, th.Tensor) else other == value, name
+    obs = th.zeros(3, 3)
+    obs[2, 0] = th.inf
+    with pytest.raises(ValueError, match="observation of env 2 holds NaN or inf"):
+        model.policy.predict_values(obs)
 
 
 _IMAGE = spaces.Box(0, 255, shape=(32, 32, 3), dtype=np.uint8)
