@@ -8,26 +8,40 @@ bar, and writes to ``--out``: the model (``model.zip``), SB3's logs of every rol
 a table at SB3's usual pace), the Monitor episode logs (``monitor/``) and a learning curve
 (``learning_curve.png``, when ``matplotlib`` is installed: episode returns with the
 environment's threshold, and below them the critic's out-of-sample explained variance per
-rollout and, for a GP critic, its number of basis vectors).
+rollout and, for a GP critic, its number of basis vectors). Interrupted by Ctrl-C or SIGTERM,
+it saves ``checkpoint.zip`` there, and the same command resumes from it.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import csv
 import importlib.util
 import inspect
 import json
+import shutil
+import signal
 import sys
+import threading
 import time
-from collections.abc import Sequence
+import zipfile
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 import torch as th
 from stable_baselines3.common.env_util import make_vec_env
-from stable_baselines3.common.logger import HumanOutputFormat, KVWriter, SeqWriter, configure
+from stable_baselines3.common.logger import (
+    HumanOutputFormat,
+    KVWriter,
+    Logger,
+    SeqWriter,
+    configure,
+)
+from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
+from stable_baselines3.common.vec_env import VecEnv
 
 import sb3_geogp.envs  # noqa: F401  (registers the package's environments for --env)
 from sb3_geogp import __version__
@@ -137,6 +151,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     except UsageError as err:
         print(f"sb3-geogp {args.command}: error: {err}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:
+        if args.command == "compare":
+            raise
+        return 130  # the shell's status for an interrupt, after train saved its checkpoint
     return 0
 
 
@@ -184,6 +202,11 @@ def check_device(name: str) -> None:
 
 #: The ``train`` settings a run directory was made with.
 _SETTINGS = "train_settings.json"
+#: The model of an interrupted ``train``, from which the same command resumes.
+_CHECKPOINT = "checkpoint.zip"
+#: ``progress.csv``'s rows from before a resumed part, until that part ends.
+_EARLIER_PROGRESS = "progress_earlier.csv"
+_STEPS_KEY = "time/total_timesteps"
 
 
 def _settings(args: argparse.Namespace) -> dict[str, Any]:
@@ -200,45 +223,151 @@ _ADDED: dict[str, Any] = {"horizon": None, "feed_every": 1}
 
 
 def train(args: argparse.Namespace) -> Path:
-    """Train one model as described by the parsed ``train`` arguments; return the output dir."""
+    """Train one model as described by the parsed ``train`` arguments; return the output dir.
+
+    Interrupted (Ctrl-C or SIGTERM), it saves the model as it stands to ``checkpoint.zip``,
+    draws the learning curve so far and re-raises :class:`KeyboardInterrupt`; the same
+    command then resumes from the checkpoint (:func:`_resume_from`). A directory that holds
+    the finished run is left as it is.
+    """
     if args.critic is None:
         args.critic = default_kernel(ALGOS[args.algo])
     out: Path = args.out or Path("runs") / f"{args.algo}_{args.critic}_{args.env}_s{args.seed}"
     check_train_args(args, out)
+    if (out / "model.zip").is_file() and not (out / _CHECKPOINT).is_file():
+        print(
+            f"{out / 'model.zip'} is this run, trained already; pass another --out to train again"
+        )
+        return out
     th.set_num_threads(args.threads)
     out.mkdir(parents=True, exist_ok=True)
     (out / _SETTINGS).write_text(json.dumps(_settings(args), indent=1))
+    start = _resume_from(out)
     env = make_vec_env(
-        args.env, n_envs=args.n_envs, seed=args.seed, monitor_dir=str(out / "monitor")
+        args.env, n_envs=args.n_envs, seed=args.seed + start, monitor_dir=str(_monitor(out, start))
     )
+    model = _load_checkpoint(args, out, env) if start else _new_model(args, env)
+    callback = None
+    if args.critic != "mlp":
+        callback = GPValueCallback(
+            target=args.target, horizon=args.horizon, feed_every=args.feed_every
+        )
+    model.set_logger(_logger(out, model))
+    progress = not args.no_progress and _progress_bar_available()
+    started = time.perf_counter()
+    try:
+        with _sigterm_interrupts():
+            model.learn(
+                args.timesteps - start,
+                callback=callback,
+                log_interval=1,
+                progress_bar=progress,
+                reset_num_timesteps=not start,
+            )
+    except KeyboardInterrupt:
+        _save(model, out / _CHECKPOINT)
+        _finish_logs(args, out)
+        print(
+            f"interrupted after {model.num_timesteps} of {args.timesteps} steps; saved "
+            f"{out / _CHECKPOINT}: run the same command to resume",
+            file=sys.stderr,
+        )
+        raise
+    finally:
+        env.close()
+    seconds = time.perf_counter() - started
+    _save(model, out / "model.zip")
+    (out / _CHECKPOINT).unlink(missing_ok=True)
+    curve = _finish_logs(args, out)
+    resumed = f" (resumed at {start})" if start else ""
+    print(
+        f"trained {model.num_timesteps} steps{resumed} in {seconds:.1f} s; "
+        f"saved {out / 'model.zip'}"
+    )
+    if curve is not None:
+        print(f"learning curve: {curve}")
+    return out
+
+
+def _new_model(args: argparse.Namespace, env: VecEnv) -> OnPolicyAlgorithm:
     algo_kwargs: dict[str, Any] = {}
     if args.n_steps is not None:
         algo_kwargs["n_steps"] = args.n_steps
         if args.algo == "ppo":
             algo_kwargs["batch_size"] = min(64, args.n_steps * args.n_envs)
-    callback = None
     if args.critic == "mlp":
-        model = ALGOS[args.algo](
-            "MlpPolicy", env, seed=args.seed, device=args.device, **algo_kwargs
-        )
-    else:
-        gp_kwargs = dict(
-            kernel=args.critic,
-            max_basis=args.max_basis,
-            adapt=args.adapt,
-            **_forgetting(args),
-        )
-        model = ALGOS[args.algo](
-            GPActorCriticPolicy,
-            env,
-            seed=args.seed,
-            policy_kwargs=dict(gp_kwargs=gp_kwargs),
-            device=args.device,
-            **algo_kwargs,
-        )
-        callback = GPValueCallback(
-            target=args.target, horizon=args.horizon, feed_every=args.feed_every
-        )
+        return ALGOS[args.algo]("MlpPolicy", env, seed=args.seed, device=args.device, **algo_kwargs)
+    gp_kwargs = dict(
+        kernel=args.critic, max_basis=args.max_basis, adapt=args.adapt, **_forgetting(args)
+    )
+    return ALGOS[args.algo](
+        GPActorCriticPolicy,
+        env,
+        seed=args.seed,
+        policy_kwargs=dict(gp_kwargs=gp_kwargs),
+        device=args.device,
+        **algo_kwargs,
+    )
+
+
+def _load_checkpoint(args: argparse.Namespace, out: Path, env: VecEnv) -> OnPolicyAlgorithm:
+    model = ALGOS[args.algo].load(out / _CHECKPOINT, env=env, device=args.device)
+    # A resumed run is determined by its seed and the step it resumes at, as the
+    # environments' seeds are.
+    model.set_random_seed(args.seed + model.num_timesteps)
+    return model
+
+
+def _save(model: OnPolicyAlgorithm, path: Path) -> None:
+    """``model.save`` through a temporary file, so that a second interrupt cannot leave half a
+    checkpoint behind."""
+    partial = path.with_name(f"partial_{path.name}")
+    model.save(partial)
+    partial.replace(path)
+
+
+def _resume_from(out: Path) -> int:
+    """The step an interrupted run resumes at (0: none to resume). The rows ``progress.csv``
+    holds up to it move to ``progress_earlier.csv`` (SB3's logger starts the file anew),
+    where rows of a part that was killed after it are dropped; without a checkpoint the files
+    of earlier parts are removed, as the run starts afresh."""
+    earlier = out / _EARLIER_PROGRESS
+    if not (out / _CHECKPOINT).is_file():
+        earlier.unlink(missing_ok=True)
+        for part in (out / "monitor").glob("from_*"):
+            shutil.rmtree(part)
+        return 0
+    with zipfile.ZipFile(out / _CHECKPOINT) as archive:
+        start = int(json.loads(archive.read("data"))["num_timesteps"])
+    _merge_progress([earlier, out / "progress.csv"], earlier, until=start)
+    return start
+
+
+def _monitor(out: Path, start: int) -> Path:
+    """Where the Monitor logs of the part starting at ``start`` go (one folder per part, as
+    each environment's file is named by its index)."""
+    return out / "monitor" if start == 0 else out / "monitor" / f"from_{start}"
+
+
+def _merge_progress(parts: Sequence[Path], path: Path, until: int | None = None) -> None:
+    """Write the rows of the CSV ``parts`` that exist, in order, to ``path`` with the union of
+    their columns (``until``: only rows logged at or before that step)."""
+    columns: dict[str, None] = {}
+    rows: list[dict[str, str]] = []
+    for part in (p for p in parts if p.is_file()):
+        with part.open(newline="") as handle:
+            reader = csv.DictReader(handle)
+            columns.update(dict.fromkeys(reader.fieldnames or ()))
+            rows += [r for r in reader if until is None or float(r[_STEPS_KEY]) <= until]
+    if not columns:
+        return
+    with path.open("w", newline="") as handle:
+        writer = csv.DictWriter(handle, list(columns), restval="", lineterminator="\n")
+        writer.writeheader()
+        writer.writerows(rows)
+
+
+def _logger(out: Path, model: OnPolicyAlgorithm) -> Logger:
     formats = ["stdout", "csv"]
     if importlib.util.find_spec("tensorboard") is not None:
         formats.append("tensorboard")
@@ -250,25 +379,40 @@ def train(args: argparse.Namespace) -> Path:
         _EveryNth(f, stdout_every) if isinstance(f, HumanOutputFormat) else f
         for f in logger.output_formats
     ]
-    model.set_logger(logger)
-    progress = not args.no_progress and _progress_bar_available()
-    start = time.perf_counter()
-    model.learn(args.timesteps, callback=callback, log_interval=1, progress_bar=progress)
-    seconds = time.perf_counter() - start
-    model.save(out / "model.zip")
-    env.close()
-    title = f"{args.algo.upper()} on {args.env}, {args.critic} critic, seed {args.seed}"
-    curve = plot_learning_curve(
+    return logger
+
+
+def _finish_logs(args: argparse.Namespace, out: Path) -> Path | None:
+    """One ``progress.csv`` over every part of the run, and the learning curve from it."""
+    earlier = out / _EARLIER_PROGRESS
+    if earlier.is_file():
+        _merge_progress([earlier, out / "progress.csv"], out / "progress.csv")
+        earlier.unlink()
+    return plot_learning_curve(
         out / "monitor",
         out / "learning_curve.png",
-        title=title,
+        title=f"{args.algo.upper()} on {args.env}, {args.critic} critic, seed {args.seed}",
         progress=out / "progress.csv",
         threshold=reward_threshold(args.env),
     )
-    print(f"trained {model.num_timesteps} steps in {seconds:.1f} s; saved {out / 'model.zip'}")
-    if curve is not None:
-        print(f"learning curve: {curve}")
-    return out
+
+
+@contextlib.contextmanager
+def _sigterm_interrupts() -> Iterator[None]:
+    """SIGTERM (a batch system's stop, ``kill``) interrupts as Ctrl-C does, so that the run
+    saves its checkpoint; only the main thread can handle signals."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def interrupt(signum: int, frame: Any) -> None:
+        raise KeyboardInterrupt
+
+    previous = signal.signal(signal.SIGTERM, interrupt)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 class _EveryNth(KVWriter, SeqWriter):
@@ -518,10 +662,14 @@ def read_monitor_logs(monitor_dir: Path) -> tuple[np.ndarray, np.ndarray]:
         Undiscounted episode returns.
     """
     rows: list[tuple[float, float, float]] = []
-    for file in sorted(Path(monitor_dir).glob("*monitor.csv")):
+    # A resumed run's parts are in subfolders; each file's times count from its own start.
+    for file in sorted(Path(monitor_dir).rglob("*monitor.csv")):
         with file.open(newline="") as handle:
-            next(handle, None)  # "#{json header}"
-            rows += [(float(r["t"]), float(r["l"]), float(r["r"])) for r in csv.DictReader(handle)]
+            t_start = float(json.loads(handle.readline().lstrip("#") or "{}").get("t_start", 0))
+            rows += [
+                (t_start + float(r["t"]), float(r["l"]), float(r["r"]))
+                for r in csv.DictReader(handle)
+            ]
     rows.sort()
     lengths = np.array([r[1] for r in rows])
     return np.cumsum(lengths), np.array([r[2] for r in rows])

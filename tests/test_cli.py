@@ -3,7 +3,10 @@
 from __future__ import annotations
 
 import json
+import os
 import re
+import shutil
+import signal
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -233,6 +236,104 @@ def test_train_feeds_the_cut_monte_carlo_targets(
         7,
         2,
     )
+
+
+class InterruptAt(gym.Wrapper):
+    """CartPole-v1 that interrupts the process at the ``at``-th step of all its instances
+    together, by Ctrl-C's ``KeyboardInterrupt`` or a SIGTERM sent to itself."""
+
+    at: int | None = None
+    sigterm = False
+    steps = 0
+
+    def __init__(self) -> None:
+        super().__init__(gym.make("CartPole-v1"))
+
+    def step(self, action: Any) -> Any:
+        InterruptAt.steps += 1
+        if InterruptAt.steps == InterruptAt.at:
+            if InterruptAt.sigterm:
+                os.kill(os.getpid(), signal.SIGTERM)
+            else:
+                raise KeyboardInterrupt
+        return self.env.step(action)
+
+
+gym.register("InterruptAt-v0", entry_point=InterruptAt)
+
+
+def _policy_state(path: Path) -> dict[str, Any]:
+    return PPO.load(path).policy.state_dict()
+
+
+def _assert_same_state(a: dict[str, Any], b: dict[str, Any]) -> None:
+    assert a.keys() == b.keys()
+    for name, value in a.items():
+        assert th.equal(b[name], value) if isinstance(value, th.Tensor) else b[name] == value, name
+
+
+@pytest.mark.parametrize("sigterm", [False, True], ids=["ctrl-c", "sigterm"])
+def test_interrupted_train_saves_its_checkpoint_and_the_same_command_resumes(
+    sigterm: bool, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Interrupted in its third rollout (2 envs x 64 steps each), the run's checkpoint holds
+    the policy of a run trained for two rollouts, bit for bit; the same command resumes it
+    to the budget, twice alike, with one progress.csv over both parts; once finished, the
+    command leaves the run as it is."""
+    argv = ["train", "--algo", "ppo", "--env", "InterruptAt-v0", "--n-envs", "2"]
+    argv += ["--n-steps", "64", "--max-basis", "32", "--seed", "3", "--no-progress"]
+    out = tmp_path / "run"
+    handler = signal.getsignal(signal.SIGTERM)
+    InterruptAt.at, InterruptAt.sigterm, InterruptAt.steps = 2 * 139, sigterm, 0
+    assert main([*argv, "--timesteps", "512", "--out", str(out)]) == 130
+    assert signal.getsignal(signal.SIGTERM) == handler
+    assert "run the same command to resume" in capsys.readouterr().err
+    assert not (out / "model.zip").exists()
+    assert PPO.load(out / "checkpoint.zip").num_timesteps == 2 * 138
+    InterruptAt.at = None
+    assert main([*argv, "--timesteps", "256", "--out", str(tmp_path / "two_rollouts")]) == 0
+    _assert_same_state(
+        _policy_state(out / "checkpoint.zip"), _policy_state(tmp_path / "two_rollouts/model.zip")
+    )
+
+    twin = tmp_path / "twin"
+    shutil.copytree(out, twin)
+    for run in (out, twin):
+        assert main([*argv, "--timesteps", "512", "--out", str(run)]) == 0
+        assert not (run / "checkpoint.zip").exists()
+        assert not (run / "progress_earlier.csv").exists()
+    assert "(resumed at 276)" in capsys.readouterr().out
+    model = PPO.load(out / "model.zip")
+    assert model.num_timesteps == 276 + 2 * 128
+    _assert_same_state(_policy_state(out / "model.zip"), _policy_state(twin / "model.zip"))
+    log = read_critic_log(out / "progress.csv")
+    assert log is not None
+    np.testing.assert_array_equal(log.timesteps, [128, 256, 276 + 128, 276 + 256])
+    assert np.isfinite(log.explained_variance).all()
+    assert (out / "monitor" / "from_276").is_dir()
+
+    saved = (out / "model.zip").read_bytes()
+    assert main([*argv, "--timesteps", "512", "--out", str(out)]) == 0
+    assert "trained already" in capsys.readouterr().out
+    assert (out / "model.zip").read_bytes() == saved
+
+
+def test_monitor_logs_of_all_parts_are_ordered_by_absolute_time(tmp_path: Path) -> None:
+    """Each Monitor file counts time from its own start (header ``t_start``): a resumed part's
+    episodes, in a subfolder, come after the first part's although their ``t`` is smaller."""
+
+    def write(path: Path, t_start: float, episodes: list[tuple[float, int, float]]) -> None:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        lines = [f'#{{"t_start": {t_start}, "env_id": "x"}}', "r,l,t"]
+        lines += [f"{r},{length},{t}" for r, length, t in episodes]
+        path.write_text("\n".join(lines) + "\n")
+
+    write(tmp_path / "0.monitor.csv", 1000.0, [(1.0, 10, 5.0), (3.0, 30, 20.0)])
+    write(tmp_path / "1.monitor.csv", 1001.0, [(2.0, 20, 6.0)])
+    write(tmp_path / "from_60" / "0.monitor.csv", 1100.0, [(4.0, 40, 1.0)])
+    steps, returns = read_monitor_logs(tmp_path)
+    np.testing.assert_array_equal(returns, [1.0, 2.0, 3.0, 4.0])
+    np.testing.assert_array_equal(steps, [10, 30, 60, 100])
 
 
 def test_unset_horizon_keeps_older_run_directories_valid(tmp_path: Path) -> None:
