@@ -1,0 +1,290 @@
+"""The GP critic's predictive intervals against the fixed-policy pendulum's Monte Carlo value
+(``PLAN.md``, session 54)::
+
+    python results/calibration/calibration.py            # resumes: finished cases are kept
+    python results/calibration/calibration.py --read --plot results/calibration/calibration.png \\
+        > results/calibration/read.md
+
+Each case feeds one on-line GP the stream of the fixed-policy check
+(:func:`~sb3_geogp.studies.pendulum.batch_check.online_gp`, the configuration of
+``docs/fixed_policy_check_prior``) and scores its predictive mean and latent variance on the
+60 x 60 grid against the Monte Carlo value, whose standard error is added to the variance.
+"""
+
+from __future__ import annotations
+
+import argparse
+import concurrent.futures as cf
+import json
+import multiprocessing
+from pathlib import Path
+from typing import Any
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+import numpy as np
+import torch
+from scipy import stats
+from tqdm import tqdm
+
+from sb3_geogp.adaptation import as_adaptation
+from sb3_geogp.kernels import KernelName
+from sb3_geogp.studies.pendulum.batch_check import CheckConfig, online_gp, stream
+from sb3_geogp.studies.pendulum.ground_truth import GridValue, mc_value
+from sb3_geogp.studies.pendulum.task import Task
+from sb3_geogp.toolbox.provenance import provenance
+from sb3_geogp.toolbox.stats import mean_ci
+
+HERE = Path(__file__).resolve().parent
+SOURCE = HERE.parents[1] / "docs" / "fixed_policy_check_prior" / "results.json"
+RUNS = HERE / "runs.json"
+#: Arm -> (kernel, adaptive).
+ARMS: dict[str, tuple[KernelName, bool]] = {
+    "laplacian, adaptive": ("laplacian", True),
+    "laplacian, fixed": ("laplacian", False),
+    "rbf, adaptive": ("rbf", True),
+}
+SEEDS = (0, 1, 2, 3, 4)
+CAPACITIES = (20, 50, 100, 200)
+#: Nominal coverages recorded (the plan reads 0.5, 0.9 and 0.95; the rest draw the curve).
+LEVELS = (*np.round(np.arange(0.05, 1.0, 0.05), 2).tolist(), 0.99)
+REGIONS = ("all", "visited", "unvisited")
+
+
+def check_config() -> CheckConfig:
+    """The fixed-policy check's configuration, as ``docs/fixed_policy_check_prior`` ran it."""
+    saved = json.loads(SOURCE.read_text())["config"]
+    adaptation = as_adaptation(saved.pop("adaptation"))
+    tuples = {k: tuple(v) for k, v in saved.items() if isinstance(v, list)}
+    return CheckConfig(**{**saved, **tuples, "adaptation": adaptation})
+
+
+def visited_cells(task: Task, states: np.ndarray, n: int) -> np.ndarray:
+    """Whether each cell of :meth:`Task.grid`'s ``n x n`` grid holds one of ``states``,
+    shape (n * n,), the grid's order (``omega`` the slow index)."""
+    theta = np.floor((states[:, 0] + np.pi) / (2 * np.pi / n)).astype(int).clip(0, n - 1)
+    speed = task.speed_limit
+    omega = np.floor((states[:, 1] + speed) / (2 * speed / n)).astype(int).clip(0, n - 1)
+    hit = np.zeros(n * n, dtype=bool)
+    hit[omega * n + theta] = True
+    return hit
+
+
+def scores(mu: np.ndarray, var: np.ndarray, truth: GridValue) -> dict[str, Any]:
+    """Coverage per nominal level, ``z_rms``, sharpness, RMSE and NLPD over the cells given."""
+    s2 = var + truth.stderr**2
+    z = (truth.value - mu) / np.sqrt(s2)
+    quantiles = stats.norm.ppf(0.5 + np.array(LEVELS) / 2)
+    return {
+        "cells": len(mu),
+        "coverage": {
+            str(p): float(np.mean(np.abs(z) <= q)) for p, q in zip(LEVELS, quantiles, strict=True)
+        },
+        "z_rms": float(np.sqrt(np.mean(z**2))),
+        "median_sd": float(np.median(np.sqrt(var))),
+        "rmse": float(np.sqrt(np.mean((truth.value - mu) ** 2))),
+        "nlpd": float(np.mean(0.5 * np.log(2 * np.pi * s2) + 0.5 * z**2)),
+    }
+
+
+def run_case(arm: str, seed: int, capacity: int, truth: GridValue) -> dict[str, Any]:
+    torch.set_num_threads(1)
+    task, config = Task(), check_config()
+    kernel, adaptive = ARMS[arm]
+    data = stream(task, config, seed)
+    gp = online_gp(task, kernel, data, capacity, config, adapt=adaptive)
+    states, _, _ = task.grid(truth.n)
+    mean, var = gp.predict(states)
+    assert var is not None
+    mu, v = mean.double().numpy(), var.double().numpy()
+    visited = visited_cells(task, data.states, truth.n)
+    masks = {"all": np.ones_like(visited), "visited": visited, "unvisited": ~visited}
+    cut = {
+        region: scores(mu[m], v[m], GridValue(truth.value[m], truth.stderr[m], truth.n))
+        for region, m in masks.items()
+        if m.any()
+    }
+    return {"arm": arm, "seed": seed, "max_basis": capacity, "n_basis": gp.n_basis, **cut}
+
+
+def key(row: dict[str, Any]) -> tuple[str, int, int]:
+    return row["arm"], row["seed"], row["max_basis"]
+
+
+def run(workers: int) -> None:
+    done = json.loads(RUNS.read_text()) if RUNS.is_file() else {"rows": []}
+    have = {key(r) for r in done["rows"]}
+    cases = [
+        (arm, seed, m)
+        for m in sorted(CAPACITIES, reverse=True)
+        for arm in ARMS
+        for seed in SEEDS
+        if (arm, seed, m) not in have
+    ]
+    if not cases:
+        print(f"all {len(have)} cases in {RUNS}")
+        return
+    config = check_config()
+    done.setdefault("provenance", provenance())
+    print("ground truth: Monte Carlo on the grid ...", flush=True)
+    truth = mc_value(Task(), config.grid_n, config.mc_rollouts)
+    context = multiprocessing.get_context("spawn")
+    with cf.ProcessPoolExecutor(workers, mp_context=context) as pool:
+        futures = [pool.submit(run_case, *case, truth) for case in cases]
+        for future in tqdm(cf.as_completed(futures), total=len(futures), unit="case"):
+            done["rows"].append(future.result())
+            done["rows"].sort(key=key)
+            RUNS.write_text(json.dumps(done, indent=1) + "\n")
+
+
+def values(rows: list[dict[str, Any]], arm: str, m: int, region: str, metric: str) -> np.ndarray:
+    """One value per seed (NaN where the region is empty), seeds in order."""
+    out = []
+    for seed in SEEDS:
+        (row,) = [r for r in rows if key(r) == (arm, seed, m)]
+        cell = row.get(region)
+        if cell is None:
+            out.append(np.nan)
+        elif metric.startswith("coverage_"):
+            out.append(cell["coverage"][metric.removeprefix("coverage_")])
+        else:
+            out.append(cell[metric])
+    return np.array(out, dtype=np.float64)
+
+
+def interval(x: np.ndarray, digits: int = 3) -> str:
+    mean, half = mean_ci(x, nan_policy="omit")
+    if not np.isfinite(mean):
+        return "–"
+    return f"{mean:.{digits}f} [{mean - half:.{digits}f}, {mean + half:.{digits}f}]"
+
+
+METRICS = {
+    "coverage_0.5": "50 %",
+    "coverage_0.9": "90 %",
+    "coverage_0.95": "95 %",
+    "z_rms": "z_rms",
+    "median_sd": "median sd",
+    "rmse": "RMSE",
+    "nlpd": "NLPD",
+}
+
+
+def read(rows: list[dict[str, Any]]) -> str:
+    lines = [
+        "## Calibration on the fixed-policy pendulum, all 3,600 cells",
+        "",
+        "Mean over stream seeds 0-4 [95 % Student-t interval]. Coverage: share of cells whose",
+        "Monte Carlo value lies in the GP's central interval at that nominal level.",
+        "",
+        "| arm | max BV | " + " | ".join(METRICS.values()) + " |",
+        "|---|---:|" + "---:|" * len(METRICS),
+    ]
+    for arm in ARMS:
+        for m in CAPACITIES:
+            cells = [interval(values(rows, arm, m, "all", k)) for k in METRICS]
+            lines.append(f"| {arm} | {m} | " + " | ".join(cells) + " |")
+    lines += [
+        "",
+        "## Visited cells and the rest (95 % coverage; z_rms)",
+        "",
+        "| arm | max BV | visited cells | 95 %, visited | 95 %, rest | z_rms, visited | "
+        "z_rms, rest |",
+        "|---|---:|---:|---:|---:|---:|---:|",
+    ]
+    for arm in ARMS:
+        for m in CAPACITIES:
+            n = values(rows, arm, m, "visited", "cells")
+            cells = [
+                interval(values(rows, arm, m, region, k))
+                for k in ("coverage_0.95", "z_rms")
+                for region in ("visited", "unvisited")
+            ]
+            lines.append(f"| {arm} | {m} | {np.mean(n):.0f} | " + " | ".join(cells) + " |")
+    lines += [
+        "",
+        "## Adaptive − fixed hyperparameters (Laplacian), paired by seed",
+        "",
+        "| max BV | log z_rms, adaptive − fixed | 95 % coverage, adaptive − fixed |",
+        "|---:|---:|---:|",
+    ]
+    for m in CAPACITIES:
+        pair = [
+            np.log(values(rows, "laplacian, adaptive", m, "all", "z_rms"))
+            - np.log(values(rows, "laplacian, fixed", m, "all", "z_rms")),
+            values(rows, "laplacian, adaptive", m, "all", "coverage_0.95")
+            - values(rows, "laplacian, fixed", m, "all", "coverage_0.95"),
+        ]
+        lines.append(f"| {m} | " + " | ".join(interval(d, 3) for d in pair) + " |")
+    near = {
+        m: np.abs(np.log(values(rows, "laplacian, adaptive", m, "all", "z_rms"))).mean()
+        < np.abs(np.log(values(rows, "laplacian, fixed", m, "all", "z_rms"))).mean()
+        for m in CAPACITIES
+    }
+    lines += ["", f"adaptive z_rms nearer 1 than fixed (mean |log z_rms|), per capacity: {near}"]
+    return "\n".join(lines)
+
+
+def plot(rows: list[dict[str, Any]], path: Path) -> None:
+    fig, axes = plt.subplots(1, 3, figsize=(14, 4.2))
+    levels = np.array(LEVELS)
+    for i, arm in enumerate(ARMS):
+        colour = f"C{i}"
+        for ax, metric in zip(axes[:2], ("z_rms", "coverage_0.95"), strict=True):
+            mean, half = mean_ci(
+                np.stack([values(rows, arm, m, "all", metric) for m in CAPACITIES]),
+                nan_policy="omit",
+            )
+            ax.errorbar(CAPACITIES, mean, half, marker="o", capsize=3, color=colour, label=arm)
+        curve = np.stack([values(rows, arm, 100, "all", f"coverage_{p}") for p in LEVELS]).mean(
+            axis=1
+        )
+        axes[2].plot(levels, curve, marker=".", color=colour, label=arm)
+    axes[0].axhline(1, color="k", ls=":", lw=1)
+    axes[0].set(
+        xscale="log", yscale="log", xlabel="max basis vectors", ylabel="z_rms (1 = calibrated)"
+    )
+    axes[1].axhline(0.95, color="k", ls=":", lw=1)
+    axes[1].set(xscale="log", xlabel="max basis vectors", ylabel="coverage of the 95 % interval")
+    axes[2].plot([0, 1], [0, 1], color="k", ls=":", lw=1)
+    axes[2].set(
+        xlabel="nominal coverage",
+        ylabel="observed coverage",
+        title="100 basis vectors, mean of 5 seeds",
+        xlim=(0, 1),
+        ylim=(0, 1),
+    )
+    for ax in axes[:2]:
+        ax.set_xticks(CAPACITIES, [str(m) for m in CAPACITIES])
+        ax.minorticks_off()
+    for ax in axes:
+        ax.grid(alpha=0.3)
+    axes[0].legend(fontsize=8)
+    fig.suptitle(
+        "Fixed-policy pendulum: the GP's predictive intervals against the Monte Carlo value "
+        "(3,600 cells; error bars: 95 % interval over 5 seeds)"
+    )
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--read", action="store_true", help="print the tables of runs.json")
+    parser.add_argument("--plot", type=Path, default=None, help="with --read: the figure")
+    parser.add_argument("--workers", type=int, default=2)
+    args = parser.parse_args(argv)
+    if not args.read:
+        run(args.workers)
+        return
+    rows = json.loads(RUNS.read_text())["rows"]
+    print(read(rows))
+    if args.plot is not None:
+        plot(rows, args.plot)
+
+
+if __name__ == "__main__":
+    main()
