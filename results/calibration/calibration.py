@@ -27,11 +27,22 @@ import matplotlib.pyplot as plt
 import numpy as np
 import torch
 from scipy import stats
+from stable_baselines3 import A2C, PPO
+from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
 from tqdm import tqdm
 
 from sb3_geogp.adaptation import as_adaptation
 from sb3_geogp.kernels import KernelName
-from sb3_geogp.studies.pendulum.batch_check import CheckConfig, online_gp, stream
+from sb3_geogp.policies import (
+    build_gp_critic,
+    default_adaptation,
+    default_forgetting,
+    default_kernel,
+    default_trend,
+    resolved_gp_kwargs,
+)
+from sb3_geogp.sparse_gp import SparseOnlineGP
+from sb3_geogp.studies.pendulum.batch_check import CheckConfig, feed_stream, online_gp, stream
 from sb3_geogp.studies.pendulum.ground_truth import GridValue, mc_value
 from sb3_geogp.studies.pendulum.task import Task
 from sb3_geogp.toolbox.provenance import provenance
@@ -40,12 +51,14 @@ from sb3_geogp.toolbox.stats import mean_ci
 HERE = Path(__file__).resolve().parent
 SOURCE = HERE.parents[1] / "docs" / "fixed_policy_check_prior" / "results.json"
 RUNS = HERE / "runs.json"
-#: Arm -> (kernel, adaptive).
+#: Arm -> (kernel, adaptive): the check's engine settings (``PLAN.md``).
 ARMS: dict[str, tuple[KernelName, bool]] = {
     "laplacian, adaptive": ("laplacian", True),
     "laplacian, fixed": ("laplacian", False),
     "rbf, adaptive": ("rbf", True),
 }
+#: Arm -> the algorithm whose drop-in critic it is (``PLAN.md``, addendum 1).
+DROP_INS: dict[str, type[OnPolicyAlgorithm]] = {"ppo drop-in": PPO, "a2c drop-in": A2C}
 SEEDS = (0, 1, 2, 3, 4)
 CAPACITIES = (20, 50, 100, 200)
 #: Nominal coverages recorded (the plan reads 0.5, 0.9 and 0.95; the rest draw the curve).
@@ -89,12 +102,31 @@ def scores(mu: np.ndarray, var: np.ndarray, truth: GridValue) -> dict[str, Any]:
     }
 
 
+def drop_in_critic(algorithm: type[OnPolicyAlgorithm], task: Task, capacity: int) -> SparseOnlineGP:
+    """The critic ``GPActorCriticPolicy`` builds under ``algorithm`` for the pendulum's
+    observations, ``max_basis=capacity``."""
+    options = resolved_gp_kwargs(
+        {"max_basis": capacity},
+        default_kernel(algorithm),
+        default_trend(algorithm),
+        default_adaptation(algorithm),
+        default_forgetting(algorithm),
+    )
+    high = np.array([np.pi, task.params.max_speed])
+    return build_gp_critic(options, 2, (-high, high))
+
+
 def run_case(arm: str, seed: int, capacity: int, truth: GridValue) -> dict[str, Any]:
     torch.set_num_threads(1)
     task, config = Task(), check_config()
-    kernel, adaptive = ARMS[arm]
     data = stream(task, config, seed)
-    gp = online_gp(task, kernel, data, capacity, config, adapt=adaptive)
+    if arm in DROP_INS:
+        gp = feed_stream(
+            drop_in_critic(DROP_INS[arm], task, capacity), data, config.episodes_per_batch
+        )
+    else:
+        kernel, adaptive = ARMS[arm]
+        gp = online_gp(task, kernel, data, capacity, config, adapt=adaptive)
     states, _, _ = task.grid(truth.n)
     mean, var = gp.predict(states)
     assert var is not None
@@ -119,7 +151,7 @@ def run(workers: int) -> None:
     cases = [
         (arm, seed, m)
         for m in sorted(CAPACITIES, reverse=True)
-        for arm in ARMS
+        for arm in [*ARMS, *DROP_INS]
         for seed in SEEDS
         if (arm, seed, m) not in have
     ]
@@ -165,6 +197,7 @@ METRICS = {
     "coverage_0.5": "50 %",
     "coverage_0.9": "90 %",
     "coverage_0.95": "95 %",
+    "coverage_0.99": "99 %",
     "z_rms": "z_rms",
     "median_sd": "median sd",
     "rmse": "RMSE",
@@ -182,7 +215,7 @@ def read(rows: list[dict[str, Any]]) -> str:
         "| arm | max BV | " + " | ".join(METRICS.values()) + " |",
         "|---|---:|" + "---:|" * len(METRICS),
     ]
-    for arm in ARMS:
+    for arm in [*ARMS, *DROP_INS]:
         for m in CAPACITIES:
             cells = [interval(values(rows, arm, m, "all", k)) for k in METRICS]
             lines.append(f"| {arm} | {m} | " + " | ".join(cells) + " |")
@@ -194,7 +227,7 @@ def read(rows: list[dict[str, Any]]) -> str:
         "z_rms, rest |",
         "|---|---:|---:|---:|---:|---:|---:|",
     ]
-    for arm in ARMS:
+    for arm in [*ARMS, *DROP_INS]:
         for m in CAPACITIES:
             n = values(rows, arm, m, "visited", "cells")
             cells = [
@@ -230,7 +263,7 @@ def read(rows: list[dict[str, Any]]) -> str:
 def plot(rows: list[dict[str, Any]], path: Path) -> None:
     fig, axes = plt.subplots(1, 3, figsize=(14, 4.2))
     levels = np.array(LEVELS)
-    for i, arm in enumerate(ARMS):
+    for i, arm in enumerate([*ARMS, *DROP_INS]):
         colour = f"C{i}"
         for ax, metric in zip(axes[:2], ("z_rms", "coverage_0.95"), strict=True):
             mean, half = mean_ci(
@@ -261,7 +294,7 @@ def plot(rows: list[dict[str, Any]], path: Path) -> None:
         ax.minorticks_off()
     for ax in axes:
         ax.grid(alpha=0.3)
-    axes[0].legend(fontsize=8)
+    axes[2].legend(fontsize=8, loc="upper left")
     fig.suptitle(
         "Fixed-policy pendulum: the GP's predictive intervals against the Monte Carlo value "
         "(3,600 cells; error bars: 95 % interval over 5 seeds)"

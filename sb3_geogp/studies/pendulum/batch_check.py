@@ -425,7 +425,13 @@ def online_gp(
         forgetting=config.forgetting if adapt else 1.0,
         forgetting_points=config.forgetting_points if adapt else None,
     )
-    for rows in episode_batches(data.episode_starts, config.episodes_per_batch):
+    return feed_stream(gp, data, config.episodes_per_batch)
+
+
+def feed_stream(gp: SparseOnlineGP, data: EpisodeData, episodes_per_batch: int) -> SparseOnlineGP:
+    """Feed ``gp`` the stream ``data`` in batches of ``episodes_per_batch`` whole episodes,
+    with their starts, as the check does; returns ``gp``."""
+    for rows in episode_batches(data.episode_starts, episodes_per_batch):
         gp.update(data.states[rows], data.returns[rows], episode_starts=data.episode_starts[rows])
     return gp
 
