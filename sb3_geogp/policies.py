@@ -412,7 +412,7 @@ class GPCriticMixin(_PolicyBase):
         ValueError
             If an observation holds NaN or inf, naming its environment, before anything changes.
         """
-        self._check_observations(obs)
+        self._check_observations(obs, "the observation of env {}")
         self._awaiting_feed = True
         with self._placeholder_values(self.defer_values):
             return super().forward(obs, *args, **kwargs)
@@ -480,9 +480,9 @@ class GPCriticMixin(_PolicyBase):
         Raises
         ------
         ValueError
-            If an observation holds NaN or inf, naming its environment.
+            If an observation holds NaN or inf, naming its row.
         """
-        self._check_observations(obs)
+        self._check_observations(obs, "observation {} of the batch")
         return super().predict_values(obs)
 
     @property
@@ -500,7 +500,9 @@ class GPCriticMixin(_PolicyBase):
                 "a list"
             )
 
-    def _check_observations(self, obs: PyTorchObs) -> None:
+    def _check_observations(self, obs: PyTorchObs, which: str) -> None:
+        """Raise a ``ValueError`` naming the first observation (``which`` formatted with its
+        row) that holds NaN or inf."""
         # SB3 passes the environments' observations through unchecked: a NaN would otherwise
         # surface as a torch distribution's constraint error or the engine's, neither naming
         # the environment that produced it.
@@ -508,9 +510,9 @@ class GPCriticMixin(_PolicyBase):
         if bool(th.isfinite(obs).all()):
             return
         bad = ~th.isfinite(obs.reshape(len(obs), -1)).all(dim=1)
-        env = int(bad.nonzero()[0, 0])
+        first = which.format(int(bad.nonzero()[0, 0]))
         raise ValueError(
-            f"{type(self).__name__}: the observation of env {env} holds NaN or inf "
+            f"{type(self).__name__}: {first} holds NaN or inf "
             f"({int(bad.sum())} of {len(obs)} observations do); the critic and the actor "
             "cannot use it. Check the environment or its observation wrappers "
             "(SB3's VecCheckNan wrapper finds the step that produced it)"

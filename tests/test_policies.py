@@ -756,7 +756,8 @@ def test_a_nan_observation_raises_naming_its_env_and_leaves_the_critic_as_it_was
 ) -> None:
     """A NaN in env 1's third rollout stops training with an error naming env 1 (without the
     check PPO fails inside torch's distribution, A2C inside the engine, neither naming it);
-    the GP is as that rollout found it, and values of a batch with a NaN row are refused."""
+    the GP is as that rollout found it, and values of a batch with a NaN row are refused,
+    naming the row."""
     n_steps = algo_kwargs(algo, 2)["n_steps"]
     env = DummyVecEnv([lambda: gym.make("Pendulum-v1"), lambda: NaNObservation(2 * n_steps + 3)])
     model = algo(
@@ -777,7 +778,7 @@ def test_a_nan_observation_raises_naming_its_env_and_leaves_the_critic_as_it_was
         assert th.equal(other, value) if isinstance(value, th.Tensor) else other == value, name
     obs = th.zeros(3, 3)
     obs[2, 0] = th.inf
-    with pytest.raises(ValueError, match="observation of env 2 holds NaN or inf"):
+    with pytest.raises(ValueError, match="observation 2 of the batch holds NaN or inf"):
         model.policy.predict_values(obs)
 
 
