@@ -358,7 +358,7 @@ def _merge_progress(parts: Sequence[Path], path: Path, until: int | None = None)
         with part.open(newline="") as handle:
             reader = csv.DictReader(handle)
             columns.update(dict.fromkeys(reader.fieldnames or ()))
-            rows += [r for r in reader if until is None or float(r[_STEPS_KEY]) <= until]
+            rows += [r for r in reader if until is None or float(r.get(_STEPS_KEY) or 0) <= until]
     if not columns:
         return
     with path.open("w", newline="") as handle:

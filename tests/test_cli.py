@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import csv
 import json
 import os
 import re
@@ -278,8 +279,8 @@ def test_interrupted_train_saves_its_checkpoint_and_the_same_command_resumes(
 ) -> None:
     """Interrupted in its third rollout (2 envs x 64 steps each), the run's checkpoint holds
     the policy of a run trained for two rollouts, bit for bit; the same command resumes it
-    to the budget, twice alike, with one progress.csv over both parts; once finished, the
-    command leaves the run as it is."""
+    to the budget, twice alike, with one progress.csv over both parts (a row logged after the
+    checkpoint dropped); once finished, the command leaves the run as it is."""
     argv = ["train", "--algo", "ppo", "--env", "InterruptAt-v0", "--n-envs", "2"]
     argv += ["--n-steps", "64", "--max-basis", "32", "--seed", "3", "--no-progress"]
     out = tmp_path / "run"
@@ -298,6 +299,11 @@ def test_interrupted_train_saves_its_checkpoint_and_the_same_command_resumes(
 
     twin = tmp_path / "twin"
     shutil.copytree(out, twin)
+    # As a part killed after the checkpoint would leave it: its rows are dropped on resuming.
+    with (out / "progress.csv").open(newline="") as handle:
+        rows = list(csv.DictReader(handle))
+    with (out / "progress.csv").open("a", newline="") as handle:
+        csv.DictWriter(handle, list(rows[0])).writerow({**rows[-1], "time/total_timesteps": 300})
     for run in (out, twin):
         assert main([*argv, "--timesteps", "512", "--out", str(run)]) == 0
         assert not (run / "checkpoint.zip").exists()
