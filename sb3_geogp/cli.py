@@ -9,7 +9,8 @@ a table at SB3's usual pace), the Monitor episode logs (``monitor/``) and a lear
 (``learning_curve.png``, when ``matplotlib`` is installed: episode returns with the
 environment's threshold, and below them the critic's out-of-sample explained variance per
 rollout and, for a GP critic, its number of basis vectors). Interrupted by Ctrl-C or SIGTERM,
-it saves ``checkpoint.zip`` there, and the same command resumes from it.
+it saves ``checkpoint.zip`` there (also every ``--save-every`` steps), and the same command
+resumes from it.
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ import csv
 import importlib.util
 import inspect
 import json
+import os
 import shutil
 import signal
 import sys
@@ -32,6 +34,7 @@ from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 import torch as th
+from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.env_util import make_vec_env
 from stable_baselines3.common.logger import (
     HumanOutputFormat,
@@ -137,6 +140,14 @@ def build_parser() -> argparse.ArgumentParser:
         help="torch device of the policy and the GP critic, e.g. cuda (SB3 runs MLP policies "
         "fastest on the CPU)",
     )
+    train.add_argument(
+        "--save-every",
+        type=int,
+        default=50_000,
+        metavar="N",
+        help="save checkpoint.zip every N steps (at the next rollout's start), from which the "
+        "same command resumes after a hard kill; 0: only when interrupted by Ctrl-C or SIGTERM",
+    )
     train.add_argument("--no-progress", action="store_true", help="hide the progress bar")
     return parser
 
@@ -164,6 +175,10 @@ def check_train_args(args: argparse.Namespace, out: Path) -> None:
         value = getattr(args, name)
         if value is not None and value < 1:
             raise UsageError(f"--{name.replace('_', '-')} must be at least 1, got {value}")
+    if args.save_every < 0:
+        raise UsageError(
+            f"--save-every must be at least 0 (0: no periodic saves), got {args.save_every}"
+        )
     if args.forgetting is not None and not 0 < args.forgetting <= 1:
         raise UsageError(f"--forgetting must be in (0, 1], got {args.forgetting}")
     check_targets(args)
@@ -210,7 +225,7 @@ _STEPS_KEY = "time/total_timesteps"
 
 
 def _settings(args: argparse.Namespace) -> dict[str, Any]:
-    settings = {k: v for k, v in vars(args).items() if k not in ("command", "out", "no_progress")}
+    settings = {k: v for k, v in vars(args).items() if k not in _NOT_SETTINGS}
     # What the critic is fed, as run directories made before its default moved record it.
     settings["target"], settings["horizon"] = fed(args.target, args.horizon, args.algo, args.critic)
     # At its default, an option added after 0.20 is left out, so that older run directories
@@ -218,6 +233,8 @@ def _settings(args: argparse.Namespace) -> dict[str, Any]:
     return {k: v for k, v in settings.items() if not (k in _ADDED and v == _ADDED[k])}
 
 
+#: ``train`` options that do not change the run, so a directory does not record them.
+_NOT_SETTINGS = ("command", "out", "no_progress", "save_every")
 #: ``train`` options added after 0.20 and their defaults, recorded only when set otherwise.
 _ADDED: dict[str, Any] = {"horizon": None, "feed_every": 1}
 
@@ -226,9 +243,9 @@ def train(args: argparse.Namespace) -> Path:
     """Train one model as described by the parsed ``train`` arguments; return the output dir.
 
     Interrupted (Ctrl-C or SIGTERM), it saves the model as it stands to ``checkpoint.zip``,
-    draws the learning curve so far and re-raises :class:`KeyboardInterrupt`; the same
-    command then resumes from the checkpoint (:func:`_resume_from`). A directory that holds
-    the finished run is left as it is.
+    draws the learning curve so far and re-raises :class:`KeyboardInterrupt`; it also saves
+    there every ``--save-every`` steps. The same command then resumes from the checkpoint
+    (:func:`_resume_from`). A directory that holds the finished run is left as it is.
     """
     if args.critic is None:
         args.critic = default_kernel(ALGOS[args.algo])
@@ -247,11 +264,13 @@ def train(args: argparse.Namespace) -> Path:
         args.env, n_envs=args.n_envs, seed=args.seed + start, monitor_dir=str(_monitor(out, start))
     )
     model = _load_checkpoint(args, out, env) if start else _new_model(args, env)
-    callback = None
-    if args.critic != "mlp":
-        callback = GPValueCallback(
-            target=args.target, horizon=args.horizon, feed_every=args.feed_every
-        )
+    callbacks: list[BaseCallback] = (
+        []
+        if args.critic == "mlp"
+        else [GPValueCallback(target=args.target, horizon=args.horizon, feed_every=args.feed_every)]
+    )
+    if args.save_every:
+        callbacks.append(_Checkpoints(out / _CHECKPOINT, args.save_every))
     model.set_logger(_logger(out, model))
     progress = not args.no_progress and _progress_bar_available()
     started = time.perf_counter()
@@ -259,7 +278,7 @@ def train(args: argparse.Namespace) -> Path:
         with _sigterm_interrupts():
             model.learn(
                 args.timesteps - start,
-                callback=callback,
+                callback=callbacks,
                 log_interval=1,
                 progress_bar=progress,
                 reset_num_timesteps=not start,
@@ -319,11 +338,35 @@ def _load_checkpoint(args: argparse.Namespace, out: Path, env: VecEnv) -> OnPoli
 
 
 def _save(model: OnPolicyAlgorithm, path: Path) -> None:
-    """``model.save`` through a temporary file, so that a second interrupt cannot leave half a
-    checkpoint behind."""
+    """``model.save`` through a temporary file, so that an interrupt or a kill cannot leave half
+    a checkpoint behind; the file's modification time is the moment of the save, which tells a
+    resumed run which Monitor episodes came after it (:func:`_resume_from`)."""
     partial = path.with_name(f"partial_{path.name}")
+    now = time.time()
     model.save(partial)
+    os.utime(partial, (now, now))
     partial.replace(path)
+
+
+class _Checkpoints(BaseCallback):
+    """Save the model to ``path`` every ``every`` steps, as a rollout starts: the previous one
+    is then learnt from by both the actor and the critic."""
+
+    def __init__(self, path: Path, every: int) -> None:
+        super().__init__()
+        self.path, self.every = path, every
+        self.saved_at = -1
+
+    def _on_training_start(self) -> None:
+        self.saved_at = self.num_timesteps
+
+    def _on_rollout_start(self) -> None:
+        if self.num_timesteps - self.saved_at >= self.every:
+            _save(self.model, self.path)  # type: ignore[arg-type]
+            self.saved_at = self.num_timesteps
+
+    def _on_step(self) -> bool:
+        return True
 
 
 def _resume_from(out: Path) -> int:
@@ -340,7 +383,28 @@ def _resume_from(out: Path) -> int:
     with zipfile.ZipFile(out / _CHECKPOINT) as archive:
         start = int(json.loads(archive.read("data"))["num_timesteps"])
     _merge_progress([earlier, out / "progress.csv"], earlier, until=start)
+    saved = (out / _CHECKPOINT).stat().st_mtime
+    for file in (out / "monitor").rglob("*monitor.csv"):
+        _drop_episodes_after(file, saved)
     return start
+
+
+def _drop_episodes_after(file: Path, moment: float) -> None:
+    """Remove from a Monitor log the episodes that ended after ``moment`` (a killed part's,
+    played after its last checkpoint)."""
+    with file.open(newline="") as handle:
+        header = handle.readline()
+        reader = csv.DictReader(handle)
+        rows = list(reader)
+    t_start = float(json.loads(header.lstrip("#") or "{}").get("t_start", 0))
+    kept = [r for r in rows if t_start + float(r["t"]) <= moment]
+    if len(kept) == len(rows):
+        return
+    with file.open("w", newline="") as handle:
+        handle.write(header)
+        writer = csv.DictWriter(handle, reader.fieldnames or ["r", "l", "t"])
+        writer.writeheader()
+        writer.writerows(kept)
 
 
 def _monitor(out: Path, start: int) -> Path:

@@ -195,6 +195,7 @@ def test_version(capsys: pytest.CaptureFixture[str]) -> None:
         (["--critic", "mlp", "--horizon", "5"], "Drop them, or pass a GP --critic"),
         (["--critic", "mlp", "--feed-every", "4"], "learns SB3's returns every rollout"),
         (["--feed-every", "0"], "feed_every must be a positive integer, got 0"),
+        (["--save-every", "-1"], "--save-every must be at least 0"),
         pytest.param(
             ["--device", "cuda"],
             "torch sees no CUDA device here; use --device cpu",
@@ -240,11 +241,12 @@ def test_train_feeds_the_cut_monte_carlo_targets(
 
 
 class InterruptAt(gym.Wrapper):
-    """CartPole-v1 that interrupts the process at the ``at``-th step of all its instances
-    together, by Ctrl-C's ``KeyboardInterrupt`` or a SIGTERM sent to itself."""
+    """CartPole-v1 that stops the process at the ``at``-th step of all its instances together:
+    by Ctrl-C's ``KeyboardInterrupt``, a SIGTERM sent to itself, or a crash (an error the
+    command does not handle, as a hard kill leaves no chance to save)."""
 
     at: int | None = None
-    sigterm = False
+    how = "ctrl-c"
     steps = 0
 
     def __init__(self) -> None:
@@ -253,8 +255,10 @@ class InterruptAt(gym.Wrapper):
     def step(self, action: Any) -> Any:
         InterruptAt.steps += 1
         if InterruptAt.steps == InterruptAt.at:
-            if InterruptAt.sigterm:
+            if InterruptAt.how == "sigterm":
                 os.kill(os.getpid(), signal.SIGTERM)
+            elif InterruptAt.how == "crash":
+                raise RuntimeError("crash")
             else:
                 raise KeyboardInterrupt
         return self.env.step(action)
@@ -273,9 +277,9 @@ def _assert_same_state(a: dict[str, Any], b: dict[str, Any]) -> None:
         assert th.equal(b[name], value) if isinstance(value, th.Tensor) else b[name] == value, name
 
 
-@pytest.mark.parametrize("sigterm", [False, True], ids=["ctrl-c", "sigterm"])
+@pytest.mark.parametrize("how", ["ctrl-c", "sigterm"])
 def test_interrupted_train_saves_its_checkpoint_and_the_same_command_resumes(
-    sigterm: bool, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+    how: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     """Interrupted in its third rollout (2 envs x 64 steps each), the run's checkpoint holds
     the policy of a run trained for two rollouts, bit for bit; the same command resumes it
@@ -285,7 +289,7 @@ def test_interrupted_train_saves_its_checkpoint_and_the_same_command_resumes(
     argv += ["--n-steps", "64", "--max-basis", "32", "--seed", "3", "--no-progress"]
     out = tmp_path / "run"
     handler = signal.getsignal(signal.SIGTERM)
-    InterruptAt.at, InterruptAt.sigterm, InterruptAt.steps = 2 * 139, sigterm, 0
+    InterruptAt.at, InterruptAt.how, InterruptAt.steps = 2 * 139, how, 0
     assert main([*argv, "--timesteps", "512", "--out", str(out)]) == 130
     assert signal.getsignal(signal.SIGTERM) == handler
     assert "run the same command to resume" in capsys.readouterr().err
@@ -322,6 +326,44 @@ def test_interrupted_train_saves_its_checkpoint_and_the_same_command_resumes(
     assert main([*argv, "--timesteps", "512", "--out", str(out)]) == 0
     assert "trained already" in capsys.readouterr().out
     assert (out / "model.zip").read_bytes() == saved
+
+
+def _episodes(monitor: Path) -> list[list[tuple[str, str]]]:
+    """The (return, length) of each environment's episodes in the Monitor files of one part."""
+    out = []
+    for file in sorted(monitor.glob("*.monitor.csv")):
+        with file.open(newline="") as handle:
+            handle.readline()
+            out.append([(r["r"], r["l"]) for r in csv.DictReader(handle)])
+    return out
+
+
+def test_after_a_crash_the_run_resumes_from_its_last_periodic_checkpoint(tmp_path: Path) -> None:
+    """With ``--save-every 128`` a run that crashes in its third rollout left the checkpoint
+    saved as that rollout started: the policy of the run trained for two rollouts, bit for
+    bit. Resumed from it, the logs keep only what came before it: the progress rows to step 256
+    and the episodes that the run trained for two rollouts played."""
+    argv = ["train", "--algo", "ppo", "--env", "InterruptAt-v0", "--n-envs", "2"]
+    argv += ["--n-steps", "64", "--max-basis", "32", "--seed", "3", "--no-progress"]
+    out, reference = tmp_path / "run", tmp_path / "two_rollouts"
+    InterruptAt.at, InterruptAt.how, InterruptAt.steps = 2 * 170, "crash", 0
+    with pytest.raises(RuntimeError, match="crash"):
+        main([*argv, "--timesteps", "512", "--save-every", "128", "--out", str(out)])
+    InterruptAt.at = None
+    assert main([*argv, "--timesteps", "256", "--out", str(reference)]) == 0
+    assert PPO.load(out / "checkpoint.zip").num_timesteps == 256
+    _assert_same_state(
+        _policy_state(out / "checkpoint.zip"), _policy_state(reference / "model.zip")
+    )
+    played = sum(map(len, _episodes(out / "monitor")))
+    assert played > sum(map(len, _episodes(reference / "monitor")))  # some after the checkpoint
+
+    assert main([*argv, "--timesteps", "512", "--save-every", "128", "--out", str(out)]) == 0
+    assert _episodes(out / "monitor") == _episodes(reference / "monitor")
+    log = read_critic_log(out / "progress.csv")
+    assert log is not None
+    np.testing.assert_array_equal(log.timesteps, [128, 256, 384, 512])
+    assert not (out / "checkpoint.zip").exists()
 
 
 def test_monitor_logs_of_all_parts_are_ordered_by_absolute_time(tmp_path: Path) -> None:
