@@ -85,10 +85,15 @@ def visited_cells(task: Task, states: np.ndarray, n: int) -> np.ndarray:
     return hit
 
 
-def scores(mu: np.ndarray, var: np.ndarray, truth: GridValue) -> dict[str, Any]:
-    """Coverage per nominal level, ``z_rms``, sharpness, RMSE and NLPD over the cells given."""
-    s2 = var + truth.stderr**2
-    z = (truth.value - mu) / np.sqrt(s2)
+def scores(
+    mu: np.ndarray, var: np.ndarray, value: np.ndarray, stderr: np.ndarray
+) -> dict[str, Any]:
+    """How the intervals of predictive means ``mu`` and latent variances ``var`` hold the
+    reference ``value`` (standard errors ``stderr``, added to the variance), all shape (n,):
+    coverage per nominal level, ``z_rms``, sharpness (median and root-mean-square posterior
+    standard deviation), RMSE and NLPD."""
+    s2 = var + stderr**2
+    z = (value - mu) / np.sqrt(s2)
     quantiles = stats.norm.ppf(0.5 + np.array(LEVELS) / 2)
     return {
         "cells": len(mu),
@@ -97,7 +102,8 @@ def scores(mu: np.ndarray, var: np.ndarray, truth: GridValue) -> dict[str, Any]:
         },
         "z_rms": float(np.sqrt(np.mean(z**2))),
         "median_sd": float(np.median(np.sqrt(var))),
-        "rmse": float(np.sqrt(np.mean((truth.value - mu) ** 2))),
+        "rms_sd": float(np.sqrt(np.mean(var))),
+        "rmse": float(np.sqrt(np.mean((value - mu) ** 2))),
         "nlpd": float(np.mean(0.5 * np.log(2 * np.pi * s2) + 0.5 * z**2)),
     }
 
@@ -134,7 +140,7 @@ def run_case(arm: str, seed: int, capacity: int, truth: GridValue) -> dict[str, 
     visited = visited_cells(task, data.states, truth.n)
     masks = {"all": np.ones_like(visited), "visited": visited, "unvisited": ~visited}
     cut = {
-        region: scores(mu[m], v[m], GridValue(truth.value[m], truth.stderr[m], truth.n))
+        region: scores(mu[m], v[m], truth.value[m], truth.stderr[m])
         for region, m in masks.items()
         if m.any()
     }
