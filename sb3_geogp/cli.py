@@ -164,8 +164,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
     except KeyboardInterrupt:
         if args.command == "compare":
-            raise
-        return 130  # the shell's status for an interrupt, after train saved its checkpoint
+            print(
+                f"sb3-geogp compare: interrupted; the finished runs are in {args.out / 'runs'}, "
+                "and the same command resumes the sweep",
+                file=sys.stderr,
+            )
+        return 130  # the shell's status for an interrupt (train has saved its checkpoint)
     return 0
 
 

@@ -13,6 +13,8 @@ import concurrent.futures as cf
 import dataclasses
 import json
 import multiprocessing as mp
+import os
+import signal
 import sys
 from collections.abc import Callable, Iterable
 from pathlib import Path
@@ -68,7 +70,16 @@ def _jsonable(x: Any) -> Any:
 
 def _executor(workers: int) -> cf.ProcessPoolExecutor:
     # Spawned workers: no forked torch/OpenMP state; each imports the package once.
-    return cf.ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn"))
+    return cf.ProcessPoolExecutor(
+        max_workers=workers, mp_context=mp.get_context("spawn"), initializer=_stop_on_interrupt
+    )
+
+
+def _stop_on_interrupt() -> None:
+    """A worker's Ctrl-C ends the worker: otherwise it would report the interrupted run and
+    start the next one it holds. Its run is lost whole, as run files are written at the end,
+    atomically."""
+    signal.signal(signal.SIGINT, lambda signum, frame: os._exit(130))
 
 
 def run_sweep(
@@ -126,8 +137,13 @@ def run_sweep(
         else:
             with _executor(workers) as pool:
                 futures = {pool.submit(run_one, spec, str(out)): spec for spec in todo}
-                for future in cf.as_completed(futures):
-                    finished(futures[future], future.result())
+                try:
+                    for future in cf.as_completed(futures):
+                        finished(futures[future], future.result())
+                except KeyboardInterrupt:
+                    # Leaving the block would otherwise start every queued run first.
+                    pool.shutdown(cancel_futures=True)
+                    raise
     finally:
         if bar is not None:
             bar.close()

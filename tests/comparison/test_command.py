@@ -7,6 +7,7 @@ import argparse
 import json
 import sys
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -20,7 +21,7 @@ from sb3_geogp.comparison.command import (
 )
 from sb3_geogp.comparison.hyperparams import GP_KWARGS
 from sb3_geogp.comparison.report import write_report
-from sb3_geogp.comparison.specs import SweepConfig
+from sb3_geogp.comparison.specs import RunSpec, SweepConfig
 
 MODULE = "tests.comparison.toy_env"
 TOY = f"{MODULE}:ToyEnv-v0"  # no reward_threshold
@@ -209,6 +210,38 @@ def test_compare_on_an_environment_only_the_test_knows(
     assert main(argv) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "other threshold than requested (-3.0 there, -4.0 now)" in err
+
+
+def test_an_interrupted_sweep_says_so_and_the_same_command_resumes_it(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Ctrl-C during the second of two runs (one worker, in this process): exit status 130, one
+    line naming the runs kept, the first run's file; the same command runs only the second."""
+    import sb3_geogp.comparison.sweep as sweep
+
+    yml = tmp_path / "ppo.yml"
+    yml.write_text(PPO_YML)
+    out = tmp_path / "out"
+    argv = ["compare", "--envs", TOY, "--hyperparams", f"ppo={yml}", "--threshold", "-3"]
+    argv += ["--critics", "mlp", "rbf", "--seeds", "1", "--workers", "1", "--out", str(out)]
+    argv += ["--no-progress", "--no-plots"]
+    real, calls = sweep.run_one, []
+
+    def interrupted_second(spec: RunSpec, out_dir: str | Path) -> dict[str, Any]:
+        calls.append(spec.run_id)
+        if len(calls) == 2:
+            raise KeyboardInterrupt
+        return real(spec, out_dir)
+
+    monkeypatch.setattr(sweep, "run_one", interrupted_second)
+    assert main(argv) == 130
+    err = capsys.readouterr().err
+    assert f"interrupted; the finished runs are in {out / 'runs'}" in err
+    assert [p.stem for p in (out / "runs").glob("*.json")] == [calls[0]]
+    monkeypatch.setattr(sweep, "run_one", real)
+    assert main(argv) == 0
+    assert "ran 1 runs, 1 were already done" in capsys.readouterr().out
+    assert sorted(p.stem for p in (out / "runs").glob("*.json")) == sorted(calls)
 
 
 def test_mistakes_end_in_one_line_and_status_2_before_any_run(
