@@ -50,7 +50,6 @@ from __future__ import annotations
 import argparse
 import concurrent.futures as cf
 import json
-import multiprocessing as mp
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -86,6 +85,7 @@ from sb3_geogp.studies.value_ceiling import (
     mlp_fit,
     model_returns,
 )
+from sb3_geogp.toolbox.pools import worker_pool
 from sb3_geogp.toolbox.provenance import provenance
 from sb3_geogp.toolbox.stats import mean_ci, moments, pooled_explained_variance
 
@@ -379,7 +379,7 @@ def run_all(
             finished(_run_and_save(spec, last, out, ceiling_rollouts, tail, with_capacity))
     else:
         # Spawned, not forked: a fork after autograd has run on a GPU cannot backpropagate.
-        with cf.ProcessPoolExecutor(workers, mp_context=mp.get_context("spawn")) as pool:
+        with worker_pool(workers) as pool:
             futures = [
                 pool.submit(_run_and_save, s, last, out, ceiling_rollouts, tail, with_capacity)
                 for s in todo

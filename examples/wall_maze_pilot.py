@@ -23,7 +23,6 @@ import argparse
 import concurrent.futures as cf
 import dataclasses
 import json
-import multiprocessing as mp
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -50,6 +49,7 @@ from sb3_geogp.envs.wall_maze import (
     WallMaze,
     distance_to_walls,
 )
+from sb3_geogp.toolbox.pools import worker_pool
 
 ENV_ID = "sb3_geogp_pilot/WallMaze-v0"
 #: The walls a pilot can use: the published zig-zag, its upper wall alone, or
@@ -112,12 +112,7 @@ def run_pilot(
             finished(run_one(spec, out))
     else:
         # Spawned workers, as the sweep's; each registers the layout before its first run.
-        with cf.ProcessPoolExecutor(
-            max_workers=workers,
-            mp_context=mp.get_context("spawn"),
-            initializer=register_pilot,
-            initargs=(layout, discrete),
-        ) as pool:
+        with worker_pool(workers, register_pilot, (layout, discrete)) as pool:
             for future in cf.as_completed([pool.submit(run_one, s, str(out)) for s in todo]):
                 finished(future.result())
     bar.close()

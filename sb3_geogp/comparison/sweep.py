@@ -2,9 +2,9 @@
 
 :func:`run_sweep` skips every run whose result file exists, so an interrupted sweep resumes
 where it stopped and never redoes a finished run. Runs execute in parallel processes
-(:class:`concurrent.futures.ProcessPoolExecutor`) or, with ``use_ray=True``, as Ray tasks
-wrapping the same :func:`~sb3_geogp.comparison.run.run_one`. Each distinct warning of the runs
-is shown once per sweep, above the progress bar.
+(:func:`~sb3_geogp.toolbox.pools.worker_pool`, which Ctrl-C stops at once) or, with
+``use_ray=True``, as Ray tasks wrapping the same :func:`~sb3_geogp.comparison.run.run_one`.
+Each distinct warning of the runs is shown once per sweep, above the progress bar.
 """
 
 from __future__ import annotations
@@ -12,9 +12,6 @@ from __future__ import annotations
 import concurrent.futures as cf
 import dataclasses
 import json
-import multiprocessing as mp
-import os
-import signal
 import sys
 from collections.abc import Callable, Iterable
 from pathlib import Path
@@ -31,6 +28,7 @@ from sb3_geogp.comparison.hyperparams import (
 )
 from sb3_geogp.comparison.run import SCHEMA, load_result, result_path, run_one, write_json_atomic
 from sb3_geogp.comparison.specs import RunSpec, SweepConfig, setting_differences
+from sb3_geogp.toolbox.pools import worker_pool
 
 
 def pending_runs(specs: Iterable[RunSpec], out_dir: str | Path) -> list[RunSpec]:
@@ -66,20 +64,6 @@ def pending_runs(specs: Iterable[RunSpec], out_dir: str | Path) -> list[RunSpec]
 def _jsonable(x: Any) -> Any:
     """``x`` as it reads back from JSON (tuples become lists)."""
     return json.loads(json.dumps(x))
-
-
-def _executor(workers: int) -> cf.ProcessPoolExecutor:
-    # Spawned workers: no forked torch/OpenMP state; each imports the package once.
-    return cf.ProcessPoolExecutor(
-        max_workers=workers, mp_context=mp.get_context("spawn"), initializer=_stop_on_interrupt
-    )
-
-
-def _stop_on_interrupt() -> None:
-    """A worker's Ctrl-C ends the worker: otherwise it would report the interrupted run and
-    start the next one it holds. Its run is lost whole, as run files are written at the end,
-    atomically."""
-    signal.signal(signal.SIGINT, lambda signum, frame: os._exit(130))
 
 
 def run_sweep(
@@ -135,15 +119,10 @@ def run_sweep(
             for spec in todo:
                 finished(spec, run_one(spec, out))
         else:
-            with _executor(workers) as pool:
+            with worker_pool(workers) as pool:
                 futures = {pool.submit(run_one, spec, str(out)): spec for spec in todo}
-                try:
-                    for future in cf.as_completed(futures):
-                        finished(futures[future], future.result())
-                except KeyboardInterrupt:
-                    # Leaving the block would otherwise start every queued run first.
-                    pool.shutdown(cancel_futures=True)
-                    raise
+                for future in cf.as_completed(futures):
+                    finished(futures[future], future.result())
     finally:
         if bar is not None:
             bar.close()

@@ -6,5 +6,6 @@
 * :mod:`~sb3_geogp.toolbox.shepard`: the Shepard-interpolation control (a prediction rule);
 * :mod:`~sb3_geogp.toolbox.streams`: pendulum transitions and on-line passes over episodes;
 * :mod:`~sb3_geogp.toolbox.benchmarks`: GP variants and thread limits of the engine benchmarks;
-* :mod:`~sb3_geogp.toolbox.scripts`: an example or results script imported by path.
+* :mod:`~sb3_geogp.toolbox.scripts`: an example or results script imported by path;
+* :mod:`~sb3_geogp.toolbox.pools`: worker processes for sweeps, which Ctrl-C stops at once.
 """

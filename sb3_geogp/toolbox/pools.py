@@ -1,0 +1,67 @@
+"""Worker processes for sweeps of runs that Ctrl-C stops at once.
+
+A Ctrl-C in a terminal reaches every process of the foreground group. In a plain
+:class:`concurrent.futures.ProcessPoolExecutor` a worker reports its interrupted run as that
+run's exception and starts the next one it holds, and leaving the executor's ``with`` block
+waits for every queued run: a sweep of quick runs with two workers took 98 s to stop. Here a
+worker exits on SIGINT, and the parent cancels what is queued. A run cut short is lost whole,
+so a sweep that writes each run's file at its end, atomically, resumes where it stopped.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import contextlib
+import multiprocessing as mp
+import os
+import signal
+from collections.abc import Callable, Iterator
+from types import FrameType
+from typing import Any
+
+
+@contextlib.contextmanager
+def worker_pool(
+    workers: int,
+    initializer: Callable[..., None] | None = None,
+    initargs: tuple[Any, ...] = (),
+) -> Iterator[cf.ProcessPoolExecutor]:
+    """A pool of ``workers`` spawned processes (no forked torch or OpenMP state).
+
+    Parameters
+    ----------
+    workers : int
+    initializer : callable, optional
+        Run in each worker before its first task, with ``initargs``; a module-level function,
+        as spawned workers import it.
+    initargs : tuple
+
+    Yields
+    ------
+    concurrent.futures.ProcessPoolExecutor
+        On :class:`KeyboardInterrupt` inside the block its queued tasks are cancelled before
+        the interrupt goes on.
+    """
+    pool = cf.ProcessPoolExecutor(
+        max_workers=workers,
+        mp_context=mp.get_context("spawn"),
+        initializer=_start_worker,
+        initargs=(initializer, initargs),
+    )
+    try:
+        yield pool
+    except KeyboardInterrupt:
+        pool.shutdown(cancel_futures=True)
+        raise
+    finally:
+        pool.shutdown()
+
+
+def _start_worker(initializer: Callable[..., None] | None, initargs: tuple[Any, ...]) -> None:
+    signal.signal(signal.SIGINT, _exit_interrupted)
+    if initializer is not None:
+        initializer(*initargs)
+
+
+def _exit_interrupted(signum: int, frame: FrameType | None) -> None:
+    os._exit(128 + signal.SIGINT)

@@ -1,0 +1,50 @@
+"""Worker pools that Ctrl-C stops at once: a worker hit by SIGINT exits instead of reporting
+its task and starting the next, and an interrupt in the parent cancels the queued tasks."""
+
+from __future__ import annotations
+
+import os
+import signal
+import time
+from concurrent.futures.process import BrokenProcessPool
+from pathlib import Path
+
+import pytest
+
+from sb3_geogp.toolbox.pools import worker_pool
+
+
+def test_workers_run_their_tasks_after_the_initializer(tmp_path: Path) -> None:
+    with worker_pool(2, os.chdir, (str(tmp_path),)) as pool:
+        assert [f.result() for f in [pool.submit(os.getcwd) for _ in range(3)]] == [
+            str(tmp_path)
+        ] * 3
+        assert pool.submit(pow, 2, 10).result() == 1024
+
+
+def test_an_interrupt_in_the_parent_cancels_the_queued_tasks() -> None:
+    """One worker, eight tasks of a second: at most the running one and the one handed to the
+    worker's queue run; leaving the block does not wait for the rest."""
+    futures = []
+    with pytest.raises(KeyboardInterrupt), worker_pool(1) as pool:
+        futures = [pool.submit(time.sleep, 1.0) for _ in range(8)]
+        raise KeyboardInterrupt
+    assert sum(f.cancelled() for f in futures) >= 6
+
+
+def test_a_worker_interrupted_mid_task_exits_instead_of_reporting_it() -> None:
+    """A plain pool's worker returns the interrupt as its task's exception (which would
+    re-raise ``KeyboardInterrupt`` here) and goes on to its next task."""
+    with worker_pool(1) as pool:
+        pid = pool.submit(os.getpid).result()
+        task = pool.submit(time.sleep, 30.0)
+        time.sleep(1.0)  # the worker is inside the task
+        os.kill(pid, signal.SIGINT)
+        try:
+            task.result(timeout=60)
+        except BrokenProcessPool:
+            pass
+        except KeyboardInterrupt:
+            pytest.fail("the worker reported its interrupted task instead of exiting")
+        else:
+            pytest.fail("the task ran to its end")
