@@ -16,7 +16,6 @@ from __future__ import annotations
 import argparse
 import concurrent.futures as cf
 import json
-import multiprocessing
 from pathlib import Path
 from typing import Any
 
@@ -46,6 +45,7 @@ from sb3_geogp.studies.pendulum.batch_check import CheckConfig, feed_stream, onl
 from sb3_geogp.studies.pendulum.ground_truth import GridValue, mc_value
 from sb3_geogp.studies.pendulum.task import Task
 from sb3_geogp.toolbox.provenance import provenance
+from sb3_geogp.toolbox.pools import worker_pool
 from sb3_geogp.toolbox.stats import mean_ci
 
 HERE = Path(__file__).resolve().parent
@@ -168,8 +168,7 @@ def run(workers: int) -> None:
     done.setdefault("provenance", provenance())
     print("ground truth: Monte Carlo on the grid ...", flush=True)
     truth = mc_value(Task(), config.grid_n, config.mc_rollouts)
-    context = multiprocessing.get_context("spawn")
-    with cf.ProcessPoolExecutor(workers, mp_context=context) as pool:
+    with worker_pool(workers) as pool:
         futures = [pool.submit(run_case, *case, truth) for case in cases]
         for future in tqdm(cf.as_completed(futures), total=len(futures), unit="case"):
             done["rows"].append(future.result())

@@ -16,7 +16,6 @@ import argparse
 import concurrent.futures as cf
 import json
 import math
-import multiprocessing
 from pathlib import Path
 from typing import Any
 
@@ -30,6 +29,7 @@ from sb3_geogp import GPActorCriticPolicy, GPValueCallback
 from sb3_geogp.comparison.run import build_model, write_json_atomic
 from sb3_geogp.comparison.specs import RunSpec, SweepConfig
 from sb3_geogp.toolbox.scripts import load_script
+from sb3_geogp.toolbox.pools import worker_pool
 from sb3_geogp.toolbox.stats import mean_ci
 
 HERE = Path(__file__).resolve().parent
@@ -138,7 +138,7 @@ def run(workers: int) -> None:
     if not todo:
         print(f"all runs in {RUNS}")
         return
-    with cf.ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn")) as pool:
+    with worker_pool(workers) as pool:
         futures = [pool.submit(run_one, s) for s in todo]
         for future in tqdm(cf.as_completed(futures), total=len(futures), unit="run"):
             future.result()
