@@ -44,8 +44,8 @@ from sb3_geogp.sparse_gp import SparseOnlineGP
 from sb3_geogp.studies.pendulum.batch_check import CheckConfig, feed_stream, online_gp, stream
 from sb3_geogp.studies.pendulum.ground_truth import GridValue, mc_value
 from sb3_geogp.studies.pendulum.task import Task
-from sb3_geogp.toolbox.provenance import provenance
 from sb3_geogp.toolbox.pools import worker_pool
+from sb3_geogp.toolbox.provenance import provenance
 from sb3_geogp.toolbox.stats import mean_ci
 
 HERE = Path(__file__).resolve().parent

@@ -28,8 +28,8 @@ from tqdm import tqdm
 from sb3_geogp import GPActorCriticPolicy, GPValueCallback
 from sb3_geogp.comparison.run import build_model, write_json_atomic
 from sb3_geogp.comparison.specs import RunSpec, SweepConfig
-from sb3_geogp.toolbox.scripts import load_script
 from sb3_geogp.toolbox.pools import worker_pool
+from sb3_geogp.toolbox.scripts import load_script
 from sb3_geogp.toolbox.stats import mean_ci
 
 HERE = Path(__file__).resolve().parent
