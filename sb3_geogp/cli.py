@@ -608,7 +608,9 @@ def plot_learning_curve(
     critic = None if progress is None else read_critic_log(progress)
     if len(returns) == 0 and critic is None:
         return None
-    fig = learning_curve_figure(steps, returns, critic, threshold, title)
+    # A resumed part's Monitor logs are in monitor/from_<step> (train's _monitor).
+    resumed = sorted(int(p.name.removeprefix("from_")) for p in Path(monitor_dir).glob("from_*"))
+    fig = learning_curve_figure(steps, returns, critic, threshold, title, resumed_at=resumed)
     fig.savefig(path, dpi=100)
     pyplot().close(fig)
     return path
@@ -620,6 +622,8 @@ def learning_curve_figure(
     critic: CriticLog | None = None,
     threshold: float | None = None,
     title: str = "",
+    *,
+    resumed_at: Sequence[int] = (),
 ) -> Figure:
     """Episode returns against timesteps and, with ``critic``, a critic panel below.
 
@@ -634,6 +638,8 @@ def learning_curve_figure(
         Drawn as a dashed line labelled "threshold".
     title : str
         Figure title.
+    resumed_at : sequence of int
+        Steps at which an interrupted run was resumed, drawn as dotted lines in each panel.
 
     Returns
     -------
@@ -658,6 +664,10 @@ def learning_curve_figure(
         ax.text(0.5, 0.5, "no episode finished yet", ha="center", transform=ax.transAxes)
     if threshold is not None:
         ax.axhline(threshold, color="k", lw=1, ls="--", label=f"threshold ({threshold:g})")
+    for i, step in enumerate(resumed_at):
+        for panel in axes[:, 0]:
+            label = "resumed" if panel is ax and i == 0 else None
+            panel.axvline(step, color="0.4", lw=1, ls=":", label=label)
     ax.set_ylabel("episode return")
     _legend_above(ax, *ax.get_legend_handles_labels())
     fig.suptitle(title)

@@ -366,6 +366,20 @@ def test_after_a_crash_the_run_resumes_from_its_last_periodic_checkpoint(tmp_pat
     assert not (out / "checkpoint.zip").exists()
 
 
+def test_learning_curve_marks_where_a_run_resumed() -> None:
+    plt = pytest.importorskip("matplotlib.pyplot")
+    log = CriticLog(np.array([100.0, 200.0]), np.array([0.5, 0.6]), None)
+    fig = learning_curve_figure(
+        np.array([50.0, 150.0]), np.array([1.0, 2.0]), log, resumed_at=[120]
+    )
+    for ax in fig.axes:
+        marks = [ln for ln in ax.get_lines() if list(ln.get_xdata()) == [120, 120]]
+        assert len(marks) == 1
+    labels = fig.axes[0].get_legend_handles_labels()[1]
+    assert labels.count("resumed") == 1
+    plt.close(fig)
+
+
 def test_monitor_logs_of_all_parts_are_ordered_by_absolute_time(tmp_path: Path) -> None:
     """Each Monitor file counts time from its own start (header ``t_start``): a resumed part's
     episodes, in a subfolder, come after the first part's although their ``t`` is smaller."""
