@@ -108,11 +108,16 @@ def scores(
     }
 
 
-def drop_in_critic(algorithm: type[OnPolicyAlgorithm], task: Task, capacity: int) -> SparseOnlineGP:
+def drop_in_critic(
+    algorithm: type[OnPolicyAlgorithm],
+    task: Task,
+    capacity: int,
+    gp_kwargs: dict[str, Any] | None = None,
+) -> SparseOnlineGP:
     """The critic ``GPActorCriticPolicy`` builds under ``algorithm`` for the pendulum's
-    observations, ``max_basis=capacity``."""
+    observations with ``gp_kwargs`` (none: the defaults), ``max_basis=capacity``."""
     options = resolved_gp_kwargs(
-        {"max_basis": capacity},
+        {**(gp_kwargs or {}), "max_basis": capacity},
         default_kernel(algorithm),
         default_trend(algorithm),
         default_adaptation(algorithm),
