@@ -300,7 +300,8 @@ def train(args: argparse.Namespace) -> Path:
         env.close()
     seconds = time.perf_counter() - started
     _save(model, out / "model.zip")
-    (out / _CHECKPOINT).unlink(missing_ok=True)
+    for done in (out / _CHECKPOINT, _partial(out / _CHECKPOINT)):
+        done.unlink(missing_ok=True)  # the partial one a kill during a save may have left
     curve = _finish_logs(args, out)
     resumed = f" (resumed at {start})" if start else ""
     print(
@@ -345,11 +346,15 @@ def _save(model: OnPolicyAlgorithm, path: Path) -> None:
     """``model.save`` through a temporary file, so that an interrupt or a kill cannot leave half
     a checkpoint behind; the file's modification time is the moment of the save, which tells a
     resumed run which Monitor episodes came after it (:func:`_resume_from`)."""
-    partial = path.with_name(f"partial_{path.name}")
+    partial = _partial(path)
     now = time.time()
     model.save(partial)
     os.utime(partial, (now, now))
     partial.replace(path)
+
+
+def _partial(path: Path) -> Path:
+    return path.with_name(f"partial_{path.name}")
 
 
 class _Checkpoints(BaseCallback):
