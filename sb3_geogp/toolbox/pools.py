@@ -4,8 +4,9 @@ A Ctrl-C in a terminal reaches every process of the foreground group. In a plain
 :class:`concurrent.futures.ProcessPoolExecutor` a worker reports its interrupted run as that
 run's exception and starts the next one it holds, and leaving the executor's ``with`` block
 waits for every queued run: a sweep of quick runs with two workers took 98 s to stop. Here a
-worker exits on SIGINT, and the parent cancels what is queued. A run cut short is lost whole,
-so a sweep that writes each run's file at its end, atomically, resumes where it stopped.
+worker exits on SIGINT, and the parent cancels what is queued (on any error, not only
+Ctrl-C). A run cut short is lost whole, so a sweep that writes each run's file at its end,
+atomically, resumes where it stopped.
 """
 
 from __future__ import annotations
@@ -39,8 +40,8 @@ def worker_pool(
     Yields
     ------
     concurrent.futures.ProcessPoolExecutor
-        On :class:`KeyboardInterrupt` inside the block its queued tasks are cancelled before
-        the interrupt goes on.
+        When the block raises (a :class:`KeyboardInterrupt`, or a task's error re-raised by
+        ``result()``) the queued tasks are cancelled before the exception goes on.
     """
     pool = cf.ProcessPoolExecutor(
         max_workers=workers,
@@ -50,7 +51,7 @@ def worker_pool(
     )
     try:
         yield pool
-    except KeyboardInterrupt:
+    except BaseException:
         pool.shutdown(cancel_futures=True)
         raise
     finally:

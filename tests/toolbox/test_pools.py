@@ -22,13 +22,14 @@ def test_workers_run_their_tasks_after_the_initializer(tmp_path: Path) -> None:
         assert pool.submit(pow, 2, 10).result() == 1024
 
 
-def test_an_interrupt_in_the_parent_cancels_the_queued_tasks() -> None:
+@pytest.mark.parametrize("error", [KeyboardInterrupt, ValueError])
+def test_an_error_in_the_parent_cancels_the_queued_tasks(error: type[BaseException]) -> None:
     """One worker, eight tasks of a second: at most the running one and the one handed to the
     worker's queue run; leaving the block does not wait for the rest."""
     futures = []
-    with pytest.raises(KeyboardInterrupt), worker_pool(1) as pool:
+    with pytest.raises(error), worker_pool(1) as pool:
         futures = [pool.submit(time.sleep, 1.0) for _ in range(8)]
-        raise KeyboardInterrupt
+        raise error
     assert sum(f.cancelled() for f in futures) >= 6
 
 
