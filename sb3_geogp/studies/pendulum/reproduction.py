@@ -42,12 +42,13 @@ variance (:func:`normalised_variance`).
 
 from __future__ import annotations
 
+import concurrent.futures as cf
+import contextlib
 import copy
 import functools
 import math
-import multiprocessing as mp
 import time
-from collections.abc import Callable, Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -65,6 +66,7 @@ from sb3_geogp.studies.pendulum.ground_truth import (
 )
 from sb3_geogp.studies.pendulum.mlp_baseline import MLPSettings, fit_mlp
 from sb3_geogp.studies.pendulum.task import EpisodeData, Task, policy_episodes
+from sb3_geogp.toolbox.pools import worker_pool
 from sb3_geogp.toolbox.provenance import provenance
 from sb3_geogp.toolbox.shepard import PredictionRule, predict_mean, shepard_interpolate
 from sb3_geogp.toolbox.stats import mean_ci
@@ -626,26 +628,21 @@ def run_reproduction(
         ("gp", seed, m) for m in sorted(config.max_basis, reverse=True) for seed in config.seeds
     ]
     rows: list[dict[str, Any]] = []
-    results: Iterator[list[dict[str, Any]]]
-    if config.workers > 1:
-        pool = mp.get_context("fork").Pool(
-            config.workers, initializer=_init_worker, initargs=(task, config, truth)
-        )
-        results = pool.imap_unordered(_run_job, jobs)
-    else:
-        pool = None
-        threads = torch.get_num_threads()
-        _init_worker(task, config, truth)
-        results = map(_run_job, jobs)
-    try:
+    results: Iterable[list[dict[str, Any]]]
+    with contextlib.ExitStack() as stack:
+        if config.workers > 1:
+            # Spawned workers that Ctrl-C stops at once (a forked multiprocessing.Pool hung).
+            pool = stack.enter_context(
+                worker_pool(config.workers, _init_worker, (task, config, truth))
+            )
+            futures = [pool.submit(_run_job, job) for job in jobs]
+            results = (f.result() for f in cf.as_completed(futures))
+        else:
+            stack.callback(torch.set_num_threads, torch.get_num_threads())
+            _init_worker(task, config, truth)
+            results = map(_run_job, jobs)
         for part in progress(results, len(jobs)) if progress else results:
             rows.extend(part)
-    finally:
-        if pool is not None:
-            pool.close()
-            pool.join()
-        else:
-            torch.set_num_threads(threads)
     return ReproductionResult(rows, truth, config, task, record)
 
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import json
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -13,9 +14,12 @@ import torch
 from sb3_geogp import GeodesicKernel, LaplacianKernel, SparseOnlineGP
 from sb3_geogp.studies.pendulum.reproduction import (
     GPSettings,
+    ReproductionConfig,
+    compute_ground_truth,
     fit_gp,
     jump_cells,
     normalised_variance,
+    run_reproduction,
 )
 from sb3_geogp.studies.pendulum.task import Task, policy_episodes
 from sb3_geogp.toolbox.shepard import shepard_mean
@@ -74,6 +78,21 @@ def test_quick_run_writes_every_promised_file(tmp_path: Path) -> None:
     assert "| geodesic | fixed |" in (tmp_path / "results.md").read_text()
     with np.load(tmp_path / "ground_truth.npz") as gt:
         assert gt["mc_value"].shape == gt["td_value"].shape
+
+
+def test_worker_processes_give_the_rows_of_one_process() -> None:
+    """Two spawned workers (which Ctrl-C stops at once) compute what one process does."""
+    config = replace(ReproductionConfig.quick(), max_basis=(10,), seeds=(0, 1))
+    task = Task()
+    truth = compute_ground_truth(task, config)
+
+    def rows(workers: int) -> list[str]:
+        result = run_reproduction(replace(config, workers=workers), task, truth)
+        timeless = [{k: v for k, v in r.items() if k != "seconds"} for r in result.rows]
+        return sorted(json.dumps(r, sort_keys=True) for r in timeless)
+
+    serial = rows(1)
+    assert len(serial) == 30 and rows(2) == serial
 
 
 @pytest.mark.parametrize("bad", [0])
