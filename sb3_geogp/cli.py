@@ -386,7 +386,7 @@ def _resume_from(out: Path) -> int:
     earlier = out / _EARLIER_PROGRESS
     if not (out / _CHECKPOINT).is_file():
         earlier.unlink(missing_ok=True)
-        for part in (out / "monitor").glob("from_*"):
+        for part in (out / "monitor").glob(f"{_PART}*"):
             shutil.rmtree(part)
         return 0
     with zipfile.ZipFile(out / _CHECKPOINT) as archive:
@@ -401,25 +401,44 @@ def _resume_from(out: Path) -> int:
 def _drop_episodes_after(file: Path, moment: float) -> None:
     """Remove from a Monitor log the episodes that ended after ``moment`` (a killed part's,
     played after its last checkpoint)."""
-    with file.open(newline="") as handle:
-        header = handle.readline()
-        reader = csv.DictReader(handle)
-        rows = list(reader)
-    t_start = float(json.loads(header.lstrip("#") or "{}").get("t_start", 0))
-    kept = [r for r in rows if t_start + float(r["t"]) <= moment]
-    if len(kept) == len(rows):
+    log = _MonitorLog.read(file)
+    kept = [r for r in log.rows if log.t_start + float(r["t"]) <= moment]
+    if len(kept) == len(log.rows):
         return
     with file.open("w", newline="") as handle:
-        handle.write(header)
-        writer = csv.DictWriter(handle, reader.fieldnames or ["r", "l", "t"])
+        handle.write(log.header)
+        writer = csv.DictWriter(handle, log.columns)
         writer.writeheader()
         writer.writerows(kept)
+
+
+class _MonitorLog(NamedTuple):
+    """An SB3 Monitor file: its ``#{json}`` header line, whose ``t_start`` its episodes' times
+    ``t`` count from, its columns and its rows (as strings)."""
+
+    header: str
+    t_start: float
+    columns: list[str]
+    rows: list[dict[str, str]]
+
+    @classmethod
+    def read(cls, file: Path) -> _MonitorLog:
+        with file.open(newline="") as handle:
+            header = handle.readline()
+            reader = csv.DictReader(handle)
+            rows = list(reader)
+        t_start = float(json.loads(header.lstrip("#") or "{}").get("t_start", 0))
+        return cls(header, t_start, list(reader.fieldnames or ["r", "l", "t"]), rows)
+
+
+#: Prefix of the Monitor folder of a resumed part, followed by the step it resumed at.
+_PART = "from_"
 
 
 def _monitor(out: Path, start: int) -> Path:
     """Where the Monitor logs of the part starting at ``start`` go (one folder per part, as
     each environment's file is named by its index)."""
-    return out / "monitor" if start == 0 else out / "monitor" / f"from_{start}"
+    return out / "monitor" if start == 0 else out / "monitor" / f"{_PART}{start}"
 
 
 def _merge_progress(parts: Sequence[Path], path: Path, until: int | None = None) -> None:
@@ -614,7 +633,8 @@ def plot_learning_curve(
     if len(returns) == 0 and critic is None:
         return None
     # A resumed part's Monitor logs are in monitor/from_<step> (train's _monitor).
-    resumed = sorted(int(p.name.removeprefix("from_")) for p in Path(monitor_dir).glob("from_*"))
+    parts = Path(monitor_dir).glob(f"{_PART}*")
+    resumed = sorted(int(p.name.removeprefix(_PART)) for p in parts)
     fig = learning_curve_figure(steps, returns, critic, threshold, title, resumed_at=resumed)
     fig.savefig(path, dpi=100)
     pyplot().close(fig)
@@ -747,12 +767,8 @@ def read_monitor_logs(monitor_dir: Path) -> tuple[np.ndarray, np.ndarray]:
     rows: list[tuple[float, float, float]] = []
     # A resumed run's parts are in subfolders; each file's times count from its own start.
     for file in sorted(Path(monitor_dir).rglob("*monitor.csv")):
-        with file.open(newline="") as handle:
-            t_start = float(json.loads(handle.readline().lstrip("#") or "{}").get("t_start", 0))
-            rows += [
-                (t_start + float(r["t"]), float(r["l"]), float(r["r"]))
-                for r in csv.DictReader(handle)
-            ]
+        log = _MonitorLog.read(file)
+        rows += [(log.t_start + float(r["t"]), float(r["l"]), float(r["r"])) for r in log.rows]
     rows.sort()
     lengths = np.array([r[1] for r in rows])
     return np.cumsum(lengths), np.array([r[2] for r in rows])
