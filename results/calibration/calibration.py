@@ -6,7 +6,7 @@
         > results/calibration/read.md
 
 Each case feeds one on-line GP the stream of the fixed-policy check
-(:func:`~sb3_geogp.studies.pendulum.batch_check.online_gp`, the configuration of
+(:func:`~sb3_geogp.studies.pendulum.batch_check.new_online_gp`, the configuration of
 ``docs/fixed_policy_check_prior``) and scores its predictive mean and latent variance on the
 60 x 60 grid against the Monte Carlo value, whose standard error is added to the variance.
 """
@@ -41,7 +41,12 @@ from sb3_geogp.policies import (
     resolved_gp_kwargs,
 )
 from sb3_geogp.sparse_gp import SparseOnlineGP
-from sb3_geogp.studies.pendulum.batch_check import CheckConfig, feed_stream, online_gp, stream
+from sb3_geogp.studies.pendulum.batch_check import (
+    CheckConfig,
+    feed_stream,
+    new_online_gp,
+    stream,
+)
 from sb3_geogp.studies.pendulum.ground_truth import GridValue, mc_value
 from sb3_geogp.studies.pendulum.task import Task
 from sb3_geogp.toolbox.pools import worker_pool
@@ -127,17 +132,19 @@ def drop_in_critic(
     return build_gp_critic(options, 2, (-high, high))
 
 
+def new_critic(arm: str, task: Task, capacity: int, config: CheckConfig) -> SparseOnlineGP:
+    """The unfed GP of ``arm`` (one of :data:`ARMS` or :data:`DROP_INS`)."""
+    if arm in DROP_INS:
+        return drop_in_critic(DROP_INS[arm], task, capacity)
+    kernel, adaptive = ARMS[arm]
+    return new_online_gp(task, kernel, 2, capacity, config, adapt=adaptive)
+
+
 def run_case(arm: str, seed: int, capacity: int, truth: GridValue) -> dict[str, Any]:
     torch.set_num_threads(1)
     task, config = Task(), check_config()
     data = stream(task, config, seed)
-    if arm in DROP_INS:
-        gp = feed_stream(
-            drop_in_critic(DROP_INS[arm], task, capacity), data, config.episodes_per_batch
-        )
-    else:
-        kernel, adaptive = ARMS[arm]
-        gp = online_gp(task, kernel, data, capacity, config, adapt=adaptive)
+    gp = feed_stream(new_critic(arm, task, capacity, config), data, config.episodes_per_batch)
     states, _, _ = task.grid(truth.n)
     mean, var = gp.predict(states)
     assert var is not None

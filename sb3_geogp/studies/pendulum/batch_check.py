@@ -407,15 +407,29 @@ def online_gp(
     config: CheckConfig,
     adapt: bool,
 ) -> SparseOnlineGP:
-    """One on-line pass over ``data`` in batches of whole episodes, with their starts.
+    """One on-line pass over ``data`` in batches of whole episodes, with their starts, by the
+    GP of :func:`new_online_gp`."""
+    gp = new_online_gp(task, kernel, data.states.shape[1], max_basis, config, adapt)
+    return feed_stream(gp, data, config.episodes_per_batch)
+
+
+def new_online_gp(
+    task: Task,
+    kernel: KernelName,
+    input_dim: int,
+    max_basis: int,
+    config: CheckConfig,
+    adapt: bool,
+) -> SparseOnlineGP:
+    """The check's on-line GP, not yet fed.
 
     The GP has the library's defaults but ``novelty_tol`` (and ``config.adaptation``,
     ``config.trend`` and ``config``'s forgetting where ``adapt``), and knows the observation
     bounds (as the SB3 critic does), from which it takes its starting lengthscales.
     """
     high = np.array([math.pi, task.params.max_speed])
-    gp = SparseOnlineGP(
-        data.states.shape[1],
+    return SparseOnlineGP(
+        input_dim,
         kernel=kernel,
         max_basis=max_basis,
         novelty_tol=config.novelty_tol,
@@ -425,7 +439,6 @@ def online_gp(
         forgetting=config.forgetting if adapt else 1.0,
         forgetting_points=config.forgetting_points if adapt else None,
     )
-    return feed_stream(gp, data, config.episodes_per_batch)
 
 
 def feed_stream(gp: SparseOnlineGP, data: EpisodeData, episodes_per_batch: int) -> SparseOnlineGP:
