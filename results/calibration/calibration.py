@@ -79,15 +79,13 @@ def check_config() -> CheckConfig:
     return CheckConfig(**{**saved, **tuples, "adaptation": adaptation})
 
 
-def visited_cells(task: Task, states: np.ndarray, n: int) -> np.ndarray:
-    """Whether each cell of :meth:`Task.grid`'s ``n x n`` grid holds one of ``states``,
-    shape (n * n,), the grid's order (``omega`` the slow index)."""
+def cell_counts(task: Task, states: np.ndarray, n: int) -> np.ndarray:
+    """How many of ``states`` lie in each cell of :meth:`Task.grid`'s ``n x n`` grid, shape
+    (n * n,), the grid's order (``omega`` the slow index)."""
     theta = np.floor((states[:, 0] + np.pi) / (2 * np.pi / n)).astype(int).clip(0, n - 1)
     speed = task.speed_limit
     omega = np.floor((states[:, 1] + speed) / (2 * speed / n)).astype(int).clip(0, n - 1)
-    hit = np.zeros(n * n, dtype=bool)
-    hit[omega * n + theta] = True
-    return hit
+    return np.bincount(omega * n + theta, minlength=n * n)
 
 
 def scores(
@@ -149,7 +147,7 @@ def run_case(arm: str, seed: int, capacity: int, truth: GridValue) -> dict[str, 
     mean, var = gp.predict(states)
     assert var is not None
     mu, v = mean.double().numpy(), var.double().numpy()
-    visited = visited_cells(task, data.states, truth.n)
+    visited = cell_counts(task, data.states, truth.n) > 0
     masks = {"all": np.ones_like(visited), "visited": visited, "unvisited": ~visited}
     cut = {
         region: scores(mu[m], v[m], truth.value[m], truth.stderr[m])
