@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import inspect
 import sys
 import time
 from collections.abc import Iterator, Mapping
@@ -39,6 +40,7 @@ from torch import nn
 
 from sb3_geogp.adaptation import Adaptation, as_adaptation
 from sb3_geogp.kernels import KERNELS, make_kernel
+from sb3_geogp.kernels.base import unknown_option
 from sb3_geogp.sparse_gp import SparseOnlineGP
 
 if TYPE_CHECKING:
@@ -49,6 +51,11 @@ else:
 
 #: ``gp_kwargs`` keys the policy sets itself.
 _RESERVED = ("input_dim", "device", "input_bounds")
+#: ``gp_kwargs`` keys a user may set: :class:`~sb3_geogp.SparseOnlineGP`'s options but
+#: :data:`_RESERVED`, and ``kernel_kwargs`` (the options of a kernel given by name).
+_GP_OPTIONS = frozenset(
+    {*inspect.signature(SparseOnlineGP.__init__).parameters, "kernel_kwargs"} - {"self", *_RESERVED}
+)
 
 #: The GP critic's kernel where ``gp_kwargs`` names none, unless the algorithm training the
 #: policy is in :data:`DEFAULT_KERNELS`: the Euclidean Laplacian kernel since 0.6 (the geodesic
@@ -482,7 +489,11 @@ class GPCriticMixin(_PolicyBase):
         ValueError
             If an observation holds NaN or inf, naming its row.
         """
-        self._check_observations(obs, "observation {} of the batch")
+        self._check_observations(
+            obs,
+            "observation {0} of the batch passed to predict_values (SB3 passes it each "
+            "environment's observation after a rollout: then it is env {0})",
+        )
         return super().predict_values(obs)
 
     @property
@@ -732,13 +743,19 @@ def _flat_bounds(space: spaces.Space) -> tuple[np.ndarray, np.ndarray]:
 
 def _check_spaces(observation_space: spaces.Space, action_space: spaces.Space) -> None:
     if isinstance(observation_space, spaces.Dict):
-        raise ValueError(f"{_SUPPORTED}; got a Dict observation space")
+        raise ValueError(
+            f"{_SUPPORTED}; got a Dict observation space: flatten it into one Box with "
+            "gymnasium.wrappers.FlattenObservation(env)"
+        )
     if not isinstance(observation_space, spaces.Box):
         raise ValueError(f"{_SUPPORTED}; got observation space {observation_space}")
     if is_image_space(observation_space, check_channels=False):
         raise ValueError(
-            f"{_SUPPORTED}; got an image observation space {observation_space} (a kernel on "
-            "raw pixels is not meaningful: wrap the env to give low-dimensional features)"
+            f"{_SUPPORTED}; got an image observation space {observation_space} (uint8 in "
+            "0-255 with 3 dimensions, channels first as SB3 transposes images): a kernel on raw "
+            "pixels is not meaningful, wrap the env to give low-dimensional features; a small "
+            "grid that only looks like an image can be cast to float32 "
+            "(gymnasium.wrappers.DtypeObservation(env, np.float32))"
         )
     if not isinstance(
         action_space, spaces.Box | spaces.Discrete | spaces.MultiDiscrete | spaces.MultiBinary
@@ -747,10 +764,16 @@ def _check_spaces(observation_space: spaces.Space, action_space: spaces.Space) -
 
 
 def check_gp_kwargs(gp_kwargs: dict[str, Any] | None) -> dict[str, Any]:
+    """``gp_kwargs`` as a new dict, refused where it names an option the policy sets itself
+    (``ValueError``) or one that neither :class:`~sb3_geogp.SparseOnlineGP` nor the policy
+    takes (``TypeError``, with the closest option's name)."""
     options = dict(gp_kwargs or {})
     reserved = [k for k in _RESERVED if k in options]
     if reserved:
         raise ValueError(f"gp_kwargs must not contain {reserved}: the policy sets them")
+    message = unknown_option("the GP critic's gp_kwargs", options, _GP_OPTIONS)
+    if message is not None:
+        raise TypeError(message)
     return options
 
 

@@ -778,7 +778,7 @@ def test_a_nan_observation_raises_naming_its_env_and_leaves_the_critic_as_it_was
         assert th.equal(other, value) if isinstance(value, th.Tensor) else other == value, name
     obs = th.zeros(3, 3)
     obs[2, 0] = th.inf
-    with pytest.raises(ValueError, match="observation 2 of the batch holds NaN or inf"):
+    with pytest.raises(ValueError, match=r"observation 2 of the batch passed to .*env 2\) holds"):
         model.policy.predict_values(obs)
 
 
@@ -789,8 +789,8 @@ _BOX = spaces.Box(-1, 1, shape=(3,))
 @pytest.mark.parametrize(
     ("obs_space", "action_space", "match"),
     [
-        (spaces.Dict({"a": _BOX}), spaces.Discrete(2), "Dict observation"),
-        (_IMAGE, spaces.Discrete(2), "image observation"),
+        (spaces.Dict({"a": _BOX}), spaces.Discrete(2), "Dict observation.*FlattenObservation"),
+        (_IMAGE, spaces.Discrete(2), "image observation.*DtypeObservation"),
         (spaces.Discrete(4), spaces.Discrete(2), "supports Box observations"),
         (_BOX, spaces.Tuple([spaces.Discrete(2)]), "action space"),
     ],
@@ -835,6 +835,56 @@ def test_bad_options_raise(kwargs: dict[str, Any], match: str) -> None:
         return
     with pytest.raises(ValueError, match=match):
         GPActorCriticPolicy(_BOX, spaces.Discrete(2), lambda _: 1e-3, **kwargs)
+
+
+@pytest.mark.parametrize(
+    ("gp_kwargs", "match", "meant"),
+    [
+        (
+            dict(max_bases=64),
+            r"'max_bases' of the GP critic's gp_kwargs \(did you mean 'max_basis'",
+            dict(max_basis=64),
+        ),
+        (
+            dict(kernel="rbf", kernel_kwargs=dict(profile="gaussian")),
+            r"'profile' of kernel 'rbf' \(RBFKernel\); .*an option of the geodesic kernel",
+            dict(kernel="geodesic", kernel_kwargs=dict(profile="gaussian")),
+        ),
+        (
+            dict(kernel_kwargs=dict(lenghtscale=1.0)),
+            r"did you mean 'lengthscale'",
+            dict(kernel_kwargs=dict(lengthscale=1.0)),
+        ),
+    ],
+    ids=["gp-option", "other-kernel's-option", "kernel-option"],
+)
+def test_misspelt_options_name_the_option_they_meant(
+    gp_kwargs: dict[str, Any], match: str, meant: dict[str, Any]
+) -> None:
+    """Python's own TypeError names neither the class nor the options; ours names both, and
+    the option it names is accepted."""
+    with pytest.raises(TypeError, match=match):
+        GPActorCriticPolicy(_BOX, spaces.Discrete(2), lambda _: 1e-3, gp_kwargs=gp_kwargs)
+    GPActorCriticPolicy(_BOX, spaces.Discrete(2), lambda _: 1e-3, gp_kwargs=meant)
+
+
+def test_the_fixes_named_for_unsupported_observations_work() -> None:
+    """The errors name FlattenObservation (Dict) and DtypeObservation (an image-like Box): the
+    spaces they make are accepted."""
+    dict_space = spaces.Dict({"a": _BOX, "b": spaces.Box(0, 2, shape=(2,))})
+    flat = gym.wrappers.FlattenObservation(_SpaceEnv(dict_space)).observation_space
+    as_float = gym.wrappers.DtypeObservation(_SpaceEnv(_IMAGE), np.float32).observation_space
+    for space in (flat, as_float):
+        policy = GPActorCriticPolicy(space, spaces.Discrete(2), lambda _: 1e-3)
+        assert policy.gp.input_dim == int(np.prod(space.shape))
+
+
+class _SpaceEnv(gym.Env):
+    """An env that only declares its spaces (what the wrappers read)."""
+
+    def __init__(self, observation_space: spaces.Space) -> None:
+        self.observation_space = observation_space
+        self.action_space = spaces.Discrete(2)
 
 
 @pytest.mark.parametrize(("algo", "env_id"), [(SAC, "Pendulum-v1"), (DQN, "CartPole-v1")])

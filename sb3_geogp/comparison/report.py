@@ -34,6 +34,7 @@ from sb3_geogp.comparison.results import (
     Key,
     comparisons,
     critic_pairs,
+    env_file_name,
     group_runs,
     load_results,
     load_sweeps,
@@ -372,7 +373,7 @@ def plot_learning_curves(
             ax.set_title(f"{env_id} — {algo.upper()}")
             ax.set_xlabel("timesteps")
             ax.set_ylabel("evaluation return (deterministic)")
-        path = Path(out_dir) / f"curves_{env_id.replace('/', '-')}.png"
+        path = Path(out_dir) / f"curves_{env_file_name(env_id)}.png"
         _finish(fig, path, n_seeds, threshold)
         paths.append(path)
     return paths

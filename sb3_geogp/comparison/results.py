@@ -73,6 +73,12 @@ METRICS: dict[str, Metric] = {
 }
 
 
+def env_file_name(env_id: str) -> str:
+    """``env_id`` as part of a file name: without the module of a ``"module:EnvId"`` id
+    (a colon is no file name's on Windows), ``/`` as ``-``."""
+    return env_id.rpartition(":")[2].replace("/", "-")
+
+
 def load_results(out_dir: str | Path) -> list[dict[str, Any]]:
     """All readable result files of a sweep, sorted by run id."""
     results = []

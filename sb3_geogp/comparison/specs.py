@@ -19,6 +19,7 @@ from sb3_geogp.comparison.hyperparams import (
     hyperparams,
     threshold,
 )
+from sb3_geogp.comparison.results import env_file_name
 
 
 def fed(
@@ -126,8 +127,7 @@ class RunSpec:
     def run_id(self) -> str:
         """File-name stem, e.g. ``ppo__geodesic__sb3_geogp-WallMaze-v0__s3`` (without the
         module of a ``"module:EnvId"`` id)."""
-        env = self.env_id.rpartition(":")[2].replace("/", "-")
-        return f"{self.algo}__{self.critic}__{env}__s{self.seed}"
+        return f"{self.algo}__{self.critic}__{env_file_name(self.env_id)}__s{self.seed}"
 
     def as_dict(self) -> dict[str, Any]:
         """JSON-compatible view of the run settings (``gp_kwargs`` as a dict).

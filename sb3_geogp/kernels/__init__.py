@@ -13,6 +13,7 @@ A new kernel family is one new module with a :class:`Kernel` subclass; nothing i
 from __future__ import annotations
 
 import copy
+import inspect
 from typing import Any, Literal
 
 from sb3_geogp.kernels.base import (
@@ -23,6 +24,7 @@ from sb3_geogp.kernels.base import (
     MixedRows,
     Rows,
     distances,
+    unknown_option,
 )
 from sb3_geogp.kernels.euclidean import EuclideanKernel, LaplacianKernel, RBFKernel
 from sb3_geogp.kernels.geodesic import GeodesicKernel, shepard_weights
@@ -49,7 +51,19 @@ def make_kernel(kernel: Kernel | KernelName, **kwargs: Any) -> Kernel:
         return copy.deepcopy(kernel)
     if kernel not in KERNELS:
         raise ValueError(f"kernel must be a Kernel or one of {sorted(KERNELS)}, got {kernel!r}")
-    return KERNELS[kernel](**kwargs)
+    cls = KERNELS[kernel]
+    message = unknown_option(f"kernel {kernel!r} ({cls.__name__})", kwargs, _options(cls))
+    if message is not None:
+        name = next(k for k in kwargs if k not in _options(cls))
+        takers = [k for k, c in KERNELS.items() if name in _options(c)]
+        elsewhere = f"; {name!r} is an option of the {' and '.join(takers)} kernel" * bool(takers)
+        raise TypeError(message + elsewhere)
+    return cls(**kwargs)
+
+
+def _options(cls: type[Kernel]) -> list[str]:
+    """The keyword options of a kernel class's constructor."""
+    return [p for p in inspect.signature(cls.__init__).parameters if p != "self"]
 
 
 __all__ = [

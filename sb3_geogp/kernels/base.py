@@ -23,8 +23,9 @@ current posterior, so the GP runs one algebra whatever the kernel.
 
 from __future__ import annotations
 
+import difflib
 import math
-from collections.abc import Callable, Collection, Sequence
+from collections.abc import Callable, Collection, Iterable, Sequence
 from typing import Any, NamedTuple, Protocol
 
 import torch
@@ -370,6 +371,21 @@ def check_same_options(
                 f"{what} has {key}={current.get(key)!r}; build it with the same options to load "
                 "the state"
             )
+
+
+def unknown_option(what: str, given: Iterable[str], accepted: Collection[str]) -> str | None:
+    """The first of ``given`` not in ``accepted``, as a message naming the closest accepted
+    name and the whole list (Python's own ``TypeError`` names neither); ``None`` if all are
+    accepted."""
+    unknown = [name for name in given if name not in accepted]
+    if not unknown:
+        return None
+    close = difflib.get_close_matches(unknown[0], accepted, n=1)
+    hint = f" (did you mean {close[0]!r}?)" if close else ""
+    return (
+        f"unknown option {unknown[0]!r} of {what}{hint}; the options are: "
+        f"{', '.join(sorted(accepted))}"
+    )
 
 
 def distances(a: Tensor, b: Tensor) -> Tensor:
