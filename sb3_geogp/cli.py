@@ -32,6 +32,7 @@ from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NamedTuple
 
+import gymnasium as gym
 import numpy as np
 import torch as th
 from stable_baselines3.common.callbacks import BaseCallback
@@ -63,7 +64,7 @@ from sb3_geogp.comparison.hyperparams import ALGOS, ALL_CRITICS
 from sb3_geogp.comparison.hyperparams import threshold as comparison_threshold
 from sb3_geogp.comparison.report import pyplot
 from sb3_geogp.comparison.specs import fed, setting_differences
-from sb3_geogp.policies import GPActorCriticPolicy, default_kernel
+from sb3_geogp.policies import GPActorCriticPolicy, check_supported_spaces, default_kernel
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -100,7 +101,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="train PPO or A2C with a GP or MLP critic",
         formatter_class=_DefaultsHelpFormatter,
     )
-    train.add_argument("--algo", choices=sorted(ALGOS), default="ppo")
+    train.add_argument("--algo", choices=sorted(ALGOS), default="ppo", help="the algorithm")
     train.add_argument("--env", default="Pendulum-v1", help="gymnasium environment id")
     train.add_argument(
         "--critic",
@@ -109,11 +110,26 @@ def build_parser() -> argparse.ArgumentParser:
         help="mlp (SB3's) or the GP critic's kernel (default: GPActorCriticPolicy's for --algo, "
         "laplacian with ppo, rbf with a2c)",
     )
-    train.add_argument("--timesteps", type=int, default=100_000)
-    train.add_argument("--seed", type=int, default=0)
-    train.add_argument("--out", type=Path, default=None, help="output directory")
-    train.add_argument("--n-envs", type=int, default=4)
-    train.add_argument("--n-steps", type=int, default=None, help="rollout length per env")
+    train.add_argument(
+        "--timesteps",
+        type=int,
+        default=100_000,
+        help="environment steps, rounded up to whole rollouts",
+    )
+    train.add_argument("--seed", type=int, default=0, help="seed of the model and environments")
+    train.add_argument(
+        "--out",
+        type=Path,
+        default=None,
+        help="output directory (default: runs/ALGO_CRITIC_ENV_sSEED)",
+    )
+    train.add_argument("--n-envs", type=int, default=4, help="parallel environments")
+    train.add_argument(
+        "--n-steps",
+        type=int,
+        default=None,
+        help="rollout length per env (default: the algorithm's, 2048 with ppo, 5 with a2c)",
+    )
     train.add_argument("--max-basis", type=int, default=256, help="GP basis capacity")
     train.add_argument(
         "--forgetting",
@@ -186,7 +202,8 @@ def check_train_args(args: argparse.Namespace, out: Path) -> None:
     if args.forgetting is not None and not 0 < args.forgetting <= 1:
         raise UsageError(f"--forgetting must be in (0, 1], got {args.forgetting}")
     check_targets(args)
-    check_env(args.env)
+    check_gp_options(args)
+    check_env_spaces(args.env, args.critic)
     check_device(args.device)
     saved = out / _SETTINGS
     if saved.is_file() and (made := json.loads(saved.read_text())) != (asked := _settings(args)):
@@ -207,6 +224,43 @@ def check_targets(args: argparse.Namespace) -> None:
             "SB3's MLP critic learns SB3's returns every rollout. Drop them, or pass a GP --critic"
         )
     check_target_arguments(args)
+
+
+def check_gp_options(args: argparse.Namespace) -> None:
+    """Raise :class:`UsageError` if GP options are given with SB3's MLP critic (they would be
+    ignored)."""
+    given = [
+        flag
+        for flag, value, default in (
+            ("--max-basis", args.max_basis, 256),
+            ("--forgetting", args.forgetting, None),
+            ("--no-adapt", args.adapt, True),
+        )
+        if value != default
+    ]
+    if args.critic == "mlp" and given:
+        raise UsageError(
+            f"{', '.join(given)} {'configures' if len(given) == 1 else 'configure'} the GP "
+            "critic, and --critic mlp trains SB3's MLP "
+            "critic; drop them, or pass a GP --critic"
+        )
+
+
+def check_env_spaces(env_id: str, critic: str) -> None:
+    """Raise :class:`UsageError` unless ``env_id`` is registered, can be made here and, for a
+    GP critic, has spaces the GP critic supports: before anything is written."""
+    check_env(env_id)
+    try:
+        env = gym.make(env_id)
+    except gym.error.Error as err:  # e.g. a missing dependency (Box2D)
+        raise UsageError(f"environment {env_id!r} cannot be made here: {err}") from None
+    try:
+        if critic != "mlp":
+            check_supported_spaces(env.observation_space, env.action_space)
+    except ValueError as err:
+        raise UsageError(f"{env_id}: {err}; or pass --critic mlp") from None
+    finally:
+        env.close()
 
 
 def check_device(name: str) -> None:
@@ -262,12 +316,16 @@ def train(args: argparse.Namespace) -> Path:
         return out
     th.set_num_threads(args.threads)
     out.mkdir(parents=True, exist_ok=True)
-    (out / _SETTINGS).write_text(json.dumps(_settings(args), indent=1))
     start = _resume_from(out)
     env = make_vec_env(
         args.env, n_envs=args.n_envs, seed=args.seed + start, monitor_dir=str(_monitor(out, start))
     )
     model = _load_checkpoint(args, out, env) if start else _new_model(args, env)
+    # Written once the model is built: a run that could not start does not bind the directory.
+    (out / _SETTINGS).write_text(json.dumps(_settings(args), indent=1))
+    # SB3 collects whole rollouts; asking for them makes the progress bar's total the steps run.
+    rollout = model.n_steps * model.n_envs
+    total = -(-args.timesteps // rollout) * rollout
     callbacks: list[BaseCallback] = (
         []
         if args.critic == "mlp"
@@ -281,7 +339,7 @@ def train(args: argparse.Namespace) -> Path:
     try:
         with _sigterm_interrupts():
             model.learn(
-                args.timesteps - start,
+                total - start,
                 callback=callbacks,
                 log_interval=1,
                 progress_bar=progress,
@@ -291,7 +349,7 @@ def train(args: argparse.Namespace) -> Path:
         _save(model, out / _CHECKPOINT)
         _finish_logs(args, out)
         print(
-            f"interrupted after {model.num_timesteps} of {args.timesteps} steps; saved "
+            f"interrupted after {model.num_timesteps} of {total} steps; saved "
             f"{out / _CHECKPOINT}: run the same command to resume",
             file=sys.stderr,
         )

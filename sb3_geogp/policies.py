@@ -256,7 +256,7 @@ class GPCriticMixin(_PolicyBase):
         gp_kwargs: dict[str, Any] | None = None,
         **kwargs: Any,
     ) -> None:
-        _check_spaces(observation_space, action_space)
+        check_supported_spaces(observation_space, action_space)
         # Needed by _build(), which the SB3 policy's __init__ calls.
         algorithm = _constructing_algorithm()
         algorithm_class = None if algorithm is None else type(algorithm)
@@ -741,7 +741,8 @@ def _flat_bounds(space: spaces.Space) -> tuple[np.ndarray, np.ndarray]:
     return space.low.ravel(), space.high.ravel()
 
 
-def _check_spaces(observation_space: spaces.Space, action_space: spaces.Space) -> None:
+def check_supported_spaces(observation_space: spaces.Space, action_space: spaces.Space) -> None:
+    """Raise ``ValueError`` naming the fix unless the GP critic supports the spaces."""
     if isinstance(observation_space, spaces.Dict):
         raise ValueError(
             f"{_SUPPORTED}; got a Dict observation space: flatten it into one Box with "
@@ -752,7 +753,7 @@ def _check_spaces(observation_space: spaces.Space, action_space: spaces.Space) -
     if is_image_space(observation_space, check_channels=False):
         raise ValueError(
             f"{_SUPPORTED}; got an image observation space {observation_space} (uint8 in "
-            "0-255 with 3 dimensions, channels first as SB3 transposes images): a kernel on raw "
+            "0-255 with 3 dimensions; SB3 hands the policy images channels first): a kernel on raw "
             "pixels is not meaningful, wrap the env to give low-dimensional features; a small "
             "grid that only looks like an image can be cast to float32 "
             "(gymnasium.wrappers.DtypeObservation(env, np.float32))"

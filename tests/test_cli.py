@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import functools
 import json
 import os
 import re
@@ -67,7 +68,8 @@ def test_train_writes_model_logs_and_curve(
     argv = ["train", "--algo", algo, "--env", "CartPole-v1"]
     argv += [] if critic is None else ["--critic", critic]
     argv += ["--timesteps", "256", "--seed", "1", "--out", str(out), "--n-envs", "2"]
-    argv += ["--n-steps", "64", "--max-basis", "32", "--no-progress"]
+    argv += ["--n-steps", "64", "--no-progress"]
+    argv += [] if critic == "mlp" else ["--max-basis", "32"]  # a GP option: refused with mlp
     assert main(argv) == 0
     assert (out / "model.zip").is_file()
     assert (out / "learning_curve.png").stat().st_size > 0
@@ -196,6 +198,9 @@ def test_version(capsys: pytest.CaptureFixture[str]) -> None:
         (["--critic", "mlp", "--feed-every", "4"], "learns SB3's returns every rollout"),
         (["--feed-every", "0"], "feed_every must be a positive integer, got 0"),
         (["--save-every", "-1"], "--save-every must be at least 0"),
+        (["--critic", "mlp", "--max-basis", "10"], "--max-basis configures the GP critic"),
+        (["--critic", "mlp", "--no-adapt"], "--no-adapt configures the GP critic"),
+        (["--env", "Taxi-v4"], "Taxi-v4: the GP critic supports Box observations"),
         pytest.param(
             ["--device", "cuda"],
             "torch sees no CUDA device here; use --device cpu",
@@ -211,6 +216,36 @@ def test_user_errors_are_one_line_with_exit_status_2(
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and message in err
     assert not (tmp_path / "run").exists()  # refused before any work
+
+
+def test_an_env_the_gp_critic_refuses_leaves_the_directory_free_for_the_mlp_critic(
+    tmp_path: Path,
+) -> None:
+    """Refused before anything is written, so the same --out trains SB3's MLP critic next."""
+    argv = ["train", "--env", "Taxi-v4", "--out", str(tmp_path / "run"), "--no-progress"]
+    assert main(argv) == 2
+    tiny = ["--timesteps", "8", "--n-envs", "1", "--n-steps", "8"]
+    assert main([*argv, "--critic", "mlp", *tiny]) == 0
+    assert (tmp_path / "run" / "model.zip").is_file()
+
+
+def test_train_asks_sb3_for_whole_rollouts(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """SB3 trains whole rollouts whatever it is asked; asked for them, its progress bar's total
+    is the number of steps it runs (2 envs x 64 steps: 200 -> 256)."""
+    asked: list[int] = []
+    learn = PPO.learn
+
+    @functools.wraps(learn)  # the CLI reads learn's defaults from its signature
+    def recording(self: PPO, total_timesteps: int, **kwargs: Any) -> PPO:
+        asked.append(total_timesteps)
+        return learn(self, total_timesteps, **kwargs)
+
+    monkeypatch.setattr(PPO, "learn", recording)
+    argv = ["train", "--env", "CartPole-v1", "--timesteps", "200", "--n-envs", "2"]
+    argv += ["--n-steps", "64", "--critic", "mlp", "--out", str(tmp_path / "run"), "--no-progress"]
+    assert main(argv) == 0
+    assert asked == [256]
+    assert PPO.load(tmp_path / "run" / "model.zip").num_timesteps == 256
 
 
 def test_train_feeds_the_cut_monte_carlo_targets(
