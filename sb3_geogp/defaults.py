@@ -106,3 +106,77 @@ def target_standardisation(
         return chosen_mean, scale
     std = y.std() if y.numel() > 1 else torch.zeros((), dtype=y.dtype)
     return chosen_mean, std if bool(std > 1e-12 * (1 + y.abs().max())) else 1.0
+
+
+#: Points after which :class:`BoundsCoverage` compares the inputs' range with the bounds.
+COVERAGE_POINTS = 10_000
+#: Share of a dimension's bounds below which its inputs' range counts as a small part of them:
+#: at 10,000 points the comparison's environments fill at least 27 % of every bounded
+#: dimension (PPO MountainCarContinuous-v0), a Pendulum declared in +-100 fills 1 %.
+COVERAGE_SHARE = 0.05
+
+
+class BoundsCoverage:
+    """Whether the inputs spread over the bounds their default lengthscales came from.
+
+    Loose bounds (a custom env declaring ``Box(-100, 100)``) give lengthscales far longer than
+    the data's spread: the GP then barely varies along those dimensions, and a hyperprior
+    keeps the lengthscales near their start. Once :data:`COVERAGE_POINTS` inputs have been
+    seen, :meth:`check` names the dimensions whose lengthscale came from the bounds, whose
+    inputs span less than :data:`COVERAGE_SHARE` of them and whose lengthscale is still longer
+    than that span, once.
+
+    Parameters
+    ----------
+    low, high : array-likes, shape (d,)
+        The bounds.
+    from_bounds : array-like of bool, shape (d,)
+        The dimensions whose lengthscale was taken from the bounds.
+    """
+
+    def __init__(self, low: ArrayLike, high: ArrayLike, from_bounds: ArrayLike) -> None:
+        self.low = np.asarray(low, dtype=np.float64).ravel()
+        self.high = np.asarray(high, dtype=np.float64).ravel()
+        self.from_bounds = np.asarray(from_bounds, dtype=bool).ravel()
+        self.seen_low = np.full_like(self.low, np.inf)
+        self.seen_high = np.full_like(self.high, -np.inf)
+        self.points = 0
+        self.checked = False
+
+    def add(self, x: Tensor) -> None:
+        """Widen the range seen by the inputs ``x : (n, d)``."""
+        if x.shape[0] == 0:
+            return
+        self.seen_low = np.minimum(self.seen_low, x.min(dim=0).values.double().cpu().numpy())
+        self.seen_high = np.maximum(self.seen_high, x.max(dim=0).values.double().cpu().numpy())
+        self.points += x.shape[0]
+
+    def check(self, lengthscale: Tensor) -> str | None:
+        """Once :data:`COVERAGE_POINTS` inputs have been seen (and only then): a message naming
+        the dimensions that barely fill their bounds, with lengthscales from the data's range
+        by the bounds' rule, or ``None`` if there are none."""
+        if self.checked or self.points < COVERAGE_POINTS:
+            return None
+        self.checked = True
+        span = self.seen_high - self.seen_low
+        share = span / (self.high - self.low)
+        ls = lengthscale.double().cpu().numpy()
+        loose = np.flatnonzero(self.from_bounds & (share < COVERAGE_SHARE) & (ls > span))
+        if not len(loose):
+            return None
+        suggested = np.where(self.from_bounds, span / np.sqrt(12.0), ls)
+        dims = " and ".join(
+            f"dimension {i} spans [{self.seen_low[i]:.3g}, {self.seen_high[i]:.3g}] "
+            f"({share[i]:.1%} of its bounds [{self.low[i]:.3g}, {self.high[i]:.3g}]; "
+            f"lengthscale {ls[i]:.3g})"
+            for i in loose
+        )
+        return (
+            f"the GP's first {self.points:,} inputs: {dims}. The lengthscales came from those "
+            "bounds and are far longer than the data's spread, so the GP barely varies along "
+            "these dimensions and fits its targets poorly. If the bounds are loose (for "
+            "GPActorCriticPolicy: the observation space's), declare tight ones, or give the "
+            f"kernel lengthscales, e.g. lengthscale={np.round(suggested, 3).tolist()} (the data's "
+            "range / sqrt(12) wherever a lengthscale came from the bounds), for the policy "
+            "through policy_kwargs=dict(gp_kwargs=dict(kernel_kwargs=dict(lengthscale=[...])))"
+        )

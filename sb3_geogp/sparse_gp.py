@@ -56,6 +56,7 @@ from sb3_geogp.adaptation import (
 from sb3_geogp.graph import BVGraph
 from sb3_geogp.kernels import Kernel, KernelName, make_kernel
 from sb3_geogp.kernels.base import BasisMatrices, Rows, check_same_options
+from sb3_geogp.user_warnings import warn_user
 
 ArrayLike = Tensor | np.ndarray | Sequence[Any]
 
@@ -494,7 +495,16 @@ class SparseOnlineGP(nn.Module):
                 f"sizes {[np.size(b) for b in input_bounds]}"
             )
         ls = self.kernel.lengthscale
+        unset = torch.isnan(ls).cpu().numpy()
         ls.copy_(defaults.resolve_lengthscale(ls, bounds=input_bounds))
+        # Diagnostics, not state: bounds far wider than the data leave the GP nearly flat.
+        self._coverage = (
+            None
+            if input_bounds is None
+            else defaults.BoundsCoverage(
+                *input_bounds, unset & np.isfinite(defaults.bounds_lengthscale(*input_bounds))
+            )
+        )
         kw: dict[str, Any] = {"dtype": dtype, "device": device}
         self.kernel.to(**kw)
         self.register_buffer("noise_var", torch.tensor(float(noise_var), **kw))
@@ -815,6 +825,10 @@ class SparseOnlineGP(nn.Module):
         x, y, starts = self._validate(x, y, episode_starts)
         with self._transaction():
             self._update(x, y, starts)
+        if self._coverage is not None:
+            self._coverage.add(x)
+            if (message := self._coverage.check(self.kernel.lengthscale)) is not None:
+                warn_user(message)
 
     @contextlib.contextmanager
     def _transaction(self) -> Iterator[None]:

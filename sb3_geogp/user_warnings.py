@@ -3,7 +3,8 @@
 ``GPCriticWarning`` subclasses ``UserWarning``, so ``warnings.filterwarnings("ignore",
 category=GPCriticWarning)`` silences ours without hiding anybody else's. A warning raised while
 SB3 runs ``learn`` would by default point into SB3's ``callbacks.py``; :func:`warn_user` walks
-the stack past sb3_geogp, Stable-Baselines3, sb3-contrib and rl-baselines3-zoo frames to the
+the stack past sb3_geogp, Stable-Baselines3, sb3-contrib, rl-baselines3-zoo and torch frames
+(torch's ``no_grad`` wraps the engine's methods) to the
 first line of the user's code.
 """
 
@@ -14,7 +15,7 @@ import warnings
 from pathlib import Path
 
 #: Packages whose frames stand between a warning and the user's code.
-_LIBRARIES = ("sb3_geogp", "stable_baselines3", "sb3_contrib", "rl_zoo3")
+_LIBRARIES = ("sb3_geogp", "stable_baselines3", "sb3_contrib", "rl_zoo3", "torch")
 
 
 class GPCriticWarning(UserWarning):

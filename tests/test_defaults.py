@@ -2,15 +2,23 @@
 
 from __future__ import annotations
 
+import re
+import warnings
+
 import numpy as np
+import pytest
 import torch
 
+from sb3_geogp import GPCriticWarning, SparseOnlineGP
 from sb3_geogp.defaults import (
+    COVERAGE_POINTS,
+    BoundsCoverage,
     bounds_lengthscale,
     default_lengthscale,
     resolve_lengthscale,
     target_standardisation,
 )
+from sb3_geogp.kernels import RBFKernel
 
 
 def test_bounds_lengthscale_uses_finite_bounds_only() -> None:
@@ -44,3 +52,83 @@ def test_target_standardisation_uses_given_values_else_the_batch() -> None:
     assert float(mean) == 3.0 and abs(float(scale) - float(np.std([1, 2, 6], ddof=1))) < 1e-12
     assert target_standardisation(y, mean=-1.0, scale=2.0) == (-1.0, 2.0)
     assert float(target_standardisation(torch.full((4,), 7.0, dtype=torch.float64))[1]) == 1.0
+
+
+# -- loose bounds ------------------------------------------------------------------------------
+
+
+def _gp_on_a_square(bounds: float, lengthscale: list[float] | None = None) -> SparseOnlineGP:
+    """A GP that knows its inputs lie in +-``bounds`` (RBF, no adaptation: the check is the
+    engine's, whatever it learns)."""
+    high = np.array([bounds, bounds])
+    return SparseOnlineGP(
+        2,
+        kernel=RBFKernel(lengthscale=lengthscale),
+        max_basis=16,
+        input_bounds=(-high, high),
+    )
+
+
+def _feed(gp: SparseOnlineGP, points: int, batch: int = 2_000) -> None:
+    """``points`` inputs uniform on the unit square [-1, 1]^2, in batches."""
+    rng = np.random.default_rng(0)
+    for _ in range(points // batch):
+        x = rng.uniform(-1, 1, size=(batch, 2))
+        gp.update(x, x.sum(axis=1))
+
+
+def test_bounds_far_wider_than_the_data_are_named_once_after_enough_points() -> None:
+    """Inputs on [-1, 1]^2 declared in +-100: each dimension fills 1 % of its bounds, whose
+    lengthscale 200 / sqrt(12) = 57.7 exceeds the data's range 2. Named once, at 10,000 points,
+    with the bounds' rule applied to the data's range (2 / sqrt(12) = 0.577)."""
+    gp = _gp_on_a_square(100.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        _feed(gp, COVERAGE_POINTS - 2_000)  # not yet: the data may still spread
+    with pytest.warns(GPCriticWarning) as record:
+        _feed(gp, 2_000)
+    (warning,) = record
+    text = str(warning.message)
+    assert re.search(r"dimension 0 spans \[-(1|0\.99\d), (1|0\.99\d)\] \(1\.0% of its bounds "
+                     r"\[-100, 100\]; lengthscale 57\.7\)", text)  # fmt: skip
+    assert "dimension 1 spans" in text and "lengthscale=[0.577, 0.577]" in text
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        _feed(gp, 4_000)  # once
+
+
+@pytest.mark.parametrize(
+    ("bounds", "lengthscale"),
+    [(10.0, None), (100.0, [0.5, 0.5]), (100.0, [float("nan"), 0.5])],
+    ids=["data-fill-10%", "lengthscales-given", "one-given-one-barely-filled"],
+)
+def test_bounds_the_data_fill_or_given_lengthscales_are_not_named(
+    bounds: float, lengthscale: list[float] | None
+) -> None:
+    """At +-10 the data fill 10 % of the bounds; a lengthscale the user gave is theirs. In the
+    last case dimension 0 is named and dimension 1, given, keeps its lengthscale."""
+    gp = _gp_on_a_square(bounds, lengthscale)
+    if lengthscale is not None and np.isnan(lengthscale[0]):
+        with pytest.warns(GPCriticWarning, match=r"dimension 0 spans.*lengthscale=\[0.577, 0.5\]"):
+            _feed(gp, COVERAGE_POINTS)
+        return
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        _feed(gp, COVERAGE_POINTS)
+
+
+def test_bounds_coverage_counts_what_it_is_given() -> None:
+    """Range, count and share from :meth:`BoundsCoverage.add` against numpy on the same data."""
+    rng = np.random.default_rng(1)
+    x = rng.normal(size=(COVERAGE_POINTS, 3)) * np.array([0.01, 1.0, 0.01])
+    coverage = BoundsCoverage(-np.full(3, 10.0), np.full(3, 10.0), [True, True, False])
+    for part in np.array_split(x, 7):
+        coverage.add(torch.as_tensor(part))
+    np.testing.assert_array_equal(coverage.seen_low, x.min(axis=0))
+    np.testing.assert_array_equal(coverage.seen_high, x.max(axis=0))
+    message = coverage.check(torch.ones(3))
+    # dimension 0: share < 5 % and lengthscale 1 > its range; 1 fills ~40 %; 2 was not from
+    # the bounds
+    assert message is not None and "dimension 0 spans" in message
+    assert "dimension 1" not in message and "dimension 2" not in message
+    assert coverage.check(torch.ones(3)) is None  # once
