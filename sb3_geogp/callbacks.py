@@ -169,7 +169,8 @@ class GPValueCallback(BaseCallback):
     * ``gp/n_basis``, ``gp/update_ms``, ``gp/n_fed``, ``gp/forgetting``, and
       ``gp/n_components`` (graph components, geodesic kernel);
     * with ``gp_kwargs=dict(adapt=...)``: ``gp/nlpd``, ``gp/lengthscale`` (and per dimension),
-      ``gp/signal_var``, ``gp/noise_var``, ``gp/target_mean``, ``gp/target_scale``, and with
+      ``gp/signal_var``, ``gp/noise_var``, ``gp/target_mean``, ``gp/target_scale``,
+      ``gp/target_drift`` and ``gp/block_fit`` (docs/usage.md, "Logged metrics"), and with
       ``optimism_cap`` ``gp/bonus_scale``.
     """
 

@@ -238,6 +238,14 @@ class GPCriticMixin(_PolicyBase):
     :class:`GPActorCriticPolicy`.
     """
 
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        # help() and inspect would show __new__'s (*args, **kwargs) instead.
+        init = inspect.signature(cls.__init__)
+        parameters = list(init.parameters.values())[1:]  # without self
+        signature = init.replace(parameters=parameters, return_annotation=inspect.Signature.empty)
+        setattr(cls, "__signature__", signature)  # noqa: B010 (mypy knows no __signature__)
+
     def __new__(cls, *args: Any, **kwargs: Any) -> Self:
         # Here rather than in __init__: this runs before the arguments are bound, so that an
         # algorithm that builds its policy with other arguments (ARS passes no lr_schedule)
@@ -643,8 +651,10 @@ class GPActorCriticPolicy(GPCriticMixin, ActorCriticPolicy):
         then discarded: the GP reads the features directly.
     gp_kwargs : dict, optional
         Options of :class:`~sb3_geogp.SparseOnlineGP` (``max_basis``, ``noise_var``,
-        ``novelty_tol``, ``forgetting``, ``target_mean``, ``target_scale``, ``dtype``,
-        ``num_threads``, ``condition_guard``) plus ``kernel`` (``"laplacian"``, ``"geodesic"``,
+        ``novelty_tol``, ``forgetting``, ``forgetting_points``, ``target_mean``,
+        ``target_scale``, ``prior_mean``, ``optimism``, ``optimism_cap``, ``dtype``,
+        ``num_threads``, ``condition_guard``, and ``trend`` and ``adapt`` below; a misspelt one
+        raises ``TypeError`` naming the closest) plus ``kernel`` (``"laplacian"``, ``"geodesic"``,
         ``"rbf"`` or a :class:`~sb3_geogp.Kernel`, which is copied; by default since 0.6
         ``"laplacian"`` under PPO, TRPO and MaskablePPO and under A2C ``"rbf"`` since 0.22
         (``"geodesic"`` from 0.6 to 0.21), see :func:`default_kernel`; ``"geodesic"`` for

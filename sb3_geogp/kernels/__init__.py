@@ -52,18 +52,26 @@ def make_kernel(kernel: Kernel | KernelName, **kwargs: Any) -> Kernel:
     if kernel not in KERNELS:
         raise ValueError(f"kernel must be a Kernel or one of {sorted(KERNELS)}, got {kernel!r}")
     cls = KERNELS[kernel]
-    message = unknown_option(f"kernel {kernel!r} ({cls.__name__})", kwargs, _options(cls))
+    accepted = _options(cls)
+    message = (
+        None
+        if accepted is None
+        else unknown_option(f"kernel {kernel!r} ({cls.__name__})", kwargs, accepted)
+    )
     if message is not None:
-        name = next(k for k in kwargs if k not in _options(cls))
-        takers = [k for k, c in KERNELS.items() if name in _options(c)]
+        name = next(k for k in kwargs if k not in (accepted or ()))
+        takers = [k for k, c in KERNELS.items() if name in (_options(c) or ())]
         elsewhere = f"; {name!r} is an option of the {' and '.join(takers)} kernel" * bool(takers)
         raise TypeError(message + elsewhere)
     return cls(**kwargs)
 
 
-def _options(cls: type[Kernel]) -> list[str]:
-    """The keyword options of a kernel class's constructor."""
-    return [p for p in inspect.signature(cls.__init__).parameters if p != "self"]
+def _options(cls: type[Kernel]) -> list[str] | None:
+    """The keyword options of a kernel class's constructor (``None``: it takes any)."""
+    parameters = list(inspect.signature(cls.__init__).parameters.values())[1:]
+    if any(p.kind is inspect.Parameter.VAR_KEYWORD for p in parameters):
+        return None
+    return [p.name for p in parameters]
 
 
 __all__ = [
