@@ -33,7 +33,12 @@ from sb3_geogp import (
     RBFKernel,
     SparseOnlineGP,
 )
-from sb3_geogp.policies import DEFAULT_ADAPTATION, LAGGED_ADAPTATION, SUPPORTED_ALGORITHMS
+from sb3_geogp.policies import (
+    _GP_OPTIONS,
+    DEFAULT_ADAPTATION,
+    LAGGED_ADAPTATION,
+    SUPPORTED_ALGORITHMS,
+)
 
 ALGOS = [PPO, A2C]
 KERNELS = ["geodesic", "rbf"]
@@ -1063,3 +1068,12 @@ def test_bounded_observations_set_the_lengthscale_before_any_data() -> None:
     expected = (high.astype(np.float64) - low) / np.sqrt(12)
     model = PPO(GPActorCriticPolicy, env, n_steps=64, batch_size=64)
     np.testing.assert_allclose(model.policy.gp.lengthscale.cpu().numpy(), expected, rtol=1e-12)
+
+
+def test_the_docstring_names_every_gp_kwargs_option() -> None:
+    """help(GPActorCriticPolicy) is where users look: every option gp_kwargs accepts (the
+    engine's, read from its signature) is named there."""
+    doc = GPActorCriticPolicy.__doc__ or ""
+    missing = sorted(name for name in _GP_OPTIONS if f"``{name}``" not in doc)
+    assert not missing, f"gp_kwargs options the docstring does not name: {missing}"
+    assert "input_dim" not in _GP_OPTIONS and "kernel_kwargs" in _GP_OPTIONS

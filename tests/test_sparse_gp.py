@@ -93,8 +93,11 @@ def snapshot(gp: SparseOnlineGP) -> dict[str, Any]:
     return {k: v.clone() if isinstance(v, Tensor) else dict(v) for k, v in gp.state_dict().items()}
 
 
-def assert_same_state(before: dict[str, Any], after: dict[str, Any]) -> None:
-    """Bit-identical state (NaN where there was NaN, e.g. a lengthscale not chosen yet)."""
+def assert_same_state(
+    before: dict[str, Any], after: dict[str, Any], rtol: float | None = None
+) -> None:
+    """Bit-identical state (NaN where there was NaN, e.g. a lengthscale not chosen yet); with
+    ``rtol``, equal to that relative tolerance (and ``1e-3 rtol`` absolute)."""
     assert before.keys() == after.keys()
     for key, a in before.items():
         b = after[key]
@@ -105,7 +108,10 @@ def assert_same_state(before: dict[str, Any], after: dict[str, Any]) -> None:
         if a.is_floating_point():
             assert torch.equal(a.isnan(), b.isnan()), key
             a, b = a.nan_to_num(0.0), b.nan_to_num(0.0)
-        assert torch.equal(a, b), key
+        if rtol is None or not a.is_floating_point():
+            assert torch.equal(a, b), key
+        else:
+            torch.testing.assert_close(a, b, rtol=rtol, atol=1e-3 * rtol, msg=key)
 
 
 def feed(
@@ -1649,8 +1655,11 @@ def test_rows_shared_by_scoring_screening_and_absorbing_change_nothing(
 ) -> None:
     """An adapting GP forms a batch's rows once, to score it, and screens and absorbs from
     them while the basis is unchanged. Against the same updates with every stage forming its
-    own rows (scoring hands none on): the same state, bit for bit, through insertions and
-    deletions at capacity, with fewer rows formed."""
+    own rows (scoring hands none on): the same state through insertions and deletions at
+    capacity, with fewer rows formed. The same to 1e-12 rather than bit for bit: rows formed
+    for a batch and for a part of it may round differently in the last bit where the CPU's
+    vectorised ``exp`` treats a tail differently (one machine: one entry of ``P`` off by 5e-20,
+    bit for bit on another)."""
     stream = list(drifting_stream(1200, 40, step=0.1, seed=3))
     gps = [SparseOnlineGP(3, copy.deepcopy(kernel), max_basis=24, adapt=True, **options)]
     gps.append(copy.deepcopy(gps[0]))
@@ -1669,7 +1678,7 @@ def test_rows_shared_by_scoring_screening_and_absorbing_change_nothing(
             for batch in stream:
                 gp.update(batch.x, batch.y, batch.starts)
     assert int(gps[0].n_deleted) > 0
-    assert_same_state(snapshot(gps[1]), snapshot(gps[0]))
+    assert_same_state(snapshot(gps[1]), snapshot(gps[0]), rtol=1e-12)
     assert formed[0] < formed[1]
 
 
