@@ -110,3 +110,34 @@ def test_source_distribution_ships_every_path_the_readme_names(tmp_path: Path) -
     missing = sorted(p for p in named if p not in shipped)
     assert not missing, f"named in README.md but not in the sdist: {missing}"
     assert all((_ROOT / p).is_file() for p in named)
+
+
+def _heading_anchors(text: str) -> set[str]:
+    """The anchors GitHub gives a markdown file's headings: lower case, punctuation but ``-``
+    and ``_`` dropped, spaces as ``-``, a repeated one suffixed ``-1``, ``-2``..."""
+    anchors: set[str] = set()
+    seen: dict[str, int] = {}
+    for line in text.splitlines():
+        heading = re.match(r"#{1,6} (.*)", line)
+        if heading is None:
+            continue
+        slug = re.sub(r"[^\w\- ]", "", heading.group(1).replace("`", "").strip().lower())
+        slug = slug.replace(" ", "-")
+        anchors.add(f"{slug}-{seen[slug]}" if slug in seen else slug)
+        seen[slug] = seen.get(slug, 0) + 1
+    return anchors
+
+
+def test_links_to_sections_of_the_docs_resolve() -> None:
+    """Every ``[...](#anchor)`` and ``[...](file.md#anchor)`` in README.md and docs/ names a
+    heading of its file (results.md alone has some 130 such links across 8,000 lines)."""
+    files = [_ROOT / "README.md", *sorted((_ROOT / "docs").glob("*.md"))]
+    anchors = {f: _heading_anchors(f.read_text()) for f in files}
+    broken = []
+    for f in files:
+        for target, anchor in re.findall(r"\]\(([\w./-]*\.md)?#([^)\s]+)\)", f.read_text()):
+            linked = (f.parent / target).resolve() if target else f
+            if linked in anchors and anchor not in anchors[linked]:
+                broken.append(f"{f.name}: {target}#{anchor}")
+    assert sum(len(a) for a in anchors.values()) > 100
+    assert not broken, broken
