@@ -786,6 +786,8 @@ def _critic_panel(ax: Axes, critic: CriticLog) -> None:
             critic.n_basis[fed],
             where="post",
             color="tab:green",
+            # a lone rollout is a step of no length: its marker is all that shows
+            marker="." if int(fed.sum()) == 1 else None,
             label="basis vectors (right axis)",
         )
         twin.set_ylim(bottom=0)

@@ -165,6 +165,17 @@ def test_learning_curve_draws_the_basis_of_the_fed_rollouts_only() -> None:
     plt.close(fig)
 
 
+def test_learning_curve_marks_the_basis_of_a_lone_fed_rollout() -> None:
+    """A step line through one point has no length: a marker shows it (and only then)."""
+    plt = pytest.importorskip("matplotlib.pyplot")
+    for n_basis, marker in (([np.nan, 9.0], "."), ([8.0, 9.0], "None")):
+        log = CriticLog(np.array([40.0, 80.0]), np.array([0.5, 0.6]), np.array(n_basis))
+        fig = learning_curve_figure(np.array([10, 20]), np.array([1.0, 2.0]), log)
+        (basis,) = fig.axes[-1].get_lines()
+        assert basis.get_marker() == marker
+        plt.close(fig)
+
+
 def test_parser_rejects_unknown_critic() -> None:
     with pytest.raises(SystemExit):
         build_parser().parse_args(["train", "--critic", "cnn"])
