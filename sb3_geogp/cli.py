@@ -80,6 +80,10 @@ class _DefaultsHelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
         return super()._get_help_string(action)
 
 
+#: ``train``'s default ``--max-basis``.
+_MAX_BASIS = 256
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The ``sb3-geogp`` argument parser (sub-commands ``train`` and ``compare``)."""
     parser = argparse.ArgumentParser(
@@ -130,7 +134,7 @@ def build_parser() -> argparse.ArgumentParser:
         default=None,
         help="rollout length per env (default: the algorithm's, 2048 with ppo, 5 with a2c)",
     )
-    train.add_argument("--max-basis", type=int, default=256, help="GP basis capacity")
+    train.add_argument("--max-basis", type=int, default=_MAX_BASIS, help="GP basis capacity")
     train.add_argument(
         "--forgetting",
         type=float,
@@ -232,7 +236,7 @@ def check_gp_options(args: argparse.Namespace) -> None:
     given = [
         flag
         for flag, value, default in (
-            ("--max-basis", args.max_basis, 256),
+            ("--max-basis", args.max_basis, _MAX_BASIS),
             ("--forgetting", args.forgetting, None),
             ("--no-adapt", args.adapt, True),
         )
@@ -241,8 +245,7 @@ def check_gp_options(args: argparse.Namespace) -> None:
     if args.critic == "mlp" and given:
         raise UsageError(
             f"{', '.join(given)} {'configures' if len(given) == 1 else 'configure'} the GP "
-            "critic, and --critic mlp trains SB3's MLP "
-            "critic; drop them, or pass a GP --critic"
+            "critic, and --critic mlp trains SB3's MLP critic; drop them, or pass a GP --critic"
         )
 
 

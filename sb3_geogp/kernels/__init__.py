@@ -51,19 +51,24 @@ def make_kernel(kernel: Kernel | KernelName, **kwargs: Any) -> Kernel:
         return copy.deepcopy(kernel)
     if kernel not in KERNELS:
         raise ValueError(f"kernel must be a Kernel or one of {sorted(KERNELS)}, got {kernel!r}")
+    _check_options(kernel, kwargs)
+    return KERNELS[kernel](**kwargs)
+
+
+def _check_options(kernel: str, kwargs: dict[str, Any]) -> None:
+    """Raise ``TypeError`` naming an option the kernel ``kernel`` does not take, the closest
+    it does and the kernels that take it."""
     cls = KERNELS[kernel]
     accepted = _options(cls)
-    message = (
-        None
-        if accepted is None
-        else unknown_option(f"kernel {kernel!r} ({cls.__name__})", kwargs, accepted)
-    )
-    if message is not None:
-        name = next(k for k in kwargs if k not in (accepted or ()))
-        takers = [k for k, c in KERNELS.items() if name in (_options(c) or ())]
-        elsewhere = f"; {name!r} is an option of the {' and '.join(takers)} kernel" * bool(takers)
-        raise TypeError(message + elsewhere)
-    return cls(**kwargs)
+    if accepted is None:
+        return
+    message = unknown_option(f"kernel {kernel!r} ({cls.__name__})", kwargs, accepted)
+    if message is None:
+        return
+    option = next(k for k in kwargs if k not in accepted)
+    takers = [k for k, c in KERNELS.items() if option in (_options(c) or ())]
+    elsewhere = f"; {option!r} is an option of the {' and '.join(takers)} kernel" * bool(takers)
+    raise TypeError(message + elsewhere)
 
 
 def _options(cls: type[Kernel]) -> list[str] | None:
