@@ -1,14 +1,15 @@
 """Train PPO on Pendulum-v1 with the default GP critic, save, reload, evaluate.
 
-Run: ``python examples/train_ppo_pendulum.py [timesteps]`` (default 20 000: about a minute on
-one CPU core). The only changes from plain SB3 are the policy class, ``gp_kwargs`` and the
-callback. The default critic under PPO is the Laplacian-kernel GP (0.6); add
-``kernel="geodesic"`` to ``gp_kwargs`` for the paper's geodesic kernel.
+Run: ``python examples/train_ppo_pendulum.py [timesteps] [--out PATH]`` (default 20 000 steps:
+about a minute on one CPU core; the model is saved to ``ppo_geogp_pendulum.zip``). The only
+changes from plain SB3 are the policy class, ``gp_kwargs`` and the callback. The default critic
+under PPO is the Laplacian-kernel GP (0.6); add ``kernel="geodesic"`` to ``gp_kwargs`` for the
+paper's geodesic kernel.
 """
 
 from __future__ import annotations
 
-import sys
+import argparse
 
 import torch as th
 from stable_baselines3 import PPO
@@ -18,7 +19,7 @@ from stable_baselines3.common.evaluation import evaluate_policy
 from sb3_geogp import GPActorCriticPolicy, GPValueCallback
 
 
-def main(timesteps: int = 20_000) -> None:
+def main(timesteps: int = 20_000, out: str = "ppo_geogp_pendulum") -> None:
     th.set_num_threads(1)  # small networks and a small GP: one thread is fastest
     env = make_vec_env("Pendulum-v1", n_envs=4, seed=0)
     model = PPO(
@@ -39,13 +40,17 @@ def main(timesteps: int = 20_000) -> None:
         verbose=1,
     )
     model.learn(timesteps, callback=GPValueCallback())
-    model.save("ppo_geogp_pendulum")
+    model.save(out)
 
-    model = PPO.load("ppo_geogp_pendulum")
+    model = PPO.load(out)
     mean, std = evaluate_policy(model, make_vec_env("Pendulum-v1", seed=1), n_eval_episodes=10)
     print(f"mean return over 10 episodes: {mean:.1f} +/- {std:.1f}")
     print(f"GP critic: {model.policy.gp.n_basis} basis vectors")
 
 
 if __name__ == "__main__":
-    main(int(sys.argv[1]) if len(sys.argv) > 1 else 20_000)
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("timesteps", type=int, nargs="?", default=20_000)
+    parser.add_argument("--out", default="ppo_geogp_pendulum", help="where the model is saved")
+    args = parser.parse_args()
+    main(args.timesteps, args.out)

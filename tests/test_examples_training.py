@@ -642,3 +642,16 @@ def test_acrobot_stall_gp_option_replaces_the_gp_critics_and_reaches_the_critic(
     assert "forgetting" not in results["MLP"]["0"][0]
     with pytest.raises(argparse.ArgumentTypeError, match="JSON object of GP options"):
         script.gp_critic("fixed=[0.5]")
+
+
+def test_train_ppo_pendulum_saves_where_asked_and_the_model_reloads(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The README's complete script: one PPO rollout (4 envs x 1024 steps), saved to --out."""
+    from stable_baselines3 import PPO
+
+    script = load_script("train_ppo_pendulum")
+    script.main(1024, str(tmp_path / "model"))
+    model = PPO.load(tmp_path / "model.zip")
+    assert model.num_timesteps == 4096 and model.policy.gp.n_basis > 0
+    assert f"GP critic: {model.policy.gp.n_basis} basis vectors" in capsys.readouterr().out

@@ -68,7 +68,12 @@ class UsageError(Exception):
 
 def add_arguments(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
     """Add the comparison's options to ``parser``."""
-    parser.add_argument("--out", type=Path, default=Path("results/compare"), help="results dir")
+    parser.add_argument(
+        "--out",
+        type=Path,
+        default=Path("runs/compare"),
+        help="results dir (default: runs/compare; the published sweep is in results/compare)",
+    )
     parser.add_argument("--quick", action="store_true", help="smoke sweep: 5%% budgets, 2 seeds")
     parser.add_argument("--workers", type=int, default=2, help="parallel processes")
     parser.add_argument(

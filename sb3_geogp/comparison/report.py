@@ -75,6 +75,10 @@ def _few_seeds_note(n_seeds: Collection[int], consequence: str) -> str:
     return f' With fewer than {MIN_SAMPLES_FOR_INTERVAL} seeds{consequence} ("{NO_INTERVAL}").'
 
 
+def _comparisons(n: int) -> str:
+    return f"{n} comparison{'s' * (n != 1)}"
+
+
 def comparisons_markdown(rows: list[dict[str, Any]]) -> str:
     """One table per metric: a row per ``(env, algo)``, a column per critic pair.
 
@@ -100,9 +104,13 @@ def comparisons_markdown(rows: list[dict[str, Any]]) -> str:
         lines += [
             f"### {metric.label}",
             "",
-            f"Difference of means [95 % bootstrap CI] and verdict; **bold**: the verdict also "
-            f"holds at the family-wise level (Bonferroni over {mine[0]['family_size']} "
-            f"comparisons, {100 * fw:.3g} % intervals)."
+            f"Difference of means [95 % bootstrap CI] and verdict for the first critic: "
+            f"*better* where the interval excludes 0 on its better side "
+            f"({'higher' if metric.higher_is_better else 'lower'} is better), *worse* where it "
+            f"excludes 0 on the other, *no difference* where it holds 0; **bold**: the "
+            f"verdict also holds at the "
+            f"family-wise level (Bonferroni over {_comparisons(mine[0]['family_size'])}, "
+            f"{100 * fw:.3g} % intervals)."
             + _few_seeds_note(
                 [min(r["n_a"], r["n_b"]) for r in mine],
                 " on either side: the difference alone, no interval and no verdict",
@@ -196,7 +204,21 @@ def summary_markdown(rows: list[dict[str, Any]]) -> str:
     ]  # fmt: skip
     caption = "Final return and final critic RMSE: mean over seeds [95 % percentile-bootstrap CI]."
     caption += _few_seeds_note([r["n_seeds"] for r in rows], ": the mean alone")
-    return caption + "\n\n" + markdown_table(header, (_summary_cells(r) for r in rows)) + "\n"
+    table = markdown_table(header, (_summary_cells(r) for r in rows))
+    return f"{caption}\n\n{table}\n\n{SUMMARY_KEY}\n"
+
+
+#: What ``summary.md``'s columns mean, and where the rest of the report is.
+SUMMARY_KEY = """\
+Columns, over each cell's seeds: the final evaluation return (deterministic actions, mean and
+IQM, the mean of the middle half of the seeds); the median step at which the evaluation return
+first reached the threshold (a seed that never did counts as never), and how many seeds did;
+the critic's final RMSE against Monte Carlo returns of its run's own policy at fixed probe
+states (lower is better); `train s`, the mean wall-clock seconds of training per run
+(evaluations excluded); `GP share`, the part of it the GP critic took (its updates and value
+predictions). Differences between critics with their verdicts: `comparisons.md`. Figures:
+`curves_<env>.png` (evaluation return along training) and `critic_accuracy.png` (critic RMSE
+along training)."""
 
 
 def _summary_cells(r: dict[str, Any]) -> list[str]:
