@@ -393,12 +393,17 @@ def run_from_args(args: argparse.Namespace) -> int:
         from sb3_geogp.comparison.results import estimate_sweep_seconds, load_results
 
         est = estimate_sweep_seconds(load_results(args.estimate_from), specs, workers=args.workers)
+        counted = n_total - est["uncounted_runs"]
         print(
-            f"estimate for {n_total} runs: {est['total_seconds'] / 3600:.2f} CPU hours, "
-            f"{est['wall_seconds'] / 3600:.2f} h with {args.workers} workers on idle cores"
+            f"estimate for {counted} of {n_total} runs: {est['total_seconds'] / 3600:.2f} CPU "
+            f"hours, {est['wall_seconds'] / 3600:.2f} h with {args.workers} workers on idle cores"
         )
         if est["missing"]:
-            print(f"no calibration data (not counted): {', '.join(est['missing'])}")
+            print(
+                f"not counted, {len(est['missing'])} cells without calibration data in "
+                f"{args.estimate_from} (runs of their env, algorithm and critic): "
+                f"{', '.join(est['missing'])}"
+            )
         return 0
     try:
         pending_runs(specs, args.out)  # refuses the folder of another sweep

@@ -370,17 +370,20 @@ def estimate_sweep_seconds(
     -------
     dict
         ``total_seconds``, ``wall_seconds`` (total / workers) and ``per_cell`` seconds per run;
-        cells without calibration data are listed in ``missing``.
+        cells without calibration data are listed in ``missing``, and ``uncounted_runs`` is
+        how many planned runs they hold (not in the totals).
     """
     groups = group_runs(results)
     per_cell: dict[str, float] = {}
     missing = []
+    uncounted = 0
     total = 0.0
     for spec in specs:
         key = (spec.env_id, spec.algo, spec.critic)
         runs = groups.get(key)
         if not runs:
             missing.append("/".join(key))
+            uncounted += 1
             continue
         rate = float(
             np.mean(
@@ -402,6 +405,7 @@ def estimate_sweep_seconds(
         wall_seconds=total / max(1, workers),
         per_cell=per_cell,
         missing=sorted(set(missing)),
+        uncounted_runs=uncounted,
     )
 
 

@@ -112,6 +112,7 @@ def test_tiny_sweep_end_to_end_and_resume(
     assert main(argv) == 0
     printed = capsys.readouterr().out
     assert "CPU hours" in printed and "ppo/mlp" in printed  # only a2c was calibrated
+    assert "estimate for 0 of " in printed and "not counted, 3 cells" in printed
     if importlib.util.find_spec("matplotlib") is not None:
         written = write_report(out, baseline_dir=out)  # against itself: every difference 0
         names = {p.name for p in written}
@@ -323,3 +324,15 @@ def test_a_kernel_instance_replaces_the_named_kernel(tmp_path: Path) -> None:
     mlp = next(s for s in TINY.specs() if s.critic == "mlp")
     with pytest.raises(ValueError, match="kernel is for a GP critic"):
         build_model(mlp, kernel=GeodesicKernel())
+
+
+@pytest.mark.skipif(sys.platform == "win32", reason="POSIX file modes")
+def test_result_files_get_the_mode_of_any_new_file(tmp_path: Path) -> None:
+    """Written atomically through a temporary file, which is private (0600), a result file
+    ends with the mode an ordinary new file gets in its folder (readable by a shared group)."""
+    path = tmp_path / "runs" / "r.json"
+    run_module.write_json_atomic(path, {"a": 1})
+    ordinary = tmp_path / "runs" / "ordinary.json"
+    ordinary.write_text("{}")
+    assert path.stat().st_mode == ordinary.stat().st_mode
+    assert json.loads(path.read_text()) == {"a": 1}
