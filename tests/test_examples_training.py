@@ -6,7 +6,9 @@ import argparse
 import copy
 import dataclasses
 import json
+import math
 from pathlib import Path
+from types import SimpleNamespace
 from typing import Any
 
 import gymnasium as gym
@@ -655,3 +657,23 @@ def test_train_ppo_pendulum_saves_where_asked_and_the_model_reloads(
     model = PPO.load(tmp_path / "model.zip")
     assert model.num_timesteps == 4096 and model.policy.gp.n_basis > 0
     assert f"GP critic: {model.policy.gp.n_basis} basis vectors" in capsys.readouterr().out
+
+
+def test_long_training_run_records_every_rollout_and_checks_the_state(tmp_path: Path) -> None:
+    """A short A2C run (4 envs x 5 steps a rollout): one row per rollout with the GP's own
+    figures, the checks passed, and a planted NaN in the state is caught."""
+    script = load_script("long_training_run")
+    argv = ["--algo", "a2c", "--env", "CartPole-v1", "--timesteps", "200", "--no-progress"]
+    assert script.main([*argv, "--memory-every", "3", "--out", str(tmp_path)]) == 0
+    result = json.loads((tmp_path / "long_training_run.json").read_text())
+    rows = result["rows"]
+    assert len(rows) == result["rollouts"] == 10
+    assert [r["timesteps"] for r in rows] == [20.0 * (i + 1) for i in range(10)]
+    assert [i for i, r in enumerate(rows) if "resident_mib" in r] == [0, 3, 6, 9]
+    assert all(0 < r["n_basis"] <= 256 and r["noise_var"] > 0 for r in rows)
+    assert result["checks"]["passed"] and (tmp_path / "long_training_run.png").stat().st_size
+
+    planted = {"alpha": th.tensor([1.0, math.nan])}  # what checks() reads: a GP state
+    model = SimpleNamespace(policy=SimpleNamespace(gp=SimpleNamespace(state_dict=lambda: planted)))
+    verdict = script.checks(model, rows)
+    assert not verdict["passed"] and verdict["nonfinite_state"] == ["alpha"]
