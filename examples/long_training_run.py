@@ -45,6 +45,8 @@ from sb3_geogp import GPActorCriticPolicy, GPValueCallback
 from sb3_geogp.toolbox.provenance import provenance
 
 ALGOS = {"ppo": PPO, "a2c": A2C}
+#: Runs with fewer rollouts read the memory at every one and draw their figures as lines.
+FEW_ROLLOUTS = 200
 #: ``gp/`` keys recorded per rollout.
 KEYS = ("update_ms", "n_basis", "explained_variance", "noise_var", "lengthscale")
 
@@ -148,7 +150,13 @@ def plot(rows: list[dict[str, float]], title: str, path: Path) -> None:
         y = np.array([r.get(key, math.nan) for r in rows], dtype=np.float64)
         if key == "explained_variance":
             y = np.clip(y, -1, 1)
-        ax.plot(t[have], y[have], ".", ms=2, alpha=0.5)
+        # thousands of A2C rollouts as a cloud, tens of PPO ones joined
+        style = (
+            {"ls": "-", "marker": ".", "ms": 4}
+            if len(rows) < FEW_ROLLOUTS
+            else {"ls": "", "marker": ".", "ms": 2, "alpha": 0.5}
+        )
+        ax.plot(t[have], y[have], **style)
         ax.set_ylabel(label)
         ax.grid(alpha=0.3)
     for ax in axes[1]:
@@ -166,7 +174,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--timesteps", type=int, default=300_000)
     parser.add_argument("--n-envs", type=int, default=4)
     parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--memory-every", type=int, default=20, help="rollouts between readings")
+    parser.add_argument(
+        "--memory-every",
+        type=int,
+        default=None,
+        help=f"rollouts between readings (default: 1 under {FEW_ROLLOUTS} rollouts, else 20)",
+    )
     parser.add_argument("--threads", type=int, default=1, help="torch CPU threads")
     parser.add_argument("--out", type=Path, default=Path("runs/long_training_run"))
     parser.add_argument("--no-progress", action="store_true")
@@ -174,7 +187,8 @@ def main(argv: list[str] | None = None) -> int:
     torch.set_num_threads(args.threads)
     env = make_vec_env(args.env, n_envs=args.n_envs, seed=args.seed)
     model = ALGOS[args.algo](GPActorCriticPolicy, env, seed=args.seed)
-    recorder = Recorder(args.memory_every)
+    rollouts = args.timesteps / (model.n_steps * model.n_envs)
+    recorder = Recorder(args.memory_every or (1 if rollouts < FEW_ROLLOUTS else 20))
     start = time.perf_counter()
     model.learn(
         args.timesteps,
