@@ -11,6 +11,9 @@ Lengthscale, per input dimension, first that applies:
    bounds, ``(high - low) / sqrt(12)`` (:func:`bounds_lengthscale`), so the choice does not
    depend on how much of the space the first batch covers;
 3. the standard deviation of that dimension in the first batch (:func:`default_lengthscale`).
+
+Rule 2 trusts the bounds; :class:`BoundsCoverage` checks, once the data have had time to
+spread, that they were not far wider than the data.
 """
 
 from __future__ import annotations
