@@ -7,7 +7,8 @@ time (``gp/update_ms``), basis vectors, explained variance, noise variance and l
 end it checks that the GP's state holds no NaN or inf and that no logged ``gp/`` figure was
 ever inf, or NaN (``gp/explained_variance`` may be NaN where the targets did not vary: counted,
 not a failure), evaluates the policy (10 episodes), prints the first and last tenth of the run
-side by side, and writes ``long_training_run.json`` and ``long_training_run.png`` to ``--out``.
+side by side, and writes ``long_training_run.json`` (the figures per rollout as one list each)
+and ``long_training_run.png`` to ``--out``.
 Exit status 1 if a check failed. (``examples/long_run_numerics.py`` soaks the engine alone
 with 10^6 points and checks its matrices after every batch.)
 
@@ -96,6 +97,16 @@ class Recorder(BaseCallback):
         if len(self.rows) % self.memory_every == 0:
             row["resident_mib"] = resident_mib()
         self.rows.append(row)
+
+
+def columns(rows: list[dict[str, float]]) -> dict[str, list[float | None]]:
+    """The rows as one list per figure, 6 significant digits, ``None`` where a rollout has
+    none (memory between readings) or it is NaN (JSON has no NaN)."""
+    keys = dict.fromkeys(k for r in rows for k in r)
+    return {
+        key: [float(f"{r[key]:.6g}") if key in r and math.isfinite(r[key]) else None for r in rows]
+        for key in keys
+    }
 
 
 def tenth(rows: list[dict[str, float]], key: str, last: bool) -> float:
@@ -207,10 +218,11 @@ def main(argv: list[str] | None = None) -> int:
         "rollouts": len(rows),
         "eval_return": [float(mean), float(std)],  # type: ignore[arg-type]
         "checks": verdict,
-        "rows": rows,
+        "per_rollout": columns(rows),
     }
     args.out.mkdir(parents=True, exist_ok=True)
-    (args.out / "long_training_run.json").write_text(json.dumps(result, indent=1) + "\n")
+    # one line: 10,000 A2C rollouts would otherwise be some 90,000 lines
+    (args.out / "long_training_run.json").write_text(json.dumps(result) + "\n")
     title = f"{args.algo.upper()} {args.env}, {args.timesteps:,} steps, seed {args.seed}"
     plot(rows, title, args.out / "long_training_run.png")
     print(f"{title}: {len(rows)} rollouts in {seconds:.0f} s")

@@ -666,12 +666,14 @@ def test_long_training_run_records_every_rollout_and_checks_the_state(tmp_path: 
     argv = ["--algo", "a2c", "--env", "CartPole-v1", "--timesteps", "200", "--no-progress"]
     assert script.main([*argv, "--memory-every", "3", "--out", str(tmp_path)]) == 0
     result = json.loads((tmp_path / "long_training_run.json").read_text())
-    rows = result["rows"]
-    assert len(rows) == result["rollouts"] == 10
-    assert [r["timesteps"] for r in rows] == [20.0 * (i + 1) for i in range(10)]
-    assert [i for i, r in enumerate(rows) if "resident_mib" in r] == [0, 3, 6, 9]
-    assert all(0 < r["n_basis"] <= 256 and r["noise_var"] > 0 for r in rows)
+    table = result["per_rollout"]
+    assert result["rollouts"] == 10
+    assert table["timesteps"] == [20.0 * (i + 1) for i in range(10)]
+    assert [i for i, m in enumerate(table["resident_mib"]) if m is not None] == [0, 3, 6, 9]
+    assert all(0 < n <= 256 for n in table["n_basis"]) and min(table["noise_var"]) > 0
     assert result["checks"]["passed"] and (tmp_path / "long_training_run.png").stat().st_size
+    rows = [{k: math.nan if v is None else v for k, v in zip(table, values, strict=True)}
+            for values in zip(*table.values(), strict=True)]  # fmt: skip
 
     planted = {"alpha": th.tensor([1.0, math.nan])}  # what checks() reads: a GP state
     model = SimpleNamespace(policy=SimpleNamespace(gp=SimpleNamespace(state_dict=lambda: planted)))
