@@ -126,8 +126,8 @@ class BoundsCoverage:
     the data's spread: the GP then barely varies along those dimensions, and a hyperprior
     keeps the lengthscales near their start. Once :data:`COVERAGE_POINTS` inputs have been
     seen, :meth:`check` names the dimensions whose lengthscale came from the bounds, whose
-    inputs span less than :data:`COVERAGE_SHARE` of them and whose lengthscale is still longer
-    than that span, once.
+    inputs vary but span less than :data:`COVERAGE_SHARE` of them and whose lengthscale is
+    still longer than that span, once.
 
     Parameters
     ----------
@@ -162,12 +162,15 @@ class BoundsCoverage:
             return None
         self.checked = True
         span = self.seen_high - self.seen_low
-        share = span / (self.high - self.low)
+        width = self.high - self.low
+        share = np.divide(span, width, out=np.ones_like(span), where=self.from_bounds)
         ls = lengthscale.double().cpu().numpy()
-        loose = np.flatnonzero(self.from_bounds & (share < COVERAGE_SHARE) & (ls > span))
+        # A constant input (span 0) carries nothing to fit along it, whatever its lengthscale.
+        spread = span > 0
+        loose = np.flatnonzero(self.from_bounds & spread & (share < COVERAGE_SHARE) & (ls > span))
         if not len(loose):
             return None
-        suggested = np.where(self.from_bounds, span / np.sqrt(12.0), ls)
+        suggested = np.where(self.from_bounds & spread, span / np.sqrt(12.0), ls)
         dims = " and ".join(
             f"dimension {i} spans [{self.seen_low[i]:.3g}, {self.seen_high[i]:.3g}] "
             f"({share[i]:.1%} of its bounds [{self.low[i]:.3g}, {self.high[i]:.3g}]; "

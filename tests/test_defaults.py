@@ -120,15 +120,20 @@ def test_bounds_the_data_fill_or_given_lengthscales_are_not_named(
 def test_bounds_coverage_counts_what_it_is_given() -> None:
     """Range, count and share from :meth:`BoundsCoverage.add` against numpy on the same data."""
     rng = np.random.default_rng(1)
-    x = rng.normal(size=(COVERAGE_POINTS, 3)) * np.array([0.01, 1.0, 0.01])
-    coverage = BoundsCoverage(-np.full(3, 10.0), np.full(3, 10.0), [True, True, False])
+    x = rng.normal(size=(COVERAGE_POINTS, 4)) * np.array([0.01, 1.0, 0.01, 0.0])
+    # dimension 2 of zero width (unbounded for the bounds' rule: its lengthscale from the
+    # data), 3 constant in wide bounds
+    low, high = np.array([-10.0, -10.0, 0.0, -10.0]), np.array([10.0, 10.0, 0.0, 10.0])
+    coverage = BoundsCoverage(low, high, [True, True, False, True])
     for part in np.array_split(x, 7):
         coverage.add(torch.as_tensor(part))
     np.testing.assert_array_equal(coverage.seen_low, x.min(axis=0))
     np.testing.assert_array_equal(coverage.seen_high, x.max(axis=0))
-    message = coverage.check(torch.ones(3))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no division by a zero-width bound
+        message = coverage.check(torch.ones(4))
     # dimension 0: share < 5 % and lengthscale 1 > its range; 1 fills ~40 %; 2 was not from
-    # the bounds
+    # the bounds; 3 does not vary (nothing to fit along it)
     assert message is not None and "dimension 0 spans" in message
-    assert "dimension 1" not in message and "dimension 2" not in message
-    assert coverage.check(torch.ones(3)) is None  # once
+    assert all(f"dimension {i}" not in message for i in (1, 2, 3))
+    assert coverage.check(torch.ones(4)) is None  # once
