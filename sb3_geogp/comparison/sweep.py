@@ -41,7 +41,7 @@ def pending_runs(specs: Iterable[RunSpec], out_dir: str | Path) -> list[RunSpec]
         different budget, say), with other hyperparameters or another threshold: pick another
         ``out_dir`` rather than mix sweeps.
     """
-    todo = []
+    todo, refusals = [], []
     for spec in specs:
         done = load_result(result_path(out_dir, spec))
         if done is None:
@@ -53,11 +53,17 @@ def pending_runs(specs: Iterable[RunSpec], out_dir: str | Path) -> list[RunSpec]
             ("threshold", done.get("threshold"), spec.threshold),
         ):
             if made != (asked := _jsonable(asked)):
-                raise ValueError(
-                    f"{result_path(out_dir, spec)} was made with other {what} than requested "
-                    f"({setting_differences(made, asked)}); pass the options it was made with "
-                    "or use another --out"
-                )
+                refusals.append((spec.critic == "mlp", spec, what, made, asked))
+                break
+    if refusals:
+        # A GP run's file names the difference best: an MLP run also records the sweep's GP
+        # options, which it does not use.
+        _, spec, what, made, asked = min(refusals, key=lambda r: r[0])
+        raise ValueError(
+            f"{result_path(out_dir, spec)} was made with other {what} than requested "
+            f"({setting_differences(made, asked)}); pass the options it was made with "
+            "or use another --out"
+        )
     return todo
 
 

@@ -95,6 +95,10 @@ def test_tiny_sweep_end_to_end_and_resume(
     assert run_sweep(TINY, out, workers=1, progress=False) == []
     with pytest.raises(ValueError, match="other settings"):
         pending_runs(dataclasses.replace(TINY, timesteps_scale=0.1).specs(), out)
+    # other GP options: named by a GP run's file (the MLP runs record them, unused)
+    other_gp = dataclasses.replace(TINY, gp_options=(("max_basis", 64),)).specs()
+    with pytest.raises(ValueError, match=r"a2c__geodesic__CartPole-v1__s0\.json was made with"):
+        pending_runs(other_gp, out)
 
     # 4. Aggregation.
     results = load_results(out)
