@@ -688,6 +688,12 @@ class SparseOnlineGP(nn.Module):
         return self._cache
 
     def _apply(self, fn: Callable[[Tensor], Tensor], recurse: bool = True) -> SparseOnlineGP:
+        # .to(dtype), .float(), .half() convert through here: refuse what the constructor
+        # refuses, before any buffer changes.
+        current = self.alpha.dtype
+        converted = fn(torch.zeros((), dtype=current, device=self.alpha.device)).dtype
+        if converted != current:
+            _check_dtype(converted, self.kernel, self.adaptation)
         self._cache = None
         return super()._apply(fn, recurse)
 
@@ -852,7 +858,8 @@ class SparseOnlineGP(nn.Module):
             self._cache = None
         xs = self._scaled(x)
         yn = self._standardised(x, y)
-        if not bool(torch.isfinite(yn).all()):
+        # Squares too: the statistics of a batch sum them, and Python's floats raise on overflow.
+        if not bool(torch.isfinite(yn.square()).all()):
             raise ValueError(
                 f"targets standardised with mean {float(self.y_mean):.3g} and scale "
                 f"{float(self.y_scale):.3g} overflow; rescale the targets or pass "

@@ -1228,6 +1228,32 @@ def test_unsafe_dtypes_are_refused_at_construction(kernel: Kernel, dtype: Any, m
         SparseOnlineGP(3, kernel=kernel, dtype=dtype)
 
 
+@pytest.mark.parametrize(
+    ("kernel", "convert", "match"),
+    [
+        (RBFKernel(), lambda gp: gp.to(torch.float32), "not numerically safe in float32"),
+        (RBFKernel(), lambda gp: gp.float(), "not numerically safe in float32"),
+        (LaplacianKernel(), lambda gp: gp.half(), "float64"),
+        (LaplacianKernel(), lambda gp: gp.to(torch.bfloat16), "float64"),
+    ],
+    ids=["rbf-to-float32", "rbf-float", "half", "bfloat16"],
+)
+def test_unsafe_dtypes_are_refused_on_conversion_too(
+    kernel: Kernel, convert: Callable[[SparseOnlineGP], Any], match: str
+) -> None:
+    """``.to`` and friends refuse what the constructor refuses, leaving the state as it was;
+    a safe conversion (the Laplacian kernel to float32) goes through."""
+    rng = np.random.default_rng(0)
+    gp = SparseOnlineGP(2, kernel=kernel, max_basis=16)
+    gp.update(rng.normal(size=(50, 2)), rng.normal(size=50))
+    before = snapshot(gp)
+    with pytest.raises(ValueError, match=match):
+        convert(gp)
+    assert_same_state(before, snapshot(gp))
+    if isinstance(kernel, LaplacianKernel):
+        assert gp.float().P.dtype == torch.float32
+
+
 def test_lagged_forgetting_is_refused_in_float32() -> None:
     """Its likelihood forgetting left ``P`` indefinite in the float32 soak: refused with the fix
     named; float64, and the shrinking score in float32, are built."""
@@ -1685,3 +1711,19 @@ def test_rows_shared_by_scoring_screening_and_absorbing_change_nothing(
 def _scoring_without_rows(score: Callable[..., Any]) -> Callable[..., Any]:
     """``SparseOnlineGP._out_of_sample`` handing no rows on to the rest of the update."""
     return lambda *args: (score(*args)[0], None)
+
+
+def test_a_later_batch_whose_squares_overflow_is_refused_clearly() -> None:
+    """Targets of 1e-150 fix the target scale at 1 (they barely vary); a later batch of 1e200
+    is finite standardised, but its squares are not. Before, such batches were absorbed with
+    an infinite NLPD, and the 19th raised an OverflowError at its block's end (the adaptation
+    sums squares in Python floats); now the first is refused naming the fix, the state
+    unchanged."""
+    rng = np.random.default_rng(0)
+    x = rng.normal(size=(50, 2))
+    gp = SparseOnlineGP(2, kernel="laplacian", adapt=True)
+    gp.update(x, 1e-150 * rng.normal(size=50))
+    before = snapshot(gp)
+    with pytest.raises(ValueError, match="overflow; rescale the targets or pass target_mean"):
+        gp.update(x, 1e200 * rng.normal(size=50))
+    assert_same_state(before, snapshot(gp))
