@@ -4,8 +4,8 @@
 kernels and the BV graph. The SB3 adapter (:class:`GPActorCriticPolicy`,
 :class:`GPValueCallback`), the policy for sb3-contrib's MaskablePPO
 (:class:`MaskableGPActorCriticPolicy`, which needs sb3-contrib) and the environments
-(:mod:`sb3_geogp.envs`, whose import registers ``sb3_geogp/PaperPendulum-v0``,
-``sb3_geogp/WallMaze-v0`` and ``sb3_geogp/WallMazeDiscrete-v0`` with gymnasium) load on first
+(:mod:`sb3_geogp.envs`, whose import registers ``sb3_geogp/PaperPendulum-v0`` and the
+``sb3_geogp/WallMaze*-v0`` tasks with gymnasium) load on first
 use, so the engine works where stable-baselines3, sb3-contrib and gymnasium are not
 installed.
 """

@@ -275,13 +275,19 @@ class SparseOnlineGP(nn.Module):
         batches of the newest batch's size.
     target_mean, target_scale : float or None
         Prior mean and scale of the targets: the GP models ``(y - target_mean) / target_scale``.
-        ``None`` takes the mean and standard deviation of the first batch (kept fixed after).
+        ``None`` takes the mean and standard deviation of the first batch (the sample standard
+        deviation, ``n - 1`` in the denominator; kept fixed after, unless the adaptation
+        re-estimates them). The values in use are :attr:`y_mean` and :attr:`y_scale`, with
+        which an exact GP on ``(y - y_mean) / y_scale`` (kernel :attr:`kernel`, noise
+        :attr:`noise_var`) reproduces this one where every point is a BV.
     prior_mean : {"constant", "linear"}
         The GP's prior mean function ``m(x)``: a constant (``target_mean``), or ``c + b^T x``,
         fitted by least squares to the first batch and, with adaptation, to the retained
         window at every refit, the scale then being that of the residuals. Far from the data
         the constant mean reverts to the targets' average and the linear one follows their
-        trend, as a linear model or an MLP would (docs/method.md, section 4). ``"linear"``
+        trend, as a linear model or an MLP would (docs/method.md, section 4); not with the
+        geodesic kernel's default ``attach="interpolate"``, whose far points are predicted as
+        their nearest basis vectors are (:class:`~sb3_geogp.GeodesicKernel`). ``"linear"``
         takes no ``target_mean``.
     trend : {"none", "level", "sloped_level", "rising_level", "constant", "linear"}
         A trend ``w^T [x, 1]`` under the GP, moved as each batch arrives, before the GP is fed
@@ -329,12 +335,15 @@ class SparseOnlineGP(nn.Module):
         Intra-op CPU threads of :meth:`update`, :meth:`predict` and :meth:`fit_hyperparameters`,
         set for the call and restored after it. The engine's work is many small matrix
         operations, which several threads slow down, by 10-100x on a busy machine (measured in
-        docs/benchmarks.md). ``None`` keeps torch's setting.
+        docs/benchmarks.md). 1 by default; ``None`` keeps torch's setting.
     condition_guard : bool
         Project instead of inserting a novel point whose row would grow ``||Q||`` by more than
         ``1e4 / variance`` (docs/method.md, 2.5). It keeps long runs well conditioned, and is the
         one exception to ``novelty_tol=0`` making every point a BV: switch it off for an exact
-        GP on a small, well-spread data set.
+        GP on a small, well-spread data set (with fixed hyperparameters: a refit of the
+        adaptation or :meth:`fit_hyperparameters` still prunes redundant BVs, docs/method.md,
+        section 4). The nugget of docs/method.md, 2.1 (a new BV's novelty floored at ``1e-6``
+        of the signal variance) still applies.
     device : torch.device, str or None
         Where the state lives.
     dtype : torch.dtype or {"float64", "float32"}
@@ -370,13 +379,20 @@ class SparseOnlineGP(nn.Module):
     bonus_spreads : Tensor, shape (2,)
         With ``optimism_cap``, the averaged spreads ``(s_sigma, s_err)`` that scale the bonus,
         in the targets' units (zeros before the second batch).
+    y_mean, y_scale : Tensor, shape ()
+        The target standardisation in use: the GP models ``(y - y_mean) / y_scale`` (after
+        the trend, if any).
+    noise_var : Tensor, shape ()
+        Observation noise variance, in standardised units.
 
     Notes
     -----
-    Targets are standardised with the mean and standard deviation of the first batch (kept
-    fixed afterwards); :meth:`predict` returns values in the units fed to :meth:`update`.
-    Lengthscales not given (``None``, or NaN entries) follow :mod:`sb3_geogp.defaults`: from
-    ``input_bounds`` where bounded, else the standard deviation in the first batch.
+    Targets are standardised with the mean and sample standard deviation of the first batch
+    (kept fixed afterwards unless the adaptation re-estimates them); :meth:`predict` returns
+    values in the units fed to :meth:`update`, and before the first batch the prior (mean 0,
+    variance the kernel's signal variance). Lengthscales not given (``None``, or NaN entries)
+    follow :mod:`sb3_geogp.defaults`: from ``input_bounds`` where bounded, else the population
+    standard deviation (``n`` in the denominator) in the first batch.
     """
 
     bv_x: Tensor

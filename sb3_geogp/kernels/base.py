@@ -158,8 +158,8 @@ class Kernel(nn.Module):
     ----------
     lengthscale : float, sequence of float or None
         One value for all input dimensions or one per dimension. ``None`` (or NaN for some
-        dimensions) leaves the choice to :func:`sb3_geogp.defaults.initial_lengthscale` when
-        the GP sees its first batch.
+        dimensions) leaves the choice to :func:`sb3_geogp.defaults.resolve_lengthscale`: from
+        the input bounds where the GP knows them, else when it sees its first batch.
     variance : float
         Signal variance ``sigma_f^2`` in units of the standardised targets.
     """

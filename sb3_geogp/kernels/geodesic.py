@@ -55,8 +55,11 @@ class GeodesicKernel(Kernel):
       ``n_neighbors`` nearest basis vectors, with modified Shepard weights
       ``w_i ∝ ((R - d_i) / (R d_i))^2`` (``d_i`` Euclidean, ``R`` the distance to the next
       neighbour), normalised to sum 1. The weights are continuous in ``x`` and one-hot on a
-      basis vector, so the kernel is the BV kernel seen through a feature map: positive
-      definite whenever the BV Gram matrix is.
+      basis vector; the cross-covariances are the BV kernel's seen through them, while a
+      point's own prior variance stays ``sigma_f^2`` (docs/method.md, section 3). Because the
+      weights sum to 1 however far ``x`` is, a point far from every basis vector is predicted
+      as its nearest ones are: the mean does not revert to the prior, and the variance does
+      not grow back to it (``attach="nearest"`` and the Euclidean kernels do both).
 
     Novelty is always judged on the row the point would have as a leaf of its nearest basis
     vector (an interpolated row lies in the span of the BV rows and is never novel).
