@@ -389,8 +389,9 @@ class SparseOnlineGP(nn.Module):
     -----
     Targets are standardised with the mean and sample standard deviation of the first batch
     (kept fixed afterwards unless the adaptation re-estimates them); :meth:`predict` returns
-    values in the units fed to :meth:`update`, and before the first batch the prior (mean 0,
-    variance the kernel's signal variance). Lengthscales not given (``None``, or NaN entries)
+    values in the units fed to :meth:`update`, and before the first batch the prior (mean
+    ``target_mean``, variance the signal variance times ``target_scale`` squared; 0 and 1 where
+    they are not given). Lengthscales not given (``None``, or NaN entries)
     follow :mod:`sb3_geogp.defaults`: from ``input_bounds`` where bounded, else the population
     standard deviation (``n`` in the denominator) in the first batch.
     """
