@@ -13,6 +13,7 @@ installed.
 from __future__ import annotations
 
 import importlib
+from types import ModuleType
 from typing import TYPE_CHECKING, Any
 
 from sb3_geogp.adaptation import CHEAP_ADAPTATION, Adaptation
@@ -48,7 +49,10 @@ def __getattr__(name: str) -> Any:
 
 
 def __dir__() -> list[str]:
-    return sorted(__all__)
+    # The public names, the lazy ones included, and the engine's modules the docs refer to
+    # (sb3_geogp.defaults, .kernels, .adaptation, ...), which importing the engine loaded.
+    modules = {name for name, value in globals().items() if isinstance(value, ModuleType)}
+    return sorted({*__all__, *(modules - {"importlib"})})
 
 
 __all__ = [

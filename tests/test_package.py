@@ -67,6 +67,8 @@ def test_adapter_and_envs_load_on_first_use() -> None:
     assert sb3_geogp.GPValueCallback is GPValueCallback
     assert "sb3_geogp/PaperPendulum-v0" in sb3_geogp.envs.PAPER_PENDULUM_ID
     assert set(sb3_geogp.__all__) <= set(dir(sb3_geogp))
+    # the engine's modules the docstrings name, for tab completion
+    assert {"adaptation", "defaults", "kernels", "sparse_gp"} <= set(dir(sb3_geogp))
 
 
 def test_package_is_typed_and_licensed() -> None:
