@@ -850,7 +850,7 @@ class SparseOnlineGP(nn.Module):
         x, y, starts = self._validate(x, y, episode_starts)
         with self._transaction():
             self._update(x, y, starts)
-        if self._coverage is not None:
+        if self._coverage is not None and not self._coverage.checked:
             self._coverage.add(x)
             if (message := self._coverage.check(self.kernel.lengthscale)) is not None:
                 warn_user(message)
