@@ -134,14 +134,16 @@ class BoundsCoverage:
     ----------
     low, high : array-likes, shape (d,)
         The bounds.
-    from_bounds : array-like of bool, shape (d,)
-        The dimensions whose lengthscale was taken from the bounds.
+    unset : array-like of bool, shape (d,)
+        The dimensions whose lengthscale the user left to this module: of those, the bounded
+        ones (:func:`bounds_lengthscale`) took theirs from the bounds (:attr:`from_bounds`).
     """
 
-    def __init__(self, low: ArrayLike, high: ArrayLike, from_bounds: ArrayLike) -> None:
+    def __init__(self, low: ArrayLike, high: ArrayLike, unset: ArrayLike) -> None:
         self.low = np.asarray(low, dtype=np.float64).ravel()
         self.high = np.asarray(high, dtype=np.float64).ravel()
-        self.from_bounds = np.asarray(from_bounds, dtype=bool).ravel()
+        bounded = np.isfinite(bounds_lengthscale(self.low, self.high))
+        self.from_bounds = np.asarray(unset, dtype=bool).ravel() & bounded
         self.seen_low = np.full_like(self.low, np.inf)
         self.seen_high = np.full_like(self.high, -np.inf)
         self.points = 0

@@ -518,11 +518,7 @@ class SparseOnlineGP(nn.Module):
         ls.copy_(defaults.resolve_lengthscale(ls, bounds=input_bounds))
         # Diagnostics, not state: bounds far wider than the data leave the GP nearly flat.
         self._coverage = (
-            None
-            if input_bounds is None
-            else defaults.BoundsCoverage(
-                *input_bounds, unset & np.isfinite(defaults.bounds_lengthscale(*input_bounds))
-            )
+            None if input_bounds is None else defaults.BoundsCoverage(*input_bounds, unset)
         )
         kw: dict[str, Any] = {"dtype": dtype, "device": device}
         self.kernel.to(**kw)

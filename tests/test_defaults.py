@@ -124,7 +124,8 @@ def test_bounds_coverage_counts_what_it_is_given() -> None:
     # dimension 2 of zero width (unbounded for the bounds' rule: its lengthscale from the
     # data), 3 constant in wide bounds
     low, high = np.array([-10.0, -10.0, 0.0, -10.0]), np.array([10.0, 10.0, 0.0, 10.0])
-    coverage = BoundsCoverage(low, high, [True, True, False, True])
+    coverage = BoundsCoverage(low, high, [True] * 4)
+    np.testing.assert_array_equal(coverage.from_bounds, [True, True, False, True])
     for part in np.array_split(x, 7):
         coverage.add(torch.as_tensor(part))
     np.testing.assert_array_equal(coverage.seen_low, x.min(axis=0))

@@ -15,7 +15,6 @@ from __future__ import annotations
 import warnings
 from typing import Any
 
-import numpy as np
 import torch
 from stable_baselines3 import A2C, PPO
 from stable_baselines3.common.callbacks import BaseCallback
@@ -24,7 +23,7 @@ from stable_baselines3.common.env_util import make_vec_env
 import sb3_geogp.envs  # noqa: F401  (registers the package's environments)
 from sb3_geogp import GPActorCriticPolicy, GPCriticWarning, GPValueCallback
 from sb3_geogp.comparison.hyperparams import ENVS, algo_kwargs, hyperparams
-from sb3_geogp.defaults import COVERAGE_POINTS, MAX_BOUND_WIDTH, BoundsCoverage
+from sb3_geogp.defaults import COVERAGE_POINTS, BoundsCoverage
 from sb3_geogp.toolbox.tables import markdown_table
 
 ALGOS: dict[str, Any] = {"ppo": PPO, "a2c": A2C}
@@ -56,10 +55,11 @@ def shares(algo: str, env_id: str, seed: int) -> tuple[list[float], bool, int]:
     assert coverage.checked, "stopped before the check"
     warned = any(issubclass(w.category, GPCriticWarning) and "bounds" in str(w.message)
                  for w in caught)  # fmt: skip
-    width = coverage.high - coverage.low
-    bounded = np.isfinite(width) & (width > 0) & (width < MAX_BOUND_WIDTH)
-    span = coverage.seen_high - coverage.seen_low
-    return (span / width)[bounded].tolist(), warned, model.num_timesteps
+    # no lengthscale given: every bounded dimension took its lengthscale from the bounds
+    bounded = coverage.from_bounds
+    span = coverage.seen_high[bounded] - coverage.seen_low[bounded]
+    share = span / (coverage.high[bounded] - coverage.low[bounded])
+    return share.tolist(), warned, model.num_timesteps
 
 
 def main() -> None:
