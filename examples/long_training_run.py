@@ -3,7 +3,8 @@
 Trains ``--algo`` with ``GPActorCriticPolicy`` and ``GPValueCallback`` (default options) on
 ``--env`` for ``--timesteps`` steps and records, per rollout: its wall clock, the GP's update
 time (``gp/update_ms``), basis vectors, explained variance, noise variance and lengthscale
-(geometric mean), and every ``--memory-every`` rollouts the process's resident memory. At the
+(geometric mean), and every ``--memory-every`` rollouts the process's resident memory (and, on
+a CUDA ``--device``, the memory torch has allocated on it). At the
 end it checks that the GP's state holds no NaN or inf and that no logged ``gp/`` figure was
 ever inf, or NaN (``gp/explained_variance`` may be NaN where the targets did not vary: counted,
 not a failure), evaluates the policy (10 episodes), prints the first and last tenth of the run
@@ -96,6 +97,8 @@ class Recorder(BaseCallback):
         row["rollout_s"] = time.perf_counter() - self._started
         if len(self.rows) % self.memory_every == 0:
             row["resident_mib"] = resident_mib()
+            if policy.device.type == "cuda":
+                row["device_mib"] = torch.cuda.memory_allocated(policy.device) / 2**20
         self.rows.append(row)
 
 
@@ -168,6 +171,11 @@ def plot(rows: list[dict[str, float]], title: str, path: Path) -> None:
             else {"ls": "", "marker": ".", "ms": 2, "alpha": 0.5}
         )
         ax.plot(t[have], y[have], **style)
+        if key == "resident_mib" and any("device_mib" in r for r in rows):
+            on_device = np.array(["device_mib" in r for r in rows])
+            device_mib = [r["device_mib"] for r in rows if "device_mib" in r]
+            ax.plot(t[on_device], device_mib, **style, label="allocated on the device")
+            ax.legend(fontsize=8)
         ax.set_ylabel(label)
         ax.grid(alpha=0.3)
     for ax in axes[1]:
@@ -185,6 +193,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--timesteps", type=int, default=300_000)
     parser.add_argument("--n-envs", type=int, default=4)
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--device", default="auto", help="torch device of the policy and its GP")
     parser.add_argument(
         "--memory-every",
         type=int,
@@ -197,7 +206,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     torch.set_num_threads(args.threads)
     env = make_vec_env(args.env, n_envs=args.n_envs, seed=args.seed)
-    model = ALGOS[args.algo](GPActorCriticPolicy, env, seed=args.seed)
+    model = ALGOS[args.algo](GPActorCriticPolicy, env, seed=args.seed, device=args.device)
     rollouts = args.timesteps / (model.n_steps * model.n_envs)
     recorder = Recorder(args.memory_every or (1 if rollouts < FEW_ROLLOUTS else 20))
     start = time.perf_counter()
@@ -227,7 +236,16 @@ def main(argv: list[str] | None = None) -> int:
     plot(rows, title, args.out / "long_training_run.png")
     print(f"{title}: {len(rows)} rollouts in {seconds:.0f} s")
     print("                      first tenth   last tenth   (medians)")
-    for key in ("rollout_s", "update_ms", "resident_mib", "n_basis", "explained_variance"):
+    for key in (
+        "rollout_s",
+        "update_ms",
+        "resident_mib",
+        "device_mib",
+        "n_basis",
+        "explained_variance",
+    ):
+        if not any(key in r for r in rows):
+            continue
         first, last = tenth(rows, key, last=False), tenth(rows, key, last=True)
         print(f"{key:20s}  {first:11.4g}  {last:11.4g}")
     print(f"evaluation return (10 episodes): {mean:.1f} +/- {std:.1f}")

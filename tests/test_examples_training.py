@@ -670,6 +670,8 @@ def test_long_training_run_records_every_rollout_and_checks_the_state(tmp_path: 
     assert result["rollouts"] == 10
     assert table["timesteps"] == [20.0 * (i + 1) for i in range(10)]
     assert [i for i, m in enumerate(table["resident_mib"]) if m is not None] == [0, 3, 6, 9]
+    # the default device is SB3's "auto": a GPU's allocated memory is read where there is one
+    assert ("device_mib" in table) == th.cuda.is_available()
     assert all(0 < n <= 256 for n in table["n_basis"]) and min(table["noise_var"]) > 0
     assert result["checks"]["passed"] and (tmp_path / "long_training_run.png").stat().st_size
     rows = [{k: math.nan if v is None else v for k, v in zip(table, values, strict=True)}
