@@ -12,7 +12,7 @@ per-environment trajectories, takes targets from :mod:`sb3_geogp.targets` and lo
 
 from __future__ import annotations
 
-from typing import Any, Literal, cast
+from typing import Any, Literal, NamedTuple, cast
 
 import numpy as np
 import torch as th
@@ -21,6 +21,7 @@ from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.buffers import RolloutBuffer
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
+from stable_baselines3.common.vec_env import VecFrameStack, unwrap_vec_wrapper
 
 from sb3_geogp.policies import GPCriticMixin, _contrib_algorithms, _for_algorithm, check_algorithm
 from sb3_geogp.targets import (
@@ -84,6 +85,17 @@ def default_feed(algorithm: type[BaseAlgorithm] | None, gamma: float) -> tuple[T
     target = default_target(algorithm)
     cut = target == "monte_carlo" and gamma**DEFAULT_HORIZON >= CUT_WEIGHT
     return target, DEFAULT_HORIZON if cut else None
+
+
+class _Unfinished(NamedTuple):
+    """What a ``learn()`` call leaves for the next: the model's last observation array then
+    (a reset replaces it), its step count, the feed rule (target, horizon) and each env's
+    steps not yet fed (observations, rewards, episode starts)."""
+
+    last_obs: Any
+    num_timesteps: int
+    feed_rule: tuple[Target | None, int | None]
+    pending: list[tuple[np.ndarray, np.ndarray, np.ndarray]]
 
 
 class GPValueCallback(BaseCallback):
@@ -222,8 +234,9 @@ class GPValueCallback(BaseCallback):
                 f"MaskableGPActorCriticPolicy for MaskablePPO), got {type(policy).__name__}"
             )
         check_algorithm(self.model, type(policy))
+        self._check_discount()
         if self._requested_target is None:
-            self.target, self.horizon = default_feed(type(self.model), self._algo.gamma)
+            self.target, self.horizon = default_feed(type(self.model), self._discount)
         if isinstance(self.model, _contrib_algorithms("TRPO")):
             # TRPO follows its actor step with gradient steps on the critic's squared error;
             # the GP has no parameters (its values carry no gradient) and learns here instead.
@@ -236,6 +249,7 @@ class GPValueCallback(BaseCallback):
                 "from new observations. Freeze the statistics after a warm-up "
                 "(vec_env.training = False) or use norm_obs=False with the GP critic."
             )
+        self._check_bounds_wrappers()
         gp = policy.gp
         # An adapting GP chooses its forgetting from the data.
         fixed_full_memory = gp.adaptation is None and gp.forgetting == 1.0
@@ -250,8 +264,7 @@ class GPValueCallback(BaseCallback):
                 "policy_kwargs=dict(gp_kwargs=dict(adapt=False, forgetting=0.9, ...)) "
                 "(see docs/results.md, 'Control: A2C with GP forgetting 0.9')."
             )
-        # Unfinished episodes of an earlier learn() call may have been cut by an env reset.
-        self._pending = [_empty_segment(self.model.observation_space.shape)] * self.model.n_envs
+        self._pending = self._continued_episodes()
         # Rollouts and points fed in this learn() call, for _on_training_end's warning.
         self._fed = [0, 0]
         self._warned_still = False
@@ -351,23 +364,97 @@ class GPValueCallback(BaseCallback):
     def _on_training_end(self) -> None:
         if self._held:
             self._feed_held(self._policy)
+        self._policy.unfinished_episodes = _Unfinished(
+            self.model._last_obs, self.model.num_timesteps, self._feed_rule, self._pending
+        )
         rollouts, points = self._fed
         if rollouts and not points:
-            # Monte Carlo targets wait for an episode's end or their horizon, and a new learn()
-            # call drops the unfinished ones: short or chunked calls could leave the critic unfed.
+            # Monte Carlo targets wait for an episode's end or their horizon, and a learn() call
+            # that resets the env drops the unfinished ones: short calls could leave the critic
+            # unfed.
             wait = "" if self.horizon is None else f" or {self.horizon} steps have followed it"
             warn_user(
                 f"GPValueCallback fed the GP critic nothing in this learn() call ({rollouts} "
                 f"rollout{'s' * (rollouts > 1)}): with target='monte_carlo' (the PPO family's "
                 f"default since 0.24) a step is fed only once its episode ends{wait}, and in this "
-                "call none did, so the critic "
-                "learnt nothing. Train for more steps per environment in one learn() call, or pass "
-                "GPValueCallback(target='returns') (SB3's returns, fed every rollout)."
+                "call none did, so the critic learnt nothing. Its steps wait for the next "
+                "learn() call only if that call continues the environment "
+                "(reset_num_timesteps=False); a call that resets it drops them. Train for more "
+                "steps per environment in one learn() call, continue with "
+                "reset_num_timesteps=False, or pass GPValueCallback(target='returns') (SB3's "
+                "returns, fed every rollout)."
             )
 
     # ------------------------------------------------------------------------------------------
     # Helpers
     # ------------------------------------------------------------------------------------------
+    @property
+    def _feed_rule(self) -> tuple[Target | None, int | None]:
+        return self.target, self.horizon
+
+    def _continued_episodes(self) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+        """The episodes an earlier ``learn()`` call left running, where they go on: SB3 keeps
+        the environment's last observation (the very array) unless it resets it, which a
+        ``learn()`` call does unless ``reset_num_timesteps=False``; else none."""
+        last = self._policy.unfinished_episodes
+        self._policy.unfinished_episodes = None
+        continues = (
+            isinstance(last, _Unfinished)
+            and last.last_obs is self.model._last_obs
+            and last.num_timesteps == self.model.num_timesteps
+            and last.feed_rule == self._feed_rule
+            and len(last.pending) == self.model.n_envs
+        )
+        if continues:
+            return list(last.pending)
+        return [_empty_segment(self.model.observation_space.shape)] * self.model.n_envs
+
+    def _check_bounds_wrappers(self) -> None:
+        """Before the GP's first data: warn where a VecEnv wrapper makes the observation
+        space's bounds, from which the GP's unset lengthscales came, wrong for the
+        observations."""
+        gp = self._policy.gp
+        dims = np.flatnonzero(gp.lengthscale_from_bounds)
+        if int(gp.n_seen) or not len(dims):
+            return
+        normalize = self.model.get_vec_normalize_env()
+        reasons = []
+        if normalize is not None and normalize.norm_obs:
+            reasons.append(
+                "VecNormalize normalises the observations but keeps the space's raw bounds "
+                "(normalised observations have unit variance: lengthscale=1.0 is their scale)"
+            )
+        if unwrap_vec_wrapper(self.training_env, VecFrameStack) is not None:
+            reasons.append(
+                "VecFrameStack stacks vector observations frame by frame but orders their "
+                "bounds element by element, so each dimension gets another's lengthscale"
+            )
+        if reasons:
+            warn_user(
+                "the GP critic's starting lengthscales of observation dimensions "
+                f"{dims.tolist()} came from the observation space's bounds, which do not "
+                f"describe these observations: {'; '.join(reasons)}. Give the lengthscales "
+                "yourself: policy_kwargs=dict(gp_kwargs=dict(kernel_kwargs=dict("
+                "lengthscale=...)))."
+            )
+
+    @property
+    def _discount(self) -> float:
+        """The discount of SB3's returns and advantages: the rollout buffer's."""
+        return float(self._algo.rollout_buffer.gamma)
+
+    def _check_discount(self) -> None:
+        gamma = float(self._algo.gamma)
+        if gamma != self._discount:
+            # SB3 gives the buffer its gamma when it builds the model; an assignment after that
+            # changes only SB3's time-limit bootstraps.
+            warn_user(
+                f"model.gamma is {gamma:g} but its rollout buffer's is {self._discount:g}: SB3 "
+                "computes returns and advantages with the buffer's, so the GP critic's targets "
+                f"use {self._discount:g} too. To change the discount, pass gamma when building "
+                "the model, or to load(..., custom_objects={'gamma': ...})."
+            )
+
     @property
     def _algo(self) -> OnPolicyAlgorithm:
         """The model, as the on-policy algorithm checked in ``_init_callback``."""
@@ -383,7 +470,7 @@ class GPValueCallback(BaseCallback):
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Monte-Carlo targets of the episodes completed by this rollout, env by env (with a
         ``horizon``: also of the steps whose ``horizon`` successors have arrived)."""
-        gamma = float(self._algo.gamma)
+        gamma = self._discount
         # Per env with steps to feed: stitched observations, rewards, episode ends, trajectory
         # starts of the steps fed, and how many are fed (the first ones).
         parts: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int]] = []
@@ -447,7 +534,7 @@ class GPValueCallback(BaseCallback):
         old_bootstrap: np.ndarray,
     ) -> None:
         """Values, time-limit bootstraps, returns and advantages with the updated GP."""
-        gamma = float(self._algo.gamma)
+        gamma = float(self._algo.gamma)  # the one SB3 folded the bootstraps in with
         new_bootstrap = self._bootstrap_values(policy)
         for (step, env, _), old, new in zip(
             self._truncations, old_bootstrap, new_bootstrap, strict=True

@@ -118,6 +118,11 @@ COVERAGE_POINTS = 10_000
 #: (seeds 0-2; PPO MountainCarContinuous-v0 and Acrobot-v1, results/loose_bounds/coverage.md),
 #: a Pendulum declared in +-100 fills 1 %.
 COVERAGE_SHARE = 0.05
+#: A dimension whose inputs span more than this many times its bounds' width lies far outside
+#: them: SB3's VecNormalize keeps an observation space's raw bounds while it normalises the
+#: observations, and its VecFrameStack orders a vector space's stacked bounds element by element
+#: while it stacks the observations frame by frame.
+OUTSIDE_FACTOR = 2.0
 
 
 class BoundsCoverage:
@@ -125,10 +130,12 @@ class BoundsCoverage:
 
     Loose bounds (a custom env declaring ``Box(-100, 100)``) give lengthscales far longer than
     the data's spread: the GP then barely varies along those dimensions, and a hyperprior
-    keeps the lengthscales near their start. Once :data:`COVERAGE_POINTS` inputs have been
-    seen, :meth:`check` names the dimensions whose lengthscale came from the bounds, whose
-    inputs vary but span less than :data:`COVERAGE_SHARE` of them and whose lengthscale is
-    still longer than that span, once.
+    keeps the lengthscales near their start. Bounds the inputs go far outside (observations
+    normalised by VecNormalize, stacked by VecFrameStack) give lengthscales of the wrong
+    scale. Once :data:`COVERAGE_POINTS` inputs have been seen, :meth:`check` names, once, the
+    dimensions whose lengthscale came from the bounds and whose inputs either vary but span
+    less than :data:`COVERAGE_SHARE` of them while the lengthscale is still longer than that
+    span, or span more than :data:`OUTSIDE_FACTOR` times their width.
 
     Parameters
     ----------
@@ -170,22 +177,27 @@ class BoundsCoverage:
         ls = lengthscale.double().cpu().numpy()
         # A constant input (span 0) carries nothing to fit along it, whatever its lengthscale.
         spread = span > 0
-        loose = np.flatnonzero(self.from_bounds & spread & (share < COVERAGE_SHARE) & (ls > span))
-        if not len(loose):
+        loose = self.from_bounds & spread & (share < COVERAGE_SHARE) & (ls > span)
+        outside = self.from_bounds & (share > OUTSIDE_FACTOR)
+        if not (loose | outside).any():
             return None
         suggested = np.where(self.from_bounds & spread, span / np.sqrt(12.0), ls)
         dims = " and ".join(
             f"dimension {i} spans [{self.seen_low[i]:.3g}, {self.seen_high[i]:.3g}] "
-            f"({share[i]:.1%} of its bounds [{self.low[i]:.3g}, {self.high[i]:.3g}]; "
-            f"lengthscale {ls[i]:.3g})"
-            for i in loose
+            + (f"({share[i]:.1%} of" if loose[i] else f"({share[i]:.3g} times the width of")
+            + f" its bounds [{self.low[i]:.3g}, {self.high[i]:.3g}]; lengthscale {ls[i]:.3g})"
+            for i in np.flatnonzero(loose | outside)
         )
         return (
             f"the GP's first {self.points:,} inputs: {dims}. The lengthscales came from those "
-            "bounds and are far longer than the data's spread, so the GP barely varies along "
-            "these dimensions and fits its targets poorly. If the bounds are loose (for "
-            "GPActorCriticPolicy: the observation space's), declare tight ones, or give the "
-            f"kernel lengthscales, e.g. lengthscale={np.round(suggested, 3).tolist()} (the data's "
-            "range / sqrt(12) wherever a lengthscale came from the bounds), for the policy "
-            "through policy_kwargs=dict(gp_kwargs=dict(kernel_kwargs=dict(lengthscale=[...])))"
+            "bounds, not from the data's spread: far longer than a spread that fills little of "
+            "its bounds (the GP then barely varies along it), too short for one far outside "
+            "them, so the GP fits its targets poorly. For GPActorCriticPolicy the bounds are "
+            "the observation space's: SB3's VecNormalize keeps the raw bounds while it "
+            "normalises the observations, and VecFrameStack orders the stacked bounds of a "
+            "vector space differently from the stacked observations. Declare bounds that fit "
+            f"the data, or give the kernel lengthscales, e.g. lengthscale="
+            f"{np.round(suggested, 3).tolist()} (the data's range / sqrt(12) wherever a "
+            "lengthscale came from the bounds), for the policy through "
+            "policy_kwargs=dict(gp_kwargs=dict(kernel_kwargs=dict(lengthscale=[...])))"
         )

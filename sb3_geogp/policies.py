@@ -278,6 +278,9 @@ class GPCriticMixin(_PolicyBase):
         self.require_gp_feed = True
         self.defer_values = False
         self._awaiting_feed = False
+        #: Set by GPValueCallback when a learn() call ends: its Monte Carlo episodes still
+        #: running, which the next call continues where SB3 does not reset the environment.
+        self.unfinished_episodes: Any = None
         self._fed_since_std = _STD_EVERY  # the first rollout gets the diagnostic
 
     @classmethod
@@ -708,6 +711,11 @@ class GPActorCriticPolicy(GPCriticMixin, ActorCriticPolicy):
         the last rollout (calls of :meth:`forward`) have not been passed to
         :meth:`update_critic`: the symptom of ``learn`` without
         :class:`~sb3_geogp.GPValueCallback`.
+    unfinished_episodes : object or None
+        Kept by :class:`~sb3_geogp.GPValueCallback` between ``learn()`` calls: the steps of the
+        episodes still running when a call ended (Monte Carlo targets), which the next call
+        feeds once they end if SB3 did not reset the environment in between
+        (``learn(..., reset_num_timesteps=False)``). Not saved with the model.
     """
 
     @classmethod

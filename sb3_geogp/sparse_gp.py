@@ -329,8 +329,9 @@ class SparseOnlineGP(nn.Module):
     input_bounds : (low, high) of array-likes with ``input_dim`` entries each, optional
         Bounds of the inputs where known: unset lengthscales of bounded dimensions then come
         from the bounds rather than from the first batch (:mod:`sb3_geogp.defaults`). Bounds
-        the inputs barely fill (under 5 % of a dimension after 10,000 inputs) are named by a
-        :class:`~sb3_geogp.GPCriticWarning` (:class:`~sb3_geogp.defaults.BoundsCoverage`).
+        the inputs barely fill (under 5 % of a dimension after 10,000 inputs), or go far
+        outside (over twice their width), are named by a :class:`~sb3_geogp.GPCriticWarning`
+        (:class:`~sb3_geogp.defaults.BoundsCoverage`).
     num_threads : int or None
         Intra-op CPU threads of :meth:`update`, :meth:`predict` and :meth:`fit_hyperparameters`,
         set for the call and restored after it. The engine's work is many small matrix
@@ -568,6 +569,14 @@ class SparseOnlineGP(nn.Module):
     def basis_inputs(self) -> Tensor:
         """Basis-vector inputs, shape (n_basis, d), in the units given to :meth:`update`."""
         return self.bv_x[: self.n_basis]
+
+    @property
+    def lengthscale_from_bounds(self) -> np.ndarray:
+        """Which input dimensions took their starting lengthscale from ``input_bounds`` (bool,
+        shape (d,); all ``False`` without bounds)."""
+        if self._coverage is None:
+            return np.zeros(self.input_dim, dtype=bool)
+        return self._coverage.from_bounds.copy()
 
     @property
     def C(self) -> Tensor:

@@ -16,7 +16,7 @@ from stable_baselines3 import A2C, PPO, SAC
 from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.callbacks import BaseCallback, CallbackList
 from stable_baselines3.common.env_util import make_vec_env
-from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
+from stable_baselines3.common.vec_env import DummyVecEnv, VecFrameStack, VecNormalize
 
 from sb3_geogp import GPActorCriticPolicy, GPCriticWarning, GPValueCallback, callbacks
 from sb3_geogp.callbacks import (
@@ -26,6 +26,7 @@ from sb3_geogp.callbacks import (
     default_feed,
     default_target,
 )
+from sb3_geogp.defaults import BoundsCoverage, bounds_lengthscale
 from sb3_geogp.policies import SUPPORTED_ALGORITHMS
 from sb3_geogp.targets import (
     discounted_returns,
@@ -34,6 +35,7 @@ from sb3_geogp.targets import (
     per_env,
     split_completed,
 )
+from tests.test_sparse_gp import assert_same_state
 
 GAMMA = 0.9
 PRIOR = 10.0  # target_mean: what the (unfed) GP predicts everywhere
@@ -231,12 +233,23 @@ def test_per_env_orders_a_rollout_env_by_env() -> None:
 # ------------------------------------------------------------------------------------------------
 # Feeding on the scripted env
 # ------------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("calls", [1, 4])
 @pytest.mark.parametrize("algo", [PPO, A2C])
-def test_monte_carlo_targets_match_hand_computed_returns(algo: type[BaseAlgorithm]) -> None:
-    """Episodes span rollouts (n_steps=4 < 5); truncation bootstraps, termination does not."""
+def test_monte_carlo_targets_match_hand_computed_returns(
+    algo: type[BaseAlgorithm], calls: int
+) -> None:
+    """Episodes span rollouts (n_steps=4 < 5); truncation bootstraps, termination does not.
+    In ``calls`` learn() calls that continue the environment (``reset_num_timesteps=False``),
+    each with its own callback, episodes also span the calls: every step of every completed
+    episode is fed exactly once, as in one call."""
     model = make_scripted(algo, n_steps=4)
     recorder = FeedRecorder(model.policy, keep_empty=True)  # V(terminal) stays PRIOR
-    model.learn(4 * 8, callback=GPValueCallback(target="monte_carlo"))
+    for call in range(calls):
+        model.learn(
+            4 * 8 // calls,
+            callback=GPValueCallback(target="monte_carlo"),
+            reset_num_timesteps=call == 0,
+        )
 
     fed: dict[int, list[tuple[int, int, float, bool]]] = {0: [], 1: []}
     for obs, targets, starts in recorder.batches:
@@ -389,6 +402,49 @@ def test_monte_carlo_feeds_nothing_until_an_episode_completes(
     assert [len(b[1]) for b in recorder.batches] == [0]
     assert model.policy.gp.n_basis == 0
     model.learn(4, callback=GPValueCallback(target="monte_carlo"), reset_num_timesteps=False)
+
+
+def test_a_discount_assigned_after_building_warns_and_the_targets_keep_sb3s() -> None:
+    """SB3 computes returns and advantages with the rollout buffer's gamma, set when the model
+    is built: ``model.gamma = 0.5`` afterwards warns, and the terminating env's Monte Carlo
+    targets are still discounted by the buffer's ``GAMMA``."""
+    model = make_scripted(A2C, n_steps=4)
+    model.gamma = 0.5
+    recorder = FeedRecorder(model.policy, keep_empty=True)
+    with pytest.warns(
+        GPCriticWarning, match=f"model.gamma is 0.5 but its rollout buffer's is {GAMMA:g}"
+    ):
+        model.learn(4 * 8, callback=GPValueCallback(target="monte_carlo"))
+    fed = [
+        (t, y)
+        for obs, targets, _ in recorder.batches
+        for (env_id, _, t), y in zip(obs, targets, strict=True)
+        if env_id == 0
+    ]
+    assert len(fed) == 15  # 5 episodes of 3 steps
+    for t, y in fed:
+        assert y == pytest.approx(expected_monte_carlo(0, int(t)), rel=1e-6)
+
+
+def test_learning_in_chunks_trains_as_one_learn_call() -> None:
+    """PPO's default callback (Monte Carlo returns cut at 200 steps) on CartPole-v1: two
+    ``learn()`` calls continuing the environment, each with a new callback, train the actor
+    and the GP bit for bit as one call; a call that resets the environment drops the
+    unfinished episodes."""
+
+    def model() -> PPO:
+        env = make_vec_env("CartPole-v1", n_envs=2, seed=0)
+        return PPO(GPActorCriticPolicy, env, n_steps=64, batch_size=64, n_epochs=1, seed=0)
+
+    one = model().learn(256, callback=GPValueCallback())
+    chunks = model().learn(128, callback=GPValueCallback())
+    left = chunks.policy.unfinished_episodes
+    assert sum(len(rewards) for _, rewards, _ in left.pending) > 0  # steps carried over
+    chunks.learn(128, callback=GPValueCallback(), reset_num_timesteps=False)
+    assert_same_state(one.policy.state_dict(), chunks.policy.state_dict())
+    reset = model().learn(128, callback=GPValueCallback())
+    reset.learn(128, callback=GPValueCallback())
+    assert int(reset.policy.gp.n_seen) < int(one.policy.gp.n_seen)
 
 
 def test_returns_target_is_the_buffer_returns_env_by_env() -> None:
@@ -712,6 +768,70 @@ def test_vec_normalize_warns_about_drifting_statistics() -> None:
     with warnings.catch_warnings():
         warnings.simplefilter("error", UserWarning)
         model.learn(64, callback=GPValueCallback(target="returns"), reset_num_timesteps=False)
+
+
+@pytest.mark.parametrize(
+    ("wrap", "named", "dims"),
+    [
+        (lambda env: VecNormalize(env), "VecNormalize normalises", [0, 1, 2]),
+        (lambda env: VecFrameStack(env, n_stack=2), "VecFrameStack stacks", list(range(6))),
+        (lambda env: VecNormalize(env, norm_obs=False), None, None),
+        (lambda env: env, None, None),
+    ],
+    ids=["normalised", "stacked", "rewards-normalised", "plain"],
+)
+def test_wrappers_that_change_the_observations_bounds_meaning_are_named(
+    wrap: Any, named: str | None, dims: list[int] | None
+) -> None:
+    """Pendulum-v1's lengthscales all come from its bounds; VecNormalize's normalised
+    observations and VecFrameStack's stacked ones no longer match those bounds: named before
+    the GP's first data (and not again on a continued learn() call), with the dimensions.
+    Lengthscales the user gives are not named."""
+
+    def learn(model: PPO, **kwargs: Any) -> None:
+        model.learn(64, callback=GPValueCallback(target="returns"), **kwargs)
+
+    def model(**kernel_kwargs: Any) -> PPO:
+        env = wrap(make_vec_env("Pendulum-v1", n_envs=1, seed=0))
+        if isinstance(env, VecNormalize):
+            env.training = False  # no warning about moving statistics
+        gp_kwargs = dict(kernel_kwargs=kernel_kwargs)
+        return PPO(GPActorCriticPolicy, env, n_steps=64, batch_size=64, n_epochs=1,
+                   policy_kwargs=dict(gp_kwargs=gp_kwargs))  # fmt: skip
+
+    wrapped = model()
+    with warnings.catch_warnings(record=True) as record:
+        warnings.simplefilter("always")
+        learn(wrapped)
+    texts = [str(r.message) for r in record if issubclass(r.category, GPCriticWarning)]
+    if named is None:
+        assert not any("came from the observation space's bounds" in t for t in texts)
+        return
+    (text,) = [t for t in texts if named in t]
+    assert f"observation dimensions {dims} came from" in text
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", GPCriticWarning)
+        learn(wrapped, reset_num_timesteps=False)  # fed already: said once
+        learn(model(lengthscale=1.0))  # the user's lengthscales
+
+
+def test_inputs_far_outside_their_bounds_are_named() -> None:
+    """``VecFrameStack``'s Pendulum-v1 bounds, element by element ([-1, -1, -1, -1, -8, -8]),
+    against its frames ([cos, sin, velocity] twice): the first frame's velocity, in [-8, 8], falls
+    in a dimension declared +-1, far outside it; the engine names it after 10,000 inputs."""
+    env = VecFrameStack(make_vec_env("Pendulum-v1", n_envs=1, seed=0), n_stack=2)
+    space = env.observation_space
+    np.testing.assert_array_equal(space.high, [1, 1, 1, 1, 8, 8])  # SB3's order
+    coverage = BoundsCoverage(space.low, space.high, [True] * 6)
+    rng = np.random.default_rng(0)
+    theta, speed = rng.uniform(-np.pi, np.pi, 10_000), rng.uniform(-8, 8, 10_000)
+    frame = np.stack([np.cos(theta), np.sin(theta), speed], axis=1)
+    coverage.add(th.as_tensor(np.concatenate([frame, frame], axis=1)))
+    message = coverage.check(th.as_tensor(bounds_lengthscale(space.low, space.high)))
+    assert message is not None
+    named = [int(i) for i in re.findall(r"dimension (\d) spans", message)]
+    assert named == [2]  # the second frame's sine, in +-8, fills 12.5 % of them
+    assert "times the width of its bounds [-1, 1]" in message and "VecFrameStack" in message
 
 
 def test_a2c_without_forgetting_warns() -> None:
