@@ -339,6 +339,15 @@ def thinned(n: int, cap: int | None, device: torch.device | None = None) -> tupl
     are close, so a sum over the points is approximated by the representatives' terms times
     their runs' lengths (exact for ``cap >= n`` or ``cap=None``: every point, runs of 1).
 
+    Parameters
+    ----------
+    n : int
+        Points to subsample.
+    cap : int or None
+        Most representatives (``None``: every point).
+    device : torch.device, optional
+        Where the index tensors are made.
+
     Returns
     -------
     index : Tensor, shape (k,)
@@ -358,6 +367,13 @@ def jittered_cholesky(A: Tensor, scale: float) -> tuple[Tensor, float]:
     As GPyTorch does, a failed factorisation is retried with ``jitter * I`` added, starting at
     ``1e-6 * scale`` (``scale``: the size of ``A``'s diagonal, e.g. the signal variance) and
     growing 10x per try, up to 12 tries (``1e4 * scale``).
+
+    Parameters
+    ----------
+    A : Tensor, shape (m, m)
+        Symmetric, positive (semi-)definite.
+    scale : float
+        Size of ``A``'s diagonal, which the jitter is relative to.
 
     Returns
     -------
@@ -415,7 +431,21 @@ class Projection:
     def posterior(
         self, y: Tensor, noise: Tensor, summary: Summary | None = None
     ) -> tuple[Tensor, Tensor]:
-        """:func:`sparse_posterior` from this projection."""
+        """:func:`sparse_posterior` from this projection.
+
+        Parameters
+        ----------
+        y : Tensor, shape (n,)
+            Standardised targets.
+        noise : Tensor, shape (n,)
+            Each point's noise variance.
+        summary : Summary, optional
+            A likelihood at the inducing points to multiply in (points no longer retained).
+
+        Returns
+        -------
+        alpha, P : Tensor, shapes (m,), (m, m)
+        """
         B, Ay = self._system(y, noise)
         if summary is not None:
             # The summary's precision and shift in the whitened coordinates v = L^-1 f_z.
@@ -424,7 +454,18 @@ class Projection:
         return self.solve(0.5 * (B + B.T), Ay)
 
     def solve(self, B: Tensor, Ay: Tensor) -> tuple[Tensor, Tensor]:
-        """``alpha`` and ``P`` from ``B = I + A N^-1 A^T`` and ``A N^-1 y``."""
+        """``alpha`` and ``P`` from ``B = I + A N^-1 A^T`` and ``A N^-1 y``.
+
+        Parameters
+        ----------
+        B : Tensor, shape (m, m)
+            Symmetric positive definite.
+        Ay : Tensor, shape (m,)
+
+        Returns
+        -------
+        alpha, P : Tensor, shapes (m,), (m, m)
+        """
         LB, _ = jittered_cholesky(B, 1.0)
         # P = L^-T B^-1 L^-1, alpha = L^-T B^-1 A N^-1 y.
         eye = torch.eye(self.L.shape[0], dtype=self.L.dtype, device=self.L.device)
@@ -466,7 +507,21 @@ class Projection:
         return solved[:, 0] if column else solved
 
     def negative_bound(self, y: Tensor, noise: Tensor, kxx: Tensor) -> Tensor:
-        """The negative collapsed bound ``-F`` per point (module docstring); differentiable."""
+        """The negative collapsed bound ``-F`` per point (module docstring); differentiable.
+
+        Parameters
+        ----------
+        y : Tensor, shape (n,)
+            Standardised targets.
+        noise : Tensor, shape (n,)
+            Each point's noise variance.
+        kxx : Tensor, shape (n,)
+            The prior variance ``k(x_i, x_i)`` of each point.
+
+        Returns
+        -------
+        Tensor, shape ()
+        """
         n = y.shape[0]
         q_diag = self.q_diag()
         B, Ay = self._system(y, noise)
@@ -622,6 +677,16 @@ def forget_likelihood(alpha: Tensor, L: Tensor, Q: Tensor, lam: float) -> tuple[
     through ``W = L^-1 Q`` (``Q P^-1 Q = W^T W``). ``Q`` itself is the prior, as in the
     shrinking form ``P <- lam P + (1 - lam) Q``: ``lam = 0`` gives ``P' = Q``, ``alpha' = 0``
     whatever the rounding of ``Q``.
+
+    Parameters
+    ----------
+    alpha : Tensor, shape (m,)
+    L : Tensor, shape (m, m)
+        :func:`posterior_cholesky` of the posterior's ``P``.
+    Q : Tensor, shape (m, m)
+        The prior precision at the inducing points.
+    lam : float
+        The forgetting, in [0, 1].
 
     Returns
     -------

@@ -328,12 +328,31 @@ class GPValueCallback(BaseCallback):
         if self.target == "returns":
             # Stacked in time, each env's steps of consecutive rollouts form one trajectory.
             obs, returns, starts, values = joined
-            stats = policy.update_critic(*per_env(obs, returns, starts), env_major(values))
+            obs, returns, starts = per_env(obs, returns, starts)
+            stats = policy.update_critic(obs, returns, starts, env_major(values))
         else:
-            stats = policy.update_critic(*joined)
-        self._fed[1] += len(joined[1])
+            obs, returns, starts = joined
+            stats = policy.update_critic(obs, returns, starts)
+        self._fed[1] += len(returns)
         self.update_seconds += 1e-3 * stats["update_ms"]
+        self.on_fed(obs, returns, starts)
         return stats
+
+    def on_fed(self, obs: np.ndarray, targets: np.ndarray, starts: np.ndarray) -> None:
+        """Called with every batch right after the GP has learnt it; does nothing here.
+
+        Override it to give other learners the critic's data (the comparison's shadow
+        critics do).
+
+        Parameters
+        ----------
+        obs : ndarray, shape (n, *obs_shape)
+            Observations, environment by environment, each in time order.
+        targets : ndarray, shape (n,)
+            Their targets (empty where a rollout completed no episode).
+        starts : ndarray of bool, shape (n,)
+            Where a trajectory starts.
+        """
 
     def _warn_still(self) -> None:
         # Measured in docs/results.md ("The 200-step cut at 100,000 steps on Acrobot"): runs
@@ -540,10 +559,7 @@ class GPValueCallback(BaseCallback):
             self._truncations, old_bootstrap, new_bootstrap, strict=True
         ):
             buffer.rewards[step, env] += gamma * (new - old)
-        with th.no_grad():
-            last_values = policy.predict_values(
-                th.as_tensor(self.locals["new_obs"], device=policy.device)
-            )
+        last_values = th.as_tensor(_predict(policy, self.locals["new_obs"]))
         self._fill_values(policy, buffer, last_values, dones)
 
     @staticmethod
@@ -556,9 +572,7 @@ class GPValueCallback(BaseCallback):
         """The rollout's values in one GP prediction, then SB3's returns and advantages."""
         n_steps, n_envs = buffer.values.shape
         flat_obs = buffer.observations.reshape(n_steps * n_envs, *buffer.obs_shape)
-        with th.no_grad():
-            values = policy.predict_values(th.as_tensor(flat_obs, device=policy.device))
-        buffer.values[:] = values.cpu().numpy().reshape(n_steps, n_envs)
+        buffer.values[:] = _predict(policy, flat_obs).reshape(n_steps, n_envs)
         buffer.compute_returns_and_advantage(last_values=last_values, dones=dones)
 
 

@@ -23,6 +23,7 @@ from sb3_geogp.callbacks import (
     CUT_WEIGHT,
     DEFAULT_HORIZON,
     DEFAULT_TARGET,
+    Target,
     default_feed,
     default_target,
 )
@@ -447,6 +448,28 @@ def test_learning_in_chunks_trains_as_one_learn_call() -> None:
     assert int(reset.policy.gp.n_seen) < int(one.policy.gp.n_seen)
 
 
+@pytest.mark.parametrize("target", ["returns", "monte_carlo"])
+def test_on_fed_sees_exactly_what_the_gp_was_fed(target: Target) -> None:
+    """The hook gets each batch after the GP, as ``update_critic`` got it (env by env)."""
+
+    class Hooked(GPValueCallback):
+        def __init__(self) -> None:
+            super().__init__(target=target)
+            self.seen: list[tuple[np.ndarray, ...]] = []
+
+        def on_fed(self, obs: np.ndarray, targets: np.ndarray, starts: np.ndarray) -> None:
+            self.seen.append((obs, targets, starts))
+
+    model = make_scripted(PPO, n_steps=4)
+    recorder = FeedRecorder(model.policy, keep_empty=False)
+    hooked = Hooked()
+    model.learn(4 * 2 * 3, callback=hooked)
+    assert len(hooked.seen) == len(recorder.batches) == 3
+    for seen, fed in zip(hooked.seen, recorder.batches, strict=True):
+        for a, b in zip(seen, fed, strict=True):
+            np.testing.assert_array_equal(a, b)
+
+
 def test_returns_target_is_the_buffer_returns_env_by_env() -> None:
     model = make_scripted(PPO, n_steps=4)
     recorder = FeedRecorder(model.policy, keep_empty=True)
@@ -831,7 +854,7 @@ def test_inputs_far_outside_their_bounds_are_named() -> None:
     assert message is not None
     named = [int(i) for i in re.findall(r"dimension (\d) spans", message)]
     assert named == [2]  # the second frame's sine, in +-8, fills 12.5 % of them
-    assert "times the width of its bounds [-1, 1]" in message and "VecFrameStack" in message
+    assert "times the width of its bounds [-1, 1]" in message and "reordered" in message
 
 
 def test_a2c_without_forgetting_warns() -> None:

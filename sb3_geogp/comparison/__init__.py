@@ -19,3 +19,5 @@ One concept per module:
 * :mod:`~sb3_geogp.comparison.results`: aggregation over seeds and verdicts;
 * :mod:`~sb3_geogp.comparison.report`: tables and figures of a sweep.
 """
+
+from __future__ import annotations

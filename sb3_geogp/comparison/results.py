@@ -331,6 +331,8 @@ def rerun_comparisons(
 
 
 def critic_pairs(against_baseline: bool) -> tuple[tuple[str, str], ...]:
+    """The ``(a, b)`` critic pairs a report compares: each critic with itself where ``b`` is a
+    baseline sweep's run of the same critic (``against_baseline``), else :data:`PAIRS`."""
     return tuple((c, c) for c in ALL_CRITICS) if against_baseline else PAIRS
 
 

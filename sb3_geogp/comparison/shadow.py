@@ -40,7 +40,7 @@ from sb3_geogp.callbacks import GPValueCallback, Target
 from sb3_geogp.comparison.run import build_model, write_json_atomic
 from sb3_geogp.comparison.specs import RunSpec, SweepConfig
 from sb3_geogp.kernels import Kernel
-from sb3_geogp.policies import GPActorCriticPolicy, GPCriticMixin
+from sb3_geogp.policies import GPActorCriticPolicy
 from sb3_geogp.sparse_gp import SparseOnlineGP
 from sb3_geogp.targets import per_env
 from sb3_geogp.toolbox.provenance import provenance
@@ -205,15 +205,10 @@ class TeeFeed(GPValueCallback):
         super().__init__(target=target)
         self.learners = list(learners)
 
-    def _feed_held(self, policy: GPCriticMixin) -> dict[str, float]:
-        joined = [np.concatenate(arrays) for arrays in zip(*self._held, strict=True)]
-        stats = super()._feed_held(policy)
-        # SB3's returns are held time-major, Monte Carlo targets env by env already
-        x, y, starts = per_env(*joined[:3]) if self.target == "returns" else joined
-        if len(y):  # no episode completed: the run's critic learnt nothing either
+    def on_fed(self, obs: np.ndarray, targets: np.ndarray, starts: np.ndarray) -> None:
+        if len(targets):  # no episode completed: the run's critic learnt nothing either
             for learn in self.learners:
-                learn(th.as_tensor(x), th.as_tensor(y), th.as_tensor(starts))
-        return stats
+                learn(th.as_tensor(obs), th.as_tensor(targets), th.as_tensor(starts))
 
 
 def numpy_value(fn: Callable[[Tensor], Tensor]) -> NumpyValue:

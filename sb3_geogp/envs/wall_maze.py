@@ -173,7 +173,7 @@ class MazeLayout:
             ``pos + s * delta``: ``s = 1`` if the move meets no wall, otherwise the first
             contact parameter minus ``2 * margin / |delta|`` (at least 0): the move stops just
             before the wall. The end point must then keep the clearance ``margin`` from every
-            wall and the segment ``pos -> end`` must meet none (:func:`segment_hits_walls`);
+            wall and the segment ``pos -> end`` must meet none (:func:`segments_hit_walls`);
             otherwise ``s`` is halved until both hold (a grazing approach, where stopping
             ``2 * margin`` back along the move is closer than ``margin`` to the wall), or the
             agent stays at ``pos`` after 64 halvings. With :attr:`slide`, a stopped move goes
@@ -317,13 +317,6 @@ def _line_crossings(
     return t, u, np.abs(denom) <= _COLLINEAR_TOL * scale
 
 
-def first_contact(pos: np.ndarray, delta: np.ndarray, walls: np.ndarray) -> float | None:
-    """Smallest ``t`` in ``[0, 1]`` where ``pos + t * delta`` meets a wall (closed segments),
-    ``None`` if it meets none (:func:`first_hit` without the wall)."""
-    hit = first_hit(pos, delta, walls)
-    return None if hit is None else hit[0]
-
-
 def first_hit(pos: np.ndarray, delta: np.ndarray, walls: np.ndarray) -> tuple[float, int] | None:
     """Smallest ``t`` in ``[0, 1]`` where ``pos + t * delta`` meets a wall (closed segments),
     and the index of that wall (:func:`first_hits` for one move).
@@ -390,19 +383,18 @@ def first_hits(
     return first, np.where(np.isfinite(first), wall, -1)
 
 
-def segment_hits_walls(a: np.ndarray, b: np.ndarray, walls: np.ndarray) -> bool:
-    """Whether the closed segment ``a -> b`` meets any wall (see :func:`first_contact`).
+def segments_hit_walls(a: np.ndarray, b: np.ndarray, walls: np.ndarray) -> np.ndarray:
+    """Whether each closed segment ``a -> b`` meets any wall (:func:`first_hits`).
 
     Parameters
     ----------
-    a, b : ndarray, shape (2,)
+    a, b : ndarray, shape (N, 2)
     walls : ndarray, shape (W, 4)
+
+    Returns
+    -------
+    ndarray of bool, shape (N,)
     """
-    return bool(segments_hit_walls(np.reshape(a, (1, 2)), np.reshape(b, (1, 2)), walls)[0])
-
-
-def segments_hit_walls(a: np.ndarray, b: np.ndarray, walls: np.ndarray) -> np.ndarray:
-    """:func:`segment_hits_walls` for segments ``a -> b : (N, 2)`` each, shape (N,)."""
     a = np.asarray(a, dtype=np.float64)
     delta = np.asarray(b, dtype=np.float64) - a
     moving = np.any(delta != 0, axis=1)

@@ -12,3 +12,5 @@
 
 They share :mod:`sb3_geogp.toolbox` with the critic comparison (:mod:`sb3_geogp.comparison`).
 """
+
+from __future__ import annotations

@@ -9,3 +9,5 @@
 * :mod:`~sb3_geogp.toolbox.scripts`: an example or results script imported by path;
 * :mod:`~sb3_geogp.toolbox.pools`: worker processes for sweeps, which Ctrl-C stops at once.
 """
+
+from __future__ import annotations

@@ -7,3 +7,5 @@
 * :mod:`~sb3_geogp.studies.pendulum.plots` and :mod:`~sb3_geogp.studies.pendulum.report`:
   figures 1-4 and the tables (``examples/reproduce_paper.py``, docs/reproduction.md).
 """
+
+from __future__ import annotations

@@ -6,3 +6,5 @@
 * :mod:`~sb3_geogp.studies.wall.plots`: value maps and MSE curves
   (``examples/wall_experiment.py``, docs/wall_experiment.md).
 """
+
+from __future__ import annotations
