@@ -296,7 +296,9 @@ class GPValueCallback(BaseCallback):
             # values of one batched prediction they are what step-by-step values would give.
             # ``values`` is SB3's last value (of the observations after the rollout).
             self._fill_values(policy, buffer, self.locals["values"], dones)
-        self._held.append(self._rollout_targets(buffer, dones))
+        targets = self._rollout_targets(buffer, dones)
+        _check_targets(targets[1])
+        self._held.append(targets)
         self._fed[0] += 1
         if len(self._held) < self.feed_every:
             # Only marks the rollout handled: the GP, and so the advantages, stay as they are.
@@ -612,6 +614,24 @@ def _check_rewards(buffer: RolloutBuffer) -> None:
             f"GPValueCallback: the reward at step {step} of this rollout in env {env} is "
             f"{buffer.rewards[step, env]} ({len(bad)} non-finite rewards in the rollout); the "
             "GP critic cannot learn from it. Check the environment or its reward wrappers"
+        )
+
+
+#: Largest magnitude of a value SB3 can hold: its buffers and the value head are float32.
+_FLOAT32_MAX = float(np.finfo(np.float32).max)
+
+
+def _check_targets(targets: np.ndarray) -> None:
+    """Refuse targets that are not finite or that float32, SB3's precision, cannot hold: finite
+    rewards whose returns overflow (SB3's float32 returns, or the float64 Monte Carlo returns
+    that the critic's float32 values would turn into inf)."""
+    largest = float(np.abs(targets).max()) if len(targets) else 0.0
+    if not largest <= _FLOAT32_MAX:
+        raise ValueError(
+            f"GPValueCallback: this rollout's returns reach {largest:.3g}, beyond float32's "
+            f"{_FLOAT32_MAX:.3g}, in which SB3 keeps returns and values (the rewards are "
+            "finite, their discounted sums are not). Scale the rewards down, e.g. "
+            "VecNormalize(env, norm_obs=False, norm_reward=True) or a reward wrapper"
         )
 
 

@@ -25,6 +25,7 @@ grows its graph from them). Default hyperparameters come from :mod:`sb3_geogp.de
 from __future__ import annotations
 
 import contextlib
+import copy
 import functools
 import math
 from collections.abc import Callable, Iterator, Mapping, Sequence
@@ -786,8 +787,46 @@ class SparseOnlineGP(nn.Module):
         for key, module in (("_extra_state", self), ("kernel._extra_state", self.kernel)):
             if prefix + key in state_dict:
                 module.set_extra_state(state_dict[prefix + key])
+        self._check_saved_posterior(state_dict, prefix)
         super()._load_from_state_dict(state_dict, prefix, *args, **kwargs)
         self._cache = None
+
+    def _check_saved_posterior(self, state_dict: Mapping[str, Any], prefix: str) -> None:
+        """Refuse a saved basis count this GP cannot hold, or a posterior with NaN or inf in its
+        used part (a corrupted save), before anything is loaded."""
+        count = state_dict.get(prefix + "count")
+        if count is None:
+            return
+        m = int(count)
+        if not 0 <= m <= self.max_basis + 1:
+            raise ValueError(
+                f"the saved state has {m} basis vectors, which a GP with max_basis="
+                f"{self.max_basis} cannot hold: it is corrupted or from another GP"
+            )
+        for name in ("alpha", "P", "Q"):
+            saved = state_dict.get(prefix + name)
+            used = None if saved is None else saved[:m, :m] if saved.ndim == 2 else saved[:m]
+            if used is not None and not bool(torch.isfinite(used).all()):
+                raise ValueError(
+                    f"the saved state's {name} holds NaN or inf: the GP it came from was "
+                    "corrupted; load an earlier save"
+                )
+
+    def load_state_dict(
+        self, state_dict: Mapping[str, Any], strict: bool = True, assign: bool = False
+    ) -> Any:
+        """As :meth:`torch.nn.Module.load_state_dict`; a state refused for any reason (other
+        options, a missing or misshapen buffer, a corrupted posterior) leaves this GP exactly as
+        it was (torch alone would have copied the buffers it could before raising)."""
+        before = {
+            k: v.clone() if isinstance(v, Tensor) else copy.deepcopy(v)
+            for k, v in self.state_dict().items()
+        }
+        try:
+            return super().load_state_dict(state_dict, strict=strict, assign=assign)
+        except Exception:
+            super().load_state_dict(before)
+            raise
 
     def _latent(self, xs: Tensor, return_var: bool) -> tuple[Tensor, Tensor | None]:
         """Standardised posterior mean and variance at scaled inputs ``xs : (n, d)``."""
@@ -990,13 +1029,19 @@ class SparseOnlineGP(nn.Module):
         self.initialized.fill_(1)
 
     def _scaled(self, x: Tensor) -> Tensor:
-        """``x : (n, d)`` in lengthscale units, refused if that overflows."""
+        """``x : (n, d)`` in lengthscale units, refused if that or a squared distance between
+        such points would overflow (the geodesic kernel's edges and weights square them)."""
         xs = self.kernel.scale(x)
-        if not bool(torch.isfinite(xs).all()):
+        # |xs_i - zs_i| <= 2 max|xs|, so below this every sum of d squared differences is finite
+        # (with a factor 2 to spare)
+        limit = math.sqrt(torch.finfo(xs.dtype).max / xs.shape[1]) / 4
+        largest = float(xs.abs().max()) if xs.numel() else 0.0
+        if not largest <= limit:  # also NaN
             raise ValueError(
-                f"inputs divided by the lengthscale {self.kernel.lengthscale.tolist()} overflow "
-                f"(|x| up to {float(x.abs().max()):.3g}); give the kernel a larger lengthscale "
-                "or rescale the inputs"
+                f"inputs divided by the lengthscale {self.kernel.lengthscale.tolist()} reach "
+                f"{largest:.3g} (|x| up to {float(x.abs().max()):.3g}), beyond {limit:.3g}, "
+                f"where squared distances overflow {xs.dtype}; give the kernel a larger "
+                "lengthscale or rescale the inputs"
             )
         return xs
 

@@ -36,7 +36,7 @@ from sb3_geogp.targets import (
     per_env,
     split_completed,
 )
-from tests.test_sparse_gp import assert_same_state
+from tests.test_sparse_gp import assert_same_state, snapshot
 
 GAMMA = 0.9
 PRIOR = 10.0  # target_mean: what the (unfed) GP predicts everywhere
@@ -906,6 +906,34 @@ def test_nan_reward_is_named_with_its_step_and_env() -> None:
     for key, value in model.policy.gp.state_dict().items():
         if isinstance(value, th.Tensor):
             assert th.equal(value.nan_to_num(), gp_before[key].nan_to_num()), key
+
+
+class HugeRewardEnv(ScriptedEnv):
+    """:class:`ScriptedEnv` (3-step episodes) whose rewards, 3e38, fit float32 and whose
+    discounted sums do not."""
+
+    def step(self, action: int) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        obs, _, *rest = super().step(action)
+        return obs, 3e38, *rest
+
+
+@pytest.mark.filterwarnings("ignore::RuntimeWarning")  # SB3 computes its GAE in overflow
+@pytest.mark.parametrize(
+    ("algo", "target"), [(PPO, "monte_carlo"), (A2C, "returns")], ids=["float64-mc", "sb3"]
+)
+def test_returns_beyond_float32_are_refused_with_the_fix(
+    algo: type[BaseAlgorithm], target: Target
+) -> None:
+    """Finite rewards whose returns overflow float32 (SB3's returns turn inf; Monte Carlo
+    returns, float64, would become inf values in the float32 value head): refused before the
+    GP learns anything, naming the fix."""
+    kwargs: dict[str, Any] = dict(batch_size=8, n_epochs=1) if algo is PPO else {}
+    env = DummyVecEnv([lambda: HugeRewardEnv(0, 3)])
+    model = algo(GPActorCriticPolicy, env, n_steps=8, seed=0, **kwargs)
+    before = snapshot(model.policy.gp)
+    with pytest.raises(ValueError, match=r"returns reach .* beyond float32.*Scale the rewards"):
+        model.learn(8, callback=GPValueCallback(target=target))
+    assert_same_state(before, snapshot(model.policy.gp))
 
 
 def test_a_learn_call_that_feeds_nothing_says_so() -> None:

@@ -790,6 +790,39 @@ def test_state_dict_round_trip_is_bit_identical(pendulum, kernel: str) -> None:
         assert torch.equal(a, b)
 
 
+def _missing(key: str) -> Any:
+    return lambda state: {k: v for k, v in state.items() if k != key}
+
+
+def _replaced(key: str, value: Any) -> Any:
+    return lambda state: {**state, key: value(state[key])}
+
+
+@pytest.mark.parametrize(
+    ("spoil", "error"),
+    [
+        (_missing("P"), "Missing key"),
+        (_missing("kernel.tree.shortest_paths"), "Missing key"),
+        (_replaced("alpha", lambda a: a[:5]), "size mismatch"),
+        (_replaced("alpha", lambda a: a.clone().fill_(math.nan)), "alpha holds NaN"),
+        (_replaced("count", lambda c: torch.tensor(500)), "500 basis vectors"),
+    ],
+    ids=["no-P", "no-kernel-buffer", "short-alpha", "nan-alpha", "count-500"],
+)
+def test_a_refused_state_leaves_the_gp_as_it_was(pendulum, spoil: Any, error: str) -> None:
+    """A state missing a buffer (the GP's or its kernel's), with one of the wrong shape, a NaN
+    posterior or more basis vectors than the GP holds is refused and this GP keeps its own
+    state bit for bit (torch alone copies the buffers it can before raising)."""
+    obs, returns, starts = pendulum(600, 9)
+    source, target = (SparseOnlineGP(3, "geodesic", max_basis=24) for _ in range(2))
+    feed(source, obs[:300], returns[:300], starts[:300], 150)
+    feed(target, obs[300:], returns[300:], starts[300:], 150)
+    before = snapshot(target)
+    with pytest.raises((RuntimeError, ValueError), match=error):
+        target.load_state_dict(spoil(source.state_dict()))
+    assert_same_state(before, snapshot(target))
+
+
 @pytest.mark.parametrize("saved_ard", [False, True, None])
 def test_geodesic_state_loads_whatever_its_ard_rule(pendulum, saved_ard: bool | None) -> None:
     """``ard`` says how the kernel learns, not what it is: a state saved with the other rule,
@@ -1391,6 +1424,37 @@ def test_batches_that_overflow_the_model_are_refused(
     with pytest.raises(ValueError, match=match):
         gp.update(x, rng.normal(size=50) * y_scale)
     assert_same_state(before, snapshot(gp))
+
+
+@pytest.mark.parametrize(
+    ("kernel", "dtype", "scale"),
+    [("geodesic", torch.float64, 1e160), ("geodesic", torch.float32, 1e20),
+     ("laplacian", torch.float32, 1e20)],
+)  # fmt: skip
+def test_inputs_whose_squared_distances_overflow_are_refused(
+    kernel: str, dtype: torch.dtype, scale: float
+) -> None:
+    """Inputs whose squared distances overflow the dtype (finite themselves) are refused in
+    ``update`` and ``predict``, the state as it was, and the GP learns on as if they had never
+    been offered; the geodesic kernel used to take them and end with infinite edges, NaN
+    scores and failing updates."""
+    rng = np.random.default_rng(6)
+    x, later = rng.normal(size=(200, 2)), rng.normal(size=(200, 2))
+    gp, twin = (
+        SparseOnlineGP(2, kernel=kernel, max_basis=32, adapt=True, dtype=dtype) for _ in range(2)
+    )
+    for model in (gp, twin):
+        model.update(x, np.sin(x[:, 0]))
+    before = snapshot(gp)
+    huge = x[:5] * scale
+    assert np.isfinite(huge.astype(np.float32 if dtype == torch.float32 else np.float64)).all()
+    for call in (lambda: gp.update(huge, np.sin(x[:5, 0])), lambda: gp.predict(huge)):
+        with pytest.raises(ValueError, match="squared distances overflow"):
+            call()
+        assert_same_state(before, snapshot(gp))
+    for model in (gp, twin):
+        model.update(later, np.sin(later[:, 0]))
+    assert_same_state(snapshot(twin), snapshot(gp))
 
 
 def test_novelty_tol_zero_without_the_guard_is_the_exact_gp() -> None:
