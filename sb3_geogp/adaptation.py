@@ -78,6 +78,8 @@ from typing import Any, NamedTuple
 import torch
 from torch import Tensor, nn
 
+from sb3_geogp.options import positive_int
+
 #: Ways the summary of :class:`Adaptation` is kept.
 SUMMARIES = ("fold", "snapshot")
 #: Ways the forgetting candidates of :class:`Adaptation` are scored (and forgetting applied).
@@ -211,12 +213,9 @@ class Adaptation:
         optional = ("interval", "score_points", "fold_points")
         for name in ("window", "fit_points", "max_gap", *optional):
             value = getattr(self, name)
-            if value is None and name not in optional:
-                raise ValueError(f"Adaptation.{name} must be an integer, got None")
-            if value is not None and (isinstance(value, bool) or not isinstance(value, int)):
-                raise ValueError(f"Adaptation.{name} must be an integer, got {value!r}")
-            if value is not None and value < 1:
-                raise ValueError(f"Adaptation.{name} must be >= 1, got {value}")
+            if value is not None or name not in optional:
+                # frozen: a NumPy integer is stored as Python's (as_dict goes to JSON)
+                object.__setattr__(self, name, positive_int(f"Adaptation.{name}", value))
         if isinstance(self.steps, bool) or not isinstance(self.steps, int) or self.steps < 0:
             raise ValueError(f"Adaptation.steps must be an integer >= 0, got {self.steps!r}")
         if not (self.lr > 0 and math.isfinite(self.lr)):

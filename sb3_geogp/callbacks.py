@@ -23,6 +23,7 @@ from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
 from stable_baselines3.common.vec_env import VecFrameStack, unwrap_vec_wrapper
 
+from sb3_geogp.options import positive_int
 from sb3_geogp.policies import GPCriticMixin, _contrib_algorithms, _for_algorithm, check_algorithm
 from sb3_geogp.targets import (
     discounted_returns,
@@ -208,10 +209,7 @@ class GPValueCallback(BaseCallback):
                 f"explicitly; got horizon={horizon!r} with target={target!r}"
             )
         self.horizon = None if horizon is None else int(horizon)
-        integer = isinstance(feed_every, int | np.integer) and not isinstance(feed_every, bool)
-        if not integer or feed_every < 1:
-            raise ValueError(f"feed_every must be a positive integer, got {feed_every!r}")
-        self.feed_every = int(feed_every)
+        self.feed_every = positive_int("feed_every", feed_every)
         self.recompute_advantages = bool(recompute_advantages)
         self.deferred_values = bool(deferred_values)
         #: Wall-clock seconds spent in GP updates so far (all rollouts of this callback).

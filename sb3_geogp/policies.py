@@ -40,7 +40,7 @@ from torch import nn
 
 from sb3_geogp.adaptation import Adaptation, as_adaptation
 from sb3_geogp.kernels import KERNELS, make_kernel
-from sb3_geogp.kernels.base import unknown_option
+from sb3_geogp.options import unknown_option
 from sb3_geogp.sparse_gp import SparseOnlineGP
 
 if TYPE_CHECKING:

@@ -56,7 +56,8 @@ from sb3_geogp.adaptation import (
 )
 from sb3_geogp.graph import BVGraph
 from sb3_geogp.kernels import Kernel, KernelName, make_kernel
-from sb3_geogp.kernels.base import BasisMatrices, Rows, check_same_options
+from sb3_geogp.kernels.base import BasisMatrices, Rows
+from sb3_geogp.options import check_same_options, positive_int
 from sb3_geogp.user_warnings import warn_user
 
 ArrayLike = Tensor | np.ndarray | Sequence[Any]
@@ -170,14 +171,6 @@ def _check_cap(cap: float | None, optimism: float, adaptation: Adaptation | None
             "optimism_cap scales the bonus by the out-of-sample errors the adaptation measures: "
             "pass adapt=True (or an Adaptation) with it"
         )
-
-
-def _count(name: str, value: Any) -> int:
-    if isinstance(value, bool) or not isinstance(value, int | np.integer):
-        raise ValueError(f"{name} must be an integer, got {value!r} ({type(value).__name__})")
-    if value < 1:
-        raise ValueError(f"{name} must be >= 1, got {value}")
-    return int(value)
 
 
 def _check_dtype(dtype: Any, kernel: Kernel, adaptation: Adaptation | None) -> torch.dtype:
@@ -456,7 +449,8 @@ class SparseOnlineGP(nn.Module):
         optimism_cap: float | None = None,
     ) -> None:
         super().__init__()
-        input_dim, max_basis = _count("input_dim", input_dim), _count("max_basis", max_basis)
+        input_dim = positive_int("input_dim", input_dim)
+        max_basis = positive_int("max_basis", max_basis)
         if not (noise_var > 0 and math.isfinite(noise_var)):
             raise ValueError(f"noise_var must be positive and finite, got {noise_var}")
         if novelty_tol is not None and not (0 <= novelty_tol < 1):
@@ -464,7 +458,7 @@ class SparseOnlineGP(nn.Module):
         if not (0 < forgetting <= 1):
             raise ValueError(f"forgetting must be in (0, 1], got {forgetting}")
         if forgetting_points is not None:
-            forgetting_points = _count("forgetting_points", forgetting_points)
+            forgetting_points = positive_int("forgetting_points", forgetting_points)
         if target_scale is not None and not (target_scale > 0 and math.isfinite(target_scale)):
             raise ValueError(f"target_scale must be positive and finite, got {target_scale}")
         if target_mean is not None and not math.isfinite(target_mean):
@@ -489,7 +483,7 @@ class SparseOnlineGP(nn.Module):
         self.optimism = float(optimism)
         self.optimism_cap = None if optimism_cap is None else float(optimism_cap)
         if num_threads is not None:
-            num_threads = _count("num_threads", num_threads)
+            num_threads = positive_int("num_threads", num_threads)
         self.input_dim = int(input_dim)
         self.max_basis = int(max_basis)
         self.forgetting = float(forgetting)

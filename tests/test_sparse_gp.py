@@ -1301,10 +1301,10 @@ def test_lagged_forgetting_is_refused_in_float32() -> None:
 @pytest.mark.parametrize(
     ("kwargs", "match"),
     [
-        ({"max_basis": "10"}, "max_basis must be an integer"),
-        ({"max_basis": 2.5}, "max_basis must be an integer"),
-        ({"max_basis": True}, "max_basis must be an integer"),
-        ({"input_dim": 3.0}, "input_dim must be an integer"),
+        ({"max_basis": "10"}, "max_basis must be a positive integer"),
+        ({"max_basis": 2.5}, "max_basis must be a positive integer"),
+        ({"max_basis": True}, "max_basis must be a positive integer"),
+        ({"input_dim": 3.0}, "input_dim must be a positive integer"),
         ({"max_basis": 10**7}, "GiB"),
     ],
 )

@@ -24,10 +24,10 @@ from sb3_geogp.kernels.base import (
     MixedRows,
     Rows,
     distances,
-    unknown_option,
 )
 from sb3_geogp.kernels.euclidean import EuclideanKernel, LaplacianKernel, RBFKernel
 from sb3_geogp.kernels.geodesic import GeodesicKernel, shepard_weights
+from sb3_geogp.options import unknown_option
 
 #: Names of the kernels of :data:`KERNELS`.
 KernelName = Literal["rbf", "laplacian", "geodesic"]

@@ -23,15 +23,15 @@ current posterior, so the GP runs one algebra whatever the kernel.
 
 from __future__ import annotations
 
-import difflib
 import math
-from collections.abc import Callable, Collection, Iterable, Sequence
-from typing import Any, NamedTuple, Protocol
+from collections.abc import Callable, Sequence
+from typing import Any, Literal, NamedTuple, Protocol
 
 import torch
 from torch import Tensor, nn
 
 from sb3_geogp.graph import BVGraph
+from sb3_geogp.options import check_same_options
 
 #: ``log_factor : (n_factors,) -> (R_xz (n, m), R_zz (m, m))`` (see Kernel.correlation_fn).
 CorrelationFn = Callable[[Tensor], tuple[Tensor, Tensor]]
@@ -148,6 +148,16 @@ class MixedRows(NamedTuple):
 Rows = DenseRows | MixedRows
 
 
+#: Names of the correlation profiles of :data:`PROFILES`.
+Profile = Literal["laplacian", "gaussian"]
+#: Correlation profiles ``rho(r)`` of a distance ``r`` in lengthscale units, ``rho(0) = 1``:
+#: ``exp(-r)`` and ``exp(-r^2 / 2)``.
+PROFILES: dict[str, Callable[[Tensor], Tensor]] = {
+    "laplacian": lambda r: torch.exp(-r),
+    "gaussian": lambda r: torch.exp(-0.5 * r * r),
+}
+
+
 class Kernel(nn.Module):
     """Stationary kernel ``k = variance * rho(r)`` with per-dimension lengthscales.
 
@@ -208,9 +218,17 @@ class Kernel(nn.Module):
     #: Options that only say how the kernel learns (stored, but free to differ on load).
     update_rules: tuple[str, ...] = ()
 
+    #: The correlation profile (a key of :data:`PROFILES`); ``None`` where a subclass defines
+    #: :meth:`profile` itself.
+    profile_name: Profile | None = None
+
     def supports_float32(self) -> bool:
-        """Whether a GP with this kernel is numerically safe in float32 (else float64 only)."""
-        return False
+        """Whether a GP with this kernel is numerically safe in float32 (else float64 only):
+        with the Laplacian profile. The Gaussian one's basis Gram matrices are too
+        ill-conditioned, and on the geodesic kernel's trees it is not even positive definite
+        (its posterior covariance loses definiteness and the weights diverge; docs/method.md,
+        2.5)."""
+        return self.profile_name == "laplacian"
 
     def state_nbytes(self, capacity: int, input_dim: int, itemsize: int) -> int:
         """Bytes of the state :meth:`bind` allocates beyond the hyperparameters."""
@@ -245,7 +263,9 @@ class Kernel(nn.Module):
     # -- the covariance as a function of distance -----------------------------------------------
     def profile(self, r: Tensor) -> Tensor:
         """Correlation ``rho(r)`` at distance ``r`` (lengthscale units), ``rho(0) = 1``."""
-        raise NotImplementedError
+        if self.profile_name is None:
+            raise NotImplementedError
+        return PROFILES[self.profile_name](r)
 
     def forward(self, r: Tensor) -> Tensor:
         """Covariance ``variance * rho(r)`` for a tensor of distances ``r``."""
@@ -355,37 +375,6 @@ class Kernel(nn.Module):
     def rescale(self, factor: Tensor) -> None:
         """Multiply the lengthscale(s) by ``factor : Tensor, shape (n_factors,)``."""
         self.lengthscale.mul_(factor)
-
-
-def check_same_options(
-    what: str, saved: Any, current: dict[str, Any], ignore: Collection[str] = ()
-) -> None:
-    """Raise ``ValueError`` naming the first option in which ``saved`` differs from ``current``
-    (options in ``ignore`` are stored but free to differ)."""
-    if not isinstance(saved, dict):
-        raise ValueError(f"the saved {what} options are not a dict: {saved!r}")
-    for key in sorted((set(saved) | set(current)) - set(ignore)):
-        if saved.get(key) != current.get(key):
-            raise ValueError(
-                f"the state was saved with {what} option {key}={saved.get(key)!r}, but this "
-                f"{what} has {key}={current.get(key)!r}; build it with the same options to load "
-                "the state"
-            )
-
-
-def unknown_option(what: str, given: Iterable[str], accepted: Collection[str]) -> str | None:
-    """The first of ``given`` not in ``accepted``, as a message naming the closest accepted
-    name and the whole list (Python's own ``TypeError`` names neither); ``None`` if all are
-    accepted."""
-    unknown = [name for name in given if name not in accepted]
-    if not unknown:
-        return None
-    close = difflib.get_close_matches(unknown[0], accepted, n=1)
-    hint = f" (did you mean {close[0]!r}?)" if close else ""
-    return (
-        f"unknown option {unknown[0]!r} of {what}{hint}; the options are: "
-        f"{', '.join(sorted(accepted))}"
-    )
 
 
 def distances(a: Tensor, b: Tensor) -> Tensor:

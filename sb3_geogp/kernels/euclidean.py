@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import torch
 from torch import Tensor
 
 from sb3_geogp.kernels.base import CorrelationFn, Kernel, distances
@@ -42,8 +41,7 @@ class RBFKernel(EuclideanKernel):
         ``sigma_f^2`` (standardised target units).
     """
 
-    def profile(self, r: Tensor) -> Tensor:
-        return torch.exp(-0.5 * r * r)
+    profile_name = "gaussian"
 
 
 class LaplacianKernel(EuclideanKernel):
@@ -65,8 +63,4 @@ class LaplacianKernel(EuclideanKernel):
         ``sigma_f^2`` (standardised target units).
     """
 
-    def profile(self, r: Tensor) -> Tensor:
-        return torch.exp(-r)
-
-    def supports_float32(self) -> bool:
-        return True
+    profile_name = "laplacian"

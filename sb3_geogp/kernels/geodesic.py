@@ -21,6 +21,7 @@ from sb3_geogp.kernels.base import (
     Gram,
     Kernel,
     MixedRows,
+    Profile,
     Rows,
     distances,
 )
@@ -29,7 +30,6 @@ from sb3_geogp.kernels.base import (
 #: every profile vanishes there (``exp(-1e4)`` underflows to 0) while Shepard weights stay finite.
 BLOCKED_DISTANCE = 1e4
 
-Profile = Literal["laplacian", "gaussian"]
 Attach = Literal["interpolate", "nearest"]
 Edges = Literal["trajectory", "nearest"]
 
@@ -158,19 +158,9 @@ class GeodesicKernel(Kernel):
     def graph(self) -> BVGraph:
         return self.tree
 
-    def supports_float32(self) -> bool:
-        # The Gaussian profile is not positive definite on trees: in float32 its posterior
-        # covariance loses definiteness and the weights diverge (tested).
-        return self.profile_name == "laplacian"
-
     def state_nbytes(self, capacity: int, input_dim: int, itemsize: int) -> int:
         nodes = 2 * capacity
         return nodes * nodes * (2 * itemsize + 1) + nodes * (input_dim * itemsize + 20)
-
-    def profile(self, r: Tensor) -> Tensor:
-        if self.profile_name == "laplacian":
-            return torch.exp(-r)
-        return torch.exp(-0.5 * r * r)
 
     # -- rows over the basis ---------------------------------------------------------------------
     def gram(self, z: Tensor) -> Tensor:

@@ -11,8 +11,9 @@ import sys
 
 from sb3_geogp.toolbox.provenance import cpu, engine_files
 
-# The package root and the warning helper change no number the engine computes.
-_NOT_NUMERICS = {"__init__.py", "kernels/__init__.py", "user_warnings.py"}
+# The package root, the warning helper and the option checks change no number the engine
+# computes.
+_NOT_NUMERICS = {"__init__.py", "kernels/__init__.py", "user_warnings.py", "options.py"}
 
 
 def test_engine_hash_covers_every_module_the_engine_loads() -> None:
