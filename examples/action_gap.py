@@ -8,8 +8,9 @@ state (:mod:`sb3_geogp.studies.action_gap`). This script measures how often each
 its sign right:
 
 1. One PPO run per actor and seed, built as the comparison builds its runs (zoo
-   hyperparameters, ``--timesteps`` steps): ``--actors geodesic`` trains with the default GP
-   critic, ``mlp`` with SB3's MLP critic. Building the shadows re-seeds the global random
+   hyperparameters, ``--timesteps`` steps): ``--actors geodesic`` trains with the geodesic GP
+   critic (the comparison's ``geodesic`` critic, PPO's default before 0.6), ``mlp`` with SB3's
+   MLP critic. Building the shadows re-seeds the global random
    streams after the model is built, so a run is not the comparison's run of that seed (it is
    as reproducible).
 2. Beside it, shadow critics learn from every rollout the run's critic learns from (SB3's
@@ -67,6 +68,7 @@ ENV = "CartPole-v1"
 ACTORS = ("geodesic", "mlp")
 #: GP shadow critics by default (settings as :func:`~sb3_geogp.comparison.shadow.ppo_spec`).
 CRITICS: dict[str, dict[str, Any]] = {
+    # named when the geodesic critic was PPO's default (session 14); the published runs use it
     "geodesic GP (default)": {},
     "RBF GP": {"kernel": "rbf"},
     "Laplacian GP, novelty_tol 0.1": {"kernel": "laplacian", "gp_options": {"novelty_tol": 0.1}},
@@ -200,10 +202,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         help=f"the critic of the paired differences (default: {MLP!r}; or a --critics name)",
     )
     args = parser.parse_args(argv)
+    if args.rollouts < 2:
+        parser.error(f"--rollouts must be at least 2 (for a standard error), got {args.rollouts}")
     if args.against not in (OWN, MLP, *args.critics):
         parser.error(f"--against {args.against!r} is none of {[OWN, MLP, *args.critics]}")
     tabled = functools.partial(table, timesteps=args.timesteps, against=args.against)
-    run_study(args, run, tabled, plot, "action_gap.png")
+    run_study(args, run, tabled, plot, "action_gap.png", reading=("against",))
     return 0
 
 

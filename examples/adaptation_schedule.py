@@ -126,7 +126,10 @@ def record(env_id: str, seed: int, timesteps: int, path: Path) -> list[Any]:
     assert env is not None
     env.close()
     path.parent.mkdir(parents=True, exist_ok=True)
-    th.save(recorder.batches, path)
+    # written whole or not at all: a half-written stream would break every later replay
+    partial = path.with_suffix(".partial")
+    th.save(recorder.batches, partial)
+    partial.replace(path)
     return recorder.batches
 
 
@@ -437,7 +440,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     per_job = 1 + len(settings) + len(references) + len(learners)
     bar = tqdm(total=len(jobs) * per_job, unit="run", desc="record + replay")
     for env_id, seed in jobs:
-        stream = streams / f"{env_id.replace('/', '-')}__s{seed}.pt"
+        # the budget in the name: a stream of another --timesteps is another stream
+        stream = streams / f"{env_id.replace('/', '-')}__s{seed}__t{args.timesteps}.pt"
         batches = record(env_id, seed, args.timesteps, stream)
         bar.update()
         results[env_id][seed] = {}

@@ -319,6 +319,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         lambda results: table(results, args.skip, args.against),
         lambda results, path: plot(results, path, args.env),
         "advantage_error.png",
+        reading=("skip", "against"),
     )
     return 0
 

@@ -50,6 +50,7 @@ from __future__ import annotations
 import argparse
 import concurrent.futures as cf
 import json
+import sys
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -328,6 +329,10 @@ def _run_and_save(
     return result
 
 
+class OtherSettingsError(ValueError):
+    """A finished run in ``--out`` was made with other settings than those asked for now."""
+
+
 def run_all(
     specs: list[RunSpec],
     last: float,
@@ -342,14 +347,19 @@ def run_all(
     existing = [s for s in specs if _run_file(out, s).exists()]
     done = [json.loads(_run_file(out, s).read_text()) for s in existing]
     for result, spec in zip(done, existing, strict=True):
+        if result["total_timesteps"] != spec.total_timesteps:
+            raise OtherSettingsError(
+                f"{_run_file(out, spec)} ran {result['total_timesteps']} steps, not "
+                f"{spec.total_timesteps} (another --scale): pass another --out"
+            )
         if spec.critic != "mlp" and result["gp_kwargs"] != dict(spec.gp_kwargs):
-            raise ValueError(
+            raise OtherSettingsError(
                 f"{_run_file(out, spec)} ran with GP options {result['gp_kwargs']}, not "
                 f"{dict(spec.gp_kwargs)}: pass another --out"
             )
         recorded_feed = {key: result[key] for key in ("target", "horizon") if key in result}
         if recorded_feed != _feed(spec):
-            raise ValueError(
+            raise OtherSettingsError(
                 f"{_run_file(out, spec)} was fed {recorded_feed or 'the returns'}, not "
                 f"{_feed(spec) or 'the returns'}: pass another --out"
             )
@@ -360,7 +370,7 @@ def run_all(
             recorded.get("with_capacity", False),
         )
         if settings != (ceiling_rollouts, tail, with_capacity):
-            raise ValueError(
+            raise OtherSettingsError(
                 f"{_run_file(out, spec)} ran with another --ceiling, --ceiling-tail or "
                 "--capacity: pass another --out"
             )
@@ -733,15 +743,21 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.error(f"--ceiling supports {', '.join(TASKS)}, not {set(args.envs) - set(TASKS)}")
     if args.capacity and not args.ceiling:
         parser.error("--capacity scores against V^pi: it needs --ceiling N")
-    results = run_all(
-        config.specs(),
-        args.last,
-        args.out,
-        args.workers,
-        args.ceiling,
-        args.ceiling_tail,
-        args.capacity,
-    )
+    try:
+        results = run_all(
+            config.specs(),
+            args.last,
+            args.out,
+            args.workers,
+            args.ceiling,
+            args.ceiling_tail,
+            args.capacity,
+        )
+    except OtherSettingsError as err:
+        parser.error(str(err))
+    except KeyboardInterrupt:
+        print("interrupted; the same command resumes from the finished runs", file=sys.stderr)
+        return 130
     text = summary(results, args.critics, args.last)
     (args.out / "critic_fit.md").write_text(text)
     plot(results, args.out / "critic_fit.png")

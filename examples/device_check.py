@@ -142,6 +142,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--tol", type=float, default=1e-6, help="largest gap accepted")
     parser.add_argument("--out", type=Path, default=None, help="write the figures as JSON")
     args = parser.parse_args(argv)
+    if args.device.startswith("cuda") and not torch.cuda.is_available():
+        parser.error(f"--device {args.device}: this torch has no CUDA device (try --device cpu)")
     torch.set_num_threads(1)
     report: dict[str, Any] = {"torch": torch.__version__, "device": args.device}
     if args.device.startswith("cuda"):

@@ -167,7 +167,9 @@ def test_critic_fit_scores_each_rollout_as_sb3_does() -> None:
     np.testing.assert_allclose(recorder.explained[:4], logged, rtol=1e-5, atol=1e-6)
 
 
-def test_critic_fit_tiny_run_writes_table_and_figure(tmp_path: Path) -> None:
+def test_critic_fit_tiny_run_writes_table_and_figure(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     critic_fit = load_script("critic_fit")
     argv = ["--envs", "CartPole-v1", "--critics", "mlp", "rbf", "--seeds", "0", "--scale", "0.01"]
     critic_fit.main([*argv, "--out", str(tmp_path)])
@@ -180,9 +182,13 @@ def test_critic_fit_tiny_run_writes_table_and_figure(tmp_path: Path) -> None:
         assert abs(r["tail_mean"] - sum(tail) / len(tail)) < 1e-12
     assert "CartPole-v1" in (tmp_path / "critic_fit.md").read_text()
     assert (tmp_path / "critic_fit.png").stat().st_size > 0
-    # Resuming with other GP options would mix two critics in one table: refused.
-    with pytest.raises(ValueError, match="another --out"):
-        critic_fit.main([*argv, "--out", str(tmp_path), "--gp-option", "forgetting=0.9"])
+    # Resuming with other GP options or another budget would mix two runs in one table:
+    # refused, in one line.
+    capsys.readouterr()
+    for other in (["--gp-option", "forgetting=0.9"], ["--scale", "0.02"]):
+        with pytest.raises(SystemExit):
+            critic_fit.main([*argv, "--out", str(tmp_path), *other])
+        assert "pass another --out" in capsys.readouterr().err
 
 
 def test_critic_fit_leaves_undefined_scores_out_of_its_means(tmp_path: Path) -> None:
@@ -228,7 +234,9 @@ def _each_run(
     return [json.loads((tmp_path / name / "runs" / run).read_text()) for name in variants]
 
 
-def test_critic_fit_feeds_the_gp_critic_the_target_asked_for(tmp_path: Path) -> None:
+def test_critic_fit_feeds_the_gp_critic_the_target_asked_for(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     """``--target`` reaches the GP critic's callback, unset PPO's default (Monte Carlo returns):
     the first rollout (scored before any feed) is the same, the later ones differ from the
     returns-fed run; the run records its target, and a resume with another target (a folder of
@@ -241,14 +249,18 @@ def test_critic_fit_feeds_the_gp_critic_the_target_asked_for(tmp_path: Path) -> 
     assert mc["target"] == "monte_carlo" and "target" not in returns
     assert mc["explained_variance"][0] == returns["explained_variance"][0]
     assert mc["explained_variance"][1:] != returns["explained_variance"][1:]
-    with pytest.raises(ValueError, match="another --out"):
+    capsys.readouterr()
+    with pytest.raises(SystemExit):
         critic_fit.main([*argv, "--out", str(tmp_path / "returns")])
+    assert "pass another --out" in capsys.readouterr().err
     with pytest.raises(SystemExit):
         critic_fit.main([*argv, "--horizon", "10", "--out", str(tmp_path / "h")])
     assert not (tmp_path / "h").exists()
 
 
-def test_critic_fit_ceiling_leaves_the_run_as_it_was(tmp_path: Path) -> None:
+def test_critic_fit_ceiling_leaves_the_run_as_it_was(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     """``--ceiling`` adds the scored rollouts' ceilings without changing a single score of the
     run (its Monte Carlo draws have their own random stream), and a run resumed with another
     ``--ceiling`` is refused."""
@@ -266,14 +278,18 @@ def test_critic_fit_ceiling_leaves_the_run_as_it_was(tmp_path: Path) -> None:
     summary = (tmp_path / "ceiling" / "critic_fit.md").read_text()
     assert "The ceiling" in summary and "advantages: correlation |" in summary
     assert (tmp_path / "ceiling" / "ceiling.png").stat().st_size > 0
-    with pytest.raises(ValueError, match="another --ceiling"):
+    capsys.readouterr()
+    with pytest.raises(SystemExit):
         critic_fit.main([*argv, "--out", str(tmp_path / "plain"), "--ceiling", "4"])
+    assert "another --ceiling" in capsys.readouterr().err
     with pytest.raises(SystemExit):  # no restartable dynamics for it: refused before any run
         critic_fit.main(["--envs", "Pendulum-v1", "--ceiling", "4", "--out", str(tmp_path / "p")])
     assert not (tmp_path / "p").exists()
 
 
-def test_critic_fit_capacity_fits_models_beside_the_run(tmp_path: Path) -> None:
+def test_critic_fit_capacity_fits_models_beside_the_run(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     """``--capacity`` records, for every scored rollout, the held-out scores of the five models
     (fresh GPs of the run's critic's options among them), the lag reading from the second
     scored rollout on; the table is written; a resume without it and a run without
@@ -290,8 +306,10 @@ def test_critic_fit_capacity_fits_models_beside_the_run(tmp_path: Path) -> None:
     assert models == {"gp", "gp, spread", "gp, rbf, spread", "mlp", "knn"}
     assert "gp|lag" not in rollouts[0]["capacity"] and "gp|lag" in rollouts[1]["capacity"]
     assert "What value models fitted once" in (tmp_path / "critic_fit.md").read_text()
-    with pytest.raises(ValueError, match="--capacity"):
+    capsys.readouterr()
+    with pytest.raises(SystemExit):
         critic_fit.main([*argv, "--ceiling", "4", "--last", "0.5", "--out", str(tmp_path)])
+    assert "--capacity" in capsys.readouterr().err
     with pytest.raises(SystemExit):
         critic_fit.main([*argv, "--capacity", "--out", str(tmp_path / "no_ceiling")])
 
@@ -364,8 +382,9 @@ def test_adaptation_schedule_replays_the_recorded_stream(tmp_path: Path) -> None
     argv += ["--settings", json.dumps(settings), "--out", str(tmp_path)]
     schedule.main(argv)
     first = json.loads((tmp_path / "results.json").read_text())["results"]["CartPole-v1"]["0"]
-    stream = tmp_path / "streams" / "CartPole-v1__s0.pt"
+    stream = tmp_path / "streams" / "CartPole-v1__s0__t1200.pt"
     recorded = stream.stat().st_mtime_ns
+    assert [p.name for p in (tmp_path / "streams").iterdir()] == [stream.name]  # no partial
     assert first["default"]["n_batches"] >= 4
     ev = first["default"]["explained_variance"]
     assert len(ev) == first["default"]["n_batches"] - 1
@@ -409,13 +428,20 @@ def test_adaptation_schedule_batch_reference_learns_a_fixed_function() -> None:
 
 def assert_study_resumes(study: Any, argv: list[str], out: Path, actor: str, figure: str) -> None:
     """A shadow study run again with ``argv`` keeps ``actor``'s finished run (not run again),
-    and its table has the actor's MLP-shadow row and its figure is written."""
+    and its table has the actor's MLP-shadow row and its figure is written; run again with
+    another budget, it refuses the folder rather than reuse runs of the first."""
     done = out / "runs" / f"{actor}__s0.json"
     written = done.stat().st_mtime_ns
     assert study.main(argv) == 0
     assert done.stat().st_mtime_ns == written
     assert f"| {actor} | {study.MLP} |" in (out / "table.md").read_text()
     assert (out / figure).stat().st_size > 0
+    at = argv.index("--timesteps") + 1
+    steps = int(argv[at])
+    longer = [*argv[:at], str(2 * steps), *argv[at + 1 :]]
+    with pytest.raises(SystemExit, match=f"timesteps: {steps} there, {2 * steps} now"):
+        study.main(longer)
+    assert done.stat().st_mtime_ns == written
 
 
 def test_action_gap_scores_every_critic_on_the_same_states(tmp_path: Path) -> None:

@@ -24,7 +24,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Collection, Mapping, Sequence
 from pathlib import Path
 from typing import Any, cast
 
@@ -323,17 +323,64 @@ def study_parser(
     return parser
 
 
+#: Arguments of every shadow study that say which runs to make or where, not how they run.
+_WHICH_RUNS = ("actors", "seeds", "out")
+
+
+def run_settings(args: argparse.Namespace, reading: Collection[str] = ()) -> dict[str, Any]:
+    """The arguments that make a study's runs what they are, as JSON gives them back: all but
+    :data:`_WHICH_RUNS` and ``reading`` (those that only read the runs)."""
+    settings = {k: v for k, v in vars(args).items() if k not in {*_WHICH_RUNS, *reading}}
+    return dict(json.loads(json.dumps(settings, default=str)))
+
+
+def check_run_settings(args: argparse.Namespace, reading: Collection[str] = ()) -> None:
+    """Refuse an ``--out`` whose finished runs were made with other settings (a run is kept by
+    actor and seed alone and not run again): ``OUT/settings.json``, or for a folder written
+    before it, the arguments in ``OUT/results.json``; settings neither names are not compared.
+    Records the settings for the next call.
+
+    Raises
+    ------
+    SystemExit
+        Naming each setting that differs.
+    """
+    settings = run_settings(args, reading)
+    stored, published = args.out / "settings.json", args.out / "results.json"
+    saved: dict[str, Any] | None = None
+    if stored.exists():
+        saved = json.loads(stored.read_text())
+    elif published.exists():
+        saved = json.loads(published.read_text()).get("args")
+    if saved is not None and any((args.out / "runs").glob("*.json")):
+        differ = [
+            f"{k}: {saved[k]!r} there, {v!r} now"
+            for k, v in settings.items()
+            if k in saved and saved[k] != v
+        ]
+        if differ:
+            raise SystemExit(
+                f"error: {args.out} holds runs made with other settings ({'; '.join(differ)}); "
+                "pass another --out, or the same settings to add seeds or actors"
+            )
+    write_json_atomic(stored, settings)
+
+
 def run_study(
     args: argparse.Namespace,
     run: Callable[[str, int, argparse.Namespace], dict[str, Any]],
     table: Callable[[StudyResults], str],
     plot: Callable[[StudyResults, Path], None],
     figure: str,
+    reading: Collection[str] = (),
 ) -> StudyResults:
     """``run(actor, seed, args)`` for every actor and seed of ``args`` not yet in
-    ``OUT/runs/`` (a finished run is kept there and not run again), then ``table`` printed and
-    written to ``OUT/table.md``, every result with the arguments and provenance to
-    ``OUT/results.json``, and ``plot`` to ``OUT/<figure>``."""
+    ``OUT/runs/`` (a finished run is kept there and not run again; an ``--out`` whose runs were
+    made with other settings is refused, :func:`check_run_settings`, ``reading`` naming the
+    arguments that only read them), then ``table`` printed and written to ``OUT/table.md``,
+    every result with the arguments and provenance to ``OUT/results.json``, and ``plot`` to
+    ``OUT/<figure>``."""
+    check_run_settings(args, reading)
     (args.out / "runs").mkdir(parents=True, exist_ok=True)
     results: StudyResults = {a: {} for a in args.actors}
     jobs = [(a, s) for a in args.actors for s in args.seeds]
