@@ -46,6 +46,7 @@ from tqdm import tqdm
 from sb3_geogp import SparseOnlineGP
 from sb3_geogp.toolbox.benchmarks import Variant, torch_threads
 from sb3_geogp.toolbox.provenance import provenance
+from sb3_geogp.toolbox.scripts import DefaultsHelpFormatter
 from sb3_geogp.toolbox.streams import Rollout
 from sb3_geogp.toolbox.tables import format_table
 
@@ -83,7 +84,9 @@ class Settings:
 
 
 def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser = argparse.ArgumentParser(
+        description=__doc__.split("\n\n")[0], formatter_class=DefaultsHelpFormatter
+    )
     parser.add_argument("--out", type=Path, default=Path("benchmark_speed.json"))
     parser.add_argument("--repeats", type=int, default=5, help="timed repeats (median)")
     parser.add_argument("--threads", type=int, default=None, help="torch.set_num_threads")

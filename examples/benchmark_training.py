@@ -68,6 +68,7 @@ from sb3_geogp import CHEAP_ADAPTATION, GPActorCriticPolicy, GPValueCallback
 from sb3_geogp.comparison.hyperparams import ALL_CRITICS, CRITICS, algo_kwargs, hyperparams
 from sb3_geogp.toolbox.benchmarks import GPClock
 from sb3_geogp.toolbox.provenance import provenance
+from sb3_geogp.toolbox.scripts import DefaultsHelpFormatter
 
 #: Workload -> (algorithm, its name, environment, steps, options of a GP critic that does not
 #: adapt).
@@ -264,7 +265,9 @@ def table(results: dict[str, dict[str, list[dict[str, Any]]]]) -> str:
 
 
 def main(argv: Sequence[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser = argparse.ArgumentParser(
+        description=__doc__.split("\n\n")[0], formatter_class=DefaultsHelpFormatter
+    )
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1])
     parser.add_argument("--max-basis", type=int, default=256)
     parser.add_argument(

@@ -15,11 +15,14 @@ import numpy as np
 import torch
 
 from sb3_geogp import SparseOnlineGP
+from sb3_geogp.toolbox.scripts import DefaultsHelpFormatter
 from sb3_geogp.toolbox.streams import pendulum_rollouts
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser = argparse.ArgumentParser(
+        description=__doc__.split("\n\n")[0], formatter_class=DefaultsHelpFormatter
+    )
     parser.add_argument("--max-basis", type=int, nargs="+", default=[64, 256])
     parser.add_argument("--batches", type=int, default=4)
     args = parser.parse_args()

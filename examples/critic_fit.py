@@ -88,6 +88,7 @@ from sb3_geogp.studies.value_ceiling import (
 )
 from sb3_geogp.toolbox.pools import worker_pool
 from sb3_geogp.toolbox.provenance import provenance
+from sb3_geogp.toolbox.scripts import DefaultsHelpFormatter
 from sb3_geogp.toolbox.stats import mean_ci, moments, pooled_explained_variance
 
 ENVS = ("Pendulum-v1", "CartPole-v1", "Acrobot-v1")
@@ -684,7 +685,9 @@ def plot_ceiling(results: list[dict[str, Any]], path: Path) -> None:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser = argparse.ArgumentParser(
+        description=__doc__.split("\n\n")[0], formatter_class=DefaultsHelpFormatter
+    )
     parser.add_argument("--envs", nargs="+", default=list(ENVS))
     parser.add_argument("--critics", nargs="+", choices=ALL_CRITICS, default=list(CRITICS))
     parser.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2])

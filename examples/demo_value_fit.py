@@ -27,12 +27,15 @@ import torch
 from sb3_geogp.studies.wall.comparison import FitSettings, WalkSettings, evaluate, fit_gp
 from sb3_geogp.studies.wall.plots import value_maps
 from sb3_geogp.studies.wall.rooms import TwoRooms
+from sb3_geogp.toolbox.scripts import DefaultsHelpFormatter
 
 MODELS = {"RBF GP": "rbf", "geodesic GP": "geo_default"}
 
 
 def parse_args() -> argparse.Namespace:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser = argparse.ArgumentParser(
+        description=__doc__.split("\n\n")[0], formatter_class=DefaultsHelpFormatter
+    )
     parser.add_argument("--out", type=Path, default=Path("runs/demo_value_fit"))
     parser.add_argument("--episodes", type=int, default=300, help="walks to learn from")
     parser.add_argument("--max-basis", type=int, default=40)

@@ -42,6 +42,7 @@ from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.env_util import make_vec_env
 
 from sb3_geogp import Adaptation, GPActorCriticPolicy, GPValueCallback, SparseOnlineGP
+from sb3_geogp.toolbox.scripts import DefaultsHelpFormatter
 
 KERNELS = ("rbf", "laplacian", "geodesic")
 #: Adaptations the engine check runs, by name.
@@ -134,7 +135,9 @@ def training_check(algo: str, device: str, timesteps: int) -> dict[str, Any]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(
+        description=__doc__.splitlines()[0], formatter_class=DefaultsHelpFormatter
+    )
     parser.add_argument("--device", default="cuda", help="device to check against the CPU")
     parser.add_argument("--timesteps", type=int, default=4096, help="steps per training check")
     parser.add_argument("--batches", type=int, default=6, help="engine check: batches fed")

@@ -46,6 +46,7 @@ from sb3_geogp.studies.pendulum.batch_check import ONLINE, CheckConfig, CheckRes
 from sb3_geogp.studies.pendulum.ground_truth import mc_value
 from sb3_geogp.studies.pendulum.task import Task
 from sb3_geogp.toolbox.provenance import provenance
+from sb3_geogp.toolbox.scripts import DefaultsHelpFormatter
 from sb3_geogp.toolbox.stats import mean_ci
 from sb3_geogp.toolbox.tables import MIN_SAMPLES_FOR_INTERVAL
 
@@ -61,7 +62,9 @@ STYLE = {
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     """Command-line options (``argv`` defaults to ``sys.argv[1:]``)."""
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser = argparse.ArgumentParser(
+        description=__doc__.split("\n\n")[0], formatter_class=DefaultsHelpFormatter
+    )
     parser.add_argument("--quick", action="store_true", help="smoke run: tiny sizes, seconds")
     parser.add_argument("--out", type=Path, default=Path("runs/fixed_policy_check"))
     parser.add_argument("--seeds", type=int, default=None, help="seeds (default 5; quick 1)")

@@ -45,6 +45,7 @@ from stable_baselines3.common.evaluation import evaluate_policy
 
 from sb3_geogp import GPActorCriticPolicy, GPValueCallback
 from sb3_geogp.toolbox.provenance import provenance
+from sb3_geogp.toolbox.scripts import DefaultsHelpFormatter
 
 ALGOS = {"ppo": PPO, "a2c": A2C}
 #: Runs with fewer rollouts read the memory at every one and draw their figures as lines.
@@ -187,7 +188,9 @@ def plot(rows: list[dict[str, float]], title: str, path: Path) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser = argparse.ArgumentParser(
+        description=__doc__.split("\n\n")[0], formatter_class=DefaultsHelpFormatter
+    )
     parser.add_argument("--algo", choices=sorted(ALGOS), default="ppo")
     parser.add_argument("--env", default="Pendulum-v1")
     parser.add_argument("--timesteps", type=int, default=300_000)

@@ -43,6 +43,7 @@ from sb3_geogp.comparison.results import (
     load_sweeps,
     pool_sweeps,
 )
+from sb3_geogp.toolbox.scripts import DefaultsHelpFormatter
 from sb3_geogp.toolbox.tables import markdown_table
 
 #: Comparisons per metric of the published sweep: the family the family-wise level corrects for.
@@ -181,7 +182,9 @@ def plot(rows: list[dict[str, Any]], path: Path, label: str) -> None:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser = argparse.ArgumentParser(
+        description=__doc__.split("\n\n")[0], formatter_class=DefaultsHelpFormatter
+    )
     parser.add_argument(
         "--variant", type=Path, nargs="+", required=True, help="the option's sweeps"
     )

@@ -35,6 +35,7 @@ from typing import Any
 from sb3_geogp.comparison.hyperparams import ALGOS, ALL_CRITICS
 from sb3_geogp.comparison.report import comparison_cell, count_verdicts, plot_difference_panels
 from sb3_geogp.comparison.results import METRICS, comparisons, load_sweeps
+from sb3_geogp.toolbox.scripts import DefaultsHelpFormatter
 from sb3_geogp.toolbox.tables import markdown_table
 
 #: Comparisons per metric of the published sweep (3 critic pairs x 7 environments x 2
@@ -172,7 +173,9 @@ def plot(rows: list[dict[str, Any]], path: Path) -> None:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser = argparse.ArgumentParser(
+        description=__doc__.split("\n\n")[0], formatter_class=DefaultsHelpFormatter
+    )
     parser.add_argument("--before", type=Path, nargs="+", required=True, help="seeds 0-9's sweeps")
     parser.add_argument("--fresh", type=Path, nargs="+", required=True, help="the replication")
     parser.add_argument(

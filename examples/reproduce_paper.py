@@ -43,11 +43,14 @@ from sb3_geogp.studies.pendulum.reproduction import (
     run_reproduction,
 )
 from sb3_geogp.studies.pendulum.task import Task
+from sb3_geogp.toolbox.scripts import DefaultsHelpFormatter
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     """Command-line options (``argv`` defaults to ``sys.argv[1:]``)."""
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser = argparse.ArgumentParser(
+        description=__doc__.split("\n\n")[0], formatter_class=DefaultsHelpFormatter
+    )
     parser.add_argument("--quick", action="store_true", help="smoke run: tiny sizes, < 1 min")
     parser.add_argument("--out", type=Path, default=Path("runs/reproduce_paper"))
     parser.add_argument("--workers", type=int, default=None, help="processes (default 2; quick 1)")

@@ -29,6 +29,7 @@ from pathlib import Path
 from sb3_geogp.comparison.hyperparams import ALGOS, ALL_CRITICS
 from sb3_geogp.comparison.report import rerun_markdown
 from sb3_geogp.comparison.results import load_sweeps, rerun_comparisons
+from sb3_geogp.toolbox.scripts import DefaultsHelpFormatter
 
 
 def critic_pair(text: str) -> tuple[str, str]:
@@ -42,7 +43,9 @@ def critic_pair(text: str) -> tuple[str, str]:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser = argparse.ArgumentParser(
+        description=__doc__.split("\n\n")[0], formatter_class=DefaultsHelpFormatter
+    )
     parser.add_argument(
         "--published", type=Path, nargs="+", required=True, help="the published sweep(s)"
     )

@@ -17,6 +17,7 @@ from stable_baselines3.common.env_util import make_vec_env
 from stable_baselines3.common.evaluation import evaluate_policy
 
 from sb3_geogp import GPActorCriticPolicy, GPValueCallback
+from sb3_geogp.toolbox.scripts import DefaultsHelpFormatter
 
 
 def main(timesteps: int = 20_000, out: str = "ppo_geogp_pendulum") -> None:
@@ -49,7 +50,9 @@ def main(timesteps: int = 20_000, out: str = "ppo_geogp_pendulum") -> None:
 
 
 if __name__ == "__main__":
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser = argparse.ArgumentParser(
+        description=__doc__.split("\n\n")[0], formatter_class=DefaultsHelpFormatter
+    )
     parser.add_argument("timesteps", type=int, nargs="?", default=20_000)
     parser.add_argument("--out", default="ppo_geogp_pendulum", help="where the model is saved")
     args = parser.parse_args()

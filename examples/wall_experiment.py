@@ -43,6 +43,7 @@ from sb3_geogp.studies.wall.comparison import (
 from sb3_geogp.studies.wall.plots import mse_curves, value_maps
 from sb3_geogp.studies.wall.rooms import TwoRooms
 from sb3_geogp.toolbox.provenance import provenance
+from sb3_geogp.toolbox.scripts import DefaultsHelpFormatter
 
 FULL = {"max_basis": (10, 20, 40, 80, 160), "grid_nx": 160, "n_episodes": 100}
 QUICK = {"max_basis": (10, 40), "grid_nx": 60, "n_episodes": 40}
@@ -52,7 +53,9 @@ ORACLE_REFERENCES = ("geo_default", "rbf", "euclid_lap_shepard_wall", "euclid_la
 
 
 def parse_args() -> argparse.Namespace:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser = argparse.ArgumentParser(
+        description=__doc__.split("\n\n")[0], formatter_class=DefaultsHelpFormatter
+    )
     parser.add_argument("--quick", action="store_true", help="small smoke run (seconds)")
     parser.add_argument("--out", type=Path, default=Path("runs/wall_experiment"))
     parser.add_argument("--seeds", type=int, default=None, help="seeds (default 10; quick 2)")

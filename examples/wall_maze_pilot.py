@@ -50,6 +50,7 @@ from sb3_geogp.envs.wall_maze import (
     distance_to_walls,
 )
 from sb3_geogp.toolbox.pools import worker_pool
+from sb3_geogp.toolbox.scripts import DefaultsHelpFormatter
 
 ENV_ID = "sb3_geogp_pilot/WallMaze-v0"
 #: The walls a pilot can use: the published zig-zag, its upper wall alone, or
@@ -220,7 +221,9 @@ def _claim_folder(out: Path, setting: dict[str, Any]) -> None:
 
 
 def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p = argparse.ArgumentParser(
+        description=__doc__.split("\n\n")[0], formatter_class=DefaultsHelpFormatter
+    )
     p.add_argument("--max-step", type=float, default=MazeLayout.max_step)
     p.add_argument("--start-clearance", type=float, default=None, help="default: 2 max_step")
     p.add_argument("--walls", choices=sorted(WALLS), default="zigzag")

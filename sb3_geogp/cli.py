@@ -65,19 +65,11 @@ from sb3_geogp.comparison.hyperparams import threshold as comparison_threshold
 from sb3_geogp.comparison.report import pyplot
 from sb3_geogp.comparison.specs import fed, setting_differences
 from sb3_geogp.policies import GPActorCriticPolicy, check_supported_spaces, default_kernel
+from sb3_geogp.toolbox.scripts import DefaultsHelpFormatter
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
     from matplotlib.figure import Figure
-
-
-class _DefaultsHelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
-    """Append ``(default: ...)`` to an option's help unless the help already says its default."""
-
-    def _get_help_string(self, action: argparse.Action) -> str | None:
-        if "default" in (action.help or ""):
-            return action.help
-        return super()._get_help_string(action)
 
 
 #: ``train``'s default ``--max-basis``.
@@ -103,7 +95,7 @@ def build_parser() -> argparse.ArgumentParser:
     train = commands.add_parser(
         "train",
         help="train PPO or A2C with a GP or MLP critic",
-        formatter_class=_DefaultsHelpFormatter,
+        formatter_class=DefaultsHelpFormatter,
     )
     train.add_argument("--algo", choices=sorted(ALGOS), default="ppo", help="the algorithm")
     train.add_argument("--env", default="Pendulum-v1", help="gymnasium environment id")

@@ -44,6 +44,7 @@ from sb3_geogp.policies import GPActorCriticPolicy
 from sb3_geogp.sparse_gp import SparseOnlineGP
 from sb3_geogp.targets import per_env
 from sb3_geogp.toolbox.provenance import provenance
+from sb3_geogp.toolbox.scripts import DefaultsHelpFormatter
 
 #: A shadow critic's learning step: ``learn(x, y, episode_starts)``, shapes (n, d), (n,), (n,).
 Learner = Callable[[Tensor, Tensor, Tensor], None]
@@ -309,7 +310,7 @@ def study_parser(
     """The options every shadow study has: ``--actors`` (the critics that train the agent),
     ``--seeds``, ``--timesteps``, ``--critics`` (JSON ``{name: setting}`` of GP shadow
     critics, :func:`ppo_spec` settings) and ``--out``, with these defaults."""
-    parser = argparse.ArgumentParser(description=description)
+    parser = argparse.ArgumentParser(description=description, formatter_class=DefaultsHelpFormatter)
     parser.add_argument("--actors", nargs="+", default=list(actors))
     parser.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2])
     parser.add_argument("--timesteps", type=int, default=timesteps)

@@ -1,4 +1,5 @@
-"""Import a standalone script (``examples/*.py``, ``results/*/table.py``) as a module.
+"""What the standalone scripts (``examples/*.py``, ``results/*/table.py``) and the command
+line share: importing a script as a module, and ``--help`` that shows every default.
 
 The scripts are not a package, and several share a file name (``table.py``, ``read.py``), so
 a reading that reuses another reading, or a test that calls a script's functions, loads the
@@ -7,6 +8,8 @@ file by path under a name of its own.
 
 from __future__ import annotations
 
+import argparse
+import copy
 import importlib.util
 import sys
 from pathlib import Path
@@ -60,3 +63,27 @@ def load_script(path: str | Path, name: str) -> ModuleType:
         del sys.modules[name]  # a failed import leaves no half-run module behind
         raise
     return module
+
+
+class DefaultsHelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
+    """``--help`` with every option's default: appended to its help unless the help already
+    says its default, and as the whole help of an option that has none (not for flags,
+    required options or options without a default)."""
+
+    @staticmethod
+    def _has_default(action: argparse.Action) -> bool:
+        # identity, not ==: a default of 0 is shown (0 == False)
+        unset = action.default is None or action.default is False
+        unset = unset or action.default is argparse.SUPPRESS
+        return bool(action.option_strings) and not action.required and not unset
+
+    def _format_action(self, action: argparse.Action) -> str:
+        if action.help is None and self._has_default(action):
+            action = copy.copy(action)
+            action.help = "default: %(default)s"
+        return super()._format_action(action)
+
+    def _get_help_string(self, action: argparse.Action) -> str | None:
+        if "default" in (action.help or "") or not self._has_default(action):
+            return action.help
+        return super()._get_help_string(action)

@@ -2,13 +2,15 @@
 
 from __future__ import annotations
 
+import argparse
+import re
 import sys
 from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
 
-from sb3_geogp.toolbox.scripts import load_script
+from sb3_geogp.toolbox.scripts import DefaultsHelpFormatter, load_script
 
 
 @pytest.fixture
@@ -65,3 +67,20 @@ def test_missing_file_and_failing_script_leave_nothing_registered(tmp_path: Path
     with pytest.raises(RuntimeError, match="boom"):
         load_script(broken, "_t_broken")
     assert "_t_absent" not in sys.modules and "_t_broken" not in sys.modules
+
+
+def test_help_shows_every_default_once() -> None:
+    """An option without help shows its default as its help, one with help gets it appended,
+    one whose help already says it is left alone; flags and required options show none."""
+    parser = argparse.ArgumentParser(formatter_class=DefaultsHelpFormatter)
+    parser.add_argument("--seeds", nargs="+", type=int, default=[0, 1])
+    parser.add_argument("--scale", type=float, default=1.5, help="budget factor")
+    parser.add_argument("--out", default="runs", help="folder (default: runs, beside you)")
+    parser.add_argument("--quick", action="store_true", help="tiny sizes")
+    parser.add_argument("--ceiling", type=int, default=0)
+    parser.add_argument("--runs", required=True, help="the runs")
+    text = re.sub(r"\s+", " ", parser.format_help())
+    assert "--seeds SEEDS [SEEDS ...] default: [0, 1]" in text
+    assert "--scale SCALE budget factor (default: 1.5)" in text
+    assert text.count("default: runs") == 1 and "--ceiling CEILING default: 0" in text
+    assert "tiny sizes (default" not in text and "the runs (default" not in text
