@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import copy
 import csv
 import importlib.util
 import inspect
@@ -63,6 +64,7 @@ from sb3_geogp.comparison.command import (
 from sb3_geogp.comparison.hyperparams import ALGOS, ALL_CRITICS
 from sb3_geogp.comparison.hyperparams import threshold as comparison_threshold
 from sb3_geogp.comparison.report import pyplot
+from sb3_geogp.comparison.run import write_json_atomic
 from sb3_geogp.comparison.specs import fed, setting_differences
 from sb3_geogp.policies import GPActorCriticPolicy, check_supported_spaces, default_kernel
 from sb3_geogp.toolbox.scripts import DefaultsHelpFormatter
@@ -197,12 +199,25 @@ def check_train_args(args: argparse.Namespace, out: Path) -> None:
         )
     if args.forgetting is not None and not 0 < args.forgetting <= 1:
         raise UsageError(f"--forgetting must be in (0, 1], got {args.forgetting}")
+    if not 0 <= args.seed < 2**32:
+        raise UsageError(f"--seed must be in [0, 2**32), got {args.seed}")
+    if args.algo == "ppo" and args.n_steps is not None and args.n_steps * args.n_envs < 2:
+        raise UsageError(
+            "PPO needs rollouts of at least 2 steps (--n-steps x --n-envs) for its minibatches, "
+            f"got {args.n_steps * args.n_envs}"
+        )
+    if out.exists() and not out.is_dir():
+        raise UsageError(f"--out {out} is a file, not a directory")
     check_targets(args)
     check_gp_options(args)
     check_env_spaces(args.env, args.critic)
     check_device(args.device)
     saved = out / _SETTINGS
-    if saved.is_file() and (made := json.loads(saved.read_text())) != (asked := _settings(args)):
+    try:
+        made = json.loads(saved.read_text()) if saved.is_file() else None
+    except ValueError as err:
+        raise UsageError(f"{saved} cannot be read ({err}); pass another --out") from err
+    if made is not None and made != (asked := _settings(args)):
         raise UsageError(
             f"{out} holds a run made with other settings ({saved}: "
             f"{setting_differences(made, asked)}); pass the options it was made with, another "
@@ -317,7 +332,7 @@ def train(args: argparse.Namespace) -> Path:
     )
     model = _load_checkpoint(args, out, env) if start else _new_model(args, env)
     # Written once the model is built: a run that could not start does not bind the directory.
-    (out / _SETTINGS).write_text(json.dumps(_settings(args), indent=1))
+    write_json_atomic(out / _SETTINGS, _settings(args))
     # SB3 collects whole rollouts; asking for them makes the progress bar's total the steps run.
     rollout = model.n_steps * model.n_envs
     total = -(-args.timesteps // rollout) * rollout
@@ -328,6 +343,8 @@ def train(args: argparse.Namespace) -> Path:
     )
     if args.save_every:
         callbacks.append(_Checkpoints(out / _CHECKPOINT, args.save_every))
+    last_update = _LastUpdate()
+    callbacks.append(last_update)  # last: it sees the rollout after the GP has learnt it
     model.set_logger(_logger(out, model))
     progress = not args.no_progress and _progress_bar_available()
     started = time.perf_counter()
@@ -341,6 +358,7 @@ def train(args: argparse.Namespace) -> Path:
                 reset_num_timesteps=not start,
             )
     except KeyboardInterrupt:
+        last_update.undo_unfinished(model)
         _save(model, out / _CHECKPOINT)
         _finish_logs(args, out)
         print(
@@ -408,6 +426,45 @@ def _save(model: OnPolicyAlgorithm, path: Path) -> None:
 
 def _partial(path: Path) -> Path:
     return path.with_name(f"partial_{path.name}")
+
+
+class _LastUpdate(BaseCallback):
+    """What an interrupt must undo to leave the model as its last completed update left it.
+
+    Interrupted while a rollout is collected or the GP learns it (its own update rolls back),
+    the rollout is dropped: SB3 has already counted its steps, so the step count goes back to
+    the rollout's start. Interrupted in the algorithm's update that follows (PPO's epochs), the
+    actor and its optimiser go back to their state before it; the GP keeps what it learnt from
+    that rollout, whose steps then count, as the logs that SB3 wrote before its update say.
+    """
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.rollout_start = 0
+        self.before_update: tuple[dict[str, th.Tensor], dict[str, Any]] | None = None
+
+    def _on_rollout_start(self) -> None:
+        self.rollout_start = self.num_timesteps
+        self.before_update = None
+
+    def _on_step(self) -> bool:
+        return True
+
+    def _on_rollout_end(self) -> None:
+        policy = self.model.policy
+        parameters = {k: v.detach().clone() for k, v in policy.named_parameters()}
+        self.before_update = parameters, copy.deepcopy(policy.optimizer.state_dict())
+
+    def undo_unfinished(self, model: OnPolicyAlgorithm) -> None:
+        """Put ``model`` back to its last completed update (see the class docstring)."""
+        if self.before_update is None:
+            model.num_timesteps = self.rollout_start
+            return
+        parameters, optimizer = self.before_update
+        with th.no_grad():
+            for name, value in model.policy.named_parameters():
+                value.copy_(parameters[name])
+        model.policy.optimizer.load_state_dict(optimizer)
 
 
 class _Checkpoints(BaseCallback):

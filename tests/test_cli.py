@@ -36,6 +36,7 @@ from sb3_geogp.cli import (
     reward_threshold,
 )
 from sb3_geogp.policies import DEFAULT_ADAPTATION
+from tests.test_sparse_gp import assert_same_state
 
 
 @pytest.fixture(autouse=True)
@@ -212,6 +213,9 @@ def test_version(capsys: pytest.CaptureFixture[str]) -> None:
         (["--critic", "mlp", "--max-basis", "10"], "--max-basis configures the GP critic"),
         (["--critic", "mlp", "--no-adapt"], "--no-adapt configures the GP critic"),
         (["--env", "Taxi-v4"], "Taxi-v4: the GP critic supports Box observations"),
+        (["--seed", "-1"], "--seed must be in [0, 2**32), got -1"),
+        (["--seed", str(2**32)], "--seed must be in [0, 2**32)"),
+        (["--n-steps", "1", "--n-envs", "1"], "PPO needs rollouts of at least 2 steps"),
         pytest.param(
             ["--device", "cuda"],
             "torch sees no CUDA device here; use --device cpu",
@@ -227,6 +231,23 @@ def test_user_errors_are_one_line_with_exit_status_2(
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and message in err
     assert not (tmp_path / "run").exists()  # refused before any work
+
+
+def test_an_out_that_is_a_file_or_holds_unreadable_settings_is_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """One line, exit status 2, the file and the folder as they were."""
+    afile, broken = tmp_path / "afile", tmp_path / "broken"
+    afile.write_text("mine")
+    broken.mkdir()
+    (broken / "train_settings.json").write_text("{not json")
+    for out, message in ((afile, "is a file, not a directory"), (broken, "cannot be read")):
+        assert main(["train", "--out", str(out), "--no-progress"]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and message in err
+    assert afile.read_text() == "mine" and [p.name for p in broken.iterdir()] == [
+        "train_settings.json"
+    ]
 
 
 def test_an_env_the_gp_critic_refuses_leaves_the_directory_free_for_the_mlp_critic(
@@ -328,9 +349,10 @@ def test_interrupted_train_saves_its_checkpoint_and_the_same_command_resumes(
     how: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     """Interrupted in its third rollout (2 envs x 64 steps each), the run's checkpoint holds
-    the policy of a run trained for two rollouts, bit for bit; the same command resumes it
-    to the budget, twice alike, with one progress.csv over both parts (a row logged after the
-    checkpoint dropped); once finished, the command leaves the run as it is."""
+    the policy of a run trained for two rollouts, bit for bit, and its step count (the cut
+    rollout dropped); the same command resumes it to the budget, twice alike, with one
+    progress.csv over both parts (a row logged after the checkpoint dropped); once finished,
+    the command leaves the run as it is."""
     argv = ["train", "--algo", "ppo", "--env", "InterruptAt-v0", "--n-envs", "2"]
     argv += ["--n-steps", "64", "--max-basis", "32", "--seed", "3", "--no-progress"]
     out = tmp_path / "run"
@@ -340,7 +362,7 @@ def test_interrupted_train_saves_its_checkpoint_and_the_same_command_resumes(
     assert signal.getsignal(signal.SIGTERM) == handler
     assert "run the same command to resume" in capsys.readouterr().err
     assert not (out / "model.zip").exists()
-    assert PPO.load(out / "checkpoint.zip").num_timesteps == 2 * 138
+    assert PPO.load(out / "checkpoint.zip").num_timesteps == 256
     InterruptAt.at = None
     assert main([*argv, "--timesteps", "256", "--out", str(tmp_path / "two_rollouts")]) == 0
     _assert_same_state(
@@ -358,20 +380,58 @@ def test_interrupted_train_saves_its_checkpoint_and_the_same_command_resumes(
         assert main([*argv, "--timesteps", "512", "--out", str(run)]) == 0
         assert not (run / "checkpoint.zip").exists()
         assert not (run / "progress_earlier.csv").exists()
-    assert "(resumed at 276)" in capsys.readouterr().out
+    assert "(resumed at 256)" in capsys.readouterr().out
     model = PPO.load(out / "model.zip")
-    assert model.num_timesteps == 276 + 2 * 128
+    assert model.num_timesteps == 512
     _assert_same_state(_policy_state(out / "model.zip"), _policy_state(twin / "model.zip"))
     log = read_critic_log(out / "progress.csv")
     assert log is not None
-    np.testing.assert_array_equal(log.timesteps, [128, 256, 276 + 128, 276 + 256])
+    np.testing.assert_array_equal(log.timesteps, [128, 256, 384, 512])
     assert np.isfinite(log.explained_variance).all()
-    assert (out / "monitor" / "from_276").is_dir()
+    assert (out / "monitor" / "from_256").is_dir()
 
     saved = (out / "model.zip").read_bytes()
     assert main([*argv, "--timesteps", "512", "--out", str(out)]) == 0
     assert "trained already" in capsys.readouterr().out
     assert (out / "model.zip").read_bytes() == saved
+
+
+def test_interrupted_in_ppos_update_the_actor_is_as_before_it(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Ctrl-C in the middle of the third rollout's PPO update (its 45th optimiser step of 20
+    per update): the checkpoint's actor and optimiser are those of the run trained for two
+    rollouts, bit for bit, and its GP critic, which learnt the third rollout before the update,
+    that of the run trained for three; the third rollout's steps count."""
+    argv = ["train", "--algo", "ppo", "--env", "CartPole-v1", "--n-envs", "2", "--n-steps"]
+    argv += ["64", "--max-basis", "32", "--seed", "3", "--no-progress"]
+    runs = {n: tmp_path / f"rollouts_{n}" for n in (2, 3)}
+    for n, path in runs.items():
+        assert main([*argv, "--timesteps", str(128 * n), "--out", str(path)]) == 0
+    step, calls = th.optim.Adam.step, [0]
+
+    def interrupting(self: th.optim.Adam, *args: Any, **kwargs: Any) -> Any:
+        calls[0] += 1
+        if calls[0] == 45:
+            raise KeyboardInterrupt
+        return step(self, *args, **kwargs)
+
+    monkeypatch.setattr(th.optim.Adam, "step", interrupting)
+    out = tmp_path / "run"
+    assert main([*argv, "--timesteps", "512", "--out", str(out)]) == 130
+    monkeypatch.setattr(th.optim.Adam, "step", step)
+    saved = PPO.load(out / "checkpoint.zip")
+    assert saved.num_timesteps == 384
+    actors = {n: PPO.load(path / "model.zip").policy for n, path in runs.items()}
+    parameters = dict(saved.policy.named_parameters())
+    for name, value in actors[2].named_parameters():
+        assert th.equal(parameters[name], value), name
+    moments = saved.policy.optimizer.state_dict()["state"]
+    expected = actors[2].optimizer.state_dict()["state"]
+    assert moments.keys() == expected.keys()
+    for index, state in expected.items():
+        _assert_same_state(moments[index], state)
+    assert_same_state(actors[3].gp.state_dict(), saved.policy.gp.state_dict())
 
 
 def _episodes(monitor: Path) -> list[list[tuple[str, str]]]:

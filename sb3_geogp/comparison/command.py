@@ -392,11 +392,18 @@ def run_from_args(args: argparse.Namespace) -> int:
     if args.estimate_from is not None:
         from sb3_geogp.comparison.results import estimate_sweep_seconds, load_results
 
-        est = estimate_sweep_seconds(load_results(args.estimate_from), specs, workers=args.workers)
+        calibration = load_results(args.estimate_from)
+        if not calibration:
+            raise UsageError(
+                f"--estimate-from {args.estimate_from}: no run files in its runs/ folder; pass "
+                "a sweep's --out"
+            )
+        est = estimate_sweep_seconds(calibration, specs, workers=args.workers)
         counted = n_total - est["uncounted_runs"]
         print(
-            f"estimate for {counted} of {n_total} runs: {est['total_seconds'] / 3600:.2f} CPU "
-            f"hours, {est['wall_seconds'] / 3600:.2f} h with {args.workers} workers on idle cores"
+            f"estimate (an upper bound) for {counted} of {n_total} runs: "
+            f"{est['total_seconds'] / 3600:.2f} CPU hours, {est['wall_seconds'] / 3600:.2f} h "
+            f"with {args.workers} workers on idle cores"
         )
         if est["missing"]:
             print(

@@ -116,7 +116,10 @@ def test_tiny_sweep_end_to_end_and_resume(
     assert main(argv) == 0
     printed = capsys.readouterr().out
     assert "CPU hours" in printed and "ppo/mlp" in printed  # only a2c was calibrated
-    assert "estimate for 0 of " in printed and "not counted, 3 cells" in printed
+    assert "estimate (an upper bound) for 0 of " in printed and "not counted, 3 cells" in printed
+    # a folder without run files (a typo, or its runs/ folder passed) is refused
+    assert main([*argv[:2], str(out / "runs"), *argv[3:]]) == 2
+    assert "no run files in its runs/ folder" in capsys.readouterr().err
     if importlib.util.find_spec("matplotlib") is not None:
         written = write_report(out, baseline_dir=out)  # against itself: every difference 0
         names = {p.name for p in written}
