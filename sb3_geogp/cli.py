@@ -440,7 +440,7 @@ class _LastUpdate(BaseCallback):
 
     def __init__(self) -> None:
         super().__init__()
-        self.rollout_start = 0
+        self.rollout_start: int | None = None  # None: interrupted before the first rollout
         self.before_update: tuple[dict[str, th.Tensor], dict[str, Any]] | None = None
 
     def _on_rollout_start(self) -> None:
@@ -458,7 +458,8 @@ class _LastUpdate(BaseCallback):
     def undo_unfinished(self, model: OnPolicyAlgorithm) -> None:
         """Put ``model`` back to its last completed update (see the class docstring)."""
         if self.before_update is None:
-            model.num_timesteps = self.rollout_start
+            if self.rollout_start is not None:
+                model.num_timesteps = self.rollout_start
             return
         parameters, optimizer = self.before_update
         with th.no_grad():
