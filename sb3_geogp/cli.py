@@ -213,6 +213,11 @@ def check_train_args(args: argparse.Namespace, out: Path) -> None:
     check_env_spaces(args.env, args.critic)
     check_device(args.device)
     saved = out / _SETTINGS
+    if (out / "model.zip").is_file() and not saved.is_file():
+        raise UsageError(
+            f"{out} holds a model.zip that sb3-geogp train did not write (no {_SETTINGS}); "
+            "pass another --out"
+        )
     try:
         made = json.loads(saved.read_text()) if saved.is_file() else None
     except ValueError as err:

@@ -236,18 +236,26 @@ def test_user_errors_are_one_line_with_exit_status_2(
 def test_an_out_that_is_a_file_or_holds_unreadable_settings_is_refused(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    """One line, exit status 2, the file and the folder as they were."""
-    afile, broken = tmp_path / "afile", tmp_path / "broken"
+    """One line, exit status 2, the files and folders as they were (a model.zip without the
+    settings train writes is not a finished run of this command)."""
+    afile, broken, foreign = tmp_path / "afile", tmp_path / "broken", tmp_path / "foreign"
     afile.write_text("mine")
     broken.mkdir()
     (broken / "train_settings.json").write_text("{not json")
-    for out, message in ((afile, "is a file, not a directory"), (broken, "cannot be read")):
+    foreign.mkdir()
+    (foreign / "model.zip").write_text("someone else's")
+    for out, message in (
+        (afile, "is a file, not a directory"),
+        (broken, "cannot be read"),
+        (foreign, "holds a model.zip that sb3-geogp train did not write"),
+    ):
         assert main(["train", "--out", str(out), "--no-progress"]) == 2
         err = capsys.readouterr().err
         assert err.count("\n") == 1 and message in err
     assert afile.read_text() == "mine" and [p.name for p in broken.iterdir()] == [
         "train_settings.json"
     ]
+    assert [p.name for p in foreign.iterdir()] == ["model.zip"]
 
 
 def test_an_env_the_gp_critic_refuses_leaves_the_directory_free_for_the_mlp_critic(
