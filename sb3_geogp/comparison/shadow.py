@@ -38,7 +38,7 @@ from tqdm.auto import tqdm
 
 from sb3_geogp.callbacks import GPValueCallback, Target
 from sb3_geogp.comparison.run import build_model, write_json_atomic
-from sb3_geogp.comparison.specs import RunSpec, SweepConfig
+from sb3_geogp.comparison.specs import RunSpec, SweepConfig, setting_differences
 from sb3_geogp.kernels import Kernel
 from sb3_geogp.policies import GPActorCriticPolicy
 from sb3_geogp.sparse_gp import SparseOnlineGP
@@ -354,15 +354,13 @@ def check_run_settings(args: argparse.Namespace, reading: Collection[str] = ()) 
     elif published.exists():
         saved = json.loads(published.read_text()).get("args")
     if saved is not None and any((args.out / "runs").glob("*.json")):
-        differ = [
-            f"{k}: {saved[k]!r} there, {v!r} now"
-            for k, v in settings.items()
-            if k in saved and saved[k] != v
-        ]
-        if differ:
+        common = [k for k in settings if k in saved]
+        made, asked = {k: saved[k] for k in common}, {k: settings[k] for k in common}
+        if made != asked:
             raise SystemExit(
-                f"error: {args.out} holds runs made with other settings ({'; '.join(differ)}); "
-                "pass another --out, or the same settings to add seeds or actors"
+                f"error: {args.out} holds runs made with other settings "
+                f"({setting_differences(made, asked)}); pass another --out, or the same "
+                "settings to add seeds or actors"
             )
     write_json_atomic(stored, settings)
 
