@@ -35,7 +35,7 @@ import numpy as np
 import torch
 from torch import Tensor, nn
 
-from sb3_geogp import defaults
+from sb3_geogp import defaults, saved_state, trends
 from sb3_geogp.adaptation import (
     Adaptation,
     Projection,
@@ -48,16 +48,17 @@ from sb3_geogp.adaptation import (
     lagged_forgetting_scores,
     linear_moments,
     nlpd,
-    posterior_cholesky,
     sparse_posterior,
     thinned,
     weighted_moments,
-    whitened_prior,
 )
 from sb3_geogp.graph import BVGraph
 from sb3_geogp.kernels import Kernel, KernelName, make_kernel
 from sb3_geogp.kernels.base import BasisMatrices, Rows
 from sb3_geogp.options import check_same_options, positive_int
+from sb3_geogp.posterior_cache import PosteriorMatrices
+from sb3_geogp.rollback import Rollback
+from sb3_geogp.trends import RISE_THRESHOLD as RISE_THRESHOLD
 from sb3_geogp.user_warnings import warn_user
 
 ArrayLike = Tensor | np.ndarray | Sequence[Any]
@@ -75,27 +76,8 @@ _FLOOR_MAX = 0.99
 #: Largest growth of ``||Q||`` (times the signal variance) one new BV may cause.
 _Q_GROWTH = 1e4
 
-
-#: Stored options that may differ on load (they only steer later updates).
-_UPDATE_RULES = (
-    "novelty_tol",
-    "forgetting",
-    "forgetting_points",
-    "adapt",
-    "optimism",
-    "optimism_cap",
-)
 #: Prior mean functions of :class:`SparseOnlineGP`.
 _PRIOR_MEANS = ("constant", "linear")
-#: Trends of :class:`SparseOnlineGP`.
-_TRENDS = ("none", "constant", "linear", "level", "sloped_level", "rising_level")
-#: Standard errors of a batch's mean error by which ``trend="rising_level"`` must exceed 0
-#: to rise: the excess is the step. Two keep noise from ratcheting it up: with bootstrapped
-#: targets each rise lifts the next targets, and a level that rose with every positive mean
-#: ended far above the returns on A2C CartPole (docs/results.md, session 28).
-RISE_THRESHOLD = 2.0
-#: Ridge of the trend's lines, per point, on the raw second moments of ``[x, 1]``.
-_TREND_RIDGE = 1e-3
 #: Points retained for :meth:`SparseOnlineGP.fit_hyperparameters` without adaptation.
 _DEFAULT_WINDOW = Adaptation.window
 #: Weight of the newest batch in the spreads that cap the optimism bonus (session 29's value).
@@ -116,45 +98,6 @@ _COUNTERS = (
     "summary_batch",
     "last_batch_points",
 )
-
-
-def _with_ones(x: Tensor) -> Tensor:
-    """``[x, 1]``: ``x : (n, d)`` with a column of ones, shape (n, d + 1)."""
-    return torch.cat([x, torch.ones(x.shape[0], 1, dtype=x.dtype, device=x.device)], dim=1)
-
-
-def _error_step(A: Tensor, error: Tensor) -> Tensor:
-    """The sloped level's step for a batch's errors ``error : (n,)`` at ``A = [x, 1] : (n,
-    d + 1)``, shape (d + 1,): their ridge line where the lines fit on either half of the batch
-    predict the other half's errors better than that half's mean error does, else their mean
-    alone: a line that does not carry over between the halves of its own batch is the batch's
-    noise. A batch of one point has no halves: its mean error alone."""
-    level = torch.zeros_like(A[0])
-    level[-1] = error.mean()
-    half = error.shape[0] // 2
-    if half == 0:
-        return level
-    first, second = slice(None, half), slice(half, None)
-    for fit, held in ((first, second), (second, first)):
-        line_sse = (error[held] - A[held] @ _ridge_line(A[fit], error[fit])).square().sum()
-        if line_sse >= (error[held] - error[fit].mean()).square().sum():
-            return level
-    return _ridge_line(A, error)
-
-
-def _rise(error: Tensor) -> Tensor:
-    """The rising level's step from a batch's errors ``error : (n,)``: what their mean exceeds
-    :data:`RISE_THRESHOLD` standard errors by, or 0; shape ()."""
-    n = error.numel()
-    se = error.std() / math.sqrt(n) if n > 1 else torch.zeros_like(error[0])
-    return (error.mean() - RISE_THRESHOLD * se).clamp(min=0)
-
-
-def _ridge_line(A: Tensor, y: Tensor) -> Tensor:
-    """Ridge coefficients of ``y : (n,)`` on the columns of ``A : (n, p)``, shape (p,), with
-    the ridge :data:`_TREND_RIDGE` per point on the raw second moments."""
-    ridge = _TREND_RIDGE * y.shape[0] * torch.eye(A.shape[1], dtype=A.dtype, device=A.device)
-    return torch.linalg.solve(A.T @ A + ridge, A.T @ y)
 
 
 def _check_cap(cap: float | None, optimism: float, adaptation: Adaptation | None) -> None:
@@ -294,8 +237,9 @@ class SparseOnlineGP(nn.Module):
         batch's errors, ``w <- w + ridge(y - w^T [x, 1] - mu(x))``, where the lines fit on
         either half of the batch predict the other half's errors better than its mean error
         (else by the mean error alone, as the level); ``"rising_level"``: a level that only
-        rises, by what the batch's mean error exceeds :data:`RISE_THRESHOLD` standard errors
-        by, ``b <- b + max(0, mean(e) - 2 std(e) / sqrt(n))``, so that a critic left below
+        rises, by what the batch's mean error exceeds
+        :data:`~sb3_geogp.trends.RISE_THRESHOLD` standard errors by,
+        ``b <- b + max(0, mean(e) - 2 std(e) / sqrt(n))``, so that a critic left below
         its (bootstrapped) targets catches up within a batch while one above them, an
         optimistic one, comes down only as its GP absorbs the data, and noise alone rarely
         moves it (docs/method.md, section 4).
@@ -470,8 +414,8 @@ class SparseOnlineGP(nn.Module):
                 "prior_mean='linear' fits its own intercept: leave target_mean None, or use "
                 "prior_mean='constant' to fix the mean"
             )
-        if trend not in _TRENDS:
-            raise ValueError(f"trend must be one of {_TRENDS}, got {trend!r}")
+        if trend not in trends.TRENDS:
+            raise ValueError(f"trend must be one of {trends.TRENDS}, got {trend!r}")
         if not (optimism >= 0 and math.isfinite(optimism)):
             raise ValueError(f"optimism must be a non-negative finite number, got {optimism}")
         if trend == "linear" and prior_mean == "linear":
@@ -549,8 +493,8 @@ class SparseOnlineGP(nn.Module):
         self.register_buffer("bonus_spreads", torch.zeros(2, **kw))
         self.window = RetainedWindow(size, self.input_dim).to(**kw)
         self.last_stats: dict[str, float] = {}
-        self._cache: _PosteriorMatrices | None = None
-        self._rollback: _Rollback | None = None
+        self._cache: PosteriorMatrices | None = None
+        self._rollback: Rollback | None = None
 
     # ------------------------------------------------------------------------------------------
     # Read-only views
@@ -661,27 +605,17 @@ class SparseOnlineGP(nn.Module):
 
     def _trend(self, x: Tensor) -> Tensor:
         """The trend ``w^T [x, 1]`` of ``x : (n, d)``, shape (n,); 0 without one."""
-        return _with_ones(x) @ self.trend_coef
+        return trends.value(self.trend_coef, x)
 
     def _fit_trend(self, x: Tensor, y: Tensor) -> Tensor:
-        """Refit the trend to the batch ``(x, y)``; return what it leaves, ``y - trend(x)``.
-        A constant trend is the line with its slopes held at 0 (its last column alone); the
-        level moves by the batch's mean error under the model before it absorbs the batch, the
-        sloped level by the ridge line of those errors, the rising level by :func:`_rise`."""
-        if self.trend in ("level", "sloped_level", "rising_level"):
-            if self.n_basis > 0:
-                latent = self._latent(self._scaled(x), return_var=False)[0]
-                error = y - self._in_units(x, latent)
-                if self.trend == "level":
-                    self.trend_coef[-1] += error.mean()
-                elif self.trend == "rising_level":
-                    self.trend_coef[-1] += _rise(error)
-                else:
-                    self.trend_coef += _error_step(_with_ones(x), error)
-            return y - self._trend(x)
-        fitted = slice(None) if self.trend == "linear" else slice(-1, None)
-        self.trend_coef.zero_()
-        self.trend_coef[fitted] = _ridge_line(_with_ones(x)[:, fitted], y)
+        """Move the trend with the batch ``(x, y)`` (:func:`~sb3_geogp.trends.move`; a level by
+        the model's errors on the batch before it absorbs it); return what it leaves,
+        ``y - trend(x)``."""
+        error = None
+        if self.trend in trends.LEVELS and self.n_basis > 0:
+            latent = self._latent(self._scaled(x), return_var=False)[0]
+            error = y - self._in_units(x, latent)
+        trends.move(self.trend, self.trend_coef, x, y, error)
         return y - self._trend(x)
 
     def _prior(self, x: Tensor) -> Tensor:
@@ -692,7 +626,7 @@ class SparseOnlineGP(nn.Module):
         """``(y - m(x)) / scale``: the targets the GP models."""
         return (y - self._prior(x)) / self.y_scale
 
-    def _matrices(self) -> _PosteriorMatrices:
+    def _matrices(self) -> PosteriorMatrices:
         """The basis matrices of the current state, each formed once and kept while valid.
 
         Updates tell the cache what they change (the posterior, ``Q``, the basis, whose Gram
@@ -701,7 +635,7 @@ class SparseOnlineGP(nn.Module):
         and the first batch (which sets the lengthscale) empty it.
         """
         if self._cache is None:
-            self._cache = _PosteriorMatrices(self)
+            self._cache = PosteriorMatrices(self)
         return self._cache
 
     def _apply(self, fn: Callable[[Tensor], Tensor], recurse: bool = True) -> SparseOnlineGP:
@@ -739,72 +673,21 @@ class SparseOnlineGP(nn.Module):
         return self.options()
 
     def set_extra_state(self, state: Any) -> None:
-        if isinstance(state, dict):
-            # saved before 0.8 (prior_mean, trend), 0.13 (forgetting_points), 0.18 (optimism),
-            # 0.19 (optimism_cap)
-            older = {
-                "prior_mean": "constant",
-                "trend": "none",
-                "forgetting_points": None,
-                "optimism": 0.0,
-                "optimism_cap": None,
-            }
-            state = {**older, **state}
-        check_same_options("SparseOnlineGP", state, self.options(), _UPDATE_RULES)
+        state = saved_state.upgrade_options(state)
+        check_same_options("SparseOnlineGP", state, self.options(), saved_state.UPDATE_RULES)
 
     def _load_from_state_dict(
         self, state_dict: dict[str, Any], prefix: str, *args: Any, **kwargs: Any
     ) -> None:
-        _upgrade_v01_state(state_dict, prefix, self)
-        _upgrade_v02_state(state_dict, prefix, self)
-        scores = state_dict.get(prefix + "forgetting_scores")
-        if scores is None or scores.shape != self.forgetting_scores.shape:
-            # Another candidate list (adapt may change on load): the open block starts unscored.
-            state_dict[prefix + "forgetting_scores"] = torch.zeros_like(self.forgetting_scores)
-        # Saved before drift refits (0.6): the open block's targets count from the next batch.
-        state_dict.setdefault(prefix + "block_moments", torch.zeros_like(self.block_moments))
-        # Saved before fit refits (0.10): the open block's errors count as none (no fit refit).
-        state_dict.setdefault(prefix + "block_errors", torch.zeros_like(self.block_errors))
-        # Saved before snapshots (0.11): the summary holds only points that left the window.
-        state_dict.setdefault(prefix + "summary_batch", torch.zeros_like(self.summary_batch))
-        # Saved before lagged forgetting scores (0.12): the previous batch counts as its
-        # points in the window.
-        state_dict.setdefault(
-            prefix + "last_batch_points", torch.zeros_like(self.last_batch_points)
-        )
-        # Saved before the linear prior mean (0.8): a constant one; before the bonus cap (0.19):
-        # no spreads yet.
-        for name in ("y_slope", "summary_input", "trend_coef", "bonus_spreads"):
-            state_dict.setdefault(prefix + name, torch.zeros_like(getattr(self, name)))
+        saved_state.upgrade(state_dict, prefix, self)
         # Check every stored option before loading anything, so a refused state leaves this
         # GP exactly as it was (the kernel's check would otherwise come after the GP's buffers).
         for key, module in (("_extra_state", self), ("kernel._extra_state", self.kernel)):
             if prefix + key in state_dict:
                 module.set_extra_state(state_dict[prefix + key])
-        self._check_saved_posterior(state_dict, prefix)
+        saved_state.check_posterior(state_dict, prefix, self.max_basis)
         super()._load_from_state_dict(state_dict, prefix, *args, **kwargs)
         self._cache = None
-
-    def _check_saved_posterior(self, state_dict: Mapping[str, Any], prefix: str) -> None:
-        """Refuse a saved basis count this GP cannot hold, or a posterior with NaN or inf in its
-        used part (a corrupted save), before anything is loaded."""
-        count = state_dict.get(prefix + "count")
-        if count is None:
-            return
-        m = int(count)
-        if not 0 <= m <= self.max_basis + 1:
-            raise ValueError(
-                f"the saved state has {m} basis vectors, which a GP with max_basis="
-                f"{self.max_basis} cannot hold: it is corrupted or from another GP"
-            )
-        for name in ("alpha", "P", "Q"):
-            saved = state_dict.get(prefix + name)
-            used = None if saved is None else saved[:m, :m] if saved.ndim == 2 else saved[:m]
-            if used is not None and not bool(torch.isfinite(used).all()):
-                raise ValueError(
-                    f"the saved state's {name} holds NaN or inf: the GP it came from was "
-                    "corrupted; load an earlier save"
-                )
 
     def load_state_dict(
         self, state_dict: Mapping[str, Any], strict: bool = True, assign: bool = False
@@ -896,11 +779,12 @@ class SparseOnlineGP(nn.Module):
     @contextlib.contextmanager
     def _transaction(self) -> Iterator[None]:
         """Undo every change of the state if the body raises."""
-        self._rollback = _Rollback(self)
+        self._rollback = Rollback(self)
         try:
             yield
         except BaseException:
             self._rollback.restore()
+            self._cache = None
             raise
         finally:
             self._rollback = None
@@ -1804,16 +1688,6 @@ def _substitute(
     return vec[keep] - vec[j] * q_star, projected
 
 
-def _kqk(K: Tensor, Q: Tensor, nugget: Tensor) -> Tensor:
-    """``K Q K`` for ``Q = (K + N)^{-1}``, ``N = diag(nugget)``: ``K - N + N Q N``, in O(m^2).
-
-    Nuggets are rare (a near-duplicate BV), and without any ``K Q K = K``.
-    """
-    if not bool(nugget.any()):
-        return K
-    return K - torch.diag(nugget) + nugget[:, None] * Q * nugget
-
-
 def _thin(cap: int | None, *batch: Tensor) -> tuple[tuple[Tensor, ...], Tensor, bool]:
     """The points of ``batch`` (tensors of ``n`` rows) that :func:`~sb3_geogp.adaptation.
     thinned` keeps under ``cap``, the length of the run each stands for, and whether that is
@@ -1837,57 +1711,6 @@ def _store_sym(dest: Tensor, M: Tensor) -> None:
         return
     torch.add(M, M.T, out=dest)
     dest.mul_(0.5)
-
-
-def _upgrade_v02_state(state: dict[str, Any], prefix: str, gp: SparseOnlineGP) -> None:
-    """Add, in place, what a state saved before the retained window (sb3_geogp 0.1, 0.2) lacks:
-    an empty window, no closed block, and the saved lengthscale as the starting one; and what
-    one saved by 0.2 lacks: an empty summary of the points that left the window, and batch
-    indices for the window (from 0.2's block indices, so that a point's age in batches is its
-    age in blocks: its weight is that of 0.2)."""
-    for name in ("summary_prec", "summary_shift", "summary_unit", "summary_input"):
-        if prefix + name not in state:
-            state[prefix + name] = torch.zeros_like(getattr(gp, name))
-    if prefix + "window.block" in state:
-        # 0.2 counted ages in blocks, not batches: a retained point keeps its age, in batches.
-        offset = state[prefix + "n_batches"] - state[prefix + "n_blocks"]
-        state[prefix + "window.batch"] = state.pop(prefix + "window.block") + offset
-    if prefix + "window.count" in state:
-        return
-    extra = state.get(prefix + "_extra_state")
-    if isinstance(extra, dict):
-        state[prefix + "_extra_state"] = {**extra, "window": gp.window.size, "adapt": None}
-    for name, value in gp.window.state_dict().items():
-        state[prefix + "window." + name] = value
-    for name in ("n_blocks", "block_new", "n_pruned"):
-        state[prefix + name] = torch.zeros((), dtype=torch.long)
-    state[prefix + "block_forgetting"] = torch.tensor(gp.forgetting, dtype=gp.noise_var.dtype)
-    saved = state.get(prefix + "kernel.lengthscale")
-    state[prefix + "ls_start"] = gp.ls_start.clone() if saved is None else saved.clone()
-
-
-def _upgrade_v01_state(state: dict[str, Any], prefix: str, gp: SparseOnlineGP) -> None:
-    """Rename, in place, the entries of a state saved by sb3_geogp 0.1 (SB3 models included).
-
-    0.1 kept the BV graph, each BV's graph node and the trajectory's last node in the GP; they
-    now belong to the kernel (the BV nodes as the graph's ``basis_nodes``). 0.1 stored no
-    options: they are taken as this GP's (they cannot be checked).
-    """
-    if prefix + "bv_node" not in state:
-        return
-    state[prefix + "_extra_state"] = gp.get_extra_state()
-    state[prefix + "kernel._extra_state"] = gp.kernel.get_extra_state()
-    bv_node = state.pop(prefix + "bv_node")
-    traj_node = state.pop(prefix + "traj_node")
-    graph = gp.kernel.graph
-    if graph is None:
-        return
-    for key in [k for k in state if k.startswith(prefix + "graph.")]:
-        state[prefix + "kernel.tree." + key[len(prefix + "graph.") :]] = state.pop(key)
-    basis_nodes = torch.full((graph.capacity,), -1, dtype=torch.long)
-    basis_nodes[: bv_node.shape[0]] = bv_node
-    state[prefix + "kernel.tree.basis_nodes"] = basis_nodes
-    state[prefix + "kernel.traj_node"] = traj_node
 
 
 class _Insertion(NamedTuple):
@@ -1942,182 +1765,3 @@ class _Screen:
         if not 0 <= offset < self._gamma.shape[0]:
             return None
         return self._gamma[offset:]
-
-
-class _Rollback:
-    """What an update needs to undo itself, copied as little and as late as possible.
-
-    The GP's own buffers are copied up front, those indexed by BV slot only over the slots in
-    use (the rest is zero by construction: a deletion zeroes the freed slot); the kernel's own
-    buffers (hyperparameters, trajectory bookkeeping) are small and copied up front too; its
-    state over the basis (the geodesic kernel's graph) only changes when the basis does, and
-    is checkpointed (over the node slots in use) just before the first such change.
-    """
-
-    def __init__(self, gp: SparseOnlineGP) -> None:
-        self._gp = gp
-        self._m = gp.n_basis
-        self._own = {
-            name: _in_use(name, b, self._m).clone() for name, b in gp.named_buffers(recurse=False)
-        }
-        self._kernel = {name: b.clone() for name, b in gp.kernel.named_buffers(recurse=False)}
-        self._window = {name: b.clone() for name, b in gp.window.named_buffers()}
-        self._basis_saved = False
-        self._basis: Any = None
-
-    def before_basis_change(self) -> None:
-        if not self._basis_saved:
-            self._basis = self._gp.kernel.basis_checkpoint()
-            self._basis_saved = True
-
-    def restore(self) -> None:
-        """Put the state back as it was when the rollback was made."""
-        gp = self._gp
-        for name, b in gp.named_buffers(recurse=False):
-            if name in _PER_SLOT or name in _SLOT_BY_SLOT:
-                b.zero_()
-            _in_use(name, b, self._m).copy_(self._own[name])
-        for name, b in gp.kernel.named_buffers(recurse=False):
-            b.copy_(self._kernel[name])
-        for name, b in gp.window.named_buffers():
-            b.copy_(self._window[name])
-        if self._basis_saved:
-            gp.kernel.restore_basis(self._basis)
-        gp._cache = None
-
-
-#: GP buffers with one row per BV slot, and (m, m) ones.
-_PER_SLOT = frozenset(
-    {"bv_x", "bv_y", "nugget", "alpha", "summary_shift", "summary_unit", "summary_input"}
-)
-_SLOT_BY_SLOT = frozenset({"P", "Q", "summary_prec"})
-
-
-def _in_use(name: str, buffer: Tensor, m: int) -> Tensor:
-    """The part of the GP buffer ``name`` that holds the ``m`` BVs in use (a view)."""
-    if name in _SLOT_BY_SLOT:
-        return buffer[:m, :m]
-    if name in _PER_SLOT:
-        return buffer[:m]
-    return buffer
-
-
-class _PosteriorMatrices:
-    """:class:`~sb3_geogp.kernels.BasisMatrices` of a GP's current state, each formed on first use.
-
-    The GP keeps one and reports every change of its state; each report drops exactly the
-    products that it invalidates.
-    """
-
-    def __init__(self, gp: SparseOnlineGP) -> None:
-        self._gp = gp
-        self._values: dict[str, Tensor] = {}
-
-    @property
-    def _m(self) -> int:
-        return self._gp.n_basis
-
-    def _get(self, name: str, compute: Callable[[], Tensor]) -> Tensor:
-        if name not in self._values:
-            self._values[name] = compute()
-        return self._values[name]
-
-    def has(self, name: str) -> bool:
-        return name in self._values
-
-    def posterior_changed(self) -> None:
-        """``alpha`` and ``P`` changed."""
-        for name in ("K_alpha", "KPK", "P_cholesky", "S"):
-            self._values.pop(name, None)
-
-    def Q_changed(self) -> None:
-        """``Q`` (or the nuggets) changed."""
-        for name in ("KQK", "least_novelty", "S", "K_nugget"):
-            self._values.pop(name, None)
-
-    def basis_grew(self, k: Tensor, variance: Tensor) -> None:
-        """A BV with Gram row ``k : (m,)`` was appended (call before the count grows)."""
-        K = self._values.get("K")
-        self._values = {}
-        if K is not None:
-            m = K.shape[0]
-            grown = K.new_empty(m + 1, m + 1)
-            grown[:m, :m] = K
-            grown[m, :m] = grown[:m, m] = k
-            grown[m, m] = variance
-            self._values["K"] = grown
-
-    def basis_shrank(self, keep: Tensor) -> None:
-        """Only the BVs ``keep`` (indices, in order) remain (call before the count drops)."""
-        K = self._values.get("K")
-        self._values = {}
-        if K is not None:
-            self._values["K"] = K[keep[:, None], keep]
-
-    @property
-    def alpha(self) -> Tensor:
-        return self._gp.alpha[: self._m]
-
-    @property
-    def Q(self) -> Tensor:
-        return self._gp.Q[: self._m, : self._m]
-
-    @property
-    def P(self) -> Tensor:
-        return self._gp.P[: self._m, : self._m]
-
-    @property
-    def z(self) -> Tensor:
-        """Basis inputs in lengthscale units, shape (m, d)."""
-        return self._get("z", lambda: self._gp.kernel.scale(self._gp.bv_x[: self._m]))
-
-    @property
-    def K(self) -> Tensor:
-        return self._get("K", lambda: self._gp.kernel.gram(self.z))
-
-    @property
-    def K_nugget(self) -> Tensor:
-        """``K`` with the nuggets on its diagonal, ``K_zz`` of the posterior."""
-        return self._get("K_nugget", lambda: self.K + torch.diag(self._gp.nugget[: self._m]))
-
-    @property
-    def K_alpha(self) -> Tensor:
-        return self._get("K_alpha", lambda: self.K @ self.alpha)
-
-    @property
-    def KQK(self) -> Tensor:
-        return self._get("KQK", lambda: _kqk(self.K, self.Q, self._gp.nugget[: self._m]))
-
-    @property
-    def KPK(self) -> Tensor:
-        return self._get("KPK", lambda: self.K @ self.P @ self.K)
-
-    @property
-    def P_cholesky(self) -> Tensor:
-        """:func:`~sb3_geogp.adaptation.posterior_cholesky` of ``P``, in float64 whatever the
-        state's dtype, shape (m, m): one factorisation per state serves the snapshot, the
-        lagged scores and the lagged forgetting of a batch."""
-        # Row-major, as LAPACK's column-major factor is not: the solves then round as they did
-        # before the factor was shared (0.13), and training runs repeat bit for bit.
-        return self._get("P_cholesky", lambda: posterior_cholesky(self.P.double()).contiguous())
-
-    @property
-    def P_factor(self) -> tuple[Tensor, Tensor]:
-        """:attr:`P_cholesky` ``L`` and ``S = L^T K L`` (:func:`~sb3_geogp.adaptation.
-        whitened_prior`, ``K`` with the nuggets), float64, shapes (m, m)."""
-        L = self.P_cholesky
-
-        def whitened() -> Tensor:
-            return whitened_prior(L, self.K_nugget.double())
-
-        return L, self._get("S", whitened)
-
-    @property
-    def least_novelty(self) -> Tensor:
-        """Smallest relative novelty of a BV given the others, ``min_i 1 / (Q_ii k_ii)``."""
-
-        def least() -> Tensor:
-            prior = self._gp.kernel.variance + self._gp.nugget[: self._m]
-            return (1.0 / (torch.diagonal(self.Q) * prior)).min()
-
-        return self._get("least_novelty", least)

@@ -1,0 +1,142 @@
+"""States saved by a sparse GP: what a state saved by an older version lacks, and the checks a
+state passes before anything of it is loaded (a refused state leaves the GP as it was).
+
+Each addition to the state since 0.1 has an entry here that fills it in as the older version
+behaved, so that every saved model loads and predicts as it did.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import TYPE_CHECKING, Any
+
+import torch
+
+if TYPE_CHECKING:
+    from sb3_geogp.sparse_gp import SparseOnlineGP
+
+#: Stored options that may differ on load (they only steer later updates).
+UPDATE_RULES = (
+    "novelty_tol",
+    "forgetting",
+    "forgetting_points",
+    "adapt",
+    "optimism",
+    "optimism_cap",
+)
+#: Options added to the state after 0.2, as the versions before them behaved: 0.8
+#: (prior_mean, trend), 0.13 (forgetting_points), 0.18 (optimism), 0.19 (optimism_cap).
+_OPTIONS_BEFORE = {
+    "prior_mean": "constant",
+    "trend": "none",
+    "forgetting_points": None,
+    "optimism": 0.0,
+    "optimism_cap": None,
+}
+
+
+def upgrade_options(options: Any) -> Any:
+    """Stored options with those an older version did not store set as it behaved (anything
+    but a dict is returned as it is, for the options check to refuse)."""
+    return {**_OPTIONS_BEFORE, **options} if isinstance(options, dict) else options
+
+
+def upgrade(state: dict[str, Any], prefix: str, gp: SparseOnlineGP) -> None:
+    """Add to ``state``, in place, every buffer of ``gp`` that a state saved by an older
+    version lacks (entries under ``prefix``), as that version behaved; and start the open block
+    unscored where the forgetting candidates differ (``adapt`` may change on load)."""
+    _upgrade_v01(state, prefix, gp)
+    _upgrade_v02(state, prefix, gp)
+    scores = state.get(prefix + "forgetting_scores")
+    if scores is None or scores.shape != gp.forgetting_scores.shape:
+        state[prefix + "forgetting_scores"] = torch.zeros_like(gp.forgetting_scores)
+    # Saved before drift refits (0.6): the open block's targets count from the next batch.
+    # Before fit refits (0.10): the open block's errors count as none (no fit refit).
+    # Before snapshots (0.11): the summary holds only points that left the window.
+    # Before lagged forgetting scores (0.12): the previous batch counts as its points in the
+    # window. Before the linear prior mean (0.8): a constant one. Before the bonus cap (0.19):
+    # no spreads yet.
+    for name in (
+        "block_moments",
+        "block_errors",
+        "summary_batch",
+        "last_batch_points",
+        "y_slope",
+        "summary_input",
+        "trend_coef",
+        "bonus_spreads",
+    ):
+        state.setdefault(prefix + name, torch.zeros_like(getattr(gp, name)))
+
+
+def check_posterior(state: Mapping[str, Any], prefix: str, max_basis: int) -> None:
+    """Refuse a saved basis count that a GP of ``max_basis`` cannot hold, or a posterior with
+    NaN or inf in its used part (a corrupted save)."""
+    count = state.get(prefix + "count")
+    if count is None:
+        return
+    m = int(count)
+    if not 0 <= m <= max_basis + 1:
+        raise ValueError(
+            f"the saved state has {m} basis vectors, which a GP with max_basis="
+            f"{max_basis} cannot hold: it is corrupted or from another GP"
+        )
+    for name in ("alpha", "P", "Q"):
+        saved = state.get(prefix + name)
+        used = None if saved is None else saved[:m, :m] if saved.ndim == 2 else saved[:m]
+        if used is not None and not bool(torch.isfinite(used).all()):
+            raise ValueError(
+                f"the saved state's {name} holds NaN or inf: the GP it came from was "
+                "corrupted; load an earlier save"
+            )
+
+
+def _upgrade_v02(state: dict[str, Any], prefix: str, gp: SparseOnlineGP) -> None:
+    """Add, in place, what a state saved before the retained window (sb3_geogp 0.1, 0.2) lacks:
+    an empty window, no closed block, and the saved lengthscale as the starting one; and what
+    one saved by 0.2 lacks: an empty summary of the points that left the window, and batch
+    indices for the window (from 0.2's block indices, so that a point's age in batches is its
+    age in blocks: its weight is that of 0.2)."""
+    for name in ("summary_prec", "summary_shift", "summary_unit", "summary_input"):
+        if prefix + name not in state:
+            state[prefix + name] = torch.zeros_like(getattr(gp, name))
+    if prefix + "window.block" in state:
+        # 0.2 counted ages in blocks, not batches: a retained point keeps its age, in batches.
+        offset = state[prefix + "n_batches"] - state[prefix + "n_blocks"]
+        state[prefix + "window.batch"] = state.pop(prefix + "window.block") + offset
+    if prefix + "window.count" in state:
+        return
+    extra = state.get(prefix + "_extra_state")
+    if isinstance(extra, dict):
+        state[prefix + "_extra_state"] = {**extra, "window": gp.window.size, "adapt": None}
+    for name, value in gp.window.state_dict().items():
+        state[prefix + "window." + name] = value
+    for name in ("n_blocks", "block_new", "n_pruned"):
+        state[prefix + name] = torch.zeros((), dtype=torch.long)
+    state[prefix + "block_forgetting"] = torch.tensor(gp.forgetting, dtype=gp.noise_var.dtype)
+    saved = state.get(prefix + "kernel.lengthscale")
+    state[prefix + "ls_start"] = gp.ls_start.clone() if saved is None else saved.clone()
+
+
+def _upgrade_v01(state: dict[str, Any], prefix: str, gp: SparseOnlineGP) -> None:
+    """Rename, in place, the entries of a state saved by sb3_geogp 0.1 (SB3 models included).
+
+    0.1 kept the BV graph, each BV's graph node and the trajectory's last node in the GP; they
+    now belong to the kernel (the BV nodes as the graph's ``basis_nodes``). 0.1 stored no
+    options: they are taken as this GP's (they cannot be checked).
+    """
+    if prefix + "bv_node" not in state:
+        return
+    state[prefix + "_extra_state"] = gp.get_extra_state()
+    state[prefix + "kernel._extra_state"] = gp.kernel.get_extra_state()
+    bv_node = state.pop(prefix + "bv_node")
+    traj_node = state.pop(prefix + "traj_node")
+    graph = gp.kernel.graph
+    if graph is None:
+        return
+    for key in [k for k in state if k.startswith(prefix + "graph.")]:
+        state[prefix + "kernel.tree." + key[len(prefix + "graph.") :]] = state.pop(key)
+    basis_nodes = torch.full((graph.capacity,), -1, dtype=torch.long)
+    basis_nodes[: bv_node.shape[0]] = bv_node
+    state[prefix + "kernel.tree.basis_nodes"] = basis_nodes
+    state[prefix + "kernel.traj_node"] = traj_node
