@@ -171,7 +171,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
         if args.command == "compare":
-            return run_from_args(args)
+            with _sigterm_interrupts():
+                return run_from_args(args)
         train(args)
     except UsageError as err:
         print(f"sb3-geogp {args.command}: error: {err}", file=sys.stderr)
@@ -607,8 +608,9 @@ def _finish_logs(args: argparse.Namespace, out: Path) -> Path | None:
 
 @contextlib.contextmanager
 def _sigterm_interrupts() -> Iterator[None]:
-    """SIGTERM (a batch system's stop, ``kill``) interrupts as Ctrl-C does, so that the run
-    saves its checkpoint; only the main thread can handle signals."""
+    """SIGTERM (a batch system's stop, ``kill``) interrupts as Ctrl-C does, so that a training
+    run saves its checkpoint and a sweep stops its workers and says what it kept; only the main
+    thread can handle signals."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return

@@ -5,8 +5,9 @@ A Ctrl-C in a terminal reaches every process of the foreground group. In a plain
 run's exception and starts the next one it holds, and leaving the executor's ``with`` block
 waits for every queued run: a sweep of quick runs with two workers took 98 s to stop. Here a
 worker exits on SIGINT, and the parent cancels what is queued (on any error, not only
-Ctrl-C). A run cut short is lost whole, so a sweep that writes each run's file at its end,
-atomically, resumes where it stopped.
+Ctrl-C) and, when it is interrupted itself, ends the workers' running tasks (a SIGTERM sent to
+the parent alone reaches no worker). A run cut short is lost whole, so a sweep that writes each
+run's file at its end, atomically, resumes where it stopped.
 """
 
 from __future__ import annotations
@@ -40,8 +41,10 @@ def worker_pool(
     Yields
     ------
     concurrent.futures.ProcessPoolExecutor
-        When the block raises (a :class:`KeyboardInterrupt`, or a task's error re-raised by
-        ``result()``) the queued tasks are cancelled before the exception goes on.
+        When the block raises, the queued tasks are cancelled before the exception goes on;
+        on a :class:`KeyboardInterrupt` the workers are also ended in their running tasks
+        (the parent alone may have been interrupted: a SIGTERM it turns into one), while a
+        task's error re-raised by ``result()`` lets the running tasks finish.
     """
     pool = cf.ProcessPoolExecutor(
         max_workers=workers,
@@ -51,11 +54,27 @@ def worker_pool(
     )
     try:
         yield pool
+    except KeyboardInterrupt:
+        # A SIGTERM the parent turned into an interrupt (or a Ctrl-C the workers did not
+        # get, as when only the parent is signalled) leaves them in their tasks: leaving
+        # would wait for those runs to end.
+        _stop_workers(pool)
+        raise
     except BaseException:
         pool.shutdown(cancel_futures=True)
         raise
     finally:
         pool.shutdown()
+
+
+def _stop_workers(pool: cf.ProcessPoolExecutor) -> None:
+    """End the workers in their running tasks; the executor's thread then fails the tasks
+    they held, and shutting down waits for that thread alone."""
+    # The executor's own process table: Python 3.14's terminate_workers() reads it too, but
+    # does not wait for the executor's thread, which leaves futures pending after the block.
+    for process in list((getattr(pool, "_processes", None) or {}).values()):
+        process.terminate()
+    pool.shutdown(cancel_futures=True)
 
 
 def _start_worker(initializer: Callable[..., None] | None, initargs: tuple[Any, ...]) -> None:

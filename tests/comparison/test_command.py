@@ -5,7 +5,10 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
+import signal
 import sys
+import time
 from pathlib import Path
 from typing import Any
 
@@ -212,11 +215,16 @@ def test_compare_on_an_environment_only_the_test_knows(
     assert err.count("\n") == 1 and "other threshold than requested (-3.0 there, -4.0 now)" in err
 
 
+@pytest.mark.parametrize("how", ["ctrl-c", "sigterm"])
 def test_an_interrupted_sweep_says_so_and_the_same_command_resumes_it(
-    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+    how: str,
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
 ) -> None:
-    """Ctrl-C during the second of two runs (one worker, in this process): exit status 130, one
-    line naming the runs kept, the first run's file; the same command runs only the second."""
+    """Ctrl-C, or a SIGTERM sent to the process, during the second of two runs (one worker, in
+    this process): exit status 130, one line naming the runs kept, the first run's file; the
+    same command runs only the second. SIGTERM's handler is the caller's again after."""
     import sb3_geogp.comparison.sweep as sweep
 
     yml = tmp_path / "ppo.yml"
@@ -230,11 +238,23 @@ def test_an_interrupted_sweep_says_so_and_the_same_command_resumes_it(
     def interrupted_second(spec: RunSpec, out_dir: str | Path) -> dict[str, Any]:
         calls.append(spec.run_id)
         if len(calls) == 2:
+            if how == "sigterm":
+                os.kill(os.getpid(), signal.SIGTERM)
+                time.sleep(2.0)  # the command's handler interrupts the sleep
+                pytest.fail("SIGTERM did not interrupt the sweep")
             raise KeyboardInterrupt
         return real(spec, out_dir)
 
+    def ignore(signum: int, frame: Any) -> None:
+        """The caller's handler: one that does not end the test session."""
+
     monkeypatch.setattr(sweep, "run_one", interrupted_second)
-    assert main(argv) == 130
+    previous = signal.signal(signal.SIGTERM, ignore)
+    try:
+        assert main(argv) == 130
+        assert signal.getsignal(signal.SIGTERM) is ignore
+    finally:
+        signal.signal(signal.SIGTERM, previous)
     err = capsys.readouterr().err
     assert f"interrupted; the finished runs are in {out / 'runs'}" in err
     assert [p.stem for p in (out / "runs").glob("*.json")] == [calls[0]]
