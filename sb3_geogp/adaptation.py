@@ -772,8 +772,7 @@ def lagged_forgetting_scores(
     inverse = 1 / ((1 - lam) * e + lam)  # (k, m): the precisions inverted, per direction
     mean = (inverse * ((1 - lam) * base + lam * own)) @ g.T  # (k, n)
     var = gamma + inverse @ g.square().T + noise
-    nll = 0.5 * (torch.log(2 * math.pi * var) + (yn - mean).square() / var)
-    return nll @ count
+    return gaussian_nll(yn, mean, var) @ count
 
 
 def age_weights(age: Tensor, forgetting: float) -> Tensor:
@@ -781,10 +780,16 @@ def age_weights(age: Tensor, forgetting: float) -> Tensor:
     return torch.as_tensor(forgetting, dtype=torch.float64).pow(age.double())
 
 
+def gaussian_nll(y: Tensor, mean: Tensor, var: Tensor) -> Tensor:
+    """``-log N(y | mean, var)`` elementwise, broadcast over the three (e.g. ``y : (n,)``
+    against ``mean, var : (k, n)``, one row per forgetting candidate)."""
+    return 0.5 * (torch.log(2 * math.pi * var) + (y - mean).square() / var)
+
+
 def nlpd(mean: Tensor, var: Tensor, y: Tensor) -> float:
     """Mean negative log predictive density of ``y`` under ``N(mean, var)``, all shape (n,)."""
     var = var.clamp_min(torch.finfo(var.dtype).tiny)
-    return float((0.5 * (torch.log(2 * math.pi * var) + (y - mean).square() / var)).mean())
+    return float(gaussian_nll(y, mean, var).mean())
 
 
 def weighted_moments(y: Tensor, w: Tensor) -> tuple[float, float]:

@@ -44,6 +44,7 @@ from sb3_geogp.adaptation import (
     age_weights,
     as_adaptation,
     forget_likelihood,
+    gaussian_nll,
     jittered_cholesky,
     lagged_forgetting_scores,
     linear_moments,
@@ -1444,8 +1445,7 @@ class SparseOnlineGP(nn.Module):
         lam = torch.tensor(candidates, dtype=mean.dtype, device=mean.device)[:, None]
         means = lam.sqrt() * mean
         variances = (1 - lam) * self.kernel.variance + lam * var + self.noise_var
-        nll = 0.5 * (torch.log(2 * math.pi * variances) + (yn - means).square() / variances)
-        self.forgetting_scores += nll @ count
+        self.forgetting_scores += gaussian_nll(yn, means, variances) @ count
 
     def _lagged_scores(self, rows: Tensor, gamma: Tensor, yn: Tensor, count: Tensor) -> Tensor:
         """Scores of the forgetting candidates on a batch with kernel rows ``rows : (n, m)``,

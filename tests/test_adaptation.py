@@ -9,14 +9,17 @@ import numpy as np
 import pytest
 import torch
 from scipy.optimize import minimize
+from scipy.stats import norm
 
 from sb3_geogp import RBFKernel, SparseOnlineGP
 from sb3_geogp.adaptation import (
     Adaptation,
     Summary,
     forget_likelihood,
+    gaussian_nll,
     jittered_cholesky,
     lagged_forgetting_scores,
+    nlpd,
     posterior_cholesky,
     sparse_posterior,
     thinned,
@@ -976,3 +979,14 @@ def test_bvs_made_redundant_by_a_longer_lengthscale_are_pruned() -> None:
 def test_a_window_too_large_for_memory_is_refused_up_front() -> None:
     with pytest.raises(ValueError, match="1000000-point window"):
         SparseOnlineGP(10**5, "rbf", max_basis=4, adapt=Adaptation(window=10**6))
+
+
+def test_gaussian_nll_and_nlpd_are_scipys_log_density() -> None:
+    """The one Gaussian negative log density of the scores and statistics, against scipy's, also
+    broadcast as the forgetting candidates use it (a row per candidate); ``nlpd`` its mean."""
+    rng = np.random.default_rng(5)
+    y, mean, var = rng.normal(size=7), rng.normal(size=(3, 7)), rng.uniform(0.1, 2, size=(3, 7))
+    got = gaussian_nll(*(torch.tensor(a) for a in (y, mean, var))).numpy()
+    np.testing.assert_allclose(got, -norm.logpdf(y, mean, np.sqrt(var)), rtol=1e-12)
+    one = nlpd(torch.tensor(mean[0]), torch.tensor(var[0]), torch.tensor(y))
+    assert one == pytest.approx(-norm.logpdf(y, mean[0], np.sqrt(var[0])).mean(), rel=1e-12)
