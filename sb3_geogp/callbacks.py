@@ -21,7 +21,7 @@ from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.buffers import RolloutBuffer
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
-from stable_baselines3.common.vec_env import VecFrameStack, unwrap_vec_wrapper
+from stable_baselines3.common.vec_env import VecFrameStack, VecNormalize, unwrap_vec_wrapper
 
 from sb3_geogp.options import positive_int
 from sb3_geogp.policies import GPCriticMixin, _contrib_algorithms, _for_algorithm, check_algorithm
@@ -247,7 +247,7 @@ class GPValueCallback(BaseCallback):
                 "from new observations. Freeze the statistics after a warm-up "
                 "(vec_env.training = False) or use norm_obs=False with the GP critic."
             )
-        self._check_bounds_wrappers()
+        self._check_bounds_wrappers(vec_normalize)
         gp = policy.gp
         # An adapting GP chooses its forgetting from the data.
         fixed_full_memory = gp.adaptation is None and gp.forgetting == 1.0
@@ -428,15 +428,14 @@ class GPValueCallback(BaseCallback):
             return list(last.pending)
         return [_empty_segment(self.model.observation_space.shape)] * self.model.n_envs
 
-    def _check_bounds_wrappers(self) -> None:
-        """Before the GP's first data: warn where a VecEnv wrapper makes the observation
-        space's bounds, from which the GP's unset lengthscales came, wrong for the
-        observations."""
+    def _check_bounds_wrappers(self, normalize: VecNormalize | None) -> None:
+        """Before the GP's first data: warn where a VecEnv wrapper (``normalize``, the model's
+        VecNormalize if any, or a VecFrameStack) makes the observation space's bounds, from
+        which the GP's unset lengthscales came, wrong for the observations."""
         gp = self._policy.gp
         dims = np.flatnonzero(gp.lengthscale_from_bounds)
         if int(gp.n_seen) or not len(dims):
             return
-        normalize = self.model.get_vec_normalize_env()
         reasons = []
         if normalize is not None and normalize.norm_obs:
             reasons.append(

@@ -101,6 +101,46 @@ _COUNTERS = (
 )
 
 
+def _check_scalars(
+    noise_var: float,
+    novelty_tol: float | None,
+    forgetting: float,
+    target_mean: float | None,
+    target_scale: float | None,
+    optimism: float,
+) -> None:
+    """Refuse a scalar option of :class:`SparseOnlineGP` outside its range."""
+    if not (noise_var > 0 and math.isfinite(noise_var)):
+        raise ValueError(f"noise_var must be positive and finite, got {noise_var}")
+    if novelty_tol is not None and not (0 <= novelty_tol < 1):
+        raise ValueError(f"novelty_tol must be in [0, 1), got {novelty_tol}")
+    if not (0 < forgetting <= 1):
+        raise ValueError(f"forgetting must be in (0, 1], got {forgetting}")
+    if target_scale is not None and not (target_scale > 0 and math.isfinite(target_scale)):
+        raise ValueError(f"target_scale must be positive and finite, got {target_scale}")
+    if target_mean is not None and not math.isfinite(target_mean):
+        raise ValueError(f"target_mean must be finite, got {target_mean}")
+    if not (optimism >= 0 and math.isfinite(optimism)):
+        raise ValueError(f"optimism must be a non-negative finite number, got {optimism}")
+
+
+def _check_mean_and_trend(prior_mean: str, trend: str, target_mean: float | None) -> None:
+    """Refuse an unknown prior mean or trend, or two that say the same thing."""
+    if prior_mean not in _PRIOR_MEANS:
+        raise ValueError(f"prior_mean must be one of {_PRIOR_MEANS}, got {prior_mean!r}")
+    if prior_mean == "linear" and target_mean is not None:
+        raise ValueError(
+            "prior_mean='linear' fits its own intercept: leave target_mean None, or use "
+            "prior_mean='constant' to fix the mean"
+        )
+    if trend not in trends.TRENDS:
+        raise ValueError(f"trend must be one of {trends.TRENDS}, got {trend!r}")
+    if trend == "linear" and prior_mean == "linear":
+        raise ValueError(
+            "trend='linear' and prior_mean='linear' are two ways of one line: choose one"
+        )
+
+
 def _check_cap(cap: float | None, optimism: float, adaptation: Adaptation | None) -> None:
     """Refuse an ``optimism_cap`` that is not positive and finite, or that has no bonus to cap
     or no out-of-sample errors to scale it by."""
@@ -396,33 +436,10 @@ class SparseOnlineGP(nn.Module):
         super().__init__()
         input_dim = positive_int("input_dim", input_dim)
         max_basis = positive_int("max_basis", max_basis)
-        if not (noise_var > 0 and math.isfinite(noise_var)):
-            raise ValueError(f"noise_var must be positive and finite, got {noise_var}")
-        if novelty_tol is not None and not (0 <= novelty_tol < 1):
-            raise ValueError(f"novelty_tol must be in [0, 1), got {novelty_tol}")
-        if not (0 < forgetting <= 1):
-            raise ValueError(f"forgetting must be in (0, 1], got {forgetting}")
         if forgetting_points is not None:
             forgetting_points = positive_int("forgetting_points", forgetting_points)
-        if target_scale is not None and not (target_scale > 0 and math.isfinite(target_scale)):
-            raise ValueError(f"target_scale must be positive and finite, got {target_scale}")
-        if target_mean is not None and not math.isfinite(target_mean):
-            raise ValueError(f"target_mean must be finite, got {target_mean}")
-        if prior_mean not in _PRIOR_MEANS:
-            raise ValueError(f"prior_mean must be one of {_PRIOR_MEANS}, got {prior_mean!r}")
-        if prior_mean == "linear" and target_mean is not None:
-            raise ValueError(
-                "prior_mean='linear' fits its own intercept: leave target_mean None, or use "
-                "prior_mean='constant' to fix the mean"
-            )
-        if trend not in trends.TRENDS:
-            raise ValueError(f"trend must be one of {trends.TRENDS}, got {trend!r}")
-        if not (optimism >= 0 and math.isfinite(optimism)):
-            raise ValueError(f"optimism must be a non-negative finite number, got {optimism}")
-        if trend == "linear" and prior_mean == "linear":
-            raise ValueError(
-                "trend='linear' and prior_mean='linear' are two ways of one line: choose one"
-            )
+        _check_scalars(noise_var, novelty_tol, forgetting, target_mean, target_scale, optimism)
+        _check_mean_and_trend(prior_mean, trend, target_mean)
         self.prior_mean = prior_mean
         self.trend = trend
         self.optimism = float(optimism)
@@ -449,6 +466,22 @@ class SparseOnlineGP(nn.Module):
         size = self.adaptation.window if self.adaptation is not None else _DEFAULT_WINDOW
         _check_memory(cap, self.input_dim, self.kernel, dtype, size)
         self.kernel.bind(self.input_dim, cap)
+        # Diagnostics, not state: bounds far wider than the data leave the GP nearly flat.
+        self._coverage = self._lengthscale_from(input_bounds)
+        kw: dict[str, Any] = {"dtype": dtype, "device": device}
+        self.kernel.to(**kw)
+        self._fixed_target = (target_mean, target_scale)
+        self._register_state(cap, noise_var, kw)
+        self.window = RetainedWindow(size, self.input_dim).to(**kw)
+        self.last_stats: dict[str, float] = {}
+        self._cache: PosteriorMatrices | None = None
+        self._rollback: Rollback | None = None
+
+    def _lengthscale_from(
+        self, input_bounds: tuple[ArrayLike, ArrayLike] | None
+    ) -> defaults.BoundsCoverage | None:
+        """Set the kernel's unset lengthscales of bounded dimensions from ``input_bounds``;
+        return the check of how the inputs fill those bounds (``None`` without bounds)."""
         if input_bounds is not None and any(np.size(b) != self.input_dim for b in input_bounds):
             raise ValueError(
                 f"input_bounds must be (low, high) with {self.input_dim} entries each, got "
@@ -457,12 +490,12 @@ class SparseOnlineGP(nn.Module):
         ls = self.kernel.lengthscale
         unset = torch.isnan(ls).cpu().numpy()
         ls.copy_(defaults.resolve_lengthscale(ls, bounds=input_bounds))
-        # Diagnostics, not state: bounds far wider than the data leave the GP nearly flat.
-        self._coverage = (
-            None if input_bounds is None else defaults.BoundsCoverage(*input_bounds, unset)
-        )
-        kw: dict[str, Any] = {"dtype": dtype, "device": device}
-        self.kernel.to(**kw)
+        return None if input_bounds is None else defaults.BoundsCoverage(*input_bounds, unset)
+
+    def _register_state(self, cap: int, noise_var: float, kw: dict[str, Any]) -> None:
+        """Register the state's buffers (``cap`` BV slots; dtype and device ``kw``), empty:
+        zeros, but the starting noise, target units, novelty floor and forgetting."""
+        target_mean, target_scale = self._fixed_target
         self.register_buffer("noise_var", torch.tensor(float(noise_var), **kw))
         self.register_buffer("bv_x", torch.zeros(cap, self.input_dim, **kw))
         self.register_buffer("bv_y", torch.zeros(cap, **kw))
@@ -474,14 +507,13 @@ class SparseOnlineGP(nn.Module):
         self.register_buffer("summary_shift", torch.zeros(cap, **kw))
         self.register_buffer("summary_unit", torch.zeros(cap, **kw))
         self.register_buffer("summary_input", torch.zeros(cap, self.input_dim, **kw))
-        self._fixed_target = (target_mean, target_scale)
         self.register_buffer("y_mean", torch.tensor(float(target_mean or 0.0), **kw))
         self.register_buffer("y_scale", torch.tensor(float(target_scale or 1.0), **kw))
         self.register_buffer("y_slope", torch.zeros(self.input_dim, **kw))
         self.register_buffer("trend_coef", torch.zeros(self.input_dim + 1, **kw))
         # Counters and flags as long tensors so that they travel with state_dict().
         for name in _COUNTERS:
-            self.register_buffer(name, torch.zeros((), dtype=torch.long, device=device))
+            self.register_buffer(name, torch.zeros((), dtype=torch.long, device=kw["device"]))
         self.register_buffer("novelty_floor", torch.tensor(self.novelty_tol, **kw))
         self.register_buffer("block_forgetting", torch.tensor(self.forgetting, **kw))
         n_candidates = len(self.adaptation.forgetting) if self.adaptation is not None else 1
@@ -492,10 +524,6 @@ class SparseOnlineGP(nn.Module):
         self.register_buffer("block_errors", torch.zeros(3, **kw))
         self.register_buffer("ls_start", self.kernel.lengthscale.to(**kw).clone())
         self.register_buffer("bonus_spreads", torch.zeros(2, **kw))
-        self.window = RetainedWindow(size, self.input_dim).to(**kw)
-        self.last_stats: dict[str, float] = {}
-        self._cache: PosteriorMatrices | None = None
-        self._rollback: Rollback | None = None
 
     # ------------------------------------------------------------------------------------------
     # Read-only views
@@ -805,21 +833,52 @@ class SparseOnlineGP(nn.Module):
                 f"{float(self.y_scale):.3g} overflow; rescale the targets or pass "
                 "target_mean and target_scale"
             )
-        screen = _Screen()
-        scored: _BatchRows | None = None
-        if self.adaptation is not None and self.n_basis > 0:
-            stats, scored = self._out_of_sample(x, xs, y)
-            self.last_stats.update(stats)
-            if scored is not None and self.kernel.novelty_from_rows:
-                screen.keep(scored.version, 0, self._relative_novelty(scored.kqk))
-            if self._snapshot_due(self.adaptation, x.shape[0]):
-                self._snapshot()
+        screen, scored = self._score(x, xs, y)
         lam = self.forgetting if self.adaptation is None else float(self.block_forgetting)
         lam = self._batch_forgetting(lam, x.shape[0])
         if lam < 1 and self.n_basis > 0:
             self._forget(lam)
-        n = x.shape[0]
         added_before = int(self.n_added)
+        self._absorb_in_order(x, y, xs, yn, starts, screen, scored)
+        if int(self.n_added) > added_before:
+            self._refresh_Q()
+        n = x.shape[0]
+        self.n_seen += n
+        self.n_batches += 1
+        self.last_batch_points.fill_(n)
+        self._retain(x, y)
+        self._check_finite()
+
+    def _score(self, x: Tensor, xs: Tensor, y: Tensor) -> tuple[_Screen, _BatchRows | None]:
+        """With adaptation and a basis: the batch's statistics out of sample and its scores
+        (:meth:`_out_of_sample`), and a snapshot where one is due. Returns the novelty and the
+        rows the scoring formed, for the rest of the update to reuse."""
+        screen = _Screen()
+        if self.adaptation is None or self.n_basis == 0:
+            return screen, None
+        stats, scored = self._out_of_sample(x, xs, y)
+        self.last_stats.update(stats)
+        if scored is not None and self.kernel.novelty_from_rows:
+            screen.keep(scored.version, 0, self._relative_novelty(scored.kqk))
+        if self._snapshot_due(self.adaptation, x.shape[0]):
+            self._snapshot()
+        return screen, scored
+
+    def _absorb_in_order(
+        self,
+        x: Tensor,
+        y: Tensor,
+        xs: Tensor,
+        yn: Tensor,
+        starts: Tensor,
+        screen: _Screen,
+        scored: _BatchRows | None,
+    ) -> None:
+        """The batch's points in order: each novel one inserted as a BV (with a deletion at
+        capacity), the runs between them absorbed by projection, trajectories started where
+        ``starts`` says. ``x, y``: inputs and targets in the user's units; ``xs, yn``: scaled
+        and standardised; ``screen``, ``scored``: novelty and rows already known."""
+        n = x.shape[0]
         # Rows [pending, i) wait to be absorbed in one block: non-novel rows and novel ones
         # whose BV row is rejected. Rows after the last inserted one may start a trajectory
         # (checked from ``linked`` on). At capacity a newcomer takes the spare slot and the
@@ -855,13 +914,6 @@ class SparseOnlineGP(nn.Module):
             self._delete_least_informative()
         if bool(starts[linked:].any()):
             self.kernel.start_trajectory()
-        if int(self.n_added) > added_before:
-            self._refresh_Q()
-        self.n_seen += n
-        self.n_batches += 1
-        self.last_batch_points.fill_(n)
-        self._retain(x, y)
-        self._check_finite()
 
     def _forget(self, lam: float) -> None:
         """Age everything absorbed by one batch, and the summary's weights times ``lam``:
