@@ -12,7 +12,7 @@ with ``callback=GPValueCallback()``, or with SB3's ``"MlpPolicy"``, and writes o
 * wall clock (and CPU time of the process) of ``learn`` without the measurements made
   inside it (``train_seconds``, ``train_cpu_seconds``), and for GP critics the seconds
   spent in the critic: ``GPValueCallback``'s rollout-end work (target assembly, logging and
-  :attr:`GPValueCallback.update_seconds` of GP updates) plus every GP value prediction
+  :attr:`~sb3_geogp.GPValueCallback.update_seconds` of GP updates) plus every GP value prediction
   through ``policy.value_net`` inside ``learn`` (rollout collection and the algorithm's
   training passes; timed with forward hooks, the measurements excluded);
 * critic accuracy at checkpoints against Monte Carlo returns (:class:`~sb3_geogp.comparison.

@@ -478,7 +478,7 @@ def ceiling(
         ``explained``: the ceiling; ``halves``: the mean of the two halves' ceilings (each
         from every other Monte Carlo rollout); ``mc_se``: the root-mean-square standard
         error of ``V^pi`` at the rollout's states; ``moments``: those of ``V^pi``'s returns
-        and residuals (:func:`~sb3_geogp.comparison.measurement.moments`), to pool rollouts;
+        and residuals (:func:`~sb3_geogp.toolbox.stats.moments`), to pool rollouts;
         ``check_mean``, ``check_se``: the mean of ``G - V^pi`` (per env, then over envs,
         with its standard error), near 0 if the restarted rollouts are those of the policy and
         the task; ``mc_ceiling`` (and its ``mc_ceiling_moments``): ``V^pi``'s explained

@@ -3,10 +3,11 @@
 The geodesic kernel attaches a point to its Euclidean-nearest basis vectors, so a point beside
 the wall can be explained by the other room (docs/wall_experiment.md measured this carrying
 83-91 % of the default geodesic GP's error near the wall). The oracle forbids an attachment
-whose straight segment passes through the wall, :meth:`TwoRooms.crosses_wall`: every
-nearest-basis-vector choice (a training point's Shepard neighbours and novelty leaf, the parent
-of a walk's first basis vector, a prediction's neighbours) then stays on its own side or sees
-through the door. A learner cannot have it; it bounds what a wall-aware attachment could give.
+whose straight segment passes through the wall
+(:meth:`~sb3_geogp.studies.wall.rooms.TwoRooms.crosses_wall`): every nearest-basis-vector
+choice (a training point's Shepard neighbours and novelty leaf, the parent of a walk's first
+basis vector, a prediction's neighbours) then stays on its own side or sees through the door.
+A learner cannot have it; it bounds what a wall-aware attachment could give.
 Any geometry with a ``crosses_wall`` test serves (:class:`Obstacles`): the two rooms, or a
 WallMaze layout (:meth:`~sb3_geogp.envs.wall_maze.MazeLayout.crosses_wall`).
 """
