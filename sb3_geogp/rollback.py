@@ -12,10 +12,10 @@ if TYPE_CHECKING:
     from sb3_geogp.sparse_gp import SparseOnlineGP
 
 #: GP buffers with one row per BV slot, and (m, m) ones.
-PER_SLOT = frozenset(
+_PER_SLOT = frozenset(
     {"bv_x", "bv_y", "nugget", "alpha", "summary_shift", "summary_unit", "summary_input"}
 )
-SLOT_BY_SLOT = frozenset({"P", "Q", "summary_prec"})
+_SLOT_BY_SLOT = frozenset({"P", "Q", "summary_prec"})
 
 
 class Rollback:
@@ -32,7 +32,7 @@ class Rollback:
         self._gp = gp
         self._m = gp.n_basis
         self._own = {
-            name: in_use(name, b, self._m).clone() for name, b in gp.named_buffers(recurse=False)
+            name: _in_use(name, b, self._m).clone() for name, b in gp.named_buffers(recurse=False)
         }
         self._kernel = {name: b.clone() for name, b in gp.kernel.named_buffers(recurse=False)}
         self._window = {name: b.clone() for name, b in gp.window.named_buffers()}
@@ -50,9 +50,9 @@ class Rollback:
         rollback was made (the GP's matrix cache is its own to drop)."""
         gp = self._gp
         for name, b in gp.named_buffers(recurse=False):
-            if name in PER_SLOT or name in SLOT_BY_SLOT:
+            if name in _PER_SLOT or name in _SLOT_BY_SLOT:
                 b.zero_()
-            in_use(name, b, self._m).copy_(self._own[name])
+            _in_use(name, b, self._m).copy_(self._own[name])
         for name, b in gp.kernel.named_buffers(recurse=False):
             b.copy_(self._kernel[name])
         for name, b in gp.window.named_buffers():
@@ -61,10 +61,10 @@ class Rollback:
             gp.kernel.restore_basis(self._basis)
 
 
-def in_use(name: str, buffer: Tensor, m: int) -> Tensor:
+def _in_use(name: str, buffer: Tensor, m: int) -> Tensor:
     """The part of the GP buffer ``name`` that holds the ``m`` BVs in use (a view)."""
-    if name in SLOT_BY_SLOT:
+    if name in _SLOT_BY_SLOT:
         return buffer[:m, :m]
-    if name in PER_SLOT:
+    if name in _PER_SLOT:
         return buffer[:m]
     return buffer

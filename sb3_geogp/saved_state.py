@@ -35,6 +35,19 @@ _OPTIONS_BEFORE = {
 }
 
 
+#: Buffers a state saved before the version named lacks, and what their zeros mean there.
+_ZERO_BEFORE = {
+    "block_moments": "0.6, drift refits: the open block's targets count from the next batch",
+    "block_errors": "0.10, fit refits: the open block's errors count as none",
+    "summary_batch": "0.11, snapshots: the summary holds only points that left the window",
+    "last_batch_points": "0.12, lagged scores: the previous batch counts as its window points",
+    "y_slope": "0.8, the linear prior mean: a constant one",
+    "summary_input": "0.8, the linear prior mean: no input shifts in the summary",
+    "trend_coef": "0.8, trends: none",
+    "bonus_spreads": "0.19, the bonus cap: no spreads yet",
+}
+
+
 def upgrade_options(options: Any) -> Any:
     """Stored options with those an older version did not store set as it behaved (anything
     but a dict is returned as it is, for the options check to refuse)."""
@@ -50,22 +63,7 @@ def upgrade(state: dict[str, Any], prefix: str, gp: SparseOnlineGP) -> None:
     scores = state.get(prefix + "forgetting_scores")
     if scores is None or scores.shape != gp.forgetting_scores.shape:
         state[prefix + "forgetting_scores"] = torch.zeros_like(gp.forgetting_scores)
-    # Saved before drift refits (0.6): the open block's targets count from the next batch.
-    # Before fit refits (0.10): the open block's errors count as none (no fit refit).
-    # Before snapshots (0.11): the summary holds only points that left the window.
-    # Before lagged forgetting scores (0.12): the previous batch counts as its points in the
-    # window. Before the linear prior mean (0.8): a constant one. Before the bonus cap (0.19):
-    # no spreads yet.
-    for name in (
-        "block_moments",
-        "block_errors",
-        "summary_batch",
-        "last_batch_points",
-        "y_slope",
-        "summary_input",
-        "trend_coef",
-        "bonus_spreads",
-    ):
+    for name in _ZERO_BEFORE:
         state.setdefault(prefix + name, torch.zeros_like(getattr(gp, name)))
 
 

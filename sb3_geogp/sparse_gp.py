@@ -812,8 +812,10 @@ class SparseOnlineGP(nn.Module):
         try:
             yield
         except BaseException:
-            self._rollback.restore()
-            self._cache = None
+            try:
+                self._rollback.restore()
+            finally:
+                self._cache = None
             raise
         finally:
             self._rollback = None
@@ -876,8 +878,9 @@ class SparseOnlineGP(nn.Module):
     ) -> None:
         """The batch's points in order: each novel one inserted as a BV (with a deletion at
         capacity), the runs between them absorbed by projection, trajectories started where
-        ``starts`` says. ``x, y``: inputs and targets in the user's units; ``xs, yn``: scaled
-        and standardised; ``screen``, ``scored``: novelty and rows already known."""
+        ``starts`` says. ``x, y``: inputs and targets in the user's units (the targets less the
+        trend, if any); ``xs, yn``: scaled and standardised; ``screen``, ``scored``: novelty
+        and rows already known."""
         n = x.shape[0]
         # Rows [pending, i) wait to be absorbed in one block: non-novel rows and novel ones
         # whose BV row is rejected. Rows after the last inserted one may start a trajectory

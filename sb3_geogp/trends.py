@@ -30,7 +30,7 @@ _RIDGE = 1e-3
 def value(coef: Tensor, x: Tensor) -> Tensor:
     """The trend ``w^T [x, 1]`` with coefficients ``coef : (d + 1,)`` at ``x : (n, d)``,
     shape (n,)."""
-    return with_ones(x) @ coef
+    return _with_ones(x) @ coef
 
 
 def move(kind: str, coef: Tensor, x: Tensor, y: Tensor, error: Tensor | None) -> None:
@@ -41,8 +41,10 @@ def move(kind: str, coef: Tensor, x: Tensor, y: Tensor, error: Tensor | None) ->
     the slopes held at 0 (``"constant"``). A level moves by the model's errors on the batch
     before it absorbs it, ``error : (n,)`` (``None`` before the model has a basis: then it
     stays): ``"level"`` by their mean, ``"sloped_level"`` by :func:`error_step`,
-    ``"rising_level"`` by :func:`rise`.
+    ``"rising_level"`` by :func:`rise`. ``"none"`` stays at 0.
     """
+    if kind == "none":
+        return
     if kind in LEVELS:
         if error is None:
             return
@@ -51,14 +53,14 @@ def move(kind: str, coef: Tensor, x: Tensor, y: Tensor, error: Tensor | None) ->
         elif kind == "rising_level":
             coef[-1] += rise(error)
         else:
-            coef += error_step(with_ones(x), error)
+            coef += error_step(_with_ones(x), error)
         return
     fitted = slice(None) if kind == "linear" else slice(-1, None)
     coef.zero_()
-    coef[fitted] = ridge_line(with_ones(x)[:, fitted], y)
+    coef[fitted] = ridge_line(_with_ones(x)[:, fitted], y)
 
 
-def with_ones(x: Tensor) -> Tensor:
+def _with_ones(x: Tensor) -> Tensor:
     """``[x, 1]``: ``x : (n, d)`` with a column of ones, shape (n, d + 1)."""
     return torch.cat([x, torch.ones(x.shape[0], 1, dtype=x.dtype, device=x.device)], dim=1)
 

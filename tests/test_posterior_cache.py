@@ -13,31 +13,38 @@ import torch
 from sb3_geogp import SparseOnlineGP
 from sb3_geogp.posterior_cache import kqk
 
-NAMES = ("K", "K_nugget", "K_alpha", "KQK", "KPK", "P_cholesky", "least_novelty")
+NAMES = ("z", "K", "K_nugget", "K_alpha", "KQK", "KPK", "P_cholesky", "S", "least_novelty")
 
 
 def fresh(gp: SparseOnlineGP) -> dict[str, torch.Tensor]:
     """Every cached product computed directly from the GP's buffers and its kernel."""
     m = gp.n_basis
     alpha, P, Q, nugget = gp.alpha[:m], gp.P[:m, :m], gp.Q[:m, :m], gp.nugget[:m]
-    K = gp.kernel.gram(gp.kernel.scale(gp.bv_x[:m]))
+    z = gp.kernel.scale(gp.bv_x[:m])
+    K = gp.kernel.gram(z)
+    L = torch.linalg.cholesky(P.double())
     return {
+        "z": z,
         "K": K,
         "K_nugget": K + torch.diag(nugget),
         "K_alpha": K @ alpha,
         "KQK": K @ Q @ K,
         "KPK": K @ P @ K,
         "P_cholesky": P,  # compared as L L^T
+        "S": L.T @ (K + torch.diag(nugget)).double() @ L,
         "least_novelty": (1.0 / (torch.diagonal(Q) * (gp.kernel.variance + nugget))).min(),
     }
 
 
+@pytest.mark.parametrize("score", ["shrink", "lagged"])
 @pytest.mark.parametrize("kernel", ["rbf", "laplacian", "geodesic"])
-def test_cached_products_equal_fresh_ones_through_a_stream(kernel: str) -> None:
-    """A stream that fills a 12-BV basis, deletes at capacity, forgets and refits; after every
-    batch, each product the cache holds (formed during the update, so carried through its
-    changes) and each it forms now equals the fresh one."""
-    gp = SparseOnlineGP(2, kernel, max_basis=12, adapt=dict(interval=120), forgetting=0.9)
+def test_cached_products_equal_fresh_ones_through_a_stream(kernel: str, score: str) -> None:
+    """A stream that fills a 12-BV basis, deletes at capacity, forgets and refits, with either
+    forgetting score (the lagged one uses ``P``'s factor and ``S``); after every batch, each
+    product the cache holds (formed during the update, so carried through its changes) and
+    each it forms now equals the fresh one."""
+    adapt = dict(interval=120, forgetting_score=score)
+    gp = SparseOnlineGP(2, kernel, max_basis=12, adapt=adapt, forgetting=0.9)
     rng = np.random.default_rng(0)
     deleted = 0
     for k in range(12):
@@ -46,7 +53,7 @@ def test_cached_products_equal_fresh_ones_through_a_stream(kernel: str) -> None:
         cache, expected = gp._matrices(), fresh(gp)
         held = [name for name in NAMES if cache.has(name)]
         for name in held + [name for name in NAMES if name not in held]:
-            got = getattr(cache, name)
+            got = cache.P_factor[1] if name == "S" else getattr(cache, name)
             if name == "P_cholesky":
                 got = got @ got.T
             torch.testing.assert_close(got, expected[name].to(got), rtol=1e-9, atol=1e-9)

@@ -24,7 +24,9 @@ def batch(n: int = 200, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
     return x, 3.0 + 2.0 * x[:, 0] - x[:, 1] + 0.1 * rng.normal(size=n)
 
 
-def moved(kind: str, coef: np.ndarray, x: np.ndarray, y: np.ndarray, error: np.ndarray | None):
+def moved(
+    kind: str, coef: np.ndarray, x: np.ndarray, y: np.ndarray, error: np.ndarray | None
+) -> np.ndarray:
     w = torch.tensor(coef)
     trends.move(
         kind, w, torch.tensor(x), torch.tensor(y), None if error is None else torch.tensor(error)
@@ -85,3 +87,30 @@ def test_rise_is_the_excess_of_the_mean_over_two_standard_errors(mean: float, st
     noise = (noise - noise.mean()) / noise.std(ddof=1)
     assert float(trends.rise(torch.tensor(mean + 5.0 * noise))) == pytest.approx(step, abs=1e-12)
     assert float(trends.rise(torch.tensor([2.5]))) == 2.5  # one point: no standard error
+
+
+def test_no_trend_stays_at_zero() -> None:
+    x, y = batch()
+    np.testing.assert_array_equal(moved("none", np.zeros(3), x, y, y), np.zeros(3))
+
+
+@pytest.mark.parametrize("flipped", [False, True])
+def test_sloped_level_needs_a_line_that_carries_over_both_ways(flipped: bool) -> None:
+    """One half's errors are a line in ``x_1`` that the other half's (all at ``x_1 = 10``,
+    with no ``x_1`` effect) does not follow: the latter's line predicts the former better than
+    its mean does, the former's line misses the latter by about 20 where its mean misses by
+    about 1. A line that carries over one way only is noise: the step is the errors' mean
+    alone (either half first)."""
+    rng = np.random.default_rng(4)
+    x0 = rng.uniform(0, 1, size=200)
+    x1 = np.concatenate([np.full(100, 10.0), rng.uniform(0, 1, size=100)])
+    error = 3.0 * x0 + np.concatenate([np.zeros(100), 2.0 * x1[100:]])
+    order = np.r_[100:200, 0:100] if flipped else np.arange(200)
+    x0, x1, error = x0[order], x1[order], error[order]
+    A = np.column_stack([x0, x1, np.ones(200)])
+    first, second = slice(None, 100), slice(100, None)
+    for fit, held, carries in ((first, second, not flipped), (second, first, flipped)):
+        line_sse = ((error[held] - A[held] @ ridge(A[fit], error[fit])) ** 2).sum()
+        assert (line_sse < ((error[held] - error[fit].mean()) ** 2).sum()) == carries
+    step = trends.error_step(torch.tensor(A), torch.tensor(error)).numpy()
+    np.testing.assert_allclose(step, [0, 0, error.mean()], rtol=1e-12)

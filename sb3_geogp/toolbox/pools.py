@@ -61,10 +61,19 @@ def worker_pool(
         _stop_workers(pool)
         raise
     except BaseException:
-        pool.shutdown(cancel_futures=True)
+        _let_running_finish(pool)
         raise
     finally:
-        pool.shutdown()
+        _shutdown(pool)
+
+
+def _let_running_finish(pool: cf.ProcessPoolExecutor) -> None:
+    """Cancel the queued tasks and wait for the running ones, unless interrupted meanwhile."""
+    try:
+        _shutdown(pool, cancel_futures=True)
+    except KeyboardInterrupt:
+        _stop_workers(pool)
+        raise
 
 
 def _stop_workers(pool: cf.ProcessPoolExecutor) -> None:
@@ -74,7 +83,18 @@ def _stop_workers(pool: cf.ProcessPoolExecutor) -> None:
     # does not wait for the executor's thread, which leaves futures pending after the block.
     for process in list((getattr(pool, "_processes", None) or {}).values()):
         process.terminate()
-    pool.shutdown(cancel_futures=True)
+    _shutdown(pool, cancel_futures=True)
+
+
+def _shutdown(pool: cf.ProcessPoolExecutor, cancel_futures: bool = False) -> None:
+    """``pool.shutdown``, also where an interrupt cut ``submit`` between creating the
+    executor's thread and starting it (joining the thread then raises)."""
+    try:
+        pool.shutdown(cancel_futures=cancel_futures)
+    except RuntimeError as err:
+        if "before it is started" not in str(err):
+            raise
+        pool.shutdown(wait=False, cancel_futures=True)
 
 
 def _start_worker(initializer: Callable[..., None] | None, initargs: tuple[Any, ...]) -> None:
