@@ -7,6 +7,7 @@ import argparse
 import json
 import os
 import signal
+import subprocess
 import sys
 import time
 from pathlib import Path
@@ -314,3 +315,72 @@ def test_mistakes_end_in_one_line_and_status_2_before_any_run(
         assert err.startswith("sb3-geogp compare: error: ") and err.count("\n") == 1, err
         assert message in err, (message, err)
         assert not out.exists()
+
+
+def _running_workers(parent: int) -> list[int]:
+    """Pids of the live worker processes (spawned by multiprocessing) of process ``parent``."""
+    found = []
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+            cmdline = (stat.parent / "cmdline").read_bytes()
+        except OSError:
+            continue
+        if int(fields[1]) == parent and fields[0] != "Z" and b"spawn_main" in cmdline:
+            found.append(int(stat.parent.name))
+    return found
+
+
+def _alive(pid: int) -> bool:
+    try:
+        return (Path("/proc") / str(pid) / "stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
+    except OSError:
+        return False
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads /proc (Linux)")
+def test_sigterm_stops_a_sweep_and_its_workers_at_once(tmp_path: Path) -> None:
+    """The command as a batch system stops it: ``sb3-geogp compare --workers 2`` in its own
+    process, SIGTERM to that process alone once both workers are in their (long) runs. It ends
+    with status 130 and the interrupt's line, and neither worker is left running (before, the
+    command died with status 143 and its workers ran on)."""
+    yml = tmp_path / "ppo.yml"
+    yml.write_text(PPO_YML)
+    out = tmp_path / "out"
+    argv = ["compare", "--envs", TOY, "--hyperparams", f"ppo={yml}", "--threshold", "-3"]
+    argv += ["--critics", "mlp", "--seeds", "2", "--workers", "2", "--timesteps", "10000000"]
+    argv += ["--out", str(out), "--no-progress", "--no-plots"]
+    code = "import sys; from sb3_geogp.cli import main; sys.exit(main())"
+    root = Path(__file__).resolve().parents[2]
+    env = {
+        **os.environ,
+        "PYTHONPATH": os.pathsep.join([str(root), os.environ.get("PYTHONPATH", "")]),
+    }
+    proc = subprocess.Popen(
+        [sys.executable, "-c", code, *argv],
+        cwd=root,
+        env=env,
+        text=True,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+    )
+    workers: list[int] = []
+    try:
+        deadline = time.monotonic() + 60
+        while len(workers := _running_workers(proc.pid)) < 2 and time.monotonic() < deadline:
+            time.sleep(0.2)
+        assert len(workers) == 2, "the workers did not start"
+        time.sleep(5.0)  # past their imports, inside their runs
+        assert proc.poll() is None
+        proc.send_signal(signal.SIGTERM)
+        _, err = proc.communicate(timeout=60)
+    finally:
+        proc.kill()
+        time.sleep(0.5)
+        left = [pid for pid in workers if _alive(pid)]
+        for pid in left:  # a failing command must not leave ten-million-step runs behind
+            os.kill(pid, signal.SIGKILL)
+    assert proc.returncode == 130, err
+    assert f"interrupted; the finished runs are in {out / 'runs'}" in err
+    assert not left
+    assert not list((out / "runs").glob("*.json"))
