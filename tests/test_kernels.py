@@ -9,6 +9,7 @@ import pytest
 import torch
 from scipy.spatial.distance import cdist
 
+from sb3_geogp import SparseOnlineGP
 from sb3_geogp.graph import BVGraph
 from sb3_geogp.kernels import (
     KERNELS,
@@ -249,6 +250,32 @@ def test_shepard_weights_are_one_hot_on_a_bv() -> None:
     np.testing.assert_allclose(dense_weights(cdist(bv, bv), 4), np.eye(9), rtol=0, atol=1e-15)
 
 
+def test_shepard_weights_are_finite_where_more_than_k_basis_vectors_are_on_the_point() -> None:
+    """k + 1 basis vectors (or more) on the point: equal weights on its k nearest, all on it
+    (the radius, the (k+1)-th distance, was 0 too: the weights were 0 / 0)."""
+    for k, on in ((1, 2), (2, 3), (4, 7)):
+        dist = torch.tensor([[0.0] * on + [1.0, 2.0]], dtype=torch.float64)
+        idx, w = shepard_weights(dist, k)
+        assert bool(torch.isfinite(w).all())
+        np.testing.assert_allclose(w.numpy(), np.full((1, k), 1.0 / k), rtol=1e-12)
+        assert set(idx[0].tolist()) <= set(range(on))
+
+
+def test_a_gp_predicts_on_coincident_basis_vectors() -> None:
+    """Duplicates made basis vectors (novelty 0 judged a hair above 0 by rounding): the mean
+    at the duplicated point is finite and the next batch there is absorbed (before: NaN, then
+    every such batch refused)."""
+    kernel = GeodesicKernel(lengthscale=1.0, profile="gaussian", n_neighbors=1)
+    gp = SparseOnlineGP(1, kernel, max_basis=10, novelty_tol=0.0)
+    x = np.array([[0.0], [1.0], [2.0], [0.0]])
+    gp.update(x, np.sin(x[:, 0]), np.zeros(4, bool))
+    assert gp.n_basis == 4  # the duplicate of 0 became a basis vector
+    mean, var = gp.predict(np.zeros((1, 1)))
+    assert bool(torch.isfinite(mean).all() and torch.isfinite(var).all())
+    gp.update(np.array([[0.0], [0.5], [0.0]]), np.zeros(3))
+    assert bool(torch.isfinite(gp.predict(np.zeros((1, 1)))[0]).all())
+
+
 def test_shepard_weights_are_continuous_where_the_neighbour_set_changes() -> None:
     """Scan a line finely: where the k nearest change, the weights must barely move.
 
@@ -373,3 +400,22 @@ def test_a_point_that_sees_no_basis_vector_is_uncorrelated() -> None:
     left = torch.tensor([[-0.5, 0.0], [-2.0, 1.0]], dtype=torch.float64)
     novelty = kernel.novelty_rows(left, z).dense(Gram(kernel.gram(z)))
     assert bool((novelty == 0).all())
+    # As a new basis vector it joins no one: a component of its own, uncorrelated with the
+    # basis (before, every blocked row tied and it joined basis vector 0 across the line).
+    rows, parents = kernel.insertion_rows(left, z)
+    assert list(parents) == [None, None]
+    assert bool((rows == 0).all())
+
+
+def test_a_new_basis_vector_that_sees_none_starts_its_own_component() -> None:
+    """Through the GP: a walk's first basis vector left of the line, all basis vectors right of
+    it, has no edge; a later one beside it joins it, not the other side."""
+    gp = SparseOnlineGP(2, HalfPlanes(lengthscale=1.0), max_basis=10, novelty_tol=0.1)
+    gp.update(np.array([[3.0, 0.0], [2.0, 0.0]]), np.zeros(2), np.array([True, False]))
+    gp.update(np.array([[-1.0, 0.0], [-1.5, 0.0]]), np.ones(2), np.array([True, False]))
+    adjacency = gp.adjacency.numpy()
+    assert adjacency.shape == (4, 4)
+    # nodes 0-1 right of the line (one edge), 2-3 left of it (one edge), nothing between
+    np.testing.assert_array_equal(adjacency[:2, 2:], 0)
+    assert adjacency[0, 1] > 0 and adjacency[2, 3] > 0
+    np.testing.assert_array_equal(gp.shortest_paths.numpy()[:2, 2:], np.inf)

@@ -193,24 +193,33 @@ class GeodesicKernel(Kernel):
 
     def insertion_rows(self, x: Tensor, z: Tensor) -> tuple[Tensor, Sequence[Any]]:
         """The rows of ``x : (r, d)`` as leaves of their parents; the parent nodes are the
-        attachments."""
+        attachments (``None``: the new BV starts a component of its own, correlated with no
+        other: the first BV, or one that sees no BV, :meth:`blocked`)."""
         parents = self._parents(x, z)
         if parents is None:
-            # The first BV starts a component of its own.
             return x.new_zeros(x.shape[0], 0), [None] * x.shape[0]
-        w = torch.linalg.vector_norm(x - self.tree.pos[parents], dim=1)
+        joined = parents >= 0
+        w = torch.linalg.vector_norm(x - self.tree.pos[parents.clamp_min(0)], dim=1)
         nodes = self.tree.basis_nodes[: z.shape[0]]
-        rows = self(w[:, None] + self.tree.shortest_paths[parents][:, nodes])
-        return rows, parents.tolist()
+        rows = self(w[:, None] + self.tree.shortest_paths[parents.clamp_min(0)][:, nodes])
+        rows = torch.where(joined[:, None], rows, torch.zeros_like(rows))
+        return rows, [
+            p if ok else None for p, ok in zip(parents.tolist(), joined.tolist(), strict=True)
+        ]
 
     def _parents(self, x: Tensor, z: Tensor) -> Tensor | None:
-        """Graph nodes new BVs at scaled inputs ``x : (r, d)`` would be joined to, shape (r,)
-        (None: no basis yet)."""
+        """Graph nodes new BVs at scaled inputs ``x : (r, d)`` would be joined to, shape (r,):
+        -1 where a point sees no BV (every pair :meth:`blocked`), None where there is no basis
+        yet."""
         if z.shape[0] == 0:
             return None
         if self.edges == "trajectory" and int(self.traj_node) >= 0:
             return self.traj_node.expand(x.shape[0])
-        return self.tree.basis_nodes[self.attach_distances(x, z).argmin(dim=1)]
+        parents = self.tree.basis_nodes[self.attach_distances(x, z).argmin(dim=1)]
+        mask = self.blocked(x, z)
+        if mask is None:
+            return parents
+        return torch.where(mask.all(dim=1), torch.full_like(parents, -1), parents)
 
     def blocked(self, x: Tensor, z: Tensor) -> Tensor | None:
         """Pairs that may not be attached to each other (none by default).
@@ -316,7 +325,8 @@ def shepard_weights(dist: Tensor, k: int) -> tuple[Tensor, Tensor]:
         ``w_i ∝ ((R - d_i)_+ / (R d_i))^2``, summing to 1, ``R`` the distance to the
         ``(k+1)``-th nearest basis vector (infinite if there is none), so a weight vanishes
         continuously as its basis vector leaves the neighbour set; a point on a basis vector
-        gets weight 1 on it.
+        gets weight 1 on it (equal weights on its ``k`` nearest where more than ``k``
+        coincide with it).
     """
     m = dist.shape[1]
     k = min(k, m)
@@ -326,7 +336,8 @@ def shepard_weights(dist: Tensor, k: int) -> tuple[Tensor, Tensor]:
     floor = torch.finfo(d.dtype).tiny ** 0.25
     d_near = d[:, :k].clamp_min(floor)
     if m > k:
-        radius = d[:, k:]
+        # Clamped too: with more than k BVs on the point the ratio would be 0 / 0.
+        radius = d[:, k:].clamp_min(floor)
         raw = ((radius - d_near).clamp_min(0) / (radius * d_near)).square()
     else:
         raw = d_near.reciprocal().square()
