@@ -198,10 +198,10 @@ class GeodesicKernel(Kernel):
         parents = self._parents(x, z)
         if parents is None:
             return x.new_zeros(x.shape[0], 0), [None] * x.shape[0]
-        joined = parents >= 0
-        w = torch.linalg.vector_norm(x - self.tree.pos[parents.clamp_min(0)], dim=1)
+        joined, nodes_of = parents >= 0, parents.clamp_min(0)
+        w = torch.linalg.vector_norm(x - self.tree.pos[nodes_of], dim=1)
         nodes = self.tree.basis_nodes[: z.shape[0]]
-        rows = self(w[:, None] + self.tree.shortest_paths[parents.clamp_min(0)][:, nodes])
+        rows = self(w[:, None] + self.tree.shortest_paths[nodes_of][:, nodes])
         rows = torch.where(joined[:, None], rows, torch.zeros_like(rows))
         return rows, [
             p if ok else None for p, ok in zip(parents.tolist(), joined.tolist(), strict=True)

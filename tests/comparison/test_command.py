@@ -317,25 +317,33 @@ def test_mistakes_end_in_one_line_and_status_2_before_any_run(
         assert not out.exists()
 
 
-def _running_workers(parent: int) -> list[int]:
-    """Pids of the live worker processes (spawned by multiprocessing) of process ``parent``."""
-    found = []
-    for stat in Path("/proc").glob("[0-9]*/stat"):
-        try:
-            fields = stat.read_text().rsplit(")", 1)[1].split()
-            cmdline = (stat.parent / "cmdline").read_bytes()
-        except OSError:
-            continue
-        if int(fields[1]) == parent and fields[0] != "Z" and b"spawn_main" in cmdline:
-            found.append(int(stat.parent.name))
-    return found
+def _stat(pid: int) -> tuple[str, int] | None:
+    """State letter and parent pid of process ``pid`` from ``/proc``; ``None`` if it is gone."""
+    try:
+        fields = (Path("/proc") / str(pid) / "stat").read_text().rsplit(")", 1)[1].split()
+    except OSError:
+        return None
+    return fields[0], int(fields[1])
 
 
 def _alive(pid: int) -> bool:
-    try:
-        return (Path("/proc") / str(pid) / "stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
-    except OSError:
-        return False
+    stat = _stat(pid)
+    return stat is not None and stat[0] != "Z"
+
+
+def _running_workers(parent: int) -> list[int]:
+    """Pids of the live worker processes (spawned by multiprocessing) of process ``parent``."""
+    found = []
+    for entry in Path("/proc").glob("[0-9]*"):
+        pid = int(entry.name)
+        try:
+            spawned = b"spawn_main" in (entry / "cmdline").read_bytes()
+        except OSError:
+            continue
+        stat = _stat(pid)
+        if spawned and stat is not None and stat[0] != "Z" and stat[1] == parent:
+            found.append(pid)
+    return found
 
 
 @pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads /proc (Linux)")
