@@ -10,6 +10,14 @@ second half's, paired by seed::
     python results/maze_oracle/swap.py --read --plot results/maze_oracle/swap/swap.png \\
         > results/maze_oracle/swap/read.md
 
+Re-run with 0.31.3's oracle (``PLAN.md``'s addendum 10), next to the screen and confirmation
+re-run in ``rerun_0_31_3``::
+
+    python results/maze_oracle/swap.py --root rerun_0_31_3
+    python results/maze_oracle/swap.py --root rerun_0_31_3 --read \\
+        --plot results/maze_oracle/rerun_0_31_3/swap/swap.png \\
+        > results/maze_oracle/rerun_0_31_3/swap/read.md
+
 Every arm's kernel is one :class:`SwitchedKernel`; the arms differ only in when it knows the
 walls. A switch changes the attachments made from then on (of new basis vectors and of every
 point the critic is asked about); edges already in the graph stay.
@@ -42,8 +50,8 @@ from sb3_geogp.studies.wall.oracle import WallAwareGeodesicKernel
 from sb3_geogp.toolbox.scripts import load_script
 from sb3_geogp.toolbox.stats import mean_ci
 
-HERE = Path(__file__).resolve().parent / "swap"
-READ = load_script(HERE.parent / "read.py", "maze_oracle_read")
+HERE = Path(__file__).resolve().parent
+READ = load_script(HERE / "read.py", "maze_oracle_read")
 AREA = "area under the curve (mean return over checkpoints)"
 SEEDS = tuple(range(618, 638))
 AT = 15_360
@@ -105,11 +113,13 @@ def specs(seeds: tuple[int, ...]) -> list[RunSpec]:
     ).specs()
 
 
-def train(seeds: tuple[int, ...], arms: list[str], at: int, workers: int) -> None:
-    jobs = [(arm, s) for arm in arms for s in pending_runs(specs(seeds), HERE / arm)]
+def train(root: str, seeds: tuple[int, ...], arms: list[str], at: int, workers: int) -> None:
+    """Runs every arm's pending seeds into ``<root>/swap/<arm>``."""
+    folder = {arm: HERE / root / "swap" / arm for arm in arms}
+    jobs = [(arm, s) for arm in arms for s in pending_runs(specs(seeds), folder[arm])]
     context = multiprocessing.get_context("spawn")
     with cf.ProcessPoolExecutor(workers, mp_context=context) as pool:
-        futures = [pool.submit(one, arm, spec, HERE / arm, at) for arm, spec in jobs]
+        futures = [pool.submit(one, arm, spec, folder[arm], at) for arm, spec in jobs]
         for future in tqdm(cf.as_completed(futures), total=len(futures), desc="runs", unit="run"):
             tqdm.write(future.result())
 
@@ -123,9 +133,12 @@ def half_mean(result: dict[str, Any], at: int, second: bool) -> float:
     return float(returns[steps > at].mean() if second else returns[steps <= at].mean())
 
 
-def read(at: int, plot: Path | None) -> None:
-    data = {arm: runs[WALL_MAZE_ID] for arm, runs in READ.runs("swap", tuple(ARMS)).items()}
+def read(root: str, at: int, plot: Path | None) -> None:
+    found = READ.runs(str(Path(root, "swap")), tuple(ARMS))
+    data = {arm: runs[WALL_MAZE_ID] for arm, runs in found.items()}
     seeds = sorted(set.intersection(*(set(d) for d in data.values())))
+    if not seeds:
+        raise SystemExit(f"no seed has all four arms under {HERE / root / 'swap'}: train first")
     print(f"Seeds read: {len(seeds)} ({seeds[0]}-{seeds[-1]}); switch at {at:,} steps.\n")
     metric = {name: fn for name, (fn, _) in READ.METRICS.items()}
     readings = {
@@ -147,14 +160,14 @@ def read(at: int, plot: Path | None) -> None:
         print(f"| {name} | {means} | {late} | {early} | {pure} |")
     print("\nEffects: the mean over the other half's two settings of (oracle − blind) in the")
     print("named half, paired by seed, 95 % Student-t.")
-    sets(metric[AREA])
+    sets(root, metric[AREA])
     if plot is not None:
         draw(data, seeds, at, plot)
 
 
-def sets(area: Callable[[dict[str, Any]], float]) -> None:
-    """``oracle − blind`` over the whole run in every set of WallMaze-v0 seeds run so far, and
-    pooled (a reading chosen after seeing this design's, so printed apart)."""
+def sets(root: str, area: Callable[[dict[str, Any]], float]) -> None:
+    """``oracle − blind`` over the whole run in every set of WallMaze-v0 seeds under ``root``,
+    and pooled (a reading chosen after seeing this design's, so printed apart)."""
     folders = {
         "580-589 (the screen, where the slowdown was noticed)": "",
         "590-599 (the confirmation)": "confirm",
@@ -162,7 +175,7 @@ def sets(area: Callable[[dict[str, Any]], float]) -> None:
     }
     pairs = {}
     for name, under in folders.items():
-        found = READ.runs(under, ("oracle", "blind"))
+        found = READ.runs(str(Path(root, under)), ("oracle", "blind"))
         oracle, blind = (found[arm][WALL_MAZE_ID] for arm in ("oracle", "blind"))
         seeds = sorted(set(oracle) & set(blind))
         pairs[name] = tuple(np.array([area(arm[s]) for s in seeds]) for arm in (oracle, blind))
@@ -213,6 +226,9 @@ def draw(data: dict[str, dict[int, dict[str, Any]]], seeds: list[int], at: int, 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument(
+        "--root", default="", help="the set of runs (a folder of the screen's; '' the published)"
+    )
     parser.add_argument("--seeds", nargs="+", type=int, default=list(SEEDS))
     parser.add_argument("--arms", nargs="+", choices=list(ARMS), default=list(ARMS))
     parser.add_argument("--at", type=int, default=AT, help="step at which the critic switches")
@@ -220,9 +236,9 @@ def main() -> None:
     parser.add_argument("--plot", type=Path, default=None, help="with --read: the figure")
     args = parser.parse_args()
     if args.read:
-        read(args.at, args.plot)
+        read(args.root, args.at, args.plot)
     else:
-        train(tuple(args.seeds), args.arms, args.at, args.workers)
+        train(args.root, tuple(args.seeds), args.arms, args.at, args.workers)
 
 
 if __name__ == "__main__":
