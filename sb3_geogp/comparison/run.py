@@ -169,40 +169,18 @@ def _train_and_measure(
     model = build_model(spec, kernel)  # last: it seeds the global random streams training uses
     env = model.get_env()
     assert env is not None
-    gp_callback: TimedGPValueCallback | None = None
-    value_timer: ForwardTimer | None = None
-    if isinstance(model.policy, GPActorCriticPolicy):
-        gp_callback = TimedGPValueCallback(
-            target=spec.target, horizon=spec.horizon, feed_every=spec.feed_every
-        )
-        value_timer = ForwardTimer(model.policy.value_net)
+    gp_callback, value_timer = _critic_timers(model, spec)
     checkpoints = MeasureCallback(spec, eval_envs, probes, value_timer)
-    callbacks: list[BaseCallback] = [checkpoints] if gp_callback is None else [gp_callback]
-    if gp_callback is not None:
-        callbacks.append(checkpoints)
-    callbacks.extend(recorders)
+    callbacks = [c for c in (gp_callback, checkpoints) if c is not None]
     start, cpu_start = time.perf_counter(), time.process_time()
-    model.learn(spec.total_timesteps, callback=CallbackList(callbacks))
+    model.learn(spec.total_timesteps, callback=CallbackList([*callbacks, *recorders]))
     learn_seconds = time.perf_counter() - start
     learn_cpu_seconds = time.process_time() - cpu_start
     # Training time: learn() without the measurements made inside it.
     train_seconds = learn_seconds - checkpoints.seconds
-    train_cpu_seconds = learn_cpu_seconds - checkpoints.cpu_seconds
     checkpoints.measure(final=True)
     env.close()
 
-    timesteps = np.array(checkpoints.eval_timesteps, dtype=np.float64)
-    mean_curve = np.array([np.mean(r) for r in checkpoints.eval_returns])
-    threshold = spec.threshold
-    critic_seconds: dict[str, float] | None = None
-    critic_share: float | None = None
-    if gp_callback is not None and value_timer is not None:
-        critic_seconds = dict(
-            gp_update=gp_callback.update_seconds,
-            rollout_end=gp_callback.rollout_end_seconds,
-            value_predict=value_timer.seconds,
-        )
-        critic_share = (gp_callback.rollout_end_seconds + value_timer.seconds) / train_seconds
     result: dict[str, Any] = dict(
         schema=SCHEMA,
         run_id=spec.run_id,
@@ -212,37 +190,17 @@ def _train_and_measure(
             values=spec.hyperparams,
             deviations=list(DEVIATIONS),
         ),
-        eval=dict(
-            timesteps=checkpoints.eval_timesteps,
-            mean_return=[float(x) for x in mean_curve],
-            returns=checkpoints.eval_returns,
-            deterministic=True,
-            episode_seeds=[EVAL_SEED + i for i in range(spec.n_eval_episodes)],
-        ),
-        final_return=float(mean_curve[-1]),
-        threshold=threshold,
-        steps_to_threshold=_finite_or_none(
-            float(steps_to_threshold(timesteps, mean_curve, threshold))
-        ),
+        **_evaluation(spec, checkpoints),
         num_timesteps=int(model.num_timesteps),
         max_episode_steps=probes.episode_steps,
         wall_clock_seconds=learn_seconds,
         train_seconds=train_seconds,
-        train_cpu_seconds=train_cpu_seconds,
+        train_cpu_seconds=learn_cpu_seconds - checkpoints.cpu_seconds,
         checkpoint_seconds=checkpoints.seconds,
         checkpoint_cpu_seconds=checkpoints.cpu_seconds,
         checkpoint_cost=checkpoints.cost,
-        critic_seconds=critic_seconds,
-        critic_share=critic_share,
-        critic_accuracy=dict(
-            **checkpoints.critic,
-            n_states=spec.n_probe_states,
-            n_rollouts=spec.n_mc_rollouts,
-            horizon=mc_horizon(float(model.gamma), probes.episode_steps),
-            gamma=float(model.gamma),
-            tail_bound=float(model.gamma) ** mc_horizon(float(model.gamma), probes.episode_steps),
-            probe_seed=PROBE_SEED,
-        ),
+        **_critic_time(gp_callback, value_timer, train_seconds),
+        critic_accuracy=_critic_accuracy(spec, checkpoints, float(model.gamma), probes),
         gp_n_basis=(
             int(model.policy.gp.n_basis) if isinstance(model.policy, GPActorCriticPolicy) else None
         ),
@@ -252,6 +210,72 @@ def _train_and_measure(
     if kernel is not None:
         result["kernel"] = f"{type(kernel).__module__}.{type(kernel).__qualname__}"
     return result
+
+
+def _evaluation(spec: RunSpec, checkpoints: MeasureCallback) -> dict[str, Any]:
+    """The evaluation curve, its last point and the steps to the run's threshold."""
+    mean_curve = np.array([np.mean(r) for r in checkpoints.eval_returns])
+    timesteps = np.array(checkpoints.eval_timesteps, dtype=np.float64)
+    return dict(
+        eval=dict(
+            timesteps=checkpoints.eval_timesteps,
+            mean_return=[float(x) for x in mean_curve],
+            returns=checkpoints.eval_returns,
+            deterministic=True,
+            episode_seeds=[EVAL_SEED + i for i in range(spec.n_eval_episodes)],
+        ),
+        final_return=float(mean_curve[-1]),
+        threshold=spec.threshold,
+        steps_to_threshold=_finite_or_none(
+            float(steps_to_threshold(timesteps, mean_curve, spec.threshold))
+        ),
+    )
+
+
+def _critic_accuracy(
+    spec: RunSpec, checkpoints: MeasureCallback, gamma: float, probes: ProbeStates
+) -> dict[str, Any]:
+    """The critic's errors at the checkpoints and how their Monte Carlo values were made."""
+    horizon = mc_horizon(gamma, probes.episode_steps)
+    return dict(
+        **checkpoints.critic,
+        n_states=spec.n_probe_states,
+        n_rollouts=spec.n_mc_rollouts,
+        horizon=horizon,
+        gamma=gamma,
+        tail_bound=gamma**horizon,
+        probe_seed=PROBE_SEED,
+    )
+
+
+def _critic_timers(
+    model: OnPolicyAlgorithm, spec: RunSpec
+) -> tuple[TimedGPValueCallback | None, ForwardTimer | None]:
+    """A GP critic's feeding callback, timed, and a timer on its value predictions; ``None``
+    twice for SB3's MLP critic."""
+    if not isinstance(model.policy, GPActorCriticPolicy):
+        return None, None
+    callback = TimedGPValueCallback(
+        target=spec.target, horizon=spec.horizon, feed_every=spec.feed_every
+    )
+    return callback, ForwardTimer(model.policy.value_net)
+
+
+def _critic_time(
+    gp_callback: TimedGPValueCallback | None, value_timer: ForwardTimer | None, train: float
+) -> dict[str, Any]:
+    """``critic_seconds`` (its parts) and ``critic_share`` (of ``train`` seconds): the time in
+    a GP critic, its feeding and its predictions; ``None`` for SB3's MLP critic."""
+    if gp_callback is None or value_timer is None:
+        return dict(critic_seconds=None, critic_share=None)
+    return dict(
+        critic_seconds=dict(
+            gp_update=gp_callback.update_seconds,
+            rollout_end=gp_callback.rollout_end_seconds,
+            value_predict=value_timer.seconds,
+        ),
+        critic_share=(gp_callback.rollout_end_seconds + value_timer.seconds) / train,
+    )
 
 
 def load_result(path: Path) -> dict[str, Any] | None:
