@@ -273,8 +273,14 @@ class GPValueCallback(BaseCallback):
         self._policy.defer_values = self.deferred_values
 
     def _on_step(self) -> bool:
+        truncations = time_limit_truncations(self._algo, self.locals)
+        for _, env, terminal in truncations:
+            # SB3 asks the critic for V(terminal) right after this hook, one env at a time.
+            self._policy.check_observations(
+                terminal, f"the final observation of env {env}'s episode, cut by its time limit,"
+            )
         if self.recompute_advantages:
-            self._truncations += time_limit_truncations(self._algo, self.locals)
+            self._truncations += truncations
         return True
 
     def _on_rollout_end(self) -> None:
@@ -381,10 +387,20 @@ class GPValueCallback(BaseCallback):
         )
 
     def _on_training_end(self) -> None:
+        policy = self._policy
+        policy.defer_values = False
         if self._held:
-            self._feed_held(self._policy)
-        self._policy.unfinished_episodes = _Unfinished(
-            self.model._last_obs, self.model.num_timesteps, self._feed_rule, self._pending
+            self._feed_held(policy)
+        # A callback that stops learn() inside a rollout (SB3's StopTrainingOn... callbacks)
+        # skips its rollout end: SB3 drops the rollout, and the episodes then running lack its
+        # steps, so they cannot be continued (the next call starts new trajectories).
+        cut = policy.awaiting_feed
+        policy.unfinished_episodes = (
+            None
+            if cut
+            else _Unfinished(
+                self.model._last_obs, self.model.num_timesteps, self._feed_rule, self._pending
+            )
         )
         rollouts, points = self._fed
         if rollouts and not points:

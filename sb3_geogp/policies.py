@@ -430,7 +430,7 @@ class GPCriticMixin(_PolicyBase):
         ValueError
             If an observation holds NaN or inf, naming its environment, before anything changes.
         """
-        self._check_observations(obs, "the observation of env {}")
+        self.check_observations(obs, "the observation of env {}")
         self._awaiting_feed = True
         with self._placeholder_values(self.defer_values):
             return super().forward(obs, *args, **kwargs)
@@ -500,10 +500,12 @@ class GPCriticMixin(_PolicyBase):
         ValueError
             If an observation holds NaN or inf, naming its row.
         """
-        self._check_observations(
+        self.check_observations(
             obs,
-            "observation {0} of the batch passed to predict_values (SB3 passes it each "
-            "environment's observation after a rollout: then it is env {0})",
+            "observation {0} of the batch passed to predict_values (SB3 passes it the "
+            "environments' last observations after a rollout, then it is env {0}, and the final "
+            "observation of an episode cut by its time limit alone, which GPValueCallback "
+            "checks first, naming its env)",
         )
         return super().predict_values(obs)
 
@@ -522,15 +524,28 @@ class GPCriticMixin(_PolicyBase):
                 "a list"
             )
 
-    def _check_observations(self, obs: PyTorchObs, which: str) -> None:
-        """Raise a ``ValueError`` naming the first observation (``which`` formatted with its
-        row) that holds NaN or inf."""
+    def check_observations(self, obs: PyTorchObs | np.ndarray, which: str) -> None:
+        """Raise a ``ValueError`` naming the first observation that holds NaN or inf.
+
+        Parameters
+        ----------
+        obs : Tensor or ndarray, shape (N, *obs_shape) or obs_shape (one observation)
+        which : str
+            How the message names the observation, formatted with its row (``"{}"``).
+
+        Raises
+        ------
+        ValueError
+            If an observation holds NaN or inf.
+        """
         # SB3 passes the environments' observations through unchecked: a NaN would otherwise
         # surface as a torch distribution's constraint error or the engine's, neither naming
         # the environment that produced it.
         obs = th.as_tensor(obs)  # Dict observations are refused at construction
         if bool(th.isfinite(obs).all()):
             return
+        if obs.shape == self.observation_space.shape:  # one observation, not batched
+            obs = obs.unsqueeze(0)
         bad = ~th.isfinite(obs.reshape(len(obs), -1)).all(dim=1)
         first = which.format(int(bad.nonzero()[0, 0]))
         raise ValueError(
@@ -593,6 +608,12 @@ class GPCriticMixin(_PolicyBase):
             The critic's current values of ``obs`` where the caller has them already (a
             rollout's batched values): the diagnostics then need no prediction of the means.
 
+        Raises
+        ------
+        ValueError
+            If ``targets``, ``episode_starts`` or ``values`` is not of shape (n,), before
+            anything changes; the GP's own checks (non-finite values) likewise.
+
         Returns
         -------
         dict of str to float
@@ -609,6 +630,7 @@ class GPCriticMixin(_PolicyBase):
             geometric mean) and ``lengthscale_<i>``, ``signal_var``, ``noise_var``,
             ``target_mean``, ``target_scale``, ``target_drift``, ``block_fit``).
         """
+        _check_batch_shapes(len(obs), targets=targets, episode_starts=episode_starts, values=values)
         stats: dict[str, float] = {}
         start = time.perf_counter()
         if len(targets) > 0:
@@ -715,7 +737,8 @@ class GPActorCriticPolicy(GPCriticMixin, ActorCriticPolicy):
         Kept by :class:`~sb3_geogp.GPValueCallback` between ``learn()`` calls: the steps of the
         episodes still running when a call ended (Monte Carlo targets), which the next call
         feeds once they end if SB3 did not reset the environment in between
-        (``learn(..., reset_num_timesteps=False)``). Not saved with the model.
+        (``learn(..., reset_num_timesteps=False)``); ``None`` after a call that a callback
+        stopped inside a rollout. Not saved with the model.
     """
 
     @classmethod
@@ -728,6 +751,18 @@ class GPActorCriticPolicy(GPCriticMixin, ActorCriticPolicy):
 _STD_SAMPLE = 1024
 #: ``mean_std`` is computed again once this many points have been fed since the last time.
 _STD_EVERY = 256
+
+
+def _check_batch_shapes(n: int, **arrays: th.Tensor | np.ndarray | None) -> None:
+    """Raise a ``ValueError`` naming the first of ``arrays`` (``None`` passes) not of shape
+    ``(n,)``, one entry per observation."""
+    for name, array in arrays.items():
+        shape = None if array is None else tuple(np.shape(array))
+        if shape is not None and shape != (n,):
+            raise ValueError(
+                f"update_critic: {name} must have shape ({n},), one entry per observation, "
+                f"got {shape}"
+            )
 
 
 def _fit_before_update(

@@ -448,6 +448,61 @@ def test_learning_in_chunks_trains_as_one_learn_call() -> None:
     assert int(reset.policy.gp.n_seen) < int(one.policy.gp.n_seen)
 
 
+class StopAt(BaseCallback):
+    """Stops ``learn()`` at its ``n``-th step, inside a rollout, as SB3's ``StopTrainingOn...``
+    callbacks do."""
+
+    def __init__(self, n: int) -> None:
+        super().__init__()
+        self.n = n
+
+    def _on_step(self) -> bool:
+        return self.n_calls < self.n
+
+
+@pytest.mark.parametrize("algo", [PPO, A2C])
+def test_a_learn_call_stopped_inside_a_rollout_hands_over_no_broken_episode(
+    algo: type[BaseAlgorithm],
+) -> None:
+    """SB3 drops a rollout that a callback stops, and the episodes running then lack its
+    steps: the next call continuing the environment feeds, env by env, exactly the completed
+    episodes of its own rollouts (brute force from SB3's buffers), its first step a
+    trajectory start; and ``forward`` gives the GP's values again after the stop."""
+    model = make_scripted(algo, n_steps=4)
+    recorder = FeedRecorder(model.policy, keep_empty=True)  # the GP stays at PRIOR
+    model.learn(4 * 8, callback=[GPValueCallback(target="monte_carlo"), StopAt(6)])
+    assert model.num_timesteps == 2 * 6  # inside the second rollout
+    obs = th.tensor([[0.0, 0.0, 1.0]])
+    with th.no_grad():
+        assert model.policy(obs)[1].item() == pytest.approx(PRIOR)
+
+    before = len(recorder.batches)
+    buffers = BufferRecorder()
+    model.learn(
+        4 * 8, callback=[GPValueCallback(target="monte_carlo"), buffers], reset_num_timesteps=False
+    )
+    fed = recorder.batches[before:]
+    for env in (0, 1):
+        stream = {
+            name: np.concatenate([r[name][:, env] for r in buffers.rollouts])
+            for name in ("observations", "rewards", "episode_starts")
+        }
+        starts = stream["episode_starts"].astype(bool)
+        starts[0] = True
+        n = int(np.flatnonzero(starts)[-1])  # the steps of the episodes ended before the last
+        expected = np.zeros(n)
+        for t in reversed(range(n)):
+            ends = starts[t + 1]
+            expected[t] = stream["rewards"][t] + (0.0 if ends else GAMMA * expected[t + 1])
+        rows = [
+            (x, y, start) for b in fed for x, y, start in zip(*b, strict=True) if int(x[0]) == env
+        ]
+        assert len(rows) >= n
+        np.testing.assert_array_equal([x for x, _, _ in rows[:n]], stream["observations"][:n])
+        np.testing.assert_allclose([y for _, y, _ in rows[:n]], expected, rtol=1e-6)
+        assert [s for _, _, s in rows[:n]] == list(starts[:n])
+
+
 @pytest.mark.parametrize("target", ["returns", "monte_carlo"])
 def test_on_fed_sees_exactly_what_the_gp_was_fed(target: Target) -> None:
     """The hook gets each batch after the GP, as ``update_critic`` got it (env by env)."""
@@ -906,6 +961,38 @@ def test_nan_reward_is_named_with_its_step_and_env() -> None:
     for key, value in model.policy.gp.state_dict().items():
         if isinstance(value, th.Tensor):
             assert th.equal(value.nan_to_num(), gp_before[key].nan_to_num()), key
+
+
+class NaNAtTruncation(TruncatingEnv):
+    """The random walk whose second episode's final observation, at its time limit of 3
+    steps, holds NaN."""
+
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[np.ndarray, dict[str, Any]]:
+        self.episodes = getattr(self, "episodes", 0) + 1
+        self.t = 0
+        return super().reset(seed=seed, options=options)
+
+    def step(self, action: int) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        self.t += 1
+        obs, *rest = super().step(action)
+        if self.episodes == 2 and self.t == 3:
+            obs = np.array([np.nan, 0.0], dtype=np.float32)
+        return obs, *rest
+
+
+def test_nan_final_observation_of_a_truncated_episode_is_named_with_its_env() -> None:
+    """SB3 asks the critic for V(final observation) of each truncated episode alone, a batch
+    of one; the callback checks it first and names the env (2, not row 0)."""
+    envs = [lambda: TimeLimit(TruncatingEnv(), 3)] * 2 + [lambda: TimeLimit(NaNAtTruncation(), 3)]
+    model = A2C(GPActorCriticPolicy, DummyVecEnv(envs), n_steps=4, seed=0)
+    probe = ProbeRecorder(th.zeros(1, 2))
+    match = r"final observation of env 2's episode, cut by its time limit, holds NaN"
+    with pytest.raises(ValueError, match=match):
+        model.learn(40, callback=[GPValueCallback(), probe])
+    assert model.num_timesteps == 3 * 6  # the second episode's last step
+    assert len(probe.values) == 1  # the first rollout was fed, the second refused
 
 
 class HugeRewardEnv(ScriptedEnv):

@@ -755,6 +755,13 @@ class GPStateAtRolloutStart(BaseCallback):
         return True
 
 
+def assert_same_gp(state: dict[str, Any], expected: dict[str, Any]) -> None:
+    assert state.keys() == expected.keys()
+    for name, value in expected.items():
+        other = state[name]
+        assert th.equal(other, value) if isinstance(value, th.Tensor) else other == value, name
+
+
 @pytest.mark.parametrize("algo", ALGOS)
 def test_a_nan_observation_raises_naming_its_env_and_leaves_the_critic_as_it_was(
     algo: type[BaseAlgorithm],
@@ -762,7 +769,7 @@ def test_a_nan_observation_raises_naming_its_env_and_leaves_the_critic_as_it_was
     """A NaN in env 1's third rollout stops training with an error naming env 1 (without the
     check PPO fails inside torch's distribution, A2C inside the engine, neither naming it);
     the GP is as that rollout found it, and values of a batch with a NaN row are refused,
-    naming the row."""
+    naming the row; targets not one per observation are refused before the GP sees them."""
     n_steps = algo_kwargs(algo, 2)["n_steps"]
     env = DummyVecEnv([lambda: gym.make("Pendulum-v1"), lambda: NaNObservation(2 * n_steps + 3)])
     model = algo(
@@ -776,15 +783,24 @@ def test_a_nan_observation_raises_naming_its_env_and_leaves_the_critic_as_it_was
     with pytest.raises(ValueError, match=r"observation of env 1 holds NaN or inf.*VecCheckNan"):
         model.learn(10 * n_steps * 2, callback=[feed(), probe])
     assert model.num_timesteps == 2 * (2 * n_steps + 3)  # the NaN came from the last step
-    state = model.policy.gp.state_dict()
-    assert bool(model.policy.gp.initialized) and state.keys() == probe.state.keys()
-    for name, value in probe.state.items():
-        other = state[name]
-        assert th.equal(other, value) if isinstance(value, th.Tensor) else other == value, name
+    assert bool(model.policy.gp.initialized)
+    assert_same_gp(model.policy.gp.state_dict(), probe.state)
     obs = th.zeros(3, 3)
     obs[2, 0] = th.inf
-    with pytest.raises(ValueError, match=r"observation 2 of the batch passed to .*env 2\) holds"):
+    with pytest.raises(ValueError, match=r"observation 2 of the batch passed to .*env 2, .* holds"):
         model.policy.predict_values(obs)
+    one = th.tensor([0.0, th.nan, 0.0])  # one observation, not a batch: it is row 0
+    with pytest.raises(ValueError, match=r"observation 0 of .* \(1 of 1 observations do\)"):
+        model.policy.predict_values(one)
+    for bad in (th.zeros(4), th.zeros(3, 1)):  # not one target per observation
+        with pytest.raises(
+            ValueError,
+            match=r"targets must have shape \(3,\).*got " + re.escape(str(tuple(bad.shape))),
+        ):
+            model.policy.update_critic(th.zeros(3, 3), bad, th.ones(3, dtype=th.bool))
+    with pytest.raises(ValueError, match=r"episode_starts must have shape \(3,\)"):
+        model.policy.update_critic(th.zeros(3, 3), th.zeros(3), th.ones(2, dtype=th.bool))
+    assert_same_gp(model.policy.gp.state_dict(), probe.state)
 
 
 _IMAGE = spaces.Box(0, 255, shape=(32, 32, 3), dtype=np.uint8)
