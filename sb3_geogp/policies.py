@@ -536,7 +536,7 @@ class GPCriticMixin(_PolicyBase):
         Raises
         ------
         ValueError
-            If an observation holds NaN or inf.
+            If an observation holds NaN or inf; :attr:`defer_values` is then switched off.
         """
         # SB3 passes the environments' observations through unchecked: a NaN would otherwise
         # surface as a torch distribution's constraint error or the engine's, neither naming
@@ -548,6 +548,8 @@ class GPCriticMixin(_PolicyBase):
             obs = obs.unsqueeze(0)
         bad = ~th.isfinite(obs.reshape(len(obs), -1)).all(dim=1)
         first = which.format(int(bad.nonzero()[0, 0]))
+        # The error ends the rollout: forward() gives the GP's values again, as before it.
+        self.defer_values = False
         raise ValueError(
             f"{type(self).__name__}: {first} holds NaN or inf "
             f"({int(bad.sum())} of {len(obs)} observations do); the critic and the actor "

@@ -992,6 +992,7 @@ def test_nan_final_observation_of_a_truncated_episode_is_named_with_its_env() ->
     with pytest.raises(ValueError, match=match):
         model.learn(40, callback=[GPValueCallback(), probe])
     assert model.num_timesteps == 3 * 6  # the second episode's last step
+    assert not model.policy.defer_values
     assert len(probe.values) == 1  # the first rollout was fed, the second refused
 
 

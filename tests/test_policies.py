@@ -783,6 +783,7 @@ def test_a_nan_observation_raises_naming_its_env_and_leaves_the_critic_as_it_was
     with pytest.raises(ValueError, match=r"observation of env 1 holds NaN or inf.*VecCheckNan"):
         model.learn(10 * n_steps * 2, callback=[feed(), probe])
     assert model.num_timesteps == 2 * (2 * n_steps + 3)  # the NaN came from the last step
+    assert not model.policy.defer_values  # forward() gives the GP's values, as before learn()
     assert bool(model.policy.gp.initialized)
     assert_same_gp(model.policy.gp.state_dict(), probe.state)
     obs = th.zeros(3, 3)
