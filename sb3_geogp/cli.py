@@ -58,6 +58,7 @@ from sb3_geogp.comparison.command import (
     add_arguments,
     add_target_arguments,
     check_env,
+    check_out,
     check_target_arguments,
     run_from_args,
 )
@@ -331,7 +332,7 @@ def train(args: argparse.Namespace) -> Path:
         )
         return out
     th.set_num_threads(args.threads)
-    out.mkdir(parents=True, exist_ok=True)
+    check_out(out)
     start = _resume_from(out)
     env = make_vec_env(
         args.env, n_envs=args.n_envs, seed=args.seed + start, monitor_dir=str(_monitor(out, start))
@@ -415,7 +416,7 @@ def _load_checkpoint(args: argparse.Namespace, out: Path, env: VecEnv) -> OnPoli
     model = ALGOS[args.algo].load(out / _CHECKPOINT, env=env, device=args.device)
     # A resumed run is determined by its seed and the step it resumes at, as the
     # environments' seeds are.
-    model.set_random_seed(args.seed + model.num_timesteps)
+    model.set_random_seed((args.seed + model.num_timesteps) % 2**32)  # where SB3's seeds stop
     return model
 
 

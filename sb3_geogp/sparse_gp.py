@@ -28,6 +28,7 @@ import contextlib
 import copy
 import functools
 import math
+import numbers
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from typing import Any, NamedTuple, TypeVar, cast
 
@@ -109,7 +110,19 @@ def _check_scalars(
     target_scale: float | None,
     optimism: float,
 ) -> None:
-    """Refuse a scalar option of :class:`SparseOnlineGP` outside its range."""
+    """Refuse a scalar option of :class:`SparseOnlineGP` that is not a number or is outside
+    its range."""
+    given = dict(
+        noise_var=noise_var,
+        novelty_tol=novelty_tol,
+        forgetting=forgetting,
+        target_mean=target_mean,
+        target_scale=target_scale,
+        optimism=optimism,
+    )
+    for name, value in given.items():
+        if value is not None and not isinstance(value, numbers.Real):
+            raise TypeError(f"{name} must be a number, got {value!r} ({type(value).__name__})")
     if not (noise_var > 0 and math.isfinite(noise_var)):
         raise ValueError(f"noise_var must be positive and finite, got {noise_var}")
     if novelty_tol is not None and not (0 <= novelty_tol < 1):

@@ -480,6 +480,20 @@ def test_after_a_crash_the_run_resumes_from_its_last_periodic_checkpoint(tmp_pat
     assert not (out / "checkpoint.zip").exists()
 
 
+def test_a_run_seeded_at_the_largest_seed_resumes(tmp_path: Path) -> None:
+    """SB3's seeds stop at 2**32 - 1, and a resumed run reseeds with its seed plus the step it
+    resumes at: that wraps there instead of failing at every resume."""
+    argv = ["train", "--algo", "ppo", "--env", "InterruptAt-v0", "--n-envs", "2", "--n-steps"]
+    argv += ["64", "--max-basis", "32", "--seed", str(2**32 - 1), "--no-progress"]
+    argv += ["--timesteps", "512", "--save-every", "128", "--out", str(tmp_path / "run")]
+    InterruptAt.at, InterruptAt.how, InterruptAt.steps = 2 * 170, "crash", 0
+    with pytest.raises(RuntimeError, match="crash"):
+        main(argv)
+    InterruptAt.at = None
+    assert main(argv) == 0
+    assert PPO.load(tmp_path / "run" / "model.zip").num_timesteps == 512
+
+
 def test_learning_curve_marks_where_a_run_resumed() -> None:
     plt = pytest.importorskip("matplotlib.pyplot")
     log = CriticLog(np.array([100.0, 200.0]), np.array([0.5, 0.6]), None)

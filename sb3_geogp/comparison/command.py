@@ -13,6 +13,8 @@ import argparse
 import ast
 import dataclasses
 import json
+import math
+import os
 import warnings
 from pathlib import Path
 from typing import Any
@@ -308,6 +310,11 @@ def config_from_args(args: argparse.Namespace) -> SweepConfig:
         raise UsageError(f"--first-seed must be at least 0, got {args.first_seed}")
     changes: dict[str, Any] = {}
     n_seeds = len(config.seeds) if args.seeds is None else args.seeds
+    if args.first_seed + n_seeds > 2**32:
+        raise UsageError(
+            f"--first-seed {args.first_seed} with {n_seeds} seeds goes past SB3's largest seed, "
+            "2**32 - 1: pass a smaller --first-seed"
+        )
     if args.seeds is not None or args.first_seed:
         changes["seeds"] = tuple(range(args.first_seed, args.first_seed + n_seeds))
     if args.timesteps_scale is not None:
@@ -326,12 +333,17 @@ def config_from_args(args: argparse.Namespace) -> SweepConfig:
         if unused:
             raise UsageError(f"--hyperparams {unused[0]}=...: {unused[0]} is not among --algos")
     for name in ("algos", "critics", "envs"):
-        if getattr(args, name) is not None:
-            changes[name] = tuple(getattr(args, name))
+        if (values := getattr(args, name)) is not None:
+            twice = next((v for i, v in enumerate(values) if v in values[:i]), None)
+            if twice is not None:
+                raise UsageError(f"--{name} names {twice} twice: name each once")
+            changes[name] = tuple(values)
     envs = changes.get("envs", config.envs)
     for env_id in envs:
         check_env(env_id)
     if args.threshold is not None:
+        if not all(math.isfinite(t) for t in args.threshold):
+            raise UsageError(f"--threshold takes finite returns, got {args.threshold}")
         if len(args.threshold) != len(envs):
             raise UsageError(
                 f"--threshold takes one value per environment ({len(envs)}: {' '.join(envs)}), "
@@ -352,7 +364,30 @@ def config_from_args(args: argparse.Namespace) -> SweepConfig:
     except ValueError as err:
         raise UsageError(str(err)) from None
     _check_models([spec for spec in specs if spec.algo in dict(config.hyperparams_files)])
+    for folder in args.baseline or ():
+        if not any((folder / "runs").glob("*.json")):
+            raise UsageError(
+                f"--baseline {folder}: no run files in its runs/ folder; pass a sweep's --out"
+            )
     return config
+
+
+def check_out(out: Path) -> None:
+    """Create the output folder ``out`` (and its parents) unless it exists.
+
+    Raises
+    ------
+    UsageError
+        If ``out`` is a file or cannot be created or written to.
+    """
+    if out.exists() and not out.is_dir():
+        raise UsageError(f"--out {out} is a file, not a directory: pass a directory")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        raise UsageError(f"--out {out} cannot be created ({err.strerror}): pass another") from None
+    if not os.access(out, os.W_OK | os.X_OK):
+        raise UsageError(f"--out {out} is not writable: pass another")
 
 
 def _check_models(specs: list[RunSpec]) -> None:
@@ -412,6 +447,7 @@ def run_from_args(args: argparse.Namespace) -> int:
                 f"{', '.join(est['missing'])}"
             )
         return 0
+    check_out(args.out)
     try:
         pending_runs(specs, args.out)  # refuses the folder of another sweep
     except ValueError as err:

@@ -37,34 +37,63 @@ def pending_runs(specs: Iterable[RunSpec], out_dir: str | Path) -> list[RunSpec]
     Raises
     ------
     ValueError
-        If a finished result was made with different settings than its spec asks for (a
-        different budget, say), with other hyperparameters or another threshold: pick another
-        ``out_dir`` rather than mix sweeps.
+        If a finished result of a spec's cell (algorithm, critic, environment), of its seed or
+        another, was made with different settings than the spec asks for (a different budget,
+        say), with other hyperparameters or another threshold: a folder holds one setting per
+        cell, whose seeds its report pools; pick another ``out_dir`` rather than mix sweeps.
     """
+    specs = list(specs)
     todo, refusals = [], []
     for spec in specs:
         done = load_result(result_path(out_dir, spec))
         if done is None:
             todo.append(spec)
-            continue
-        for what, made, asked in (
-            ("settings", done.get("spec"), spec.as_dict()),
-            ("hyperparameters", done.get("hyperparams", {}).get("values"), spec.hyperparams),
-            ("threshold", done.get("threshold"), spec.threshold),
-        ):
-            if made != (asked := _jsonable(asked)):
-                refusals.append((spec.critic == "mlp", spec, what, made, asked))
-                break
+        elif (difference := _difference(done, spec)) is not None:
+            refusals.append((spec.critic == "mlp", spec, *difference))
+    refusals += _other_seeds_refusals(specs, Path(out_dir))
     if refusals:
         # A GP run's file names the difference best: an MLP run also records the sweep's GP
         # options, which it does not use.
         _, spec, what, made, asked = min(refusals, key=lambda r: r[0])
         raise ValueError(
             f"{result_path(out_dir, spec)} was made with other {what} than requested "
-            f"({setting_differences(made, asked)}); pass the options it was made with "
-            "or use another --out"
+            f"({setting_differences(made, asked)}); its cell's runs would be pooled with "
+            "these: pass the options it was made with or use another --out"
         )
     return todo
+
+
+def _difference(done: dict[str, Any], spec: RunSpec) -> tuple[str, Any, Any] | None:
+    """What a finished result was made with where ``spec`` asks for something else:
+    ``(what, made, asked)``, or ``None``."""
+    for what, made, asked in (
+        ("settings", done.get("spec"), spec.as_dict()),
+        ("hyperparameters", done.get("hyperparams", {}).get("values"), spec.hyperparams),
+        ("threshold", done.get("threshold"), spec.threshold),
+    ):
+        if made != (asked := _jsonable(asked)):
+            return what, made, asked
+    return None
+
+
+def _other_seeds_refusals(
+    specs: list[RunSpec], out_dir: Path
+) -> list[tuple[bool, RunSpec, str, Any, Any]]:
+    """The refusals (as :func:`pending_runs` makes them) of the finished results in
+    ``out_dir`` of the cells of ``specs`` but of seeds they do not ask for."""
+    cells: dict[tuple[Any, ...], RunSpec] = {(s.algo, s.critic, s.env_id): s for s in specs}
+    asked = {s.run_id for s in specs}
+    refusals = []
+    for path in sorted((out_dir / "runs").glob("*.json")):
+        done = load_result(path)
+        made = {} if done is None else done.get("spec") or {}
+        spec = cells.get((made.get("algo"), made.get("critic"), made.get("env_id")))
+        if done is None or spec is None or path.stem in asked or "seed" not in made:
+            continue
+        same_cell = dataclasses.replace(spec, seed=made["seed"])
+        if (difference := _difference(done, same_cell)) is not None:
+            refusals.append((spec.critic == "mlp", same_cell, *difference))
+    return refusals
 
 
 def _jsonable(x: Any) -> Any:
@@ -85,7 +114,8 @@ def run_sweep(
     ----------
     config : SweepConfig
     out_dir : str or Path
-        Results go to ``out_dir/runs/*.json``; ``out_dir/sweep.json`` records the config.
+        Results go to ``out_dir/runs/*.json``; ``out_dir/sweep.json`` records the config of
+        every sweep run into the folder (``sweeps``, once each, in order).
     workers : int
         Parallel processes (``1``: in this process). With Ray, the number of CPUs requested
         from a local Ray instance if none is running.
@@ -102,7 +132,7 @@ def run_sweep(
     out = Path(out_dir)
     specs = config.specs()
     todo = pending_runs(specs, out)
-    write_json_atomic(out / "sweep.json", _sweep_record(config))
+    _record_sweep(out, config)
     bar = _progress_bar(len(specs), len(specs) - len(todo), progress)
     executed: list[str] = []
     shown: set[str] = set()
@@ -156,6 +186,21 @@ def _run_ray(
         ready, _ = ray.wait(list(refs), num_returns=1)
         for ref in ready:
             finished(refs.pop(ref), ray.get(ref))
+
+
+def _record_sweep(out: Path, config: SweepConfig) -> None:
+    """Add ``config`` to ``out/sweep.json``'s list of the sweeps run into the folder, unless
+    it is there already (a resumed sweep); a file of 0.31.3 or older holds one sweep."""
+    path = out / "sweep.json"
+    try:
+        earlier = json.loads(path.read_text())
+    except (OSError, ValueError):
+        earlier = None
+    sweeps = earlier.get("sweeps", [earlier]) if isinstance(earlier, dict) else []
+    record = _jsonable(_sweep_record(config))
+    if record not in sweeps:
+        sweeps.append(record)
+    write_json_atomic(path, dict(schema=SCHEMA, sweeps=sweeps))
 
 
 def _sweep_record(config: SweepConfig) -> dict[str, Any]:

@@ -308,6 +308,13 @@ def test_mistakes_end_in_one_line_and_status_2_before_any_run(
         (("--workers", "0"), "--workers must be at least 1, got 0"),
         (("--timesteps", "9", "--timesteps-scale", "2"), "drop --timesteps-scale"),
         (("--gp-option", "forgetting=1.5"), "--gp-option: the GP critic rejects"),
+        (("--gp-option", "noise_var=abc"), "noise_var must be a number, got 'abc' (str)"),
+        (("--envs", "CartPole-v1", "--threshold", "nan"), "--threshold takes finite returns"),
+        (("--envs", "CartPole-v1", "--threshold", "inf"), "--threshold takes finite returns"),
+        (("--first-seed", str(2**32 - 1), "--seeds", "2"), "goes past SB3's largest seed"),
+        (("--envs", "CartPole-v1", "Pendulum-v1", "CartPole-v1"), "names CartPole-v1 twice"),
+        (("--critics", "mlp", "mlp"), "--critics names mlp twice"),
+        (("--baseline", str(tmp_path / "nowhere")), "no run files in its runs/ folder"),
     ):
         out = tmp_path / "out"
         assert main(["compare", "--out", str(out), *argv]) == 2, argv
@@ -315,6 +322,22 @@ def test_mistakes_end_in_one_line_and_status_2_before_any_run(
         assert err.startswith("sb3-geogp compare: error: ") and err.count("\n") == 1, err
         assert message in err, (message, err)
         assert not out.exists()
+
+
+def test_an_out_that_is_a_file_or_cannot_be_made_is_refused_in_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    afile = tmp_path / "afile"
+    afile.write_text("mine")
+    argv = ["compare", "--envs", "CartPole-v1", "--algos", "ppo", "--critics", "mlp"]
+    for out, message in (
+        (afile, "is a file, not a directory"),
+        (afile / "sub", "cannot be created (Not a directory)"),
+    ):
+        assert main([*argv, "--out", str(out)]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and message in err, err
+    assert afile.read_text() == "mine"
 
 
 def _stat(pid: int) -> tuple[str, int] | None:

@@ -30,7 +30,7 @@ from sb3_geogp.comparison.results import (
 )
 from sb3_geogp.comparison.run import build_model, result_path, run_one
 from sb3_geogp.comparison.specs import SweepConfig
-from sb3_geogp.comparison.sweep import pending_runs, run_sweep
+from sb3_geogp.comparison.sweep import _record_sweep, _sweep_record, pending_runs, run_sweep
 from sb3_geogp.kernels import KERNELS, GeodesicKernel
 
 TINY = SweepConfig(
@@ -49,6 +49,19 @@ TINY = SweepConfig(
 
 def _mtimes(out: Path) -> dict[str, int]:
     return {p.name: p.stat().st_mtime_ns for p in (out / "runs").glob("*.json")}
+
+
+def test_sweep_json_records_each_sweep_run_into_the_folder_once(tmp_path: Path) -> None:
+    """A file of 0.31.3 or older (one sweep) keeps its sweep first; a resumed sweep adds
+    nothing, another one adds itself."""
+    first = json.loads(json.dumps(_sweep_record(TINY)))
+    (tmp_path / "sweep.json").write_text(json.dumps(first))
+    other = dataclasses.replace(TINY, seeds=(2, 3))
+    for config in (TINY, other, TINY, other):
+        _record_sweep(tmp_path, config)
+    recorded = json.loads((tmp_path / "sweep.json").read_text())["sweeps"]
+    assert [r["config"]["seeds"] for r in recorded] == [[0, 1], [2, 3]]
+    assert recorded[0] == first
 
 
 def test_tiny_sweep_end_to_end_and_resume(
@@ -99,6 +112,18 @@ def test_tiny_sweep_end_to_end_and_resume(
     other_gp = dataclasses.replace(TINY, gp_options=(("max_basis", 64),)).specs()
     with pytest.raises(ValueError, match=r"a2c__geodesic__CartPole-v1__s0\.json was made with"):
         pending_runs(other_gp, out)
+    # fresh seeds join the folder's cells only with their settings (the report pools them)
+    fresh = dataclasses.replace(TINY, seeds=(2,))
+    assert pending_runs(fresh.specs(), out) == fresh.specs()
+    for other in (
+        dataclasses.replace(fresh, timesteps_scale=0.1),
+        dataclasses.replace(fresh, gp_options=(("max_basis", 64),)),
+        dataclasses.replace(fresh, thresholds=(("CartPole-v1", 100.0),)),
+    ):
+        with pytest.raises(ValueError, match=r"__CartPole-v1__s[01]\.json was made with other"):
+            pending_runs(other.specs(), out)
+    other_cell = dataclasses.replace(TINY, seeds=(2,), algos=("ppo",), timesteps_scale=0.1)
+    assert pending_runs(other_cell.specs(), out) == other_cell.specs()  # no run of its cells
 
     # 4. Aggregation.
     results = load_results(out)
