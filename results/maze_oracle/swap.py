@@ -160,25 +160,28 @@ def read(root: str, at: int, plot: Path | None) -> None:
         print(f"| {name} | {means} | {late} | {early} | {pure} |")
     print("\nEffects: the mean over the other half's two settings of (oracle − blind) in the")
     print("named half, paired by seed, 95 % Student-t.")
-    sets(root, metric[AREA])
+    sets(root, "area under the curve", metric[AREA])
+    # Added in session 58, after reading the re-run's table above.
+    sets(root, "final critic RMSE", metric["critic RMSE, final"])
     if plot is not None:
         draw(data, seeds, at, plot)
 
 
-def sets(root: str, area: Callable[[dict[str, Any]], float]) -> None:
-    """``oracle − blind`` over the whole run in every set of WallMaze-v0 seeds under ``root``,
-    and pooled (a reading chosen after seeing this design's, so printed apart)."""
+def sets(root: str, name: str, reading: Callable[[dict[str, Any]], float]) -> None:
+    """``oracle − blind`` in a whole-run ``reading`` (called ``name``) in every set of
+    WallMaze-v0 seeds under ``root``, and pooled (readings chosen after seeing this design's,
+    so printed apart)."""
     folders = {
         "580-589 (the screen, where the slowdown was noticed)": "",
         "590-599 (the confirmation)": "confirm",
         "618-637 (this design)": "swap",
     }
     pairs = {}
-    for name, under in folders.items():
+    for label, under in folders.items():
         found = READ.runs(str(Path(root, under)), ("oracle", "blind"))
         oracle, blind = (found[arm][WALL_MAZE_ID] for arm in ("oracle", "blind"))
         seeds = sorted(set(oracle) & set(blind))
-        pairs[name] = tuple(np.array([area(arm[s]) for s in seeds]) for arm in (oracle, blind))
+        pairs[label] = tuple(np.array([reading(arm[s]) for s in seeds]) for arm in (oracle, blind))
 
     def pool(names: list[str]) -> tuple[np.ndarray, ...]:
         return tuple(np.concatenate([pairs[n][i] for n in names]) for i in (0, 1))
@@ -186,10 +189,10 @@ def sets(root: str, area: Callable[[dict[str, Any]], float]) -> None:
     names = list(pairs)
     pairs["590-599 and 618-637 (the seeds not used to notice it)"] = pool(names[1:])
     pairs["all"] = pool(names)
-    print("\n| WallMaze-v0, oracle − blind, whole run | seeds | area under the curve [95 % t] |")
+    print(f"\n| WallMaze-v0, oracle − blind, whole run | seeds | {name} [95 % t] |")
     print("|---|---:|---|")
-    for name, (a, b) in pairs.items():
-        print(f"| {name} | {len(a)} | {READ.paired(a, b)} |")
+    for label, (a, b) in pairs.items():
+        print(f"| {label} | {len(a)} | {READ.paired(a, b)} |")
 
 
 def draw(data: dict[str, dict[int, dict[str, Any]]], seeds: list[int], at: int, path: Path) -> None:
