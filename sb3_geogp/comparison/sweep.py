@@ -83,8 +83,12 @@ def _other_seeds_refusals(
     ``out_dir`` of the cells of ``specs`` but of seeds they do not ask for."""
     cells: dict[tuple[Any, ...], RunSpec] = {(s.algo, s.critic, s.env_id): s for s in specs}
     asked = {s.run_id for s in specs}
+    # A run id is its cell's name and "__s<seed>": only those files are read.
+    names = {s.run_id.rsplit("__s", 1)[0] for s in specs}
     refusals = []
     for path in sorted((out_dir / "runs").glob("*.json")):
+        if path.stem.rsplit("__s", 1)[0] not in names:
+            continue
         done = load_result(path)
         made = {} if done is None else done.get("spec") or {}
         spec = cells.get((made.get("algo"), made.get("critic"), made.get("env_id")))
