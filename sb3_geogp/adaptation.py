@@ -775,9 +775,20 @@ def lagged_forgetting_scores(
     return gaussian_nll(yn, mean, var) @ count
 
 
+#: The least weight of a retained point (the square root of float64's smallest normal number):
+#: a point weighs in with noise ``noise_var / w``, which must stay finite. With strong
+#: forgetting and short batches ``forgetting ** age`` underflows to 0 (0.03 per one-point
+#: batch, after about 200 batches), the noise and its gradient become inf and NaN, and every
+#: refit failed from then on. Above the floor nothing changes.
+WEIGHT_FLOOR = math.sqrt(torch.finfo(torch.float64).tiny)
+
+
 def age_weights(age: Tensor, forgetting: float) -> Tensor:
-    """Weights ``forgetting ** age`` of points ``age : (n,)`` batches old."""
-    return torch.as_tensor(forgetting, dtype=torch.float64).pow(age.double())
+    """Weights ``forgetting ** age`` of points ``age : (n,)`` batches old, at least
+    :data:`WEIGHT_FLOOR`."""
+    return (
+        torch.as_tensor(forgetting, dtype=torch.float64).pow(age.double()).clamp_min(WEIGHT_FLOOR)
+    )
 
 
 def gaussian_nll(y: Tensor, mean: Tensor, var: Tensor) -> Tensor:
@@ -803,17 +814,23 @@ def linear_moments(x: Tensor, y: Tensor, w: Tensor) -> tuple[float, Tensor, floa
     """Weighted least-squares line through ``(x : (n, d), y : (n,))`` with weights ``w``.
 
     Returns ``(c, b, s)``: ``y ~ c + b^T x`` with ``b : (d,)``, and ``s`` the weighted standard
-    deviation of the residuals. A ridge of ``1000 eps`` (the dtype's) relative to each input's
-    variance, plus 1e-12 of the largest, keeps ``b`` finite, and 0 along inputs that do not
-    vary.
+    deviation of the residuals. ``b`` is 0 along inputs that do not vary (whose spread is
+    below ``1000 eps``, the dtype's, of their mean's size: rounding); along the others a ridge
+    of ``1000 eps`` relative to each input's variance, plus 1e-12 of the largest, keeps it
+    finite.
     """
     w = w / w.sum()
     x_bar, y_bar = w @ x, w @ y
     xc, yc = x - x_bar, y - y_bar
     cov = (xc * w[:, None]).T @ xc
     eps = 1e3 * torch.finfo(cov.dtype).eps
-    ridge = eps * torch.diagonal(cov) + 1e-12 * float(cov.abs().max().clamp_min(1e-300))
-    b = torch.linalg.solve(cov + torch.diag(ridge), (xc * w[:, None]).T @ yc)
+    varies = torch.diagonal(cov) > (eps * x_bar).square()
+    b = torch.zeros_like(x_bar)
+    if bool(varies.any()):
+        sub = cov[varies][:, varies]
+        ridge = eps * torch.diagonal(sub) + 1e-12 * float(sub.abs().max())
+        rhs = (xc[:, varies] * w[:, None]).T @ yc
+        b[varies] = torch.linalg.solve(sub + torch.diag(ridge), rhs)
     residual = yc - xc @ b
     return float(y_bar - x_bar @ b), b, float((w * residual.square()).sum().sqrt())
 
@@ -857,6 +874,8 @@ class RetainedWindow(nn.Module):
             torch.cat([self.y[: kept - keep], y[: y.shape[0] - n]]),
             torch.cat([self.batch[: kept - keep], arrived]),
         )
+        # Copies first: x and y may be views of this window (its own data fed back).
+        x, y = x[-n:].clone(), y[-n:].clone()
         self.x[:keep] = self.x[kept - keep : kept].clone()
         self.y[:keep] = self.y[kept - keep : kept].clone()
         self.batch[:keep] = self.batch[kept - keep : kept].clone()

@@ -1584,7 +1584,8 @@ class SparseOnlineGP(nn.Module):
         fixed_mean, fixed_scale = self._fixed_target
         if fixed_mean is None:
             self.y_mean.fill_(mean)
-        if fixed_scale is None and scale > 1e-8 * max(1.0, abs(mean)):
+        # Relative: the engine is otherwise the same at any scale of the targets.
+        if fixed_scale is None and scale > max(1e-8 * abs(mean), torch.finfo(y.dtype).tiny):
             self.y_scale.fill_(scale)
         a, b = self.y_scale / old_scale, (self.y_mean - old_mean) / old_scale
         c = (self.y_slope - old_slope) / old_scale

@@ -13,12 +13,15 @@ from scipy.stats import norm
 
 from sb3_geogp import RBFKernel, SparseOnlineGP
 from sb3_geogp.adaptation import (
+    WEIGHT_FLOOR,
     Adaptation,
     Summary,
+    age_weights,
     forget_likelihood,
     gaussian_nll,
     jittered_cholesky,
     lagged_forgetting_scores,
+    linear_moments,
     nlpd,
     posterior_cholesky,
     sparse_posterior,
@@ -990,3 +993,80 @@ def test_gaussian_nll_and_nlpd_are_scipys_log_density() -> None:
     np.testing.assert_allclose(got, -norm.logpdf(y, mean, np.sqrt(var)), rtol=1e-12)
     one = nlpd(torch.tensor(mean[0]), torch.tensor(var[0]), torch.tensor(y))
     assert one == pytest.approx(-norm.logpdf(y, mean[0], np.sqrt(var[0])).mean(), rel=1e-12)
+
+
+def test_strong_forgetting_over_many_short_batches_keeps_refitting() -> None:
+    """Forgetting 0.03 per one-point batch: after about 200 batches ``0.03 ** age`` underflows
+    to 0 and a point's noise ``noise_var / w`` to inf, which made every refit fail from then on.
+    Floored weights keep every update and ``fit_hyperparameters`` going, and the state finite."""
+    rng = np.random.default_rng(0)
+    gp = SparseOnlineGP(3, "rbf", adapt=Adaptation(window=300, forgetting=(0.03,)))
+    pos = np.zeros(3)
+    for _ in range(450):
+        pos = 0.9 * pos + 0.3 * rng.normal(size=3)
+        gp.update(pos[None], [50.0 * rng.normal()])
+    assert gp.last_stats["forgetting"] == 0.03 and int(gp.n_blocks) >= 1
+    tensors = [v for v in gp.state_dict().values() if isinstance(v, torch.Tensor)]
+    assert all(bool(torch.isfinite(v).all()) for v in tensors)
+    plain = SparseOnlineGP(2, "rbf", forgetting=0.1)
+    for _ in range(400):
+        x = rng.normal(size=(5, 2))
+        plain.update(x, np.sin(x[:, 0]))
+    assert math.isfinite(plain.fit_hyperparameters()["nlml"])
+    weights = age_weights(torch.arange(400.0), 0.03)
+    assert float(weights.min()) == WEIGHT_FLOOR and bool((weights[:100] > WEIGHT_FLOOR).all())
+    np.testing.assert_allclose(weights[:100].numpy(), 0.03 ** np.arange(100.0), rtol=1e-14)
+
+
+def test_linear_moments_give_no_slope_along_inputs_that_do_not_vary() -> None:
+    """Against numpy's weighted least squares on the inputs that vary; a constant input (or
+    every input constant: one point) gets slope 0 and the line is the weighted mean."""
+    rng = np.random.default_rng(1)
+    x = np.column_stack([rng.normal(size=50), np.full(50, 0.3), rng.normal(size=50)])
+    y = 2.0 + x[:, 0] - 3.0 * x[:, 2] + 0.1 * rng.normal(size=50)
+    w = rng.uniform(0.5, 1.5, size=50)
+    c, b, s = linear_moments(*(torch.tensor(a) for a in (x, y, w)))
+    design = np.column_stack([np.ones(50), x[:, [0, 2]]]) * np.sqrt(w)[:, None]
+    coef = np.linalg.lstsq(design, y * np.sqrt(w), rcond=None)[0]
+    assert b[1] == 0.0
+    np.testing.assert_allclose([c, float(b[0]), float(b[2])], coef, rtol=1e-9)
+    residual = y - coef[0] - x[:, [0, 2]] @ coef[1:]
+    assert s == pytest.approx(np.sqrt(np.sum(w * residual**2) / w.sum()), rel=1e-9)
+    c, b, s = linear_moments(torch.full((4, 2), 0.3), torch.tensor([1.0, 2, 3, 4]), torch.ones(4))
+    assert (c, b.tolist()) == (pytest.approx(2.5), [0.0, 0.0])
+    gp = SparseOnlineGP(3, "rbf", prior_mean="linear")
+    gp.update(np.array([[0.3, -0.2, 1.0]]), [0.7])  # one point: refused as NaN before
+    assert float(gp.predict(np.zeros((1, 3)))[0]) == pytest.approx(0.7)
+
+
+@pytest.mark.parametrize("scale", [1e-9, 1e9])
+def test_the_adaptation_is_the_same_at_any_scale_of_the_targets(scale: float) -> None:
+    """Targets times ``scale`` give the same standardised GP: refits re-estimate the target
+    scale also where it is below 1e-8 (before, a fixed threshold kept the first batch's)."""
+
+    def fitted(s: float) -> tuple[float, float, np.ndarray]:
+        rng = np.random.default_rng(0)
+        gp = SparseOnlineGP(2, "rbf", adapt=Adaptation(window=256, interval=128))
+        for k in range(6):
+            x = rng.uniform(-2, 2, (128, 2))
+            gp.update(x, s * (np.sin(2 * x[:, 0]) + 3.0 * (k > 2)))
+        probe = rng.uniform(-2, 2, (50, 2))
+        return float(gp.y_scale) / s, float(gp.y_mean) / s, gp.predict(probe)[0].numpy() / s
+
+    unit, scaled = fitted(1.0), fitted(scale)
+    assert scaled[:2] == (pytest.approx(unit[0], rel=1e-9), pytest.approx(unit[1], rel=1e-9))
+    np.testing.assert_allclose(scaled[2], unit[2], rtol=1e-8, atol=1e-10)
+
+
+def test_the_gps_own_window_fed_back_is_kept_as_fed() -> None:
+    """Views of the window fed to ``update`` are what the window keeps (the window shifted in
+    place under them before): the same as feeding copies."""
+    rng = np.random.default_rng(2)
+    views, copies = (SparseOnlineGP(2, "laplacian") for _ in range(2))
+    x = rng.normal(size=(2048, 2))
+    for gp in (views, copies):
+        gp.update(x, np.sin(x[:, 0]))
+    wx, wy, _ = views.window.data()
+    copies.update(wx[:500].clone(), wy[:500].clone())
+    views.update(wx[:500], wy[:500])
+    assert_same_state(views.state_dict(), copies.state_dict())
