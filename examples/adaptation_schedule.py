@@ -422,6 +422,16 @@ def main(argv: Sequence[str] | None = None) -> int:
         "--streams", type=Path, default=None, help="recorded streams (default: OUT/streams)"
     )
     args = parser.parse_args(argv)
+    for env_id in args.envs:
+        # Each batch is scored before it is learnt, so the first is never scored.
+        zoo = ppo_spec(env_id, 0, 1, {}).hyperparams
+        rollout = int(zoo.get("n_steps", 2048)) * int(zoo.get("n_envs", 1))
+        if args.timesteps < 2 * rollout:
+            parser.error(
+                f"--timesteps {args.timesteps} records fewer than two rollouts of {env_id} "
+                f"({rollout} steps each) and no batch would be scored: pass at least "
+                f"{2 * rollout}"
+            )
     streams: Path = args.streams or args.out / "streams"
     settings: dict[str, dict[str, Any]] = args.settings
     record_ = provenance()

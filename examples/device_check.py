@@ -2,7 +2,7 @@
 
 Run: ``python examples/device_check.py --device cuda [--timesteps 4096] [--out device.json]``.
 
-Three checks, each printed as it runs:
+Four checks, each printed as it runs:
 
 1. **Engine.** The same data stream (a random walk cut into episodes, targets from a smooth
    function with a step) is fed to a :class:`~sb3_geogp.SparseOnlineGP` on the CPU and one on

@@ -210,11 +210,14 @@ def main(argv: list[str] | None = None) -> int:
     torch.set_num_threads(args.threads)
     env = make_vec_env(args.env, n_envs=args.n_envs, seed=args.seed)
     model = ALGOS[args.algo](GPActorCriticPolicy, env, seed=args.seed, device=args.device)
-    rollouts = args.timesteps / (model.n_steps * model.n_envs)
+    # SB3 collects whole rollouts: asking for them makes the bar's total and the title the
+    # steps trained.
+    rollouts = -(-args.timesteps // (model.n_steps * model.n_envs))
+    steps = rollouts * model.n_steps * model.n_envs
     recorder = Recorder(args.memory_every or (1 if rollouts < FEW_ROLLOUTS else 20))
     start = time.perf_counter()
     model.learn(
-        args.timesteps,
+        steps,
         callback=[GPValueCallback(), recorder],
         progress_bar=not args.no_progress,
     )
@@ -235,7 +238,7 @@ def main(argv: list[str] | None = None) -> int:
     args.out.mkdir(parents=True, exist_ok=True)
     # one line: 10,000 A2C rollouts would otherwise be some 90,000 lines
     (args.out / "long_training_run.json").write_text(json.dumps(result) + "\n")
-    title = f"{args.algo.upper()} {args.env}, {args.timesteps:,} steps, seed {args.seed}"
+    title = f"{args.algo.upper()} {args.env}, {model.num_timesteps:,} steps, seed {args.seed}"
     plot(rows, title, args.out / "long_training_run.png")
     print(f"{title}: {len(rows)} rollouts in {seconds:.0f} s")
     print("                      first tenth   last tenth   (medians)")

@@ -406,6 +406,10 @@ def test_adaptation_schedule_replays_the_recorded_stream(tmp_path: Path) -> None
     assert set(same) == {"GP critic, default", schedule.MLP}
     assert all(len(r["0"]["same"]) == len(ev) for r in same.values())
     assert "| `CartPole-v1` | GP critic, default |" in (tmp_path / "same_policy.md").read_text()
+    # CartPole's rollouts are 8 x 32 steps: fewer than 512 score no batch, refused up front
+    with pytest.raises(SystemExit):
+        schedule.main([*argv[:5], "511", "--out", str(tmp_path / "short")])
+    assert not (tmp_path / "short").exists()
 
 
 def test_adaptation_schedule_batch_reference_learns_a_fixed_function() -> None:
@@ -685,12 +689,16 @@ def test_train_ppo_pendulum_saves_where_asked_and_the_model_reloads(
     assert f"GP critic: {model.policy.gp.n_basis} basis vectors" in capsys.readouterr().out
 
 
-def test_long_training_run_records_every_rollout_and_checks_the_state(tmp_path: Path) -> None:
+def test_long_training_run_records_every_rollout_and_checks_the_state(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     """A short A2C run (4 envs x 5 steps a rollout): one row per rollout with the GP's own
-    figures, the checks passed, and a planted NaN in the state is caught."""
+    figures, the checks passed, and a planted NaN in the state is caught. 190 steps are
+    trained and reported as the 10 whole rollouts SB3 collects, 200 steps."""
     script = load_script("long_training_run")
-    argv = ["--algo", "a2c", "--env", "CartPole-v1", "--timesteps", "200", "--no-progress"]
+    argv = ["--algo", "a2c", "--env", "CartPole-v1", "--timesteps", "190", "--no-progress"]
     assert script.main([*argv, "--memory-every", "3", "--out", str(tmp_path)]) == 0
+    assert "A2C CartPole-v1, 200 steps, seed 0: 10 rollouts in" in capsys.readouterr().out
     result = json.loads((tmp_path / "long_training_run.json").read_text())
     table = result["per_rollout"]
     assert result["rollouts"] == 10
