@@ -45,6 +45,12 @@ def fresh_runs() -> list[dict[str, Any]]:
     return [r for r in runs if (r["spec"]["algo"], r["spec"]["env_id"]) in whole]
 
 
+def published_and_fresh() -> list[dict[str, Any]]:
+    """The 50 seeds' runs: the published table's 40 and the fresh 10."""
+    published, _, _ = H200.table_runs((H200.MCC,))
+    return published + fresh_runs()
+
+
 def tables(metric: str) -> dict[str, dict[tuple[str, str], dict[str, Any]]]:
     """Default − MLP by cell: the published 40 seeds, the fresh 10 alone, the 50 pooled."""
     published, _, _ = H200.table_runs((H200.MCC,))
