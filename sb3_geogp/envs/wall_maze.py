@@ -58,11 +58,13 @@ WALL_MAZE_CORNER_ID = "sb3_geogp/WallMazeCorner-v0"
 #: Registered id of the continuous-action variant on :data:`DOOR_LAYOUT`.
 WALL_MAZE_DOOR_ID = "sb3_geogp/WallMazeDoor-v0"
 #: Episode length of the registered variants (time-limit truncation), steps. The longest
-#: shortest path (bottom-right corner to the goal) takes 35 steps at full speed.
+#: shortest path (from the bottom-right corner to the goal) takes 36 steps at full speed, at
+#: most 34 from the start distribution's states.
 MAX_EPISODE_STEPS = 200
 #: ``reward_threshold`` of the registered variants: mean evaluation return counted as
 #: "solved", used for steps-to-threshold. The mean optimal return over the start
-#: distribution is about -12.6 (2000 starts, :meth:`MazeLayout.optimal_steps`); a random
+#: distribution is about -12.1 (-12.13 +- 0.11 over 6,000 starts,
+#: :meth:`MazeLayout.optimal_steps`; -12.6 was once quoted from 2,000); a random
 #: policy rarely reaches the goal within the time limit (mean return about -180).
 REWARD_THRESHOLD = -20.0
 
