@@ -121,7 +121,9 @@ def _check_scalars(
         optimism=optimism,
     )
     for name, value in given.items():
-        if value is not None and not isinstance(value, numbers.Real):
+        # A 0-d tensor or array counts: the comparisons below take it as a number too.
+        scalar = isinstance(value, (torch.Tensor, np.ndarray)) and value.ndim == 0
+        if value is not None and not (isinstance(value, numbers.Real) or scalar):
             raise TypeError(f"{name} must be a number, got {value!r} ({type(value).__name__})")
     if not (noise_var > 0 and math.isfinite(noise_var)):
         raise ValueError(f"noise_var must be positive and finite, got {noise_var}")

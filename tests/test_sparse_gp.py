@@ -8,6 +8,7 @@ from __future__ import annotations
 import copy
 import math
 import os
+import re
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
@@ -239,6 +240,19 @@ def test_value_is_the_exact_upper_confidence_bound(optimism: float) -> None:
 def test_bad_optimism_is_refused(optimism: float) -> None:
     with pytest.raises(ValueError, match="optimism"):
         SparseOnlineGP(2, optimism=optimism)
+
+
+@pytest.mark.parametrize(
+    "name", ["noise_var", "novelty_tol", "forgetting", "target_mean", "target_scale", "optimism"]
+)
+def test_a_scalar_option_that_is_not_a_number_is_named(name: str) -> None:
+    """A string (as a command line gives it) or a list raises a TypeError naming the option; a
+    0-d tensor or array is a number, as a Python or NumPy float is."""
+    for bad in ("abc", [0.1]):
+        with pytest.raises(TypeError, match=re.escape(f"{name} must be a number, got {bad!r}")):
+            SparseOnlineGP(2, **{name: bad})
+    for number in (torch.tensor(0.5, dtype=torch.float64), np.array(0.5), np.float32(0.5)):
+        SparseOnlineGP(2, **{name: number})
 
 
 def test_optimism_is_free_to_differ_on_load(pendulum) -> None:
