@@ -32,6 +32,7 @@ from sb3_geogp.comparison.hyperparams import (
     GP_KWARGS,
     HyperparamsFile,
 )
+from sb3_geogp.comparison.results import VERDICT_TESTS
 from sb3_geogp.comparison.run import build_model
 from sb3_geogp.comparison.specs import RunSpec, SweepConfig
 from sb3_geogp.comparison.sweep import pending_runs, run_sweep
@@ -151,6 +152,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
         help="option of both GP critics, e.g. forgetting=0.9 (repeatable)",
     )
     add_target_arguments(parser)
+    parser.add_argument(
+        "--verdict-test",
+        choices=VERDICT_TESTS,
+        default="bootstrap",
+        help="what decides the report's verdicts: the 95 %% percentile-bootstrap interval "
+        "(every published table's rule) or a permutation test (exact level; the bootstrap "
+        "errs more often than 5 %% at 10-50 seeds, docs/results.md)",
+    )
     parser.add_argument(
         "--baseline",
         type=Path,
@@ -460,7 +469,7 @@ def run_from_args(args: argparse.Namespace) -> int:
     if not args.no_plots:
         from sb3_geogp.comparison.report import matplotlib_available, write_report
 
-        for path in write_report(args.out, baseline_dir=args.baseline):
+        for path in write_report(args.out, baseline_dir=args.baseline, test=args.verdict_test):
             print(f"wrote {path}")
         if not matplotlib_available():
             print("figures skipped: matplotlib is not installed (pip install matplotlib)")

@@ -32,6 +32,7 @@ from sb3_geogp.comparison.hyperparams import ALL_CRITICS
 from sb3_geogp.comparison.results import (
     METRICS,
     Key,
+    VerdictTest,
     comparisons,
     critic_pairs,
     env_file_name,
@@ -79,6 +80,27 @@ def _comparisons(n: int) -> str:
     return f"{n} comparison{'s' * (n != 1)}"
 
 
+def _verdict_rule(row: dict[str, Any], higher_is_better: bool) -> str:
+    """The caption's sentence on how a comparisons table's verdicts were reached."""
+    side = "higher" if higher_is_better else "lower"
+    family, fw = _comparisons(row["family_size"]), row["fw_level"]
+    if "p_value" in row:
+        alpha = (1 - fw) * row["family_size"]
+        return (
+            "Difference of means [95 % bootstrap CI] and the verdict of a two-sided "
+            f"permutation test of it for the first critic ({side} is better): *better* or "
+            f"*worse* where p < {alpha:.3g}, *no difference* otherwise; **bold**: the verdict "
+            f"also holds at the family-wise level (Bonferroni over {family}, p < {1 - fw:.3g})."
+        )
+    return (
+        "Difference of means [95 % bootstrap CI] and verdict for the first critic: *better* "
+        f"where the interval excludes 0 on its better side ({side} is better), *worse* where "
+        "it excludes 0 on the other, *no difference* where it holds 0; **bold**: the verdict "
+        f"also holds at the family-wise level (Bonferroni over {family}, {100 * fw:.3g} % "
+        "intervals)."
+    )
+
+
 def comparisons_markdown(rows: list[dict[str, Any]]) -> str:
     """One table per metric: a row per ``(env, algo)``, a column per critic pair.
 
@@ -95,7 +117,6 @@ def comparisons_markdown(rows: list[dict[str, Any]]) -> str:
         mine = [r for r in rows if r["metric"] == name]
         if not mine:
             continue
-        fw = mine[0]["fw_level"]
         labels = [f"{a} − baseline {b}" if against_baseline else f"{a} − {b}" for a, b in columns]
         body = []
         for env_id, algo in sorted({(r["env"], r["algo"]) for r in mine}):
@@ -104,13 +125,7 @@ def comparisons_markdown(rows: list[dict[str, Any]]) -> str:
         lines += [
             f"### {metric.label}",
             "",
-            f"Difference of means [95 % bootstrap CI] and verdict for the first critic: "
-            f"*better* where the interval excludes 0 on its better side "
-            f"({'higher' if metric.higher_is_better else 'lower'} is better), *worse* where it "
-            f"excludes 0 on the other, *no difference* where it holds 0; **bold**: the "
-            f"verdict also holds at the "
-            f"family-wise level (Bonferroni over {_comparisons(mine[0]['family_size'])}, "
-            f"{100 * fw:.3g} % intervals)."
+            _verdict_rule(mine[0], metric.higher_is_better)
             + _few_seeds_note(
                 [min(r["n_a"], r["n_b"]) for r in mine],
                 " on either side: the difference alone, no interval and no verdict",
@@ -449,10 +464,12 @@ def write_report(
     out_dir: str | Path,
     seed: int = 0,
     baseline_dir: str | Path | Sequence[str | Path] | None = None,
+    test: VerdictTest = "bootstrap",
 ) -> list[Path]:
     """Figures and summary of the sweep in ``out_dir`` into ``out_dir/report``.
 
-    Without matplotlib only the tables (markdown and JSON) are written.
+    Without matplotlib only the tables (markdown and JSON) are written. ``test`` decides the
+    comparisons' verdicts (:func:`~sb3_geogp.comparison.results.comparisons`).
 
     With ``baseline_dir`` (another sweep's folder, or several read as one by
     :func:`load_sweeps`) also ``vs_baseline.md`` / ``.json``: each critic against the same
@@ -473,7 +490,7 @@ def write_report(
     md.write_text(summary_markdown(rows))
     js = report / "summary.json"
     js.write_text(json.dumps(rows, indent=1))
-    diffs = comparisons(results, seed=seed)
+    diffs = comparisons(results, seed=seed, test=test)
     cmd = report / "comparisons.md"
     cmd.write_text(comparisons_markdown(diffs))
     cjs = report / "comparisons.json"
@@ -481,7 +498,7 @@ def write_report(
     paths = [md, js, cmd, cjs]
     if baseline_dir is not None:
         dirs = [baseline_dir] if isinstance(baseline_dir, str | Path) else list(baseline_dir)
-        vs = comparisons(results, seed=seed, baseline=load_sweeps(dirs))
+        vs = comparisons(results, seed=seed, baseline=load_sweeps(dirs), test=test)
         paths += [report / "vs_baseline.md", report / "vs_baseline.json"]
         named = ", ".join(f"`{d}`" for d in dirs)
         merged = " (a cell in several: the last)" if len(dirs) > 1 else ""

@@ -24,14 +24,17 @@ import math
 from collections import defaultdict
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
-from typing import Any, NamedTuple
+from typing import Any, Literal, NamedTuple
 
 import numpy as np
 
 from sb3_geogp.comparison.hyperparams import ALL_CRITICS
-from sb3_geogp.toolbox.stats import bootstrap_ci, difference_ci, iqm
+from sb3_geogp.toolbox.stats import bootstrap_ci, difference_ci, iqm, permutation_pvalue
 
 Key = tuple[str, str, str]  # (env_id, algo, critic)
+#: What decides a comparison's verdicts (:func:`comparisons`).
+VerdictTest = Literal["bootstrap", "permutation"]
+VERDICT_TESTS: tuple[VerdictTest, ...] = ("bootstrap", "permutation")
 #: The critic pairs ``(a, b)`` compared where a sweep ran both: each GP critic against the MLP,
 #: the geodesic against the RBF kernel (the published sweep's three), and the Laplacian kernel
 #: (the default critic since 0.6) against the MLP and both other kernels.
@@ -219,6 +222,7 @@ def comparisons(
     level: float = 0.95,
     baseline: list[dict[str, Any]] | None = None,
     family_size: int | None = None,
+    test: VerdictTest = "bootstrap",
 ) -> list[dict[str, Any]]:
     """Differences of means between critics, per environment, algorithm and metric.
 
@@ -227,6 +231,9 @@ def comparisons(
     interval at ``level`` and at the family-wise level ``1 - (1 - level) / m`` (Bonferroni),
     ``m`` being the number of comparisons made on that metric. With fewer than
     :data:`MIN_SEEDS_FOR_VERDICT` seeds on either side the verdicts are ``"too few seeds"``.
+    The verdicts are the intervals' (``test="bootstrap"``, every published table's rule), or a
+    permutation test's at the same two levels (``test="permutation"``, exact level; its
+    two-sided ``p_value`` is then kept too; :func:`~sb3_geogp.toolbox.stats.permutation_pvalue`).
 
     Parameters
     ----------
@@ -243,12 +250,15 @@ def comparisons(
     family_size : int, optional
         Number of comparisons per metric the family-wise level corrects for; by default the
         number made here. A re-run of some cells keeps the published sweep's family this way.
+    test : {"bootstrap", "permutation"}
+        What decides the verdicts.
 
     Returns
     -------
     list of dict
         Keys ``env, algo, metric, a, b, b_sweep, n_a, n_b, diff, low, high, verdict,
-        family_size, fw_level, fw_low, fw_high, fw_verdict``.
+        family_size, fw_level, fw_low, fw_high, fw_verdict``, and ``p_value`` with the
+        permutation test.
     """
     groups = group_runs(results)
     ref = groups if baseline is None else group_runs(baseline)
@@ -268,15 +278,30 @@ def comparisons(
             )
             better = metric.higher_is_better
             enough = min(len(xa), len(xb)) >= MIN_SEEDS_FOR_VERDICT
-            out.append(
-                dict(env=env_id, algo=algo, metric=name, a=a, b=b,
-                     b_sweep="same" if baseline is None else "baseline",
-                     n_a=len(xa), n_b=len(xb), diff=d, low=low, high=high,
-                     verdict=verdict(low, high, better) if enough else "too few seeds",
-                     family_size=family, fw_level=fw_level, fw_low=fw_low, fw_high=fw_high,
-                     fw_verdict=verdict(fw_low, fw_high, better) if enough else "too few seeds")
-            )  # fmt: skip
+            row = dict(env=env_id, algo=algo, metric=name, a=a, b=b,
+                       b_sweep="same" if baseline is None else "baseline",
+                       n_a=len(xa), n_b=len(xb), diff=d, low=low, high=high,
+                       verdict=verdict(low, high, better),
+                       family_size=family, fw_level=fw_level, fw_low=fw_low, fw_high=fw_high,
+                       fw_verdict=verdict(fw_low, fw_high, better))  # fmt: skip
+            if test == "permutation":
+                p = permutation_pvalue(xa, xb, seed=seed)
+                row.update(p_value=p, **_tested(d, p, 1 - level, 1 - fw_level, better))
+            if not enough:
+                row.update(verdict="too few seeds", fw_verdict="too few seeds")
+            out.append(row)
     return out
+
+
+def _tested(diff: float, p: float, alpha: float, fw_alpha: float, higher: bool) -> dict[str, str]:
+    """The verdicts of a test's p-value ``p`` for a difference ``diff``, at both levels."""
+
+    def at(level: float) -> str:
+        if not p < level:
+            return "no difference"
+        return "better" if (diff > 0) == higher else "worse"
+
+    return dict(verdict=at(alpha), fw_verdict=at(fw_alpha))
 
 
 def rerun_comparisons(

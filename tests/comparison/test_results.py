@@ -4,6 +4,7 @@ answers."""
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 from typing import Any
 
@@ -119,6 +120,34 @@ def test_familywise_level_can_overturn_a_verdict() -> None:
     assert d["verdict"] == "better" and d["fw_verdict"] == "no difference"
     table = comparisons_markdown([d])
     assert " better |" in table and "**better**" not in table
+
+
+def test_a_permutation_test_does_not_take_a_group_of_equal_runs_as_known() -> None:
+    """50 runs of one critic all at a floor, of the other 42 at it and 8 above (A2C
+    MountainCarContinuous's shape), read at the published family of 42: the bootstrap
+    interval excludes 0 even family-wise, as it resamples the floor as a known mean; a
+    permutation test gives the share of the 100 runs' splits as extreme, by a count: only the
+    splits that keep the 8 together, 2 C(92, 42) / C(100, 50) = 0.0058, better at 95 % but not
+    family-wise (0.05 / 42 = 0.0012)."""
+    results = [
+        _result(c, s, final=float(s - 32) if c == "geodesic" and s >= 42 else -99.9, rmse=1.0)
+        for s in range(50)
+        for c in ("mlp", "geodesic")
+    ]
+    bootstrap, permutation = (
+        next(
+            d
+            for d in comparisons(results, test=test, family_size=42)
+            if d["metric"] == "final_return"
+        )
+        for test in ("bootstrap", "permutation")
+    )
+    assert bootstrap["fw_verdict"] == "better" and "p_value" not in bootstrap
+    expected = 2 * math.comb(92, 42) / math.comb(100, 50)
+    assert permutation["p_value"] == pytest.approx(expected, abs=0.002)
+    assert permutation["verdict"] == "better" and permutation["fw_verdict"] == "no difference"
+    assert (permutation["low"], permutation["high"]) == (bootstrap["low"], bootstrap["high"])
+    assert "permutation test" in comparisons_markdown([permutation])
 
 
 def test_no_verdict_from_too_few_seeds() -> None:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 import pytest
 from scipy import stats as sps
@@ -13,6 +15,7 @@ from sb3_geogp.toolbox.stats import (
     iqm,
     mean_ci,
     moments,
+    permutation_pvalue,
     pooled_explained_variance,
     steps_to_threshold,
 )
@@ -163,3 +166,19 @@ def test_pooled_explained_variance_is_sb3s_formula_on_the_concatenated_rollouts(
         assert explained_variance(r, v) == pytest.approx(sb3_explained_variance(v, r), rel=1e-12)
     assert np.isnan(explained_variance(np.full(8, 3.0), np.zeros(8)))
     assert np.isnan(pooled_explained_variance([moments(np.full(8, 3.0), np.zeros(8))]))
+
+
+def test_permutation_pvalue_is_the_share_of_all_splits_as_extreme() -> None:
+    """Against every split of the pooled runs (35 for 3 + 4): the two-sided p-value is the
+    share of splits whose |difference of means| reaches the observed one; runs all equal give 1."""
+    a, b = np.array([1.0, 2.5, 4.0]), np.array([0.0, 0.5, -1.0, 2.0])
+    pooled = np.concatenate([a, b])
+    observed = abs(a.mean() - b.mean())
+    extreme = [
+        abs(pooled[list(idx)].mean() - np.delete(pooled, list(idx)).mean()) >= observed - 1e-12
+        for idx in itertools.combinations(range(7), 3)
+    ]
+    assert permutation_pvalue(a, b) == pytest.approx(np.mean(extreme), rel=1e-12)
+    assert permutation_pvalue(np.full(5, -99.9), np.full(5, -99.9)) == 1.0
+    with pytest.raises(ValueError, match="at least one run"):
+        permutation_pvalue(np.array([]), b)
