@@ -58,6 +58,7 @@ from sb3_geogp.comparison.command import (
     add_arguments,
     add_target_arguments,
     check_env,
+    check_not_a_file,
     check_out,
     check_target_arguments,
     run_from_args,
@@ -208,8 +209,7 @@ def check_train_args(args: argparse.Namespace, out: Path) -> None:
             "PPO needs rollouts of at least 2 steps (--n-steps x --n-envs) for its minibatches, "
             f"got {args.n_steps * args.n_envs}"
         )
-    if out.exists() and not out.is_dir():
-        raise UsageError(f"--out {out} is a file, not a directory")
+    check_not_a_file(out)
     check_targets(args)
     check_gp_options(args)
     check_env_spaces(args.env, args.critic)

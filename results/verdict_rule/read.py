@@ -25,7 +25,7 @@ from scipy import stats
 from tqdm import tqdm
 
 from sb3_geogp.toolbox.scripts import load_script
-from sb3_geogp.toolbox.stats import difference_ci
+from sb3_geogp.toolbox.stats import difference_ci, permutation_pvalue
 
 HERE = Path(__file__).resolve().parent
 TABLE50 = load_script(HERE.parent / "table50" / "read.py", "table50_read")
@@ -77,16 +77,6 @@ def cells(runs: list[dict[str, Any]]) -> dict[tuple[str, str], dict[str, np.ndar
     return {cell: {c: np.array(v) for c, v in by.items()} for cell, by in out.items()}
 
 
-def permutation_p(a: np.ndarray, b: np.ndarray) -> float:
-    def diff(x: np.ndarray, y: np.ndarray, axis: int) -> np.ndarray:
-        return np.mean(x, axis=axis) - np.mean(y, axis=axis)
-
-    result = stats.permutation_test(
-        (a, b), diff, n_resamples=PERMUTATIONS, vectorized=True, random_state=0
-    )
-    return float(result.pvalue)
-
-
 def reread(runs: list[dict[str, Any]], label: str) -> list[str]:
     """Each cell's GP − MLP difference of mean final return, and each rule's verdict."""
     lines = [
@@ -101,7 +91,7 @@ def reread(runs: list[dict[str, Any]], label: str) -> list[str]:
         a, b = by[gp_name], by["mlp"]
         p = {
             "Welch": stats.ttest_ind(a, b, equal_var=False).pvalue,
-            "permutation": permutation_p(a, b),
+            "permutation": permutation_pvalue(a, b, n_resamples=PERMUTATIONS, seed=0),
         }
         boot = rejects(a, b)["bootstrap"]
         better = a.mean() > b.mean()

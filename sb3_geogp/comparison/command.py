@@ -381,6 +381,12 @@ def config_from_args(args: argparse.Namespace) -> SweepConfig:
     return config
 
 
+def check_not_a_file(out: Path) -> None:
+    """Raise :class:`UsageError` if the output folder ``out`` is a file."""
+    if out.exists() and not out.is_dir():
+        raise UsageError(f"--out {out} is a file, not a directory: pass a directory")
+
+
 def check_out(out: Path) -> None:
     """Create the output folder ``out`` (and its parents) unless it exists.
 
@@ -389,8 +395,7 @@ def check_out(out: Path) -> None:
     UsageError
         If ``out`` is a file or cannot be created or written to.
     """
-    if out.exists() and not out.is_dir():
-        raise UsageError(f"--out {out} is a file, not a directory: pass a directory")
+    check_not_a_file(out)
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as err:

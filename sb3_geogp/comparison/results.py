@@ -294,12 +294,11 @@ def comparisons(
 
 
 def _tested(diff: float, p: float, alpha: float, fw_alpha: float, higher: bool) -> dict[str, str]:
-    """The verdicts of a test's p-value ``p`` for a difference ``diff``, at both levels."""
+    """The verdicts of a test's p-value ``p`` for a difference ``diff``, at both levels: the
+    side of ``diff`` (:func:`verdict` of the point ``diff``) where ``p`` is below the level."""
 
     def at(level: float) -> str:
-        if not p < level:
-            return "no difference"
-        return "better" if (diff > 0) == higher else "worse"
+        return verdict(diff, diff, higher) if p < level else "no difference"
 
     return dict(verdict=at(alpha), fw_verdict=at(fw_alpha))
 

@@ -81,20 +81,18 @@ def _other_seeds_refusals(
 ) -> list[tuple[bool, RunSpec, str, Any, Any]]:
     """The refusals (as :func:`pending_runs` makes them) of the finished results in
     ``out_dir`` of the cells of ``specs`` but of seeds they do not ask for."""
-    cells: dict[tuple[Any, ...], RunSpec] = {(s.algo, s.critic, s.env_id): s for s in specs}
+    # A run id is its cell's name and "__s<seed>": only the files of these cells are read (a
+    # file whose contents are another cell's differs in its settings).
+    cells = {s.run_id.rsplit("__s", 1)[0]: s for s in specs}
     asked = {s.run_id for s in specs}
-    # A run id is its cell's name and "__s<seed>": only those files are read.
-    names = {s.run_id.rsplit("__s", 1)[0] for s in specs}
     refusals = []
     for path in sorted((out_dir / "runs").glob("*.json")):
-        if path.stem.rsplit("__s", 1)[0] not in names:
+        spec = cells.get(path.stem.rsplit("__s", 1)[0])
+        done = None if spec is None or path.stem in asked else load_result(path)
+        seed = (done or {}).get("spec", {}).get("seed")
+        if spec is None or done is None or not isinstance(seed, int):
             continue
-        done = load_result(path)
-        made = {} if done is None else done.get("spec") or {}
-        spec = cells.get((made.get("algo"), made.get("critic"), made.get("env_id")))
-        if done is None or spec is None or path.stem in asked or "seed" not in made:
-            continue
-        same_cell = dataclasses.replace(spec, seed=made["seed"])
+        same_cell = dataclasses.replace(spec, seed=seed)
         if (difference := _difference(done, same_cell)) is not None:
             refusals.append((spec.critic == "mlp", same_cell, *difference))
     return refusals
