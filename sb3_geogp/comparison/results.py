@@ -49,6 +49,10 @@ PAIRS = (
 # Below this many seeds per critic a bootstrap interval is too coarse to support a verdict
 # (with one seed it is a single point); the issue asks for at least 5 in published results.
 MIN_SEEDS_FOR_VERDICT = 5
+#: The verdict of a comparison with a NaN or infinite run on either side (a diverged run, a
+#: metric that was not measured): its interval and p-value say nothing, so it is flagged
+#: rather than read as "no difference".
+NON_FINITE_VERDICT = "non-finite runs"
 
 
 class Metric(NamedTuple):
@@ -230,10 +234,11 @@ def comparisons(
     an ``(env, algo)`` cell: ``mean(a) - mean(b)`` over seeds with its percentile-bootstrap
     interval at ``level`` and at the family-wise level ``1 - (1 - level) / m`` (Bonferroni),
     ``m`` being the number of comparisons made on that metric. With fewer than
-    :data:`MIN_SEEDS_FOR_VERDICT` seeds on either side the verdicts are ``"too few seeds"``.
-    The verdicts are the intervals' (``test="bootstrap"``, every published table's rule), or a
-    permutation test's at the same two levels (``test="permutation"``, exact level; its
-    two-sided ``p_value`` is then kept too; :func:`~sb3_geogp.toolbox.stats.permutation_pvalue`).
+    :data:`MIN_SEEDS_FOR_VERDICT` seeds on either side the verdicts are ``"too few seeds"``,
+    and with a NaN or infinite value on either side :data:`NON_FINITE_VERDICT`. The verdicts
+    are the intervals' (``test="bootstrap"``, every published table's rule), or a permutation
+    test's at the same two levels (``test="permutation"``, exact level; its two-sided
+    ``p_value`` is then kept too; :func:`~sb3_geogp.toolbox.stats.permutation_pvalue`).
 
     Parameters
     ----------
@@ -266,31 +271,49 @@ def comparisons(
              for a, b in critic_pairs(baseline is not None)
              if (e, al, a) in groups and (e, al, b) in ref]  # fmt: skip
     family = max(family_size or len(pairs), 1)
-    fw_level = 1 - (1 - level) / family
     out = []
     for name, metric in METRICS.items():
         for env_id, algo, a, b in pairs:
             xa = np.array([metric.of_run(r) for r in groups[(env_id, algo, a)]], dtype=float)
             xb = np.array([metric.of_run(r) for r in ref[(env_id, algo, b)]], dtype=float)
-            d, low, high = (float(x) for x in difference_ci(xa, xb, level=level, seed=seed))
-            _, fw_low, fw_high = (
-                float(x) for x in difference_ci(xa, xb, level=fw_level, seed=seed)
-            )
-            better = metric.higher_is_better
-            enough = min(len(xa), len(xb)) >= MIN_SEEDS_FOR_VERDICT
             row = dict(env=env_id, algo=algo, metric=name, a=a, b=b,
                        b_sweep="same" if baseline is None else "baseline",
-                       n_a=len(xa), n_b=len(xb), diff=d, low=low, high=high,
-                       verdict=verdict(low, high, better),
-                       family_size=family, fw_level=fw_level, fw_low=fw_low, fw_high=fw_high,
-                       fw_verdict=verdict(fw_low, fw_high, better))  # fmt: skip
-            if test == "permutation":
-                p = permutation_pvalue(xa, xb, seed=seed)
-                row.update(p_value=p, **_tested(d, p, 1 - level, 1 - fw_level, better))
-            if not enough:
-                row.update(verdict="too few seeds", fw_verdict="too few seeds")
+                       n_a=len(xa), n_b=len(xb))  # fmt: skip
+            row.update(_difference(xa, xb, level, family, metric.higher_is_better, test, seed))
             out.append(row)
     return out
+
+
+def _difference(
+    xa: np.ndarray,
+    xb: np.ndarray,
+    level: float,
+    family: int,
+    higher: bool,
+    test: VerdictTest,
+    seed: int,
+) -> dict[str, Any]:
+    """One row of :func:`comparisons` past its names: the difference of means, its intervals
+    at ``level`` and at the family-wise level of ``family`` comparisons, and their verdicts."""
+    fw_level = 1 - (1 - level) / family
+    finite = bool(np.isfinite(xa).all() and np.isfinite(xb).all())
+    # A non-finite run makes the intervals NaN; its verdict is flagged below instead.
+    with np.errstate(invalid="ignore"):
+        d, low, high = (float(x) for x in difference_ci(xa, xb, level=level, seed=seed))
+        _, fw_low, fw_high = (float(x) for x in difference_ci(xa, xb, level=fw_level, seed=seed))
+    row: dict[str, Any] = dict(
+        diff=d, low=low, high=high, verdict=verdict(low, high, higher),
+        family_size=family, fw_level=fw_level, fw_low=fw_low, fw_high=fw_high,
+        fw_verdict=verdict(fw_low, fw_high, higher),
+    )  # fmt: skip
+    if test == "permutation":
+        p = permutation_pvalue(xa, xb, seed=seed) if finite else math.nan
+        row.update(p_value=p, **_tested(d, p, 1 - level, 1 - fw_level, higher))
+    if min(len(xa), len(xb)) < MIN_SEEDS_FOR_VERDICT:
+        row.update(verdict="too few seeds", fw_verdict="too few seeds")
+    elif not finite:
+        row.update(verdict=NON_FINITE_VERDICT, fw_verdict=NON_FINITE_VERDICT)
+    return row
 
 
 def _tested(diff: float, p: float, alpha: float, fw_alpha: float, higher: bool) -> dict[str, str]:

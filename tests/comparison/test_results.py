@@ -23,6 +23,7 @@ from sb3_geogp.comparison.report import (
 from sb3_geogp.comparison.results import (
     METRICS,
     MIN_SEEDS_FOR_VERDICT,
+    NON_FINITE_VERDICT,
     PAIRS,
     comparisons,
     group_runs,
@@ -211,6 +212,27 @@ def test_summary_table_interval_only_from_five_seeds() -> None:
     assert "With fewer than 5 seeds: the mean alone" in table.splitlines()[0]
     five = summary_markdown(summary_rows([r for r in results if r["spec"]["critic"] != "mlp"]))
     assert NO_INTERVAL not in five and "fewer than" not in five
+
+
+@pytest.mark.parametrize("test", ["bootstrap", "permutation"])
+def test_a_non_finite_run_is_flagged_not_read_as_no_difference(test: str) -> None:
+    """One NaN critic RMSE (an unmeasured run) and one infinite return among six seeds: the
+    cells they fall in get no verdict, whatever the test, and the table says why; the other
+    cells keep theirs (the NaN interval would otherwise hold no 0 and no side)."""
+    results = _results()
+    results[1]["critic_accuracy"]["rmse"][-1] = math.nan  # rbf, seed 0
+    results[5]["final_return"] = math.inf  # geodesic, seed 1
+    by = {(d["metric"], d["a"], d["b"]): d for d in comparisons(results, test=test)}
+    flagged = {k for k, d in by.items() if d["verdict"] == NON_FINITE_VERDICT}
+    assert flagged == {
+        ("critic_rmse", "rbf", "mlp"),
+        ("critic_rmse", "geodesic", "rbf"),
+        ("final_return", "geodesic", "mlp"),
+        ("final_return", "geodesic", "rbf"),
+    }
+    assert all(by[k]["fw_verdict"] == NON_FINITE_VERDICT for k in flagged)
+    assert by[("critic_rmse", "geodesic", "mlp")]["verdict"] == "better"
+    assert NON_FINITE_VERDICT in comparisons_markdown(list(by.values()))
 
 
 def test_comparison_table_gives_neither_interval_nor_verdict_below_five_seeds() -> None:
