@@ -240,6 +240,21 @@ def test_grazing_and_collinear_moves_keep_clear_of_the_wall() -> None:
     assert not crosses(np.array([0.68, 0.48]), end, np.array(lay.walls[0]))
 
 
+def test_moves_aimed_exactly_at_a_wall_tip_stop_before_it() -> None:
+    """In exact arithmetic a move through a wall's free end meets the (closed) wall there, so
+    it stops before the tip. In float64 the crossing lands a few ulps either side of the tip;
+    2,000 moves from random free starts, each through a tip at its midpoint, must all stop."""
+    lay = MazeLayout()
+    rng = np.random.default_rng(5)
+    tips = np.array([(0.7, 0.5), (0.3, 0.25)])  # the default layout's two free wall ends
+    starts = rng.uniform(0.0, lay.size, (4000, 2))
+    starts = starts[distances_to_walls(starts, lay.segments()) >= 0.01][:2000]
+    tip = tips[rng.integers(len(tips), size=len(starts))]
+    end = lay.moves(starts, 2 * (tip - starts))
+    moved, to_tip = (np.hypot(*(p - starts).T) for p in (end, tip))
+    assert len(starts) == 2000 and np.all(moved < to_tip)
+
+
 def test_start_on_a_wall_is_rejected() -> None:
     with pytest.raises(ValueError, match="on a wall"):
         WallMaze().reset(options={"start": (0.3, 0.5)})

@@ -74,6 +74,10 @@ RENDER_SIZE = 128
 # Moves at an angle below this (radians) to a wall count as parallel to it, and a wall end
 # point this close (arena units) to the move's line counts as on it.
 _COLLINEAR_TOL = 1e-12
+# A crossing this close beyond a wall's end (a fraction of the wall's length) counts as meeting
+# it: a move aimed exactly at a wall tip crosses the wall's line a few ulps either side of the
+# tip, and without it 2 % of such moves slipped past the tip (float64 moves).
+_END_TOL = 1e-12
 
 
 def _default_walls() -> tuple[tuple[float, float, float, float], ...]:
@@ -342,7 +346,8 @@ def first_hits(
     pos: np.ndarray, delta: np.ndarray, walls: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
     """Smallest ``t`` in ``[0, 1]`` where each move ``pos + t * delta`` meets a wall (closed
-    segments), and the index of that wall.
+    segments, each lengthened by ``1e-12`` of its length at both ends against rounding at its
+    tips), and the index of that wall.
 
     Parameters
     ----------
@@ -363,7 +368,7 @@ def first_hits(
     """
     pos, delta = np.asarray(pos, np.float64), np.asarray(delta, np.float64)
     t, u, parallel = _line_crossings(pos, delta, walls)  # (N, W) each
-    hits = ~parallel & (t >= 0.0) & (t <= 1.0) & (u >= 0.0) & (u <= 1.0)
+    hits = ~parallel & (t >= 0.0) & (t <= 1.0) & (u >= -_END_TOL) & (u <= 1.0 + _END_TOL)
     candidates = np.where(hits, t, np.inf)
     # Collinear: the wall's start lies on the move's line; overlap of the projections.
     r = walls[:, 2:4] - walls[:, 0:2]  # (W, 2)
