@@ -298,8 +298,7 @@ class GPValueCallback(BaseCallback):
         if self.deferred_values:
             # SB3 has just computed returns and advantages from placeholder values; with the
             # values of one batched prediction they are what step-by-step values would give.
-            # ``values`` is SB3's last value (of the observations after the rollout).
-            self._fill_values(policy, buffer, self.locals["values"], dones)
+            self._fill_values(policy, buffer, self.locals["new_obs"], dones)
         targets = self._rollout_targets(buffer, dones)
         _check_targets(targets[1])
         self._held.append(targets)
@@ -574,20 +573,25 @@ class GPValueCallback(BaseCallback):
             self._truncations, old_bootstrap, new_bootstrap, strict=True
         ):
             buffer.rewards[step, env] += gamma * (new - old)
-        last_values = th.as_tensor(_predict(policy, self.locals["new_obs"]))
-        self._fill_values(policy, buffer, last_values, dones)
+        self._fill_values(policy, buffer, self.locals["new_obs"], dones)
 
     @staticmethod
     def _fill_values(
         policy: GPCriticMixin,
         buffer: RolloutBuffer,
-        last_values: th.Tensor,
+        last_obs: np.ndarray,
         dones: np.ndarray,
     ) -> None:
-        """The rollout's values in one GP prediction, then SB3's returns and advantages."""
+        """The rollout's values in one GP prediction, then SB3's returns and advantages,
+        bootstrapped with the values of ``last_obs`` (the observations after the rollout).
+
+        The last values are predicted here rather than read from the algorithm's ``values``:
+        sb3-contrib's MaskablePPO does not pass its bootstrap value to ``on_rollout_end``,
+        where ``values`` is still the last step's (deferred, so zero)."""
         n_steps, n_envs = buffer.values.shape
         flat_obs = buffer.observations.reshape(n_steps * n_envs, *buffer.obs_shape)
         buffer.values[:] = _predict(policy, flat_obs).reshape(n_steps, n_envs)
+        last_values = th.as_tensor(_predict(policy, last_obs))
         buffer.compute_returns_and_advantage(last_values=last_values, dones=dones)
 
 

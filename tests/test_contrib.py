@@ -161,6 +161,28 @@ def test_maskable_ppo_trains_within_the_masks_and_feeds_the_gp(
     assert not th.equal(values, th.zeros_like(values))
 
 
+@pytest.mark.parametrize("target", ["returns", None])
+def test_maskable_deferred_values_equal_step_by_step(target: str | None) -> None:
+    """MaskablePPO bootstraps each rollout with its own ``predict_values`` but, unlike SB3's
+    algorithms, does not hand it to ``on_rollout_end``: the deferred path must still give the
+    buffer, actor and GP of sb3-contrib's step-by-step values (20-step episodes run on at the
+    end of every 64-step rollout, so the bootstrap counts)."""
+
+    def run(deferred: bool) -> MaskablePPO:
+        model = maskable_model()
+        model.learn(4 * 128, callback=GPValueCallback(target=target, deferred_values=deferred))
+        return model
+
+    deferred, stepwise = run(True), run(False)
+    for name in ("values", "returns", "advantages"):
+        a, b = (getattr(m.rollout_buffer, name) for m in (deferred, stepwise))
+        np.testing.assert_array_equal(a, b, err_msg=name)
+    a, b = actor_params(deferred), actor_params(stepwise)
+    assert all(th.equal(a[k], b[k]) for k in a)
+    obs = th.as_tensor(np.eye(6, dtype=np.float32))
+    assert th.equal(deferred.policy.predict_values(obs), stepwise.policy.predict_values(obs))
+
+
 def test_maskable_ppo_without_the_callback_names_it() -> None:
     with pytest.raises(RuntimeError, match="GPValueCallback"):
         maskable_model().learn(64)
