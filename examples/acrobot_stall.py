@@ -92,7 +92,9 @@ class RolloutRecorder(BaseCallback):
         for info in self.locals["infos"]:
             if "episode" in info:
                 self._ended += 1
-                self._goals += int(info["episode"]["l"] < CAP)
+                # The goal step earns 0, not -1: an episode reaching it even on its last step
+                # returns more than -CAP (a step count < CAP would miss that one).
+                self._goals += int(info["episode"]["r"] > -CAP)
         return True
 
     def _on_rollout_end(self) -> None:

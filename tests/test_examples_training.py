@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 import torch as th
 from scipy import stats
+from stable_baselines3.common.monitor import Monitor
 
 from sb3_geogp.envs.wall_maze import CORNER_LAYOUT, WallMaze
 from sb3_geogp.policies import DEFAULT_ADAPTATION
@@ -657,6 +658,28 @@ def test_acrobot_stall_height_is_gymnasiums_and_a_tiny_run_writes_its_figures(
         assert -1 <= rows[0]["corr"] <= 1 and rows[0]["goals"] <= rows[0]["ended"]
         assert rows[0]["explained"] <= 1 and -1 <= rows[0]["returns_corr"] <= 1
     assert (tmp_path / "acrobot_stall.png").stat().st_size > 0
+
+
+def test_acrobot_stall_counts_a_goal_reached_on_the_last_step() -> None:
+    """gymnasium's Acrobot-v1 put at the goal on its 500th step (terminated and truncated at
+    once, return -499), and one that runs out (-500): one goal of two episodes."""
+    script = load_script("acrobot_stall")
+    infos = []
+    for at_goal in (True, False):
+        env = Monitor(gym.make("Acrobot-v1"))
+        env.reset(seed=0)
+        for _ in range(script.CAP - 1):
+            env.step(1)  # no torque: the hanging arm never swings up
+        if at_goal:
+            env.unwrapped.state = np.array([np.pi, 0.0, 0.0, 0.0])  # tip height 2 > 1
+        _, _, terminated, truncated, info = env.step(1)
+        assert truncated and terminated == at_goal
+        infos.append(info)
+    assert [i["episode"]["l"] for i in infos] == [script.CAP] * 2
+    recorder = script.RolloutRecorder()
+    recorder.locals = {"infos": infos}
+    recorder._on_step()
+    assert (recorder._ended, recorder._goals) == (2, 1)
 
 
 def test_acrobot_stall_gp_option_replaces_the_gp_critics_and_reaches_the_critic(

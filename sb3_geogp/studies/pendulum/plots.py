@@ -68,19 +68,16 @@ def _image(ax: Axes, task: Task, values: np.ndarray, n: int, title: str, **kw: A
 
 
 def draw_graph(ax: Axes, gp: SparseOnlineGP, color: str = "w") -> None:
-    """The BV graph's edges (wrapped across ``theta = +-pi``) and the basis vectors."""
+    """The BV graph's edges and the basis vectors.
+
+    Each edge is drawn as the kernel measures it, a straight segment in ``(theta, omega)``: no
+    GP here treats ``theta`` as periodic, so an edge of a trajectory that wrapped across
+    ``theta = +-pi`` spans the box, about ``2 pi`` long (uncorrelated at the lengthscales used).
+    """
     if gp.graph is not None:
         nodes = gp.graph_nodes.cpu().numpy()
         i, j = np.triu(gp.adjacency.cpu().numpy() > 0).nonzero()
-        segments = []
-        for a, b in zip(nodes[i], nodes[j], strict=True):
-            delta = b - a
-            wrapped = (delta[0] + math.pi) % (2 * math.pi) - math.pi
-            if abs(wrapped - delta[0]) < 1e-9:
-                segments.append([a, b])
-            else:  # the edge leaves through one side of the box and enters through the other
-                d = np.array([wrapped, delta[1]])
-                segments += [[a, a + d], [b, b - d]]
+        segments = list(np.stack([nodes[i], nodes[j]], axis=1))
         ax.add_collection(LineCollection(segments, colors=color, linewidths=0.7, alpha=0.9))
     bv = gp.basis_inputs.cpu().numpy()
     ax.scatter(bv[:, 0], bv[:, 1], s=7, c="k", edgecolors=color, linewidths=0.4, zorder=3)

@@ -238,7 +238,7 @@ def metric_table(
         td = result.truth.summary()[
             {"mse": "td_mse", "mse_jump": "td_mse_jump", "mse_smooth": "td_mse_smooth"}[metric]
         ]
-        rows.append(["TD, 800 episodes", "—", *[f"{td:.2f}"] * len(caps)])
+        rows.append([f"TD, {cfg.td_episodes} episodes", "—", *[f"{td:.2f}"] * len(caps)])
     header = ["model", "setting", *(f"max_BV={m}" for m in caps)]
     return _with_note(markdown_table(header, rows, align="ll" + "r" * len(caps)), "the mean")
 

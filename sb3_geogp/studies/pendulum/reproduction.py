@@ -521,7 +521,7 @@ def _ml_refit(
     """Marginal-likelihood hyperparameters from ``gp``'s basis set, then a fresh pass with them."""
     probe = copy.deepcopy(gp)
     fitted = probe.fit_hyperparameters(n_iter=config.ml_iters)
-    lengthscale = probe.lengthscale.tolist()  # per dimension (geodesic: one common factor)
+    lengthscale = probe.lengthscale.tolist()  # per dimension, the geodesic kernel's too (ard)
     return fit_gp(
         kernel,
         train,

@@ -113,16 +113,16 @@ class TwoRooms:
             one door corner, ``min_c |a - c| + |c - b|``.
         """
         a, b = np.broadcast_arrays(np.asarray(a, np.float64), np.asarray(b, np.float64))
-        straight = np.linalg.norm(a - b, axis=-1)
-        blocked = self.crosses_wall(a, b)
-        if not blocked.any():
-            return straight
-        corners = self.corners[:, None, :]
-        a_b, b_b = a[blocked], b[blocked]
-        detour = np.linalg.norm(a_b - corners, axis=-1) + np.linalg.norm(corners - b_b, axis=-1)
-        out = straight.copy()
-        out[blocked] = detour.min(axis=0)
-        return out
+        shape = a.shape[:-1]
+        a, b = a.reshape(-1, 2), b.reshape(-1, 2)  # one pair, shape (2,), as a batch of one
+        out = np.linalg.norm(a - b, axis=-1)
+        blocked = np.asarray(self.crosses_wall(a, b))
+        if blocked.any():
+            corners = self.corners[:, None, :]
+            a_b, b_b = a[blocked], b[blocked]
+            detour = np.linalg.norm(a_b - corners, axis=-1)
+            out[blocked] = (detour + np.linalg.norm(corners - b_b, axis=-1)).min(axis=0)
+        return out.reshape(shape)
 
     def value(self, s: np.ndarray) -> np.ndarray:
         """Ground-truth value ``V(s) = -geodesic(s, goal)``; ``s : ndarray, shape (..., 2)``."""

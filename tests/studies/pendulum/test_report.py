@@ -66,6 +66,14 @@ def test_metric_table_gives_the_t_interval_from_five_seeds() -> None:
     assert NO_INTERVAL not in table and "fewer than" not in table
 
 
+def test_the_td_row_names_the_episodes_it_ran() -> None:
+    result = _result({("geodesic", "fixed"): [31.0, 47.0]}, mlp=[10.0, 12.0])
+    for episodes in (800, 100):
+        result.config = ReproductionConfig(max_basis=(10,), seeds=(0, 1), td_episodes=episodes)
+        row = _row(metric_table(result), "| TD,")
+        assert row == f"| TD, {episodes} episodes | — | 99.00 |"
+
+
 def test_metric_table_counts_only_the_finite_seeds() -> None:
     # Five seeds, one failed fit (NaN): four values, no interval.
     table = metric_table(

@@ -129,6 +129,18 @@ def test_value_jumps_across_the_wall_and_is_continuous_through_the_door() -> Non
     assert abs(left - right) < 1e-5
 
 
+@pytest.mark.parametrize("rooms", ROOMS)
+def test_one_state_is_valued_as_in_a_batch(rooms: TwoRooms) -> None:
+    """Shape (2,) in, shape () out, the batch's number: one state on each side of the wall,
+    whose straight path to the goal is blocked for one of them."""
+    states = random_states(rooms, 50, np.random.default_rng(2))
+    batch = rooms.value(states)
+    singles = [rooms.value(s) for s in states]
+    assert all(np.shape(v) == () for v in singles)
+    np.testing.assert_array_equal(np.array(singles), batch)
+    assert rooms.crosses_wall(states, np.asarray(rooms.goal)[None]).any()
+
+
 def test_geodesic_is_symmetric_and_a_metric_on_samples() -> None:
     rooms = TwoRooms(door=(0.4, 0.6), goal=(0.2, 0.8))
     s = random_states(rooms, 60, np.random.default_rng(1))
