@@ -41,6 +41,7 @@ from torch import nn
 from sb3_geogp.adaptation import Adaptation, as_adaptation
 from sb3_geogp.kernels import KERNELS, make_kernel
 from sb3_geogp.options import unknown_option
+from sb3_geogp.saved_state import state_to_restore
 from sb3_geogp.sparse_gp import SparseOnlineGP
 
 if TYPE_CHECKING:
@@ -341,7 +342,9 @@ class GPCriticMixin(_PolicyBase):
         kernel, trend = self._default_kernel, self._default_trend
         return kernel, trend, self._default_adaptation, self._default_forgetting
 
-    def load_state_dict(self, state_dict: Mapping[str, Any], *args: Any, **kwargs: Any) -> Any:
+    def load_state_dict(
+        self, state_dict: Mapping[str, Any], strict: bool = True, assign: bool = False
+    ) -> Any:
         """Load a state, as :meth:`torch.nn.Module.load_state_dict`.
 
         A model saved without a kernel, a trend or adaptation settings in ``gp_kwargs`` has
@@ -349,20 +352,20 @@ class GPCriticMixin(_PolicyBase):
         refit every block before 0.10, under A2C before 0.17): where this policy's
         ``gp_kwargs`` do not set them (for the adaptation: unset or ``True``), the critic is
         rebuilt with the kernel, the trend and the adaptation the state was saved with before
-        it is loaded. A state that is refused (e.g. saved with another ``max_basis``) raises
-        and leaves the policy as it was.
+        it is loaded (no adaptation for a state saved with ``adapt=False``, or by 0.1 or 0.2,
+        whose critics had none; then its fixed forgetting factor too). A state that is refused
+        (e.g. saved with another ``max_basis``) raises and leaves the policy as it was.
         """
         kept = (self.gp_kwargs, self._gp_options, self.value_net)
         # torch loads module by module: a state refused by the GP would leave the actor loaded.
-        snapshot = {k: v.clone() if isinstance(v, th.Tensor) else v
-                    for k, v in self.state_dict().items()}  # fmt: skip
-        self._adopt_saved_defaults(state_dict)
+        snapshot = state_to_restore(self, assign)
         try:
-            return super().load_state_dict(state_dict, *args, **kwargs)
+            self._adopt_saved_defaults(state_dict)
+            return super().load_state_dict(state_dict, strict=strict, assign=assign)
         except Exception:
-            # A refused state leaves the policy as it was, its critic included.
+            # A refused state leaves the policy as it was, its critic and options included.
             self.gp_kwargs, self._gp_options, self.value_net = kept
-            super().load_state_dict(snapshot)
+            super().load_state_dict(snapshot, assign=assign)
             raise
 
     def _adopt_saved_defaults(self, state_dict: Mapping[str, Any]) -> None:
@@ -377,15 +380,24 @@ class GPCriticMixin(_PolicyBase):
         trend = gp_state.get("trend", "none") if isinstance(gp_state, dict) else "none"
         if "trend" not in self.gp_kwargs and trend != self.gp.trend:
             saved["trend"] = trend
+        # A state records no adaptation where it was saved with adapt=False, or by 0.1 (no
+        # options) or 0.2 (adapt None), whose critics had none: it is rebuilt without.
         adapt = gp_state.get("adapt") if isinstance(gp_state, dict) else None
-        unset = self.gp_kwargs.get("adapt", True) is True
-        if unset and isinstance(adapt, dict) and as_adaptation(adapt) != self.gp.adaptation:
-            saved["adapt"] = adapt
+        has_gp = any(k.startswith("value_net.gp.") for k in state_dict)
+        if self.gp_kwargs.get("adapt", True) is True:
+            if adapt is None and has_gp and self.gp.adaptation is not None:
+                saved["adapt"] = False
+            elif isinstance(adapt, dict) and as_adaptation(adapt) != self.gp.adaptation:
+                saved["adapt"] = adapt
         adapt_now = saved.get("adapt", self.gp_kwargs.get("adapt", True))
         # The forgetting defaults apply where the critic adapts (resolved_gp_kwargs): so does
         # the saved forgetting, which adapt=False given on load would otherwise turn into a
-        # fixed factor.
-        if isinstance(gp_state, dict) and _takes_default_forgetting(adapt_now, self.gp_kwargs):
+        # fixed factor; a critic saved without adaptation had its forgetting as a fixed factor.
+        sets_forgetting = bool(set(_FORGETTING_OPTIONS) & set(self.gp_kwargs))
+        if isinstance(gp_state, dict) and (
+            _takes_default_forgetting(adapt_now, self.gp_kwargs)
+            or (saved.get("adapt") is False and not sets_forgetting)
+        ):
             # States saved before 0.13 record no forgetting_points: forgetting per batch.
             forgetting = {"forgetting_points": None} | {
                 k: gp_state[k] for k in _FORGETTING_OPTIONS if k in gp_state

@@ -32,7 +32,7 @@ class Rollback:
         self._gp = gp
         self._m = gp.n_basis
         self._own = {
-            name: _in_use(name, b, self._m).clone() for name, b in gp.named_buffers(recurse=False)
+            name: in_use(name, b, self._m).clone() for name, b in gp.named_buffers(recurse=False)
         }
         self._kernel = {name: b.clone() for name, b in gp.kernel.named_buffers(recurse=False)}
         self._window = {name: b.clone() for name, b in gp.window.named_buffers()}
@@ -52,7 +52,7 @@ class Rollback:
         for name, b in gp.named_buffers(recurse=False):
             if name in _PER_SLOT or name in _SLOT_BY_SLOT:
                 b.zero_()
-            _in_use(name, b, self._m).copy_(self._own[name])
+            in_use(name, b, self._m).copy_(self._own[name])
         for name, b in gp.kernel.named_buffers(recurse=False):
             b.copy_(self._kernel[name])
         for name, b in gp.window.named_buffers():
@@ -61,7 +61,7 @@ class Rollback:
             gp.kernel.restore_basis(self._basis)
 
 
-def _in_use(name: str, buffer: Tensor, m: int) -> Tensor:
+def in_use(name: str, buffer: Tensor, m: int) -> Tensor:
     """The part of the GP buffer ``name`` that holds the ``m`` BVs in use (a view)."""
     if name in _SLOT_BY_SLOT:
         return buffer[:m, :m]

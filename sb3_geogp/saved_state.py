@@ -7,10 +7,15 @@ behaved, so that every saved model loads and predicts as it did.
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
 import torch
+from torch import nn
+
+from sb3_geogp.adaptation import as_adaptation
+from sb3_geogp.rollback import in_use
 
 if TYPE_CHECKING:
     from sb3_geogp.sparse_gp import SparseOnlineGP
@@ -48,6 +53,22 @@ _ZERO_BEFORE = {
 }
 
 
+def state_to_restore(module: nn.Module, assign: bool) -> dict[str, Any]:
+    """What puts ``module`` back as it was after a ``load_state_dict(..., assign=assign)``
+    refused half-way, loaded back with the same ``assign``.
+
+    Copies of its state, copied back into its tensors; with ``assign`` its own tensors, assigned
+    back: the refused load put the caller's tensors in their place, which copying into would
+    overwrite, and an optimizer keeps pointing at the parameters it holds.
+    """
+    if assign:
+        return dict(module.state_dict(keep_vars=True))
+    return {
+        k: v.clone() if isinstance(v, torch.Tensor) else copy.deepcopy(v)
+        for k, v in module.state_dict().items()
+    }
+
+
 def upgrade_options(options: Any) -> Any:
     """Stored options with those an older version did not store set as it behaved (anything
     but a dict is returned as it is, for the options check to refuse)."""
@@ -57,19 +78,52 @@ def upgrade_options(options: Any) -> Any:
 def upgrade(state: dict[str, Any], prefix: str, gp: SparseOnlineGP) -> None:
     """Add to ``state``, in place, every buffer of ``gp`` that a state saved by an older
     version lacks (entries under ``prefix``), as that version behaved; and start the open block
-    unscored where the forgetting candidates differ (``adapt`` may change on load)."""
+    unscored where its scores score other forgetting candidates than ``gp``'s (``adapt`` may
+    change on load)."""
     _upgrade_v01(state, prefix, gp)
     _upgrade_v02(state, prefix, gp)
+    _upgrade_between_releases(state, prefix, gp)
     scores = state.get(prefix + "forgetting_scores")
-    if scores is None or scores.shape != gp.forgetting_scores.shape:
+    # Unscored scores (zeros) stay as given: with ``assign`` they are the tensors loaded.
+    if (
+        scores is None
+        or scores.shape != gp.forgetting_scores.shape
+        or (bool(scores.any()) and not _scored_alike(state.get(prefix + "_extra_state"), gp))
+    ):
         state[prefix + "forgetting_scores"] = torch.zeros_like(gp.forgetting_scores)
     for name in _ZERO_BEFORE:
         state.setdefault(prefix + name, torch.zeros_like(getattr(gp, name)))
 
 
+#: What a prediction reads of a state: none of it may be NaN or inf (over the BVs in use).
+_PREDICTS = (
+    "alpha", "P", "Q", "bv_x", "nugget", "noise_var", "y_mean", "y_scale", "y_slope",
+    "trend_coef", "summary_prec", "summary_shift", "summary_unit", "summary_input",
+    "kernel.variance",
+)  # fmt: skip
+
+
+def _scored_alike(options: Any, gp: SparseOnlineGP) -> bool:
+    """Whether the open block's forgetting scores of a state saved with ``options`` score
+    ``gp``'s candidates: the same candidates in the same order, by the same score, over the
+    same points (scores are kept by position)."""
+    options = upgrade_options(options)
+    saved = options.get("adapt") if isinstance(options, dict) else None
+    if not isinstance(saved, dict) or gp.adaptation is None:
+        return False
+    try:
+        then = as_adaptation(saved)
+    except (TypeError, ValueError):  # settings this version refuses: the options check says so
+        return False
+    rule = ("forgetting", "forgetting_score", "score_points")
+    same = all(getattr(then, k) == getattr(gp.adaptation, k) for k in rule)
+    return same and options.get("forgetting_points") == gp.forgetting_points
+
+
 def check_posterior(state: Mapping[str, Any], prefix: str, max_basis: int) -> None:
-    """Refuse a saved basis count that a GP of ``max_basis`` cannot hold, or a posterior with
-    NaN or inf in its used part (a corrupted save)."""
+    """Refuse a saved basis count that a GP of ``max_basis`` cannot hold, or a state with NaN
+    or inf in what predictions read (its used part), or a fitted GP's lengthscale not finite
+    and positive (a corrupted save)."""
     count = state.get(prefix + "count")
     if count is None:
         return
@@ -79,14 +133,23 @@ def check_posterior(state: Mapping[str, Any], prefix: str, max_basis: int) -> No
             f"the saved state has {m} basis vectors, which a GP with max_basis="
             f"{max_basis} cannot hold: it is corrupted or from another GP"
         )
-    for name in ("alpha", "P", "Q"):
+    for name in _PREDICTS:
         saved = state.get(prefix + name)
-        used = None if saved is None else saved[:m, :m] if saved.ndim == 2 else saved[:m]
-        if used is not None and not bool(torch.isfinite(used).all()):
+        if saved is not None and not bool(torch.isfinite(in_use(name, saved, m)).all()):
             raise ValueError(
                 f"the saved state's {name} holds NaN or inf: the GP it came from was "
                 "corrupted; load an earlier save"
             )
+    # Before its first batch a GP's lengthscale may hold NaN: chosen from that batch.
+    initialized = state.get(prefix + "initialized")
+    lengthscale = state.get(prefix + "kernel.lengthscale")
+    fitted = bool(initialized) if initialized is not None else m > 0
+    usable = lengthscale is None or bool(((lengthscale > 0) & torch.isfinite(lengthscale)).all())
+    if fitted and not usable:
+        raise ValueError(
+            "the saved state's kernel.lengthscale holds NaN, inf or values not above 0: the GP "
+            "it came from was corrupted; load an earlier save"
+        )
 
 
 def _upgrade_v02(state: dict[str, Any], prefix: str, gp: SparseOnlineGP) -> None:
@@ -114,6 +177,18 @@ def _upgrade_v02(state: dict[str, Any], prefix: str, gp: SparseOnlineGP) -> None
     state[prefix + "block_forgetting"] = torch.tensor(gp.forgetting, dtype=gp.noise_var.dtype)
     saved = state.get(prefix + "kernel.lengthscale")
     state[prefix + "ls_start"] = gp.ls_start.clone() if saved is None else saved.clone()
+
+
+def _upgrade_between_releases(state: dict[str, Any], prefix: str, gp: SparseOnlineGP) -> None:
+    """Fill in, in place, what states saved by the repository's code between the 0.1.0 and
+    0.2.0 releases lack or hold beyond any release: the first 0.1.0 code had no novelty floor
+    (its threshold was ``novelty_tol``), code with the window but before the pruning counter
+    saved no ``n_pruned`` (nor, before them, the block counters), and some 0.2.0 code saved a
+    ``block_start`` that nothing reads now (loaded, each predicts as its code did)."""
+    for name in ("n_blocks", "block_new", "n_pruned"):
+        state.setdefault(prefix + name, torch.zeros((), dtype=torch.long))
+    state.setdefault(prefix + "novelty_floor", torch.tensor(gp.novelty_tol, dtype=torch.float64))
+    state.pop(prefix + "block_start", None)
 
 
 def _upgrade_v01(state: dict[str, Any], prefix: str, gp: SparseOnlineGP) -> None:

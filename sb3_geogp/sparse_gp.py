@@ -25,7 +25,6 @@ grows its graph from them). Default hyperparameters come from :mod:`sb3_geogp.de
 from __future__ import annotations
 
 import contextlib
-import copy
 import functools
 import math
 import numbers
@@ -75,6 +74,10 @@ _FLOOR_STEP = 1.1
 #: ``_FLOOR_STEP ** _DELETION_RATE`` per point absorbed).
 _DELETION_RATE = 0.003
 _FLOOR_MAX = 0.99
+#: The least floor a rise starts from: a floor of 0 (``novelty_tol=0``) would stay 0 under any
+#: factor, and the churn it bounds would not be bounded. Below every tolerance in use above 0
+#: (1e-3 is the least), so their floors move as before.
+_FLOOR_BASE = 1e-3
 #: Largest growth of ``||Q||`` (times the signal variance) one new BV may cause.
 _Q_GROWTH = 1e4
 
@@ -739,14 +742,11 @@ class SparseOnlineGP(nn.Module):
         """As :meth:`torch.nn.Module.load_state_dict`; a state refused for any reason (other
         options, a missing or misshapen buffer, a corrupted posterior) leaves this GP exactly as
         it was (torch alone would have copied the buffers it could before raising)."""
-        before = {
-            k: v.clone() if isinstance(v, Tensor) else copy.deepcopy(v)
-            for k, v in self.state_dict().items()
-        }
+        before = saved_state.state_to_restore(self, assign)
         try:
             return super().load_state_dict(state_dict, strict=strict, assign=assign)
         except Exception:
-            super().load_state_dict(before)
+            super().load_state_dict(before, assign=assign)
             raise
 
     def _latent(self, xs: Tensor, return_var: bool) -> tuple[Tensor, Tensor | None]:
@@ -996,7 +996,8 @@ class SparseOnlineGP(nn.Module):
 
     def _scale_floor(self, factor: float) -> None:
         # Python floats: called twice per novel point, where tensor ops cost more than the math.
-        floor = float(self.novelty_floor) * factor
+        floor = float(self.novelty_floor)
+        floor = max(floor, _FLOOR_BASE) * factor if factor > 1 else floor * factor
         self.novelty_floor.fill_(min(max(floor, self.novelty_tol), _FLOOR_MAX))
 
     def _novelty_threshold(self) -> float:

@@ -39,6 +39,7 @@ from sb3_geogp.policies import (
     LAGGED_ADAPTATION,
     SUPPORTED_ALGORITHMS,
 )
+from tests.test_sparse_gp import assert_refused_assign_load_restores
 
 ALGOS = [PPO, A2C]
 KERNELS = ["geodesic", "rbf"]
@@ -1018,6 +1019,55 @@ def test_linear_options_survive_save_load_bit_for_bit(option: dict, tmp_path: Pa
     assert (loaded.policy.gp.prior_mean, loaded.policy.gp.trend) == (gp.prior_mean, gp.trend)
     loaded.learn(256, callback=feed(), reset_num_timesteps=False)
     assert th.isfinite(loaded.policy.predict_values(obs)).all()
+
+
+def test_model_saved_without_adaptation_loads_and_learns_without_it(tmp_path: Path) -> None:
+    """A critic saved with ``adapt=False`` and a fixed forgetting factor, in a model whose
+    ``gp_kwargs`` name neither (as sb3_geogp 0.2 saved every model: its critics had no
+    adaptation, and its states say ``adapt`` None), loads as it was trained: its values are
+    the saved ones and, trained on, it keeps its lengthscales and noise as that critic did."""
+    env = make_vec_env("Pendulum-v1", n_envs=2, seed=0)
+    fixed = dict(gp_kwargs=dict(max_basis=16, adapt=False, forgetting=0.8), net_arch=[16])
+    model = PPO(GPActorCriticPolicy, env, n_steps=64, batch_size=64, seed=0, policy_kwargs=fixed)
+    model.learn(256, callback=feed())
+    model.save(tmp_path / "model.zip")
+    as_0_2 = dict(gp_kwargs=dict(max_basis=16), net_arch=[16])
+    loaded = PPO.load(tmp_path / "model.zip", env=env, custom_objects={"policy_kwargs": as_0_2})
+    gp = loaded.policy.gp
+    assert gp.adaptation is None and gp.forgetting == 0.8
+    obs = flat_obs(model)
+    assert th.equal(loaded.policy.predict_values(obs), model.policy.predict_values(obs))
+    fixed_before = (gp.lengthscale.clone(), gp.noise_var.clone(), gp.kernel.variance.clone())
+    seen = int(gp.n_seen)
+    loaded.learn(512, callback=feed(), reset_num_timesteps=False)
+    assert int(gp.n_seen) > seen
+    assert all(
+        th.equal(a, b)
+        for a, b in zip(
+            fixed_before, (gp.lengthscale, gp.noise_var, gp.kernel.variance), strict=True
+        )
+    )
+
+
+def test_a_refused_state_leaves_the_policys_options_as_they_were() -> None:
+    """A state whose stored options this version refuses (a forgetting above 1) raises and
+    changes neither ``gp_kwargs`` nor the critic: the same policy then takes a valid state."""
+    policy = make_model(PPO, kernel="rbf").policy
+    kept = (dict(policy.gp_kwargs), policy._gp_options, policy.value_net)
+    valid = make_model(PPO, kernel="rbf", seed=1).policy.state_dict()
+    bad = dict(valid)
+    bad["value_net.gp._extra_state"] = {**valid["value_net.gp._extra_state"], "forgetting": 1.5}
+    with pytest.raises(ValueError, match="forgetting"):
+        policy.load_state_dict(bad)
+    assert (policy.gp_kwargs, policy._gp_options, policy.value_net) == kept
+    policy.load_state_dict(valid)
+
+
+def test_a_refused_assign_load_leaves_both_policies_as_they_were() -> None:
+    source, target = (make_model(PPO, kernel="rbf", seed=s) for s in (0, 1))
+    for m in (source, target):
+        m.learn(128, callback=feed())
+    assert_refused_assign_load_restores(source.policy, target.policy)
 
 
 def test_model_saved_by_v0_1_loads_and_predicts_the_same() -> None:

@@ -812,6 +812,17 @@ def _replaced(key: str, value: Any) -> Any:
     return lambda state: {**state, key: value(state[key])}
 
 
+def _first(value: float) -> Any:
+    """A copy of a buffer with its first entry (a used one) set to ``value``."""
+
+    def spoil(buffer: Tensor) -> Tensor:
+        out = buffer.clone()
+        out.view(-1)[0] = value
+        return out
+
+    return spoil
+
+
 @pytest.mark.parametrize(
     ("spoil", "error"),
     [
@@ -820,13 +831,24 @@ def _replaced(key: str, value: Any) -> Any:
         (_replaced("alpha", lambda a: a[:5]), "size mismatch"),
         (_replaced("alpha", lambda a: a.clone().fill_(math.nan)), "alpha holds NaN"),
         (_replaced("count", lambda c: torch.tensor(500)), "500 basis vectors"),
+        *(
+            (_replaced(name, _first(math.nan)), f"{name} holds NaN")
+            for name in ("y_mean", "y_scale", "trend_coef", "kernel.variance", "bv_x")
+        ),
+        (_replaced("noise_var", _first(math.inf)), "noise_var holds NaN or inf"),
+        (_replaced("kernel.lengthscale", _first(-1.0)), "lengthscale holds NaN, inf or"),
     ],
-    ids=["no-P", "no-kernel-buffer", "short-alpha", "nan-alpha", "count-500"],
-)
+    ids=[
+        "no-P", "no-kernel-buffer", "short-alpha", "nan-alpha", "count-500", "nan-y-mean",
+        "nan-y-scale", "nan-trend", "nan-signal-variance", "nan-basis-input", "inf-noise",
+        "negative-lengthscale",
+    ],
+)  # fmt: skip
 def test_a_refused_state_leaves_the_gp_as_it_was(pendulum, spoil: Any, error: str) -> None:
-    """A state missing a buffer (the GP's or its kernel's), with one of the wrong shape, a NaN
-    posterior or more basis vectors than the GP holds is refused and this GP keeps its own
-    state bit for bit (torch alone copies the buffers it can before raising)."""
+    """A state missing a buffer (the GP's or its kernel's), with one of the wrong shape, NaN or
+    inf in what predictions read (each of which made every prediction NaN), a lengthscale
+    below 0 or more basis vectors than the GP holds is refused and this GP keeps its own state
+    bit for bit (torch alone copies the buffers it can before raising)."""
     obs, returns, starts = pendulum(600, 9)
     source, target = (SparseOnlineGP(3, "geodesic", max_basis=24) for _ in range(2))
     feed(source, obs[:300], returns[:300], starts[:300], 150)
@@ -855,6 +877,37 @@ def test_geodesic_state_loads_whatever_its_ard_rule(pendulum, saved_ard: bool | 
     other = SparseOnlineGP(3, GeodesicKernel(n_neighbors=3), max_basis=24)
     with pytest.raises(ValueError, match="n_neighbors"):
         other.load_state_dict(state)
+
+
+@pytest.mark.parametrize(
+    ("settings", "kept"),
+    [
+        ({}, True),
+        ({"forgetting": (0.1, 1.0)}, False),  # the same candidates, the other order
+        ({"forgetting": (1.0, 0.2)}, False),
+        ({"forgetting_score": "lagged"}, False),
+    ],
+    ids=["same", "reordered", "other-candidate", "other-score"],
+)
+def test_open_block_scores_load_only_for_the_candidates_they_score(
+    settings: dict[str, Any], kept: bool
+) -> None:
+    """Scores are kept by position: where the loading GP's candidates or score differ from the
+    saved GP's, its open block starts unscored (a saved GP's scores chose its first candidate,
+    1.0, for the loading GP's first, 0.1, when the candidates were reordered)."""
+    rng = np.random.default_rng(1)
+    x = rng.uniform(-2, 2, size=(250, 2))
+    y = np.sin(2 * x[:, 0]) + 0.1 * rng.normal(size=250)
+    y[150:] += 3.0
+    base = dict(window=400, interval=400, steps=0, forgetting=(1.0, 0.1))
+    saved = SparseOnlineGP(2, "rbf", max_basis=20, adapt=Adaptation(**base))
+    for i in range(0, 250, 50):  # the block (400 points) stays open
+        saved.update(x[i : i + 50], y[i : i + 50])
+    assert bool(saved.forgetting_scores.ne(0).all())
+    loading = SparseOnlineGP(2, "rbf", max_basis=20, adapt=Adaptation(**{**base, **settings}))
+    loading.load_state_dict(saved.state_dict())
+    expected = saved.forgetting_scores if kept else torch.zeros_like(saved.forgetting_scores)
+    assert torch.equal(loading.forgetting_scores, expected)
 
 
 # -- forgetting ---------------------------------------------------------------------------------
@@ -1070,6 +1123,27 @@ def test_dense_corridor_does_not_churn() -> None:
     assert capped_rmse <= 3.0 * reference_rmse, (capped_rmse, reference_rmse)
 
 
+@pytest.mark.parametrize("kernel", [LaplacianKernel, RBFKernel])
+def test_churn_is_bounded_at_novelty_tol_zero(kernel: type[Kernel]) -> None:
+    """``novelty_tol=0`` (every point a BV below capacity) on 8,000 stationary points, 20 BVs.
+
+    Bound from the floor's bookkeeping: each newcomer at capacity (each deletion) multiplies the
+    floor by 1.1, each absorbed point divides it by ``1.1 ** 0.003``, and it stays within
+    ``[1e-3, 0.99]`` from its first rise on: deletions <= 0.003 n + log(0.99 / 1e-3) / log(1.1)
+    + 1 = 97. (A floor left at 0 never rises: 1,313 and 2,619 deletions.)"""
+    rng = np.random.default_rng(0)
+    gp = SparseOnlineGP(
+        2, kernel(lengthscale=0.3), max_basis=20, novelty_tol=0.0, noise_var=0.05,
+        target_mean=0.0, target_scale=1.0,
+    )  # fmt: skip
+    n = 8000
+    for _ in range(n // 200):
+        x = rng.uniform(size=(200, 2))
+        gp.update(x, np.sin(3 * x[:, 0]) + 0.1 * rng.normal(size=200))
+    bound = 0.003 * n + math.log(0.99 / 1e-3) / math.log(1.1) + 1
+    assert gp.n_basis == 20 and 0 < int(gp.n_deleted) <= bound
+
+
 def test_nan_lengthscale_entries_are_chosen_from_the_first_batch() -> None:
     """Given entries stay; NaN ones become the first batch's standard deviation."""
     x = np.random.default_rng(11).normal(size=(200, 3)) * np.array([1.0, 5.0, 0.2])
@@ -1167,6 +1241,55 @@ def test_state_saved_by_v0_1_loads_and_predicts_the_same(kernel: str) -> None:
     torch.testing.assert_close(var, saved[kernel]["var"], rtol=0, atol=1e-10)
     gp.update(saved["probe"], torch.zeros(len(saved["probe"])))  # and it keeps learning
     assert gp.n_basis > 0 and torch.isfinite(gp.predict(saved["probe"])[0]).all()
+
+
+@pytest.mark.parametrize("commit", ["2683be88", "1fe1657d", "d652183d"])
+def test_state_saved_between_releases_loads_and_predicts_the_same(commit: str) -> None:
+    """tests/data holds geodesic GPs' states and predictions written by the repository's code
+    at three commits between the 0.1.0 and 0.2.0 releases (the first 0.1.0 code, no novelty
+    floor; the commit that set 0.2.0, no ``n_pruned``; later 0.2.0 code, with ``block_start``):
+    120 points of a random walk in 3 dimensions, in 3 trajectories, ``max_basis=8`` (the two
+    0.2.0 ones with ``Adaptation(window=64)``)."""
+    saved = torch.load(Path(__file__).parent / "data" / "sparse_gp_between_releases.pt")[commit]
+    adapt = {} if commit == "2683be88" else {"adapt": Adaptation(window=64)}
+    gp = SparseOnlineGP(3, "geodesic", max_basis=8, **adapt)
+    gp.load_state_dict(saved["state"])
+    mean, var = gp.predict(saved["probe"])
+    torch.testing.assert_close(mean, saved["mean"], rtol=0, atol=1e-12)
+    torch.testing.assert_close(var, saved["var"], rtol=0, atol=1e-12)
+    gp.update(saved["probe"], torch.zeros(len(saved["probe"])))  # and it keeps learning
+    assert torch.isfinite(gp.predict(saved["probe"])[0]).all()
+
+
+def assert_refused_assign_load_restores(source: torch.nn.Module, target: torch.nn.Module) -> None:
+    """Load ``source``'s state into ``target`` with ``assign=True``, refused by an unexpected
+    key after every buffer was assigned; both must end as they were, sharing no storage."""
+    source_before = {k: v.clone() for k, v in source.state_dict().items() if torch.is_tensor(v)}
+    target_before = {k: v.clone() for k, v in target.state_dict().items() if torch.is_tensor(v)}
+    target_objects = _tensor_ids(target)
+    state = {**source.state_dict(), "bogus": torch.zeros(1)}
+    with pytest.raises(RuntimeError, match="bogus"):
+        target.load_state_dict(state, assign=True)
+    for module, before in ((source, source_before), (target, target_before)):
+        now = module.state_dict()
+        assert all(torch.equal(now[k], v) for k, v in before.items())
+    # The target's own tensors are back (an optimizer holding them still trains it).
+    assert _tensor_ids(target) == target_objects
+
+
+def _tensor_ids(module: torch.nn.Module) -> dict[str, int]:
+    return {k: id(v) for k, v in module.state_dict(keep_vars=True).items() if torch.is_tensor(v)}
+
+
+def test_a_refused_assign_load_leaves_both_states_as_they_were() -> None:
+    """torch's ``assign=True`` puts the caller's tensors in place; copying the old values back
+    into them (as a plain restore does) overwrote the state being loaded from."""
+    rng = np.random.default_rng(0)
+    source, target = SparseOnlineGP(2, "rbf", max_basis=12), SparseOnlineGP(2, "rbf", max_basis=12)
+    x = rng.uniform(size=(200, 2))
+    source.update(x[:100], np.sin(4 * x[:100, 0]))
+    target.update(x[100:], 5 + np.cos(4 * x[100:, 1]))
+    assert_refused_assign_load_restores(source, target)
 
 
 # -- threads --------------------------------------------------------------------------------------
