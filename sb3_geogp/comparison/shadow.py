@@ -284,7 +284,10 @@ def learn_with_shadows(
     values.update({name: posterior_mean(gp) for name, gp in gps.items()})
 
     def learn_mlp(x: Tensor, y: Tensor, _starts: Tensor) -> None:
-        mlp.learn(x, y, model.lr_schedule(model._current_progress_remaining))
+        # The rate PPO's train() is about to use: SB3 updates its progress only after the
+        # rollout's end, where the shadows learn.
+        progress = 1.0 - model.num_timesteps / model._total_timesteps
+        mlp.learn(x, y, model.lr_schedule(progress))
 
     learners: list[Learner] = [learn_mlp, *(gp.update for gp in gps.values())]
     scorer = checkpoints(values)
@@ -365,6 +368,15 @@ def check_run_settings(args: argparse.Namespace, reading: Collection[str] = ()) 
     write_json_atomic(stored, settings)
 
 
+def _distinct(records: list[Any]) -> list[Any]:
+    """``records`` without repeats, in order of first appearance."""
+    out: list[Any] = []
+    for r in records:
+        if r not in out:
+            out.append(r)
+    return out
+
+
 def run_study(
     args: argparse.Namespace,
     run: Callable[[str, int, argparse.Namespace], dict[str, Any]],
@@ -374,11 +386,12 @@ def run_study(
     reading: Collection[str] = (),
 ) -> StudyResults:
     """``run(actor, seed, args)`` for every actor and seed of ``args`` not yet in
-    ``OUT/runs/`` (a finished run is kept there and not run again; an ``--out`` whose runs were
-    made with other settings is refused, :func:`check_run_settings`, ``reading`` naming the
-    arguments that only read them), then ``table`` printed and written to ``OUT/table.md``,
-    every result with the arguments and provenance to ``OUT/results.json``, and ``plot`` to
-    ``OUT/<figure>``."""
+    ``OUT/runs/`` (a finished run is kept there, with the provenance of the code that made it,
+    and not run again; an ``--out`` whose runs were made with other settings is refused,
+    :func:`check_run_settings`, ``reading`` naming the arguments that only read them), then
+    ``table`` printed and written to ``OUT/table.md``, every result with the arguments to
+    ``OUT/results.json`` (``provenance``: the distinct records of its runs, ``None`` for runs
+    made before 0.31.5, which kept none), and ``plot`` to ``OUT/<figure>``."""
     check_run_settings(args, reading)
     (args.out / "runs").mkdir(parents=True, exist_ok=True)
     results: StudyResults = {a: {} for a in args.actors}
@@ -386,7 +399,7 @@ def run_study(
     for actor, seed in tqdm(jobs, unit="run", desc="PPO runs"):
         path = args.out / "runs" / f"{actor}__s{seed}.json"
         if not path.exists():
-            write_json_atomic(path, run(actor, seed, args))
+            write_json_atomic(path, {**run(actor, seed, args), "provenance": provenance()})
         results[actor][seed] = json.loads(path.read_text())
     text = table(results)
     print(text)
@@ -396,7 +409,9 @@ def run_study(
         {
             "args": {**vars(args), "out": str(args.out)},
             "results": results,
-            "provenance": provenance(),
+            "provenance": _distinct(
+                [r.get("provenance") for runs in results.values() for r in runs.values()]
+            ),
         },
     )
     plot(results, args.out / figure)

@@ -1,6 +1,6 @@
-"""Which code made a result: the git commit, one hash of the whole engine, package versions,
-and the machine: the CPU kernels torch chose, the CPU's model and flags (a run is
-bit-reproducible only where they agree).
+"""Which code made a result: the git commit and whether the checkout differed from it, one
+hash of the whole engine, package versions, and the machine: the CPU kernels torch chose, the
+CPU's model and flags (a run is bit-reproducible only where they agree).
 
 The engine hash covers every source file of the GP engine together (:data:`ENGINE_FILES`), so
 a result names the engine it measured in one string; a refactor that moves code between
@@ -16,7 +16,9 @@ from pathlib import Path
 from types import ModuleType
 from typing import Any
 
+import gymnasium
 import numpy as np
+import stable_baselines3
 import torch
 
 import sb3_geogp
@@ -59,17 +61,15 @@ def engine_sha256() -> str:
     return digest.hexdigest()
 
 
-def git_commit() -> str | None:
-    """The commit checked out where the package's source lives; ``None`` outside a git checkout.
+def _git(*args: str) -> str | None:
+    """``git`` run where the package's source lives: its output, or ``None`` where it fails,
+    where git is not installed, or where the package is not tracked by the repository found
+    (e.g. installed into a virtual environment inside some other checkout)."""
 
-    ``None`` too when the package is not tracked by the repository found (e.g. installed into
-    a virtual environment inside some other checkout), or when git is not installed.
-    """
-
-    def git(*args: str) -> str | None:
+    def run(*command: str) -> str | None:
         try:
             done = subprocess.run(
-                ["git", "-C", str(_PACKAGE), *args],
+                ["git", "-C", str(_PACKAGE), *command],
                 capture_output=True,
                 text=True,
                 timeout=10,
@@ -79,22 +79,35 @@ def git_commit() -> str | None:
             return None
         return done.stdout.strip() if done.returncode == 0 else None
 
-    if git("ls-files", "--error-unmatch", "__init__.py") is None:
+    if run("ls-files", "--error-unmatch", "__init__.py") is None:
         return None
-    return git("rev-parse", "HEAD")
+    return run(*args)
+
+
+def git_commit() -> str | None:
+    """The commit checked out where the package's source lives; ``None`` outside a git checkout
+    (or where the package is not tracked by the repository found, or git is missing)."""
+    return _git("rev-parse", "HEAD")
+
+
+def git_dirty() -> bool | None:
+    """Whether the checkout's tracked files differ from :func:`git_commit` (a result made with
+    uncommitted changes is not that commit's); ``None`` where there is no commit to compare."""
+    status = _git("status", "--porcelain", "--untracked-files=no")
+    return None if status is None else status != ""
 
 
 def package_versions(*modules: ModuleType) -> dict[str, str]:
-    """Python's version and ``__version__`` of torch, numpy, sb3_geogp and ``modules``.
+    """Python's version and ``__version__`` of torch, stable_baselines3, gymnasium, numpy,
+    sb3_geogp and ``modules``.
 
     Parameters
     ----------
     *modules : module
-        Further imported packages to record (e.g. ``stable_baselines3``, ``gymnasium``), keyed
-        by their module name.
+        Further imported packages to record (e.g. ``sb3_contrib``), keyed by their module name.
     """
     versions = {"python": platform.python_version()}
-    for module in (torch, *modules, np, sb3_geogp):
+    for module in (torch, stable_baselines3, gymnasium, *modules, np, sb3_geogp):
         versions[module.__name__] = str(module.__version__)
     return versions
 
@@ -169,11 +182,12 @@ def provenance(*modules: ModuleType) -> dict[str, Any]:
     Returns
     -------
     dict
-        ``git_commit`` (str or None), ``engine_sha256``, ``engine_files``, ``versions`` and
-        ``machine`` (:func:`machine`).
+        ``git_commit`` (str or None), ``git_dirty`` (bool or None), ``engine_sha256``,
+        ``engine_files``, ``versions`` and ``machine`` (:func:`machine`).
     """
     return {
         "git_commit": git_commit(),
+        "git_dirty": git_dirty(),
         "engine_sha256": engine_sha256(),
         "engine_files": engine_files(),
         "versions": package_versions(*modules),

@@ -2,7 +2,11 @@
 
 from __future__ import annotations
 
+import argparse
 import dataclasses
+import json
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -12,6 +16,7 @@ from stable_baselines3.common.callbacks import BaseCallback, CallbackList
 
 from sb3_geogp import GPValueCallback
 from sb3_geogp.callbacks import Target
+from sb3_geogp.comparison import shadow
 from sb3_geogp.comparison.run import build_model
 from sb3_geogp.comparison.shadow import (
     MLPShadow,
@@ -21,6 +26,7 @@ from sb3_geogp.comparison.shadow import (
     gp_shadow,
     learn_with_shadows,
     ppo_spec,
+    study_parser,
 )
 from tests.test_callbacks import FeedRecorder, expected_monte_carlo, make_scripted
 
@@ -119,6 +125,48 @@ def test_mlp_shadow_learns_its_targets_and_its_step_size() -> None:
     assert mlp.model.policy.optimizer.param_groups[0]["lr"] == mlp.model.lr_schedule(1.0)
 
 
+class OptimizerRates(BaseCallback):
+    """The step size PPO's ``train()`` set on its optimizer for each rollout, read at the
+    next rollout's start and at the end of training."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.used: list[float] = []
+        self._first = True
+
+    def _on_step(self) -> bool:
+        return True
+
+    def _on_rollout_start(self) -> None:
+        if not self._first:
+            self.used.append(self.model.policy.optimizer.param_groups[0]["lr"])
+        self._first = False
+
+    def _on_training_end(self) -> None:
+        self.used.append(self.model.policy.optimizer.param_groups[0]["lr"])
+
+
+def test_mlp_shadow_learns_each_rollout_at_ppos_step_size_for_it(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """CartPole-v1's zoo PPO decays its step size linearly: on each rollout the MLP shadow
+    learns at the rate PPO's own ``train()`` uses on it (it took the previous rollout's)."""
+    given: list[float] = []
+    learn = MLPShadow.learn
+
+    def recording(self: MLPShadow, x: th.Tensor, y: th.Tensor, learning_rate: float) -> None:
+        given.append(learning_rate)
+        learn(self, x, y, learning_rate)
+
+    monkeypatch.setattr(MLPShadow, "learn", recording)
+    timesteps = 768  # three rollouts of 8 envs x 32 steps
+    spec = dataclasses.replace(ppo_spec("CartPole-v1", 0, timesteps, {}), critic="mlp")
+    rates = OptimizerRates()
+    learn_with_shadows(build_model(spec), "CartPole-v1", 0, timesteps, {}, lambda v: rates)
+    assert len(given) == len(rates.used) == 3 and len(set(given)) == 3
+    assert given == pytest.approx(rates.used, rel=1e-12, abs=0)
+
+
 def test_mlp_shadow_starts_as_the_comparisons_mlp_critic() -> None:
     spec = dataclasses.replace(ppo_spec("CartPole-v1", 4, 1, {}), critic="mlp")
     model = build_model(spec)
@@ -126,3 +174,30 @@ def test_mlp_shadow_starts_as_the_comparisons_mlp_critic() -> None:
     with th.no_grad():
         expected = model.policy.predict_values(x.float())[:, 0]
     th.testing.assert_close(MLPShadow("CartPole-v1", 4).predict(x), expected, rtol=0, atol=0)
+
+
+def test_each_study_run_keeps_the_provenance_of_the_code_that_made_it(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A study resumed by later code (here: another commit) keeps each run's own record, and
+    ``results.json`` lists both; a run file written before runs kept one reads as ``None``."""
+    parser = study_parser("toy", ["a"], 10, {}, tmp_path / "study")
+    (tmp_path / "study" / "runs").mkdir(parents=True)
+    (tmp_path / "study" / "runs" / "a__s9.json").write_text('{"score": 9}')  # as before 0.31.5
+
+    def run(actor: str, seed: int, args: argparse.Namespace) -> dict[str, Any]:
+        return {"score": seed}
+
+    def study(seeds: list[str], commit: str) -> dict[str, Any]:
+        monkeypatch.setattr(shadow, "provenance", lambda: {"git_commit": commit})
+        args = parser.parse_args(["--seeds", *seeds])
+        shadow.run_study(args, run, lambda results: "", lambda results, path: None, "f.png")
+        return dict(json.loads((tmp_path / "study" / "results.json").read_text()))
+
+    study(["0"], "AAAA")
+    results = study(["0", "1", "9"], "BBBB")
+    runs = results["results"]["a"]
+    assert [runs[s].get("provenance") for s in ("0", "1", "9")] == [
+        {"git_commit": "AAAA"}, {"git_commit": "BBBB"}, None,
+    ]  # fmt: skip
+    assert results["provenance"] == [{"git_commit": "AAAA"}, {"git_commit": "BBBB"}, None]

@@ -8,8 +8,12 @@ import os
 import platform
 import subprocess
 import sys
+from pathlib import Path
 
-from sb3_geogp.toolbox.provenance import cpu, engine_files
+import pytest
+
+import sb3_geogp.toolbox.provenance as provenance_module
+from sb3_geogp.toolbox.provenance import cpu, engine_files, git_commit, git_dirty
 
 # The package root, the warning helper and the option checks change no number the engine
 # computes.
@@ -73,3 +77,32 @@ def test_cpu_without_cpuinfo_names_no_flags() -> None:
     record = cpu("")
     assert record["cpu_flags_sha256"] is None
     assert record["cpu_model"] == (platform.processor() or None)
+
+
+def test_git_dirty_is_gits_own_status_of_the_tracked_files(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A package in a fresh repository: clean once committed, dirty after a tracked file is
+    edited (an untracked file does not count), clean again once committed; outside a
+    repository neither the commit nor the status is known."""
+    package = tmp_path / "repo" / "pkg"
+    package.mkdir(parents=True)
+    (package / "__init__.py").write_text("x = 1\n")
+    monkeypatch.setattr(provenance_module, "_PACKAGE", package)
+
+    def git(*args: str) -> None:
+        identity = ["-c", "user.name=t", "-c", "user.email=t@t"]
+        subprocess.run(["git", "-C", str(package), *identity, *args], check=True,
+                       capture_output=True)  # fmt: skip
+
+    assert (git_commit(), git_dirty()) == (None, None)
+    git("init", "-q")
+    git("add", "__init__.py")
+    git("commit", "-qm", "first")
+    assert git_commit() is not None and git_dirty() is False
+    (package / "notes.txt").write_text("untracked\n")
+    assert git_dirty() is False
+    (package / "__init__.py").write_text("x = 2\n")
+    assert git_dirty() is True
+    git("commit", "-qam", "second")
+    assert git_dirty() is False and provenance_module.provenance()["git_dirty"] is False
