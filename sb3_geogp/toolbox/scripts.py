@@ -65,6 +65,10 @@ def load_script(path: str | Path, name: str) -> ModuleType:
     return module
 
 
+#: How a help text states its option's own default.
+_SAYS_DEFAULT = ("%(default)", "(default", "default:")
+
+
 class DefaultsHelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
     """``--help`` with every option's default: appended to its help unless the help already
     says its default, and as the whole help of an option that has none (not for flags,
@@ -84,6 +88,9 @@ class DefaultsHelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
         return super()._format_action(action)
 
     def _get_help_string(self, action: argparse.Action) -> str | None:
-        if "default" in (action.help or "") or not self._has_default(action):
+        # Only a help that states its own default is left as it is: one that mentions another
+        # default ("the PPO default since 0.9: level") still gets this option's.
+        says_default = any(m in (action.help or "") for m in _SAYS_DEFAULT)
+        if says_default or not self._has_default(action):
             return action.help
         return super()._get_help_string(action)

@@ -79,8 +79,13 @@ def test_help_shows_every_default_once() -> None:
     parser.add_argument("--quick", action="store_true", help="tiny sizes")
     parser.add_argument("--ceiling", type=int, default=0)
     parser.add_argument("--runs", required=True, help="the runs")
+    parser.add_argument("--trend", default="none", help="trend (the PPO default since 0.9: level)")
+    parser.add_argument("--threads", default="1", help="threads, or 'default'")
     text = re.sub(r"\s+", " ", parser.format_help())
     assert "--seeds SEEDS [SEEDS ...] default: [0, 1]" in text
     assert "--scale SCALE budget factor (default: 1.5)" in text
     assert text.count("default: runs") == 1 and "--ceiling CEILING default: 0" in text
     assert "tiny sizes (default" not in text and "the runs (default" not in text
+    # A help that names some other default still shows this option's own.
+    assert "(the PPO default since 0.9: level) (default: none)" in text
+    assert "threads, or 'default' (default: 1)" in text
