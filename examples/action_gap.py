@@ -62,6 +62,7 @@ from sb3_geogp.comparison.shadow import (
 )
 from sb3_geogp.studies.action_gap import action_gaps, gap_scores
 from sb3_geogp.toolbox.stats import mean_ci
+from sb3_geogp.toolbox.tables import estimate_cell
 
 ENV = "CartPole-v1"
 #: The critics that train the agent by default, one PPO run each per seed.
@@ -152,7 +153,9 @@ def table(results: dict[str, dict[int, Any]], timesteps: int, against: str = MLP
             values = np.array([s[name] for s in scores])
             diff = values - np.array([s[against] for s in scores])
             mean, half = (float(v) for v in mean_ci(diff, nan_policy="omit"))
-            ci = "–" if name == against else f"{mean:+.3f} [{mean - half:+.3f}, {mean + half:+.3f}]"
+            interval = f"[{mean - half:+.3f}, {mean + half:+.3f}]"
+            n = int(np.isfinite(diff).sum())
+            ci = "–" if name == against else estimate_cell(f"{mean:+.3f}", interval, n)
             w = np.nanmean([s[name] for s in weighted])
             spread = f"{np.nanmean(values):.3f} [{np.nanmin(values):.2f}, {np.nanmax(values):.2f}]"
             lines.append(f"| {actor} | {name} | {spread} | {w:.3f} | {ci} | {len(values)} |")

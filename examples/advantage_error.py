@@ -68,6 +68,7 @@ from sb3_geogp.studies.advantage_error import advantage_scores, gae
 from sb3_geogp.studies.value_ceiling import TASKS, horizon, model_returns
 from sb3_geogp.studies.wall.oracle import WallAwareGeodesicKernel
 from sb3_geogp.toolbox.stats import mean_ci
+from sb3_geogp.toolbox.tables import estimate_cell
 
 ENV = "sb3_geogp/PaperPendulum-v0"
 #: ``--env`` choices: the pendulum and the mazes with its budget (30,000 steps).
@@ -223,11 +224,9 @@ def table(results: dict[str, dict[int, Any]], skip: int, against: str = MLP) -> 
             for m in METRICS:
                 values, diff = scores[m][name], scores[m][name] - scores[m][against]
                 mean, half = (float(v) for v in mean_ci(diff, nan_policy="omit"))
-                ci = (
-                    "–"
-                    if name == against
-                    else f"{mean:+.3f} [{mean - half:+.3f}, {mean + half:+.3f}]"
-                )
+                interval = f"[{mean - half:+.3f}, {mean + half:+.3f}]"
+                n = int(np.isfinite(diff).sum())
+                ci = "–" if name == against else estimate_cell(f"{mean:+.3f}", interval, n)
                 cells.append(f"{np.nanmean(values):.3f} | {ci}")
             lines.append(f"| {actor} | {name} | {' | '.join(cells)} | {len(runs)} |")
         ceiling = np.nanmean(np.concatenate([correlation_ceiling(r["rows"][skip:]) for r in runs]))

@@ -90,6 +90,7 @@ from sb3_geogp.toolbox.pools import worker_pool
 from sb3_geogp.toolbox.provenance import provenance
 from sb3_geogp.toolbox.scripts import DefaultsHelpFormatter
 from sb3_geogp.toolbox.stats import mean_ci, moments, pooled_explained_variance
+from sb3_geogp.toolbox.tables import estimate_cell
 
 ENVS = ("Pendulum-v1", "CartPole-v1", "Acrobot-v1")
 GOAL = 0.9
@@ -543,7 +544,8 @@ def paired_differences(
                  if (e, c) == (env_id, critic) and (env_id, first, seed) in tails]
             )  # fmt: skip
             mean, half = (float(v) for v in mean_ci(diff, nan_policy="propagate"))
-            cells.append(f"{mean:+.3f} [{mean - half:+.3f}, {mean + half:+.3f}] ({len(diff)})")
+            interval = f"[{mean - half:+.3f}, {mean + half:+.3f}]"
+            cells.append(f"{estimate_cell(f'{mean:+.3f}', interval, len(diff))} ({len(diff)})")
         lines.append(f"| `{env_id}` | " + " | ".join(cells) + " |")
     return lines
 
