@@ -359,6 +359,14 @@ def run_all(
                 f"{_run_file(out, spec)} ran with GP options {result['gp_kwargs']}, not "
                 f"{dict(spec.gp_kwargs)}: pass another --out"
             )
+        n = len(result["explained_variance"])
+        tail_rollouts = n - int(np.floor((1 - last) * n))  # as run_one counts them
+        if result["tail_rollouts"] != tail_rollouts:
+            raise OtherSettingsError(
+                f"{_run_file(out, spec)} averaged its last {result['tail_rollouts']} of {n} "
+                f"rollouts, not the last {last:.0%} ({tail_rollouts}): pass another --out, or "
+                "the --last it ran with"
+            )
         recorded_feed = {key: result[key] for key in ("target", "horizon") if key in result}
         if recorded_feed != _feed(spec):
             raise OtherSettingsError(

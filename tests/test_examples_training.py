@@ -183,10 +183,11 @@ def test_critic_fit_tiny_run_writes_table_and_figure(
         assert abs(r["tail_mean"] - sum(tail) / len(tail)) < 1e-12
     assert "CartPole-v1" in (tmp_path / "critic_fit.md").read_text()
     assert (tmp_path / "critic_fit.png").stat().st_size > 0
-    # Resuming with other GP options or another budget would mix two runs in one table:
-    # refused, in one line.
+    # Resuming with other GP options, another budget or another share of rollouts averaged
+    # (each run's tail mean is kept in its file) would mix two readings in one table: refused,
+    # in one line.
     capsys.readouterr()
-    for other in (["--gp-option", "forgetting=0.9"], ["--scale", "0.02"]):
+    for other in (["--gp-option", "forgetting=0.9"], ["--scale", "0.02"], ["--last", "0.75"]):
         with pytest.raises(SystemExit):
             critic_fit.main([*argv, "--out", str(tmp_path), *other])
         assert "pass another --out" in capsys.readouterr().err
