@@ -95,7 +95,12 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     parser.add_argument("--warm-rollouts", type=int, default=4, help="rollouts before 'warm'")
     parser.add_argument("--quick", action="store_true", help="tiny smoke run (seconds)")
     parser.add_argument("--no-peer", action="store_true", help="skip scikit-learn")
-    return parser.parse_args(argv)
+    args = parser.parse_args(argv)
+    if args.warm_rollouts < 1:
+        # The warm update is timed on a rollout the model has not seen: with none before it,
+        # it would be timed on the rollout it was built from.
+        parser.error(f"--warm-rollouts must be at least 1, got {args.warm_rollouts}")
+    return args
 
 
 # ----------------------------------------------------------------------------------------------

@@ -280,7 +280,7 @@ class Soak:
             "points": self.points,
             "update_s": self.update_s,
             "us_per_point": 1e6 * self.update_s / max(self.points, 1),
-            "median_batch_ms": float(sorted(batch_ms)[len(batch_ms) // 2]),
+            "median_batch_ms": float(statistics.median(batch_ms)),
             "max_batch_ms": max(batch_ms),
             "check_s": self.check_s,
             "n_basis": self.gp.n_basis,

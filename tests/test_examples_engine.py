@@ -20,6 +20,15 @@ def load_script(name: str) -> ModuleType:
     return toolbox_scripts.load_script(EXAMPLES / f"{name}.py", f"_example_{name}")
 
 
+def test_benchmark_speed_refuses_a_warm_update_on_a_seen_rollout(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    bench = load_script("benchmark_speed")
+    with pytest.raises(SystemExit):
+        bench.main(["--quick", "--warm-rollouts", "0"])
+    assert "--warm-rollouts must be at least 1" in capsys.readouterr().err
+
+
 def test_benchmark_speed_quick_writes_promised_json(tmp_path: Path) -> None:
     bench = load_script("benchmark_speed")
     out = tmp_path / "bench.json"
@@ -45,7 +54,7 @@ def test_benchmark_speed_quick_writes_promised_json(tmp_path: Path) -> None:
 @pytest.mark.parametrize("stream", ["pendulum", "drift"])
 def test_long_run_numerics_quick_passes_all_checks(tmp_path: Path, stream: str) -> None:
     soak = load_script("long_run_numerics")
-    argv = ["--points", "1536", "--batch-size", "512", "--max-basis", "24", "--stream", stream]
+    argv = ["--points", "1536", "--batch-size", "384", "--max-basis", "24", "--stream", stream]
     assert soak.main([*argv, "--out", str(tmp_path), "--threads", "1"]) == 0
     result = json.loads((tmp_path / "long_run_numerics.json").read_text())
     assert result["all_passed"] is True
@@ -53,6 +62,9 @@ def test_long_run_numerics_quick_passes_all_checks(tmp_path: Path, stream: str) 
     for row in result["summary"]:
         assert row["passed"] and row["points"] == 1536
         assert row["n_basis"] <= 24
+        # Four batches: the median is the mean of the two middle times.
+        ms = sorted(result["history"][row["variant"]]["batch_ms"])
+        assert len(ms) == 4 and row["median_batch_ms"] == pytest.approx((ms[1] + ms[2]) / 2)
         assert {"worst_asym_P", "worst_min_eig_P", "worst_min_var", "final_ev"} <= row.keys()
     assert (tmp_path / "long_run_numerics.png").stat().st_size > 0
 
