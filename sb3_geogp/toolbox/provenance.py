@@ -12,13 +12,12 @@ from __future__ import annotations
 import hashlib
 import platform
 import subprocess
+import sys
 from pathlib import Path
 from types import ModuleType
 from typing import Any
 
-import gymnasium
 import numpy as np
-import stable_baselines3
 import torch
 
 import sb3_geogp
@@ -39,6 +38,8 @@ ENGINE_FILES = (
 )
 
 _PACKAGE = Path(sb3_geogp.__file__).resolve().parent
+#: Packages whose versions are recorded where they are loaded.
+_IF_LOADED = ("stable_baselines3", "gymnasium")
 
 
 def engine_files() -> list[str]:
@@ -98,8 +99,9 @@ def git_dirty() -> bool | None:
 
 
 def package_versions(*modules: ModuleType) -> dict[str, str]:
-    """Python's version and ``__version__`` of torch, stable_baselines3, gymnasium, numpy,
-    sb3_geogp and ``modules``.
+    """Python's version and ``__version__`` of torch, numpy, sb3_geogp, ``modules``, and of
+    stable_baselines3 and gymnasium wherever the process has imported them (a run that trains
+    with them has; the toolbox itself imports neither).
 
     Parameters
     ----------
@@ -107,7 +109,8 @@ def package_versions(*modules: ModuleType) -> dict[str, str]:
         Further imported packages to record (e.g. ``sb3_contrib``), keyed by their module name.
     """
     versions = {"python": platform.python_version()}
-    for module in (torch, stable_baselines3, gymnasium, *modules, np, sb3_geogp):
+    loaded = [sys.modules[name] for name in _IF_LOADED if name in sys.modules]
+    for module in (torch, *loaded, *modules, np, sb3_geogp):
         versions[module.__name__] = str(module.__version__)
     return versions
 

@@ -106,3 +106,12 @@ def test_git_dirty_is_gits_own_status_of_the_tracked_files(
     assert git_dirty() is True
     git("commit", "-qam", "second")
     assert git_dirty() is False and provenance_module.provenance()["git_dirty"] is False
+
+
+def test_versions_name_stable_baselines3_and_gymnasium_once_loaded() -> None:
+    import gymnasium
+    import stable_baselines3
+
+    versions = provenance_module.package_versions()
+    assert versions["stable_baselines3"] == stable_baselines3.__version__
+    assert versions["gymnasium"] == gymnasium.__version__
