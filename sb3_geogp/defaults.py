@@ -84,7 +84,14 @@ def default_lengthscale(x: Tensor) -> Tensor:
     std = x.std(dim=0, unbiased=False)
     fallback = x.abs().max(dim=0).values
     fallback = torch.where(fallback > 0, fallback, torch.ones_like(fallback))
-    return torch.where(std > 1e-12 * fallback, std, fallback)
+    return torch.where(std > _spread_floor(x.dtype) * fallback, std, fallback)
+
+
+def _spread_floor(dtype: torch.dtype) -> float:
+    """The relative spread below which data count as not varying: 1e-12, or 64 ulps where the
+    dtype's rounding alone spreads a constant that wide (float32: the mean of copies of 0.1
+    is not 0.1, and their standard deviation about 7e-9)."""
+    return max(1e-12, 64 * torch.finfo(dtype).eps)
 
 
 def target_standardisation(
@@ -108,7 +115,7 @@ def target_standardisation(
     if scale is not None:
         return chosen_mean, scale
     std = y.std() if y.numel() > 1 else torch.zeros((), dtype=y.dtype)
-    return chosen_mean, std if bool(std > 1e-12 * (1 + y.abs().max())) else 1.0
+    return chosen_mean, std if bool(std > _spread_floor(y.dtype) * (1 + y.abs().max())) else 1.0
 
 
 #: Points after which :class:`BoundsCoverage` compares the inputs' range with the bounds.

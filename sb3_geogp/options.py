@@ -4,10 +4,12 @@ options, or a count that is not a positive integer, whichever class checks it.""
 from __future__ import annotations
 
 import difflib
+import numbers
 from collections.abc import Collection, Iterable
 from typing import Any
 
 import numpy as np
+import torch
 
 
 def positive_int(name: str, value: Any) -> int:
@@ -22,14 +24,29 @@ def positive_int(name: str, value: Any) -> int:
     return int(value)
 
 
+def check_number(name: str, value: Any) -> None:
+    """Refuse, by a ``TypeError`` naming ``name``, a ``value`` that is not a real number (a 0-d
+    tensor or array counts) or is a ``bool`` (``True`` is no variance of 1)."""
+    scalar = isinstance(value, torch.Tensor | np.ndarray) and value.ndim == 0
+    scalar = scalar and value.dtype not in (torch.bool, np.bool_)
+    if isinstance(value, bool | np.bool_) or not (isinstance(value, numbers.Real) or scalar):
+        raise TypeError(f"{name} must be a number, got {value!r} ({type(value).__name__})")
+
+
 def check_same_options(
-    what: str, saved: Any, current: dict[str, Any], ignore: Collection[str] = ()
+    what: str,
+    saved: Any,
+    current: dict[str, Any],
+    ignore: Collection[str] = (),
+    first: str | None = None,
 ) -> None:
     """Raise ``ValueError`` naming the first option in which ``saved`` differs from ``current``
-    (options in ``ignore`` are stored but free to differ)."""
+    (options in ``ignore`` are stored but free to differ; ``first``, the one that says what
+    the object is, is compared before the others, whose names it decides)."""
     if not isinstance(saved, dict):
         raise ValueError(f"the saved {what} options are not a dict: {saved!r}")
-    for key in sorted((set(saved) | set(current)) - set(ignore)):
+    keys = sorted((set(saved) | set(current)) - set(ignore))
+    for key in sorted(keys, key=lambda k: k != first):
         if saved.get(key) != current.get(key):
             raise ValueError(
                 f"the state was saved with {what} option {key}={saved.get(key)!r}, but this "

@@ -27,7 +27,6 @@ from __future__ import annotations
 import contextlib
 import functools
 import math
-import numbers
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from typing import Any, NamedTuple, TypeVar, cast
 
@@ -56,7 +55,7 @@ from sb3_geogp.adaptation import (
 from sb3_geogp.graph import BVGraph
 from sb3_geogp.kernels import Kernel, KernelName, make_kernel
 from sb3_geogp.kernels.base import BasisMatrices, Rows
-from sb3_geogp.options import check_same_options, positive_int
+from sb3_geogp.options import check_number, check_same_options, positive_int
 from sb3_geogp.posterior_cache import PosteriorMatrices
 from sb3_geogp.rollback import Rollback
 from sb3_geogp.trends import RISE_THRESHOLD as RISE_THRESHOLD
@@ -124,10 +123,8 @@ def _check_scalars(
         optimism=optimism,
     )
     for name, value in given.items():
-        # A 0-d tensor or array counts: the comparisons below take it as a number too.
-        scalar = isinstance(value, (torch.Tensor, np.ndarray)) and value.ndim == 0
-        if value is not None and not (isinstance(value, numbers.Real) or scalar):
-            raise TypeError(f"{name} must be a number, got {value!r} ({type(value).__name__})")
+        if value is not None:
+            check_number(name, value)
     if not (noise_var > 0 and math.isfinite(noise_var)):
         raise ValueError(f"noise_var must be positive and finite, got {noise_var}")
     if novelty_tol is not None and not (0 <= novelty_tol < 1):

@@ -10,6 +10,7 @@ first line of the user's code.
 
 from __future__ import annotations
 
+import os
 import sys
 import warnings
 from pathlib import Path
@@ -24,8 +25,9 @@ class GPCriticWarning(UserWarning):
 
 def warn_user(message: str) -> None:
     """Warn with :class:`GPCriticWarning`, attributed to the first frame outside the libraries."""
+    # With the separator: a user's sb3_geogp_helpers.py beside the package is not the package.
     roots = tuple(
-        str(Path(module.__file__).parent)
+        str(Path(module.__file__).parent) + os.sep
         for name in _LIBRARIES
         if (module := sys.modules.get(name)) is not None and module.__file__ is not None
     )

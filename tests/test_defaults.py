@@ -4,11 +4,14 @@ from __future__ import annotations
 
 import re
 import warnings
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
 import torch
 
+import sb3_geogp
 from sb3_geogp import GPCriticWarning, SparseOnlineGP
 from sb3_geogp.defaults import (
     COVERAGE_POINTS,
@@ -44,6 +47,18 @@ def test_resolve_lengthscale_order_is_request_then_bounds_then_batch() -> None:
 def test_default_lengthscale_falls_back_for_constant_dimensions() -> None:
     x = torch.tensor([[1.0, -4.0, 0.0], [3.0, -4.0, 0.0]], dtype=torch.float64)
     np.testing.assert_allclose(default_lengthscale(x).numpy(), [1.0, 4.0, 1.0])
+
+
+@pytest.mark.parametrize("value", [0.1, 0.3, 123.456])
+def test_constants_get_their_fallbacks_in_float32_as_in_float64(value: float) -> None:
+    """A constant that float32 does not hold exactly: its mean differs from it by rounding, so
+    its standard deviation is about 1e-8 of it. It does not vary: the lengthscale falls back to
+    its size and the target scale to 1, in both dtypes."""
+    for dtype in (torch.float32, torch.float64):
+        column = torch.full((1000, 1), value, dtype=dtype)
+        size = torch.tensor([value], dtype=dtype)
+        torch.testing.assert_close(default_lengthscale(column), size, rtol=0, atol=0)
+        assert target_standardisation(column[:, 0])[1] == 1.0
 
 
 def test_target_standardisation_uses_given_values_else_the_batch() -> None:
@@ -138,3 +153,16 @@ def test_bounds_coverage_counts_what_it_is_given() -> None:
     assert message is not None and "dimension 0 spans" in message
     assert all(f"dimension {i}" not in message for i in (1, 2, 3))
     assert coverage.check(torch.ones(4)) is None  # once
+
+
+def test_a_warning_points_at_a_user_file_named_like_the_package() -> None:
+    """``sb3_geogp_helpers.py`` beside the package directory is the user's code, not ours: the
+    warning is attributed to its line."""
+    helper = str(Path(sb3_geogp.__file__).parent) + "_helpers.py"
+    source = "from sb3_geogp.user_warnings import warn_user\n\ndef train():\n    warn_user('x')\n"
+    namespace: dict[str, Any] = {}
+    exec(compile(source, helper, "exec"), namespace)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        namespace["train"]()
+    assert [(w.filename, w.lineno) for w in caught] == [(helper, 4)]

@@ -21,7 +21,7 @@ from sb3_geogp.kernels import (
     make_kernel,
     shepard_weights,
 )
-from sb3_geogp.kernels.base import DenseRows
+from sb3_geogp.kernels.base import DenseRows, Kernel
 
 
 # -- independent references ---------------------------------------------------------------------
@@ -314,6 +314,42 @@ def test_shepard_weights_are_continuous_where_the_neighbour_set_changes() -> Non
 def test_geodesic_kernel_rejects_bad_options(kwargs: dict, match: str) -> None:
     with pytest.raises(ValueError, match=match):
         GeodesicKernel(**kwargs)
+
+
+@pytest.mark.parametrize("kernel", [RBFKernel, LaplacianKernel, GeodesicKernel])
+@pytest.mark.parametrize(
+    "kwargs",
+    [
+        {"variance": True},
+        {"variance": "1"},
+        {"variance": None},
+        {"variance": [1.0]},
+        {"lengthscale": True},
+        {"lengthscale": [0.5, True]},
+        {"lengthscale": "0.5"},
+        {"lengthscale": torch.tensor([True, False])},
+    ],
+    ids=str,
+)
+def test_a_hyperparameter_that_is_not_a_number_is_named(
+    kernel: type[Kernel], kwargs: dict[str, typing.Any]
+) -> None:
+    """A bool is no 1.0, and a string no number: a TypeError names the option (as a command
+    line or YAML file could give either)."""
+    (name,) = kwargs
+    with pytest.raises(TypeError, match=f"^{name} must be a number, got "):
+        kernel(**kwargs)
+    kernel(lengthscale=torch.tensor([0.5, 2.0]), variance=np.float32(2.0))  # numbers pass
+
+
+def test_a_state_of_another_kernel_class_names_the_class() -> None:
+    """An RBF state into a geodesic GP differs in options the RBF kernel does not have; the
+    refusal names the class first, not an option the user could not give."""
+    x = np.random.default_rng(0).normal(size=(40, 2))
+    rbf = SparseOnlineGP(2, "rbf", max_basis=8)
+    rbf.update(x, x[:, 0])
+    with pytest.raises(ValueError, match=r"kernel option kernel='RBFKernel'.*'GeodesicKernel'"):
+        SparseOnlineGP(2, "geodesic", max_basis=8).load_state_dict(rbf.state_dict())
 
 
 def test_bind_rejects_lengthscale_of_wrong_length() -> None:

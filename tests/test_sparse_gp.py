@@ -246,9 +246,10 @@ def test_bad_optimism_is_refused(optimism: float) -> None:
     "name", ["noise_var", "novelty_tol", "forgetting", "target_mean", "target_scale", "optimism"]
 )
 def test_a_scalar_option_that_is_not_a_number_is_named(name: str) -> None:
-    """A string (as a command line gives it) or a list raises a TypeError naming the option; a
-    0-d tensor or array is a number, as a Python or NumPy float is."""
-    for bad in ("abc", [0.1]):
+    """A string (as a command line gives it), a list or a bool (``True`` is no 1.0) raises a
+    TypeError naming the option; a 0-d tensor or array is a number, as a Python or NumPy float
+    is."""
+    for bad in ("abc", [0.1], True, np.True_):
         with pytest.raises(TypeError, match=re.escape(f"{name} must be a number, got {bad!r}")):
             SparseOnlineGP(2, **{name: bad})
     for number in (torch.tensor(0.5, dtype=torch.float64), np.array(0.5), np.float32(0.5)):

@@ -31,7 +31,7 @@ import torch
 from torch import Tensor, nn
 
 from sb3_geogp.graph import BVGraph
-from sb3_geogp.options import check_same_options
+from sb3_geogp.options import check_number, check_same_options
 
 #: ``log_factor : (n_factors,) -> (R_xz (n, m), R_zz (m, m))`` (see Kernel.correlation_fn).
 CorrelationFn = Callable[[Tensor], tuple[Tensor, Tensor]]
@@ -158,6 +158,19 @@ PROFILES: dict[str, Callable[[Tensor], Tensor]] = {
 }
 
 
+def _entries(lengthscale: Any) -> list[Any]:
+    """The numbers a ``lengthscale`` option gives (none for ``None``; a tensor's or array's as
+    Python numbers, a string as itself, so that it is refused by name)."""
+    if lengthscale is None:
+        return []
+    if isinstance(lengthscale, Tensor) or hasattr(lengthscale, "tolist"):
+        listed = lengthscale.tolist()
+        return listed if isinstance(listed, list) else [listed]
+    if isinstance(lengthscale, Sequence) and not isinstance(lengthscale, str):
+        return list(lengthscale)
+    return [lengthscale]
+
+
 class Kernel(nn.Module):
     """Stationary kernel ``k = variance * rho(r)`` with per-dimension lengthscales.
 
@@ -191,6 +204,9 @@ class Kernel(nn.Module):
         self, lengthscale: float | Sequence[float] | None = None, variance: float = 1.0
     ) -> None:
         super().__init__()
+        check_number("variance", variance)
+        for value in _entries(lengthscale):
+            check_number("lengthscale", value)
         if variance <= 0 or not math.isfinite(variance):
             raise ValueError(f"variance must be a positive finite number, got {variance}")
         init = None if lengthscale is None else torch.as_tensor(lengthscale, dtype=torch.float64)
@@ -238,7 +254,9 @@ class Kernel(nn.Module):
         return {"kernel": type(self).__name__, **self.options()}
 
     def set_extra_state(self, state: Any) -> None:
-        check_same_options("kernel", state, self.get_extra_state(), self.update_rules)
+        check_same_options(
+            "kernel", state, self.get_extra_state(), self.update_rules, first="kernel"
+        )
 
     # -- set-up -----------------------------------------------------------------------------
     def bind(self, input_dim: int, capacity: int) -> None:

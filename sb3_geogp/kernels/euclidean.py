@@ -36,7 +36,8 @@ class RBFKernel(EuclideanKernel):
     Parameters
     ----------
     lengthscale : float, sequence of float or None
-        ``l``: scalar or one per input dimension; ``None`` = chosen from the first batch.
+        ``l``: scalar or one per input dimension; ``None`` = from the input bounds where the
+        GP is given them, else chosen from the first batch.
     variance : float
         ``sigma_f^2`` (standardised target units).
     """
@@ -58,7 +59,8 @@ class LaplacianKernel(EuclideanKernel):
     Parameters
     ----------
     lengthscale : float, sequence of float or None
-        ``l``: scalar or one per input dimension; ``None`` = chosen from the first batch.
+        ``l``: scalar or one per input dimension; ``None`` = from the input bounds where the
+        GP is given them, else chosen from the first batch.
     variance : float
         ``sigma_f^2`` (standardised target units).
     """
