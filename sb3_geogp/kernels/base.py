@@ -163,7 +163,7 @@ def _entries(lengthscale: Any) -> list[Any]:
     Python numbers, a string as itself, so that it is refused by name)."""
     if lengthscale is None:
         return []
-    if isinstance(lengthscale, Tensor) or hasattr(lengthscale, "tolist"):
+    if hasattr(lengthscale, "tolist"):  # a tensor, an array or a NumPy number
         listed = lengthscale.tolist()
         return listed if isinstance(listed, list) else [listed]
     if isinstance(lengthscale, Sequence) and not isinstance(lengthscale, str):
