@@ -35,9 +35,15 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from sb3_geogp.comparison.report import comparison_cell, count_verdicts, plot_difference_panels
+from sb3_geogp.comparison.report import (
+    comparison_cell,
+    count_verdicts,
+    family_level,
+    plot_difference_panels,
+)
 from sb3_geogp.comparison.results import (
     METRICS,
+    PUBLISHED_FAMILY,
     comparisons,
     group_runs,
     load_sweeps,
@@ -46,8 +52,6 @@ from sb3_geogp.comparison.results import (
 from sb3_geogp.toolbox.scripts import DefaultsHelpFormatter
 from sb3_geogp.toolbox.tables import markdown_table
 
-#: Comparisons per metric of the published sweep: the family the family-wise level corrects for.
-PUBLISHED_FAMILY = 42
 #: The columns: which runs are compared with which.
 COLUMNS = ("variant − reference", "variant − MLP", "reference − MLP")
 
@@ -149,11 +153,12 @@ def markdown(rows: list[dict[str, Any]], finals_rows: list[list[str]], label: st
         ]
         total = ["**counts**", "better (fw) / n.d. / worse (fw)"]
         total += [count_verdicts([r[c] for r in mine if r[c] is not None]) for c in COLUMNS]
+        family = next(r[c]["family_size"] for r in mine for c in COLUMNS if r[c] is not None)
         lines += [
             f"### {metric.label}",
             "",
             "Difference of means [95 % bootstrap CI] and verdict; **bold**: also at the "
-            f"published family-wise level ({PUBLISHED_FAMILY} comparisons).",
+            f"{family_level(family)} ({family} comparisons).",
             "",
             markdown_table(["env", "algo", *COLUMNS], [*body, total]),
             "",

@@ -33,14 +33,16 @@ from pathlib import Path
 from typing import Any
 
 from sb3_geogp.comparison.hyperparams import ALGOS, ALL_CRITICS
-from sb3_geogp.comparison.report import comparison_cell, count_verdicts, plot_difference_panels
-from sb3_geogp.comparison.results import METRICS, comparisons, load_sweeps
+from sb3_geogp.comparison.report import (
+    comparison_cell,
+    count_verdicts,
+    family_level,
+    plot_difference_panels,
+)
+from sb3_geogp.comparison.results import METRICS, PUBLISHED_FAMILY, comparisons, load_sweeps
 from sb3_geogp.toolbox.scripts import DefaultsHelpFormatter
 from sb3_geogp.toolbox.tables import markdown_table
 
-#: Comparisons per metric of the published sweep (3 critic pairs x 7 environments x 2
-#: algorithms): the family the family-wise level corrects for.
-PUBLISHED_FAMILY = 42
 SIDES = ("before", "fresh", "pooled")
 
 
@@ -122,7 +124,7 @@ def markdown(rows: list[dict[str, Any]]) -> str:
         mine = [r for r in rows if r["metric"] == name]
         if not mine:
             continue
-        fw = mine[0]["fresh"]["fw_level"]
+        fw, family = mine[0]["fresh"]["fw_level"], mine[0]["fresh"]["family_size"]
         seeds = {side: _seeds(mine, side) for side in SIDES}
         header = ["env", "algo", "critic − MLP"]
         header += [f"{side}, seeds {seeds[side]}" for side in SIDES]
@@ -140,8 +142,7 @@ def markdown(rows: list[dict[str, Any]]) -> str:
             f"### {metric.label}",
             "",
             f"Difference of means [95 % bootstrap CI] and verdict; **bold**: also at the "
-            f"published family-wise level ({100 * fw:.3g} % intervals, {PUBLISHED_FAMILY} "
-            "comparisons).",
+            f"{family_level(family)} ({100 * fw:.3g} % intervals, {family} comparisons).",
             "",
             markdown_table(header, [*body, total]),
             "",

@@ -80,3 +80,21 @@ def test_fixed_policy_check_quick_checks_only_the_kernels_asked(tmp_path: Path) 
     assert (result["config"]["forgetting"], result["config"]["forgetting_points"]) == (0.1, 4096)
     assert {row["kernel"] for row in result["rows"]} == {"geodesic"}
     assert (tmp_path / "mse_ratio.png").stat().st_size > 0
+
+
+@pytest.mark.parametrize("family", [42, 7])
+def test_option_verdicts_caption_names_the_family_its_verdicts_hold_to(family: int) -> None:
+    """The caption gives the family-wise level the rows were computed at (it said 42 whatever
+    ``--family-size`` was); 42 is the published sweep's."""
+    from tests.comparison.test_results import _result
+
+    script = load_script("option_verdicts")
+    variant = [_result("geodesic", s, final=10.0 + s, rmse=1.0) for s in range(5)]
+    reference = [
+        _result(c, s, final=float(s), rmse=2.0) for s in range(5) for c in ("geodesic", "mlp")
+    ]
+    rows = script.verdict_rows(variant, reference, "geodesic", family_size=family)
+    text = script.markdown(rows, [], "toy")
+    published = "published " if family == 42 else ""
+    assert f"also at the {published}family-wise level ({family} comparisons)." in text
+    assert f"({42 if family != 42 else 7} comparisons)" not in text

@@ -113,7 +113,9 @@ def print_against_mlp(runs: Runs, arms: Sequence[str]) -> None:
 
 
 def arm_row(study: Study, runs: Runs, arm: str) -> str:
-    """Per arm: CartPole falls, Acrobot runs ending at -500, median steps to each threshold."""
+    """Per arm: CartPole falls, Acrobot runs ending at -500, median steps to each threshold
+    over the runs that reached it, with how many did (unlike ``summary_rows``, whose median
+    counts the others as never reaching it: quote the counts with these medians)."""
     cells = [f"| {arm}"]
     if "CartPole-v1" in study.envs:
         cartpole = [r for (e, _), r in runs[arm].items() if e == "CartPole-v1"]

@@ -31,6 +31,7 @@ import numpy as np
 from sb3_geogp.comparison.hyperparams import ALL_CRITICS
 from sb3_geogp.comparison.results import (
     METRICS,
+    PUBLISHED_FAMILY,
     Key,
     VerdictTest,
     comparisons,
@@ -177,6 +178,12 @@ def rerun_markdown(
 def _pair_label(a: str, b: str, published: str) -> str:
     label = f"{a} − {b}"
     return label if published == a else f"{label} (published: {published} − {b})"
+
+
+def family_level(family: int) -> str:
+    """A caption's name of the family-wise level of ``family`` comparisons per metric."""
+    published = "published " if family == PUBLISHED_FAMILY else ""
+    return f"{published}family-wise level"
 
 
 def comparison_cell(r: dict[str, Any] | None) -> str:
