@@ -42,7 +42,7 @@ from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.env_util import make_vec_env
 
 from sb3_geogp import Adaptation, GPActorCriticPolicy, GPValueCallback, SparseOnlineGP
-from sb3_geogp.toolbox.scripts import DefaultsHelpFormatter
+from sb3_geogp.toolbox.scripts import DefaultsHelpFormatter, count_arg
 
 KERNELS = ("rbf", "laplacian", "geodesic")
 #: Adaptations the engine check runs, by name.
@@ -139,7 +139,9 @@ def main(argv: list[str] | None = None) -> int:
         description=__doc__.splitlines()[0], formatter_class=DefaultsHelpFormatter
     )
     parser.add_argument("--device", default="cuda", help="device to check against the CPU")
-    parser.add_argument("--timesteps", type=int, default=4096, help="steps per training check")
+    parser.add_argument(
+        "--timesteps", type=count_arg, default=4096, help="steps per training check"
+    )
     parser.add_argument("--batches", type=int, default=6, help="engine check: batches fed")
     parser.add_argument("--points", type=int, default=256, help="engine check: points a batch")
     parser.add_argument("--tol", type=float, default=1e-6, help="largest gap accepted")

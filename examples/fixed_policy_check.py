@@ -46,7 +46,7 @@ from sb3_geogp.studies.pendulum.batch_check import ONLINE, CheckConfig, CheckRes
 from sb3_geogp.studies.pendulum.ground_truth import mc_value
 from sb3_geogp.studies.pendulum.task import Task
 from sb3_geogp.toolbox.provenance import provenance
-from sb3_geogp.toolbox.scripts import DefaultsHelpFormatter
+from sb3_geogp.toolbox.scripts import DefaultsHelpFormatter, count_arg
 from sb3_geogp.toolbox.stats import mean_ci
 from sb3_geogp.toolbox.tables import MIN_SAMPLES_FOR_INTERVAL
 
@@ -67,9 +67,13 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     )
     parser.add_argument("--quick", action="store_true", help="smoke run: tiny sizes, seconds")
     parser.add_argument("--out", type=Path, default=Path("runs/fixed_policy_check"))
-    parser.add_argument("--seeds", type=int, default=None, help="seeds (default 5; quick 1)")
+    parser.add_argument("--seeds", type=count_arg, default=None, help="seeds (default 5; quick 1)")
     parser.add_argument(
-        "--max-basis", type=int, nargs="+", default=None, help="max BVs (default 20 50 100 200)"
+        "--max-basis",
+        type=count_arg,
+        nargs="+",
+        default=None,
+        help="max BVs, each once (default 20 50 100 200)",
     )
     parser.add_argument(
         "--prior-sd", type=float, default=None, help="Adaptation.prior_sd (default: no prior)"
@@ -107,7 +111,11 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         default=None,
         help="kernels checked (default: rbf geodesic)",
     )
-    return parser.parse_args(argv)
+    args = parser.parse_args(argv)
+    if args.max_basis is not None and len(set(args.max_basis)) < len(args.max_basis):
+        # Rows are placed by capacity: a repeated one would be run twice and tabled once.
+        parser.error(f"--max-basis names a capacity twice: {args.max_basis}")
+    return args
 
 
 #: Labelled ticks of the ratio axis.

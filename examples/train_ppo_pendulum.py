@@ -18,7 +18,7 @@ from stable_baselines3.common.env_util import make_vec_env
 from stable_baselines3.common.evaluation import evaluate_policy
 
 from sb3_geogp import GPActorCriticPolicy, GPValueCallback
-from sb3_geogp.toolbox.scripts import DefaultsHelpFormatter
+from sb3_geogp.toolbox.scripts import DefaultsHelpFormatter, count_arg
 
 
 def main(timesteps: int = 20_000, out: str = "ppo_geogp_pendulum") -> None:
@@ -54,7 +54,7 @@ if __name__ == "__main__":
     parser = argparse.ArgumentParser(
         description=__doc__.split("\n\n")[0], formatter_class=DefaultsHelpFormatter
     )
-    parser.add_argument("timesteps", type=int, nargs="?", default=20_000)
+    parser.add_argument("timesteps", type=count_arg, nargs="?", default=20_000)
     parser.add_argument("--out", default="ppo_geogp_pendulum", help="where the model is saved")
     args = parser.parse_args()
     main(args.timesteps, args.out)

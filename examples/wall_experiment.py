@@ -43,7 +43,7 @@ from sb3_geogp.studies.wall.comparison import (
 from sb3_geogp.studies.wall.plots import mse_curves, value_maps
 from sb3_geogp.studies.wall.rooms import TwoRooms
 from sb3_geogp.toolbox.provenance import provenance
-from sb3_geogp.toolbox.scripts import DefaultsHelpFormatter
+from sb3_geogp.toolbox.scripts import DefaultsHelpFormatter, count_arg
 
 FULL = {"max_basis": (10, 20, 40, 80, 160), "grid_nx": 160, "n_episodes": 100}
 QUICK = {"max_basis": (10, 40), "grid_nx": 60, "n_episodes": 40}
@@ -58,7 +58,7 @@ def parse_args() -> argparse.Namespace:
     )
     parser.add_argument("--quick", action="store_true", help="small smoke run (seconds)")
     parser.add_argument("--out", type=Path, default=Path("runs/wall_experiment"))
-    parser.add_argument("--seeds", type=int, default=None, help="seeds (default 10; quick 2)")
+    parser.add_argument("--seeds", type=count_arg, default=None, help="seeds (default 10; quick 2)")
     parser.add_argument("--lengthscale", type=float, default=FitSettings.lengthscale)
     parser.add_argument(
         "--episodes-per-batch", type=int, default=None, help="walks per update (default: all)"
@@ -74,7 +74,7 @@ def main() -> None:
     args = parse_args()
     torch.set_num_threads(1)
     preset = QUICK if args.quick else FULL
-    n_seeds = args.seeds or (2 if args.quick else 10)
+    n_seeds = args.seeds if args.seeds is not None else (2 if args.quick else 10)
     fit = FitSettings(lengthscale=args.lengthscale, novelty_tol=args.novelty_tol)
     walks = WalkSettings(n_episodes=preset["n_episodes"])
     rooms = TwoRooms()

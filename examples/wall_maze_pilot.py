@@ -42,6 +42,7 @@ from sb3_geogp.comparison.command import parse_gp_option
 from sb3_geogp.comparison.hyperparams import HyperparamsFile
 from sb3_geogp.comparison.run import build_model, load_result, result_path, run_one
 from sb3_geogp.comparison.specs import RunSpec, SweepConfig
+from sb3_geogp.comparison.sweep import pending_runs
 from sb3_geogp.envs.wall_maze import (
     DOOR_LAYOUT,
     MAX_EPISODE_STEPS,
@@ -50,7 +51,7 @@ from sb3_geogp.envs.wall_maze import (
     distance_to_walls,
 )
 from sb3_geogp.toolbox.pools import worker_pool
-from sb3_geogp.toolbox.scripts import DefaultsHelpFormatter
+from sb3_geogp.toolbox.scripts import DefaultsHelpFormatter, count_arg
 
 ENV_ID = "sb3_geogp_pilot/WallMaze-v0"
 #: The walls a pilot can use: the published zig-zag, its upper wall alone, or
@@ -100,8 +101,15 @@ def pilot_specs(args: argparse.Namespace) -> list[RunSpec]:
 def run_pilot(
     specs: list[RunSpec], layout: MazeLayout, discrete: bool, out: Path, workers: int
 ) -> list[dict[str, Any]]:
-    """Every run of ``specs`` not yet in ``out``; the results of all of them."""
-    todo = [s for s in specs if load_result(result_path(out, s)) is None]
+    """Every run of ``specs`` not yet in ``out``; the results of all of them.
+
+    Raises
+    ------
+    ValueError
+        If a finished run was made with another budget, threshold or hyperparameters
+        (:func:`~sb3_geogp.comparison.sweep.pending_runs`, as the sweep refuses them).
+    """
+    todo = pending_runs(specs, out)
     bar = tqdm(total=len(specs), initial=len(specs) - len(todo), unit="run", desc="pilot runs")
 
     def finished(result: dict[str, Any]) -> None:
@@ -203,7 +211,8 @@ def _draw_map(
         "deterministic policy from each start",
         fontsize=10,
     )
-    ax.legend(loc="lower right", fontsize=8, framealpha=0.9)
+    # Outside the arena: inside, it hid some of the starts.
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
@@ -233,7 +242,7 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     p.add_argument("--discrete", action="store_true", help="8 directions instead of a velocity")
     p.add_argument("--algos", nargs="+", choices=sorted(HYPERPARAMS), default=["ppo", "a2c"])
     p.add_argument("--seeds", type=int, nargs="+", default=[100, 101, 102])
-    p.add_argument("--timesteps", type=int, default=30_000)
+    p.add_argument("--timesteps", type=count_arg, default=30_000)
     p.add_argument(
         "--hyperparam",
         action="append",
@@ -244,8 +253,8 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     )
     p.add_argument("--threshold", type=float, default=-20.0)
     p.add_argument("--map", action="store_true", help="also the failure map of one model")
-    p.add_argument("--grid", type=int, default=19, help="grid starts per side of the map")
-    p.add_argument("--workers", type=int, default=2)
+    p.add_argument("--grid", type=count_arg, default=19, help="grid starts per side of the map")
+    p.add_argument("--workers", type=count_arg, default=2)
     p.add_argument("--out", type=Path, default=Path("runs/wall_maze_pilot"))
     return p.parse_args(argv)
 
@@ -268,7 +277,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     starts = np.array([env.reset()[1]["position"] for _ in range(2000)])
     optimal = -float(np.mean(layout.optimal_steps(starts)))
     specs = pilot_specs(args)
-    results = run_pilot(specs, layout, args.discrete, args.out, args.workers)
+    try:
+        results = run_pilot(specs, layout, args.discrete, args.out, args.workers)
+    except ValueError as error:  # runs of another budget or threshold in --out
+        raise SystemExit(f"error: {error}") from None
     text = (
         f"Layout: {dataclasses.asdict(layout)}, discrete actions: {args.discrete}; "
         f"hyperparameters: the sweep's + {dict(args.hyperparam)}; mean optimal return over 2000 "

@@ -69,6 +69,19 @@ def test_long_run_numerics_quick_passes_all_checks(tmp_path: Path, stream: str) 
     assert (tmp_path / "long_run_numerics.png").stat().st_size > 0
 
 
+def test_fixed_policy_check_refuses_a_capacity_twice_or_no_seeds(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    script = load_script("fixed_policy_check")
+    for argv, why in (
+        (["--max-basis", "10", "10"], "names a capacity twice"),
+        (["--seeds", "0"], "must be at least 1"),
+    ):
+        with pytest.raises(SystemExit):
+            script.parse_args(["--quick", *argv])
+        assert why in capsys.readouterr().err
+
+
 def test_fixed_policy_check_quick_checks_only_the_kernels_asked(tmp_path: Path) -> None:
     script = load_script("fixed_policy_check")
     forgetting = ["--forgetting", "0.1", "--forgetting-points", "4096"]

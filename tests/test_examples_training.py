@@ -360,6 +360,11 @@ def test_wall_maze_pilot_tiny_run_and_its_goal_test(tmp_path: Path) -> None:
     assert (tmp_path / "failure_map.png").stat().st_size > 0
     with pytest.raises(SystemExit, match="another --out"):
         pilot.main(["--max-step", "0.1", "--out", str(tmp_path)])
+    # Its run is not reused for another budget (whole rollouts: 1000 steps ran 2048) or
+    # threshold: refused, naming the difference.
+    for other in (["--timesteps", "5000"], ["--threshold", "-300"]):
+        with pytest.raises(SystemExit, match=r"made with other (settings|threshold)"):
+            pilot.main([*argv, *other, "--out", str(tmp_path)])
     # The map's goal test: a constant push up-left from the top side reaches the corner goal
     # when moves slide, and not in the published layout.
     for layout, reaches in ((WallMaze(CORNER_LAYOUT), True), (WallMaze(), False)):

@@ -16,6 +16,18 @@ from pathlib import Path
 from types import ModuleType
 
 
+def count_arg(text: str) -> int:
+    """An ``argparse`` type: an integer of at least 1 (a budget, a number of seeds, workers or
+    grid points), refused in argparse's one line otherwise (0 is no "unset")."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
+    return value
+
+
 def load_script(path: str | Path, name: str) -> ModuleType:
     """Execute the script at ``path`` as the module ``name`` and return it.
 

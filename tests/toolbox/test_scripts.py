@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from sb3_geogp.toolbox.scripts import DefaultsHelpFormatter, load_script
+from sb3_geogp.toolbox.scripts import DefaultsHelpFormatter, count_arg, load_script
 
 
 @pytest.fixture
@@ -89,3 +89,14 @@ def test_help_shows_every_default_once() -> None:
     # A help that names some other default still shows this option's own.
     assert "(the PPO default since 0.9: level) (default: none)" in text
     assert "threads, or 'default' (default: 1)" in text
+
+
+def test_count_arg_takes_integers_from_one() -> None:
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--seeds", type=count_arg)
+    assert parser.parse_args(["--seeds", "3"]).seeds == 3
+    for bad, why in (("0", "must be at least 1, got 0"), ("-5", "at least 1"), ("2.5", "integer")):
+        with pytest.raises(SystemExit):
+            parser.parse_args(["--seeds", bad])
+        with pytest.raises(argparse.ArgumentTypeError, match=why):
+            count_arg(bad)

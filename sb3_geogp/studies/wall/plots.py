@@ -19,6 +19,7 @@ from sb3_geogp.studies.wall.comparison import PREDICT_CHUNK, ComparisonResult
 from sb3_geogp.studies.wall.rooms import TwoRooms, WalkData
 from sb3_geogp.toolbox.shepard import PredictionRule, predict_mean
 from sb3_geogp.toolbox.stats import mean_ci
+from sb3_geogp.toolbox.tables import MIN_SAMPLES_FOR_INTERVAL
 
 
 def draw_walls(ax: Axes, rooms: TwoRooms) -> None:
@@ -124,10 +125,14 @@ def value_maps(
 
 
 def mse_curves(result: ComparisonResult, models: Sequence[str] | None = None) -> Figure:
-    """MSE vs ``max_basis`` overall and near the wall: mean over seeds with 95% CI bands."""
+    """MSE vs ``max_basis`` overall and near the wall: mean over seeds with 95% CI bands (from
+    :data:`~sb3_geogp.toolbox.tables.MIN_SAMPLES_FOR_INTERVAL` seeds, as the tables; the mean
+    alone below)."""
     fig = Figure(figsize=(11, 4.2), layout="constrained")
     axes = fig.subplots(1, 2, sharey=True)
     x = np.asarray(result.max_basis)
+    bands = len(result.seeds) >= MIN_SAMPLES_FOR_INTERVAL
+    what = "95% CI" if bands else f"mean alone: fewer than {MIN_SAMPLES_FOR_INTERVAL}"
     for ax, metric, title in zip(
         axes, ("mse", "mse_wall"), ("whole state space", "near the wall"), strict=True
     ):
@@ -135,12 +140,13 @@ def mse_curves(result: ComparisonResult, models: Sequence[str] | None = None) ->
             mean, ci = mean_ci(result.array(model, metric), nan_policy="propagate")
             style = "-" if model.startswith("geo") else "--"
             (line,) = ax.plot(x, mean, style, marker="o", ms=3, label=model)
-            ax.fill_between(x, mean - ci, mean + ci, color=line.get_color(), alpha=0.15)
+            if bands:
+                ax.fill_between(x, mean - ci, mean + ci, color=line.get_color(), alpha=0.15)
         ax.set_xscale("log", base=2)
         ax.set_yscale("log")
         ax.set_xticks(x, [str(v) for v in x])
         ax.set_xlabel("max_basis")
-        ax.set_title(f"MSE, {title} ({len(result.seeds)} seeds, 95% CI)", fontsize=10)
+        ax.set_title(f"MSE, {title} ({len(result.seeds)} seeds, {what})", fontsize=10)
         ax.grid(alpha=0.3, which="both")
     axes[0].set_ylabel("MSE vs exact V")
     axes[1].legend(fontsize=8, loc="upper right")
