@@ -44,7 +44,7 @@ from sb3_geogp import GPValueCallback
 from sb3_geogp.comparison.hyperparams import GP_KWARGS, hyperparams
 from sb3_geogp.comparison.run import build_model
 from sb3_geogp.comparison.specs import RunSpec
-from sb3_geogp.toolbox.scripts import DefaultsHelpFormatter
+from sb3_geogp.toolbox.scripts import DefaultsHelpFormatter, count_arg
 
 #: Critic label -> (critic of the comparison, extra GP options).
 CRITICS: dict[str, tuple[str, dict[str, Any]]] = {
@@ -174,7 +174,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         description=__doc__.splitlines()[0], formatter_class=DefaultsHelpFormatter
     )
     parser.add_argument("--seeds", type=int, nargs="+", default=[11, 15])
-    parser.add_argument("--timesteps", type=int, default=30_000)
+    parser.add_argument("--timesteps", type=count_arg, default=30_000)
     parser.add_argument("--out", type=Path, default=Path("acrobot_stall"))
     parser.add_argument(
         "--gp",

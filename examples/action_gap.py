@@ -61,6 +61,7 @@ from sb3_geogp.comparison.shadow import (
     study_parser,
 )
 from sb3_geogp.studies.action_gap import action_gaps, gap_scores
+from sb3_geogp.toolbox.scripts import count_arg
 from sb3_geogp.toolbox.stats import mean_ci
 from sb3_geogp.toolbox.tables import estimate_cell
 
@@ -195,10 +196,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = study_parser(
         __doc__.split("\n\n")[0], ACTORS, TIMESTEPS[ENV], CRITICS, Path("runs/action_gap")
     )
-    parser.add_argument("--every", type=int, default=12, help="rollouts between checkpoints")
+    parser.add_argument("--every", type=count_arg, default=12, help="rollouts between checkpoints")
     parser.add_argument("--states", type=int, default=256, help="states per checkpoint")
-    parser.add_argument("--rollouts", type=int, default=16, help="Monte Carlo rollouts per action")
-    parser.add_argument("--horizon", type=int, default=250, help="steps per rollout")
+    parser.add_argument(
+        "--rollouts", type=count_arg, default=16, help="Monte Carlo rollouts per action"
+    )
+    parser.add_argument("--horizon", type=count_arg, default=250, help="steps per rollout")
     parser.add_argument(
         "--against",
         default=MLP,

@@ -69,7 +69,7 @@ from sb3_geogp.kernels import LaplacianKernel
 from sb3_geogp.studies.pendulum.batch_check import batch_sparse_gp, online_hyper
 from sb3_geogp.toolbox.benchmarks import GPClock
 from sb3_geogp.toolbox.provenance import provenance
-from sb3_geogp.toolbox.scripts import DefaultsHelpFormatter
+from sb3_geogp.toolbox.scripts import DefaultsHelpFormatter, count_arg
 from sb3_geogp.toolbox.stats import mean_ci
 
 ENVS = ("CartPole-v1", "Acrobot-v1", "Pendulum-v1", "sb3_geogp/PaperPendulum-v0")
@@ -395,7 +395,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     parser.add_argument("--envs", nargs="+", default=list(ENVS))
     parser.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2])
-    parser.add_argument("--timesteps", type=int, default=60_000, help="steps of each recording")
+    parser.add_argument(
+        "--timesteps", type=count_arg, default=60_000, help="steps of each recording"
+    )
     parser.add_argument(
         "--settings",
         type=json.loads,

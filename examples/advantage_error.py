@@ -67,6 +67,7 @@ from sb3_geogp.kernels import Kernel
 from sb3_geogp.studies.advantage_error import advantage_scores, gae
 from sb3_geogp.studies.value_ceiling import TASKS, horizon, model_returns
 from sb3_geogp.studies.wall.oracle import WallAwareGeodesicKernel
+from sb3_geogp.toolbox.scripts import count_arg
 from sb3_geogp.toolbox.stats import mean_ci
 from sb3_geogp.toolbox.tables import estimate_cell
 
@@ -281,7 +282,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         __doc__.split("\n\n")[0], ACTORS, TIMESTEPS[ENV], CRITICS, Path("runs/advantage_error")
     )
     parser.add_argument("--env", choices=ENVS, default=ENV)
-    parser.add_argument("--rollouts", type=int, default=16, help="Monte Carlo rollouts per state")
+    parser.add_argument(
+        "--rollouts", type=count_arg, default=16, help="Monte Carlo rollouts per state"
+    )
     parser.add_argument(
         "--horizon",
         type=int,

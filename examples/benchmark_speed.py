@@ -46,7 +46,7 @@ from tqdm import tqdm
 from sb3_geogp import SparseOnlineGP
 from sb3_geogp.toolbox.benchmarks import Variant, torch_threads
 from sb3_geogp.toolbox.provenance import provenance
-from sb3_geogp.toolbox.scripts import DefaultsHelpFormatter
+from sb3_geogp.toolbox.scripts import DefaultsHelpFormatter, count_arg
 from sb3_geogp.toolbox.streams import Rollout
 from sb3_geogp.toolbox.tables import format_table
 
@@ -88,19 +88,16 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
         description=__doc__.split("\n\n")[0], formatter_class=DefaultsHelpFormatter
     )
     parser.add_argument("--out", type=Path, default=Path("benchmark_speed.json"))
-    parser.add_argument("--repeats", type=int, default=5, help="timed repeats (median)")
+    parser.add_argument("--repeats", type=count_arg, default=5, help="timed repeats (median)")
     parser.add_argument("--threads", type=int, default=None, help="torch.set_num_threads")
-    parser.add_argument("--points", type=int, default=2048, help="points per rollout")
-    parser.add_argument("--max-basis", type=int, nargs="+", default=[64, 128, 256, 512])
-    parser.add_argument("--warm-rollouts", type=int, default=4, help="rollouts before 'warm'")
+    parser.add_argument("--points", type=count_arg, default=2048, help="points per rollout")
+    parser.add_argument("--max-basis", type=count_arg, nargs="+", default=[64, 128, 256, 512])
+    # At least one: the warm update is timed on a rollout the model has not seen, and with no
+    # rollout before it, it would be the one the model was built from.
+    parser.add_argument("--warm-rollouts", type=count_arg, default=4, help="rollouts before 'warm'")
     parser.add_argument("--quick", action="store_true", help="tiny smoke run (seconds)")
     parser.add_argument("--no-peer", action="store_true", help="skip scikit-learn")
-    args = parser.parse_args(argv)
-    if args.warm_rollouts < 1:
-        # The warm update is timed on a rollout the model has not seen: with none before it,
-        # it would be timed on the rollout it was built from.
-        parser.error(f"--warm-rollouts must be at least 1, got {args.warm_rollouts}")
-    return args
+    return parser.parse_args(argv)
 
 
 # ----------------------------------------------------------------------------------------------

@@ -68,7 +68,7 @@ from sb3_geogp import CHEAP_ADAPTATION, GPActorCriticPolicy, GPValueCallback
 from sb3_geogp.comparison.hyperparams import ALL_CRITICS, CRITICS, algo_kwargs, hyperparams
 from sb3_geogp.toolbox.benchmarks import GPClock
 from sb3_geogp.toolbox.provenance import provenance
-from sb3_geogp.toolbox.scripts import DefaultsHelpFormatter
+from sb3_geogp.toolbox.scripts import DefaultsHelpFormatter, count_arg
 
 #: Workload -> (algorithm, its name, environment, steps, options of a GP critic that does not
 #: adapt).
@@ -269,7 +269,7 @@ def main(argv: Sequence[str] | None = None) -> None:
         description=__doc__.split("\n\n")[0], formatter_class=DefaultsHelpFormatter
     )
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1])
-    parser.add_argument("--max-basis", type=int, default=256)
+    parser.add_argument("--max-basis", type=count_arg, default=256)
     parser.add_argument(
         "--threads", default="1", help="torch threads for the whole run, or 'default'"
     )

@@ -15,7 +15,7 @@ import numpy as np
 import torch
 
 from sb3_geogp import SparseOnlineGP
-from sb3_geogp.toolbox.scripts import DefaultsHelpFormatter
+from sb3_geogp.toolbox.scripts import DefaultsHelpFormatter, count_arg
 from sb3_geogp.toolbox.streams import pendulum_rollouts
 
 
@@ -23,8 +23,8 @@ def main() -> None:
     parser = argparse.ArgumentParser(
         description=__doc__.split("\n\n")[0], formatter_class=DefaultsHelpFormatter
     )
-    parser.add_argument("--max-basis", type=int, nargs="+", default=[64, 256])
-    parser.add_argument("--batches", type=int, default=4)
+    parser.add_argument("--max-basis", type=count_arg, nargs="+", default=[64, 256])
+    parser.add_argument("--batches", type=count_arg, default=4)
     args = parser.parse_args()
     torch.set_num_threads(1)
     batch = 2048

@@ -88,7 +88,7 @@ from sb3_geogp.studies.value_ceiling import (
 )
 from sb3_geogp.toolbox.pools import worker_pool
 from sb3_geogp.toolbox.provenance import provenance
-from sb3_geogp.toolbox.scripts import DefaultsHelpFormatter
+from sb3_geogp.toolbox.scripts import DefaultsHelpFormatter, count_arg
 from sb3_geogp.toolbox.stats import mean_ci, moments, pooled_explained_variance
 from sb3_geogp.toolbox.tables import estimate_cell
 
@@ -703,7 +703,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2])
     parser.add_argument("--scale", type=float, default=1.0, help="multiplies the budgets")
     parser.add_argument("--last", type=float, default=0.2, help="share of rollouts averaged")
-    parser.add_argument("--workers", type=int, default=1)
+    parser.add_argument("--workers", type=count_arg, default=1)
     parser.add_argument("--out", type=Path, default=Path("critic_fit"))
     parser.add_argument(
         "--ceiling",

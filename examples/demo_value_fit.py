@@ -27,7 +27,7 @@ import torch
 from sb3_geogp.studies.wall.comparison import FitSettings, WalkSettings, evaluate, fit_gp
 from sb3_geogp.studies.wall.plots import value_maps
 from sb3_geogp.studies.wall.rooms import TwoRooms
-from sb3_geogp.toolbox.scripts import DefaultsHelpFormatter
+from sb3_geogp.toolbox.scripts import DefaultsHelpFormatter, count_arg
 
 MODELS = {"RBF GP": "rbf", "geodesic GP": "geo_default"}
 
@@ -37,8 +37,8 @@ def parse_args() -> argparse.Namespace:
         description=__doc__.split("\n\n")[0], formatter_class=DefaultsHelpFormatter
     )
     parser.add_argument("--out", type=Path, default=Path("runs/demo_value_fit"))
-    parser.add_argument("--episodes", type=int, default=300, help="walks to learn from")
-    parser.add_argument("--max-basis", type=int, default=40)
+    parser.add_argument("--episodes", type=count_arg, default=300, help="walks to learn from")
+    parser.add_argument("--max-basis", type=count_arg, default=40)
     parser.add_argument("--seed", type=int, default=0)
     return parser.parse_args()
 

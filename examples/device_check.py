@@ -142,8 +142,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--timesteps", type=count_arg, default=4096, help="steps per training check"
     )
-    parser.add_argument("--batches", type=int, default=6, help="engine check: batches fed")
-    parser.add_argument("--points", type=int, default=256, help="engine check: points a batch")
+    parser.add_argument("--batches", type=count_arg, default=6, help="engine check: batches fed")
+    parser.add_argument(
+        "--points", type=count_arg, default=256, help="engine check: points a batch"
+    )
     parser.add_argument("--tol", type=float, default=1e-6, help="largest gap accepted")
     parser.add_argument("--out", type=Path, default=None, help="write the figures as JSON")
     args = parser.parse_args(argv)

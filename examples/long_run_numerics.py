@@ -54,7 +54,7 @@ from sb3_geogp import CHEAP_ADAPTATION, Adaptation, SparseOnlineGP
 from sb3_geogp.policies import DEFAULT_ADAPTATION, DEFAULT_FORGETTING, LAGGED_ADAPTATION
 from sb3_geogp.toolbox.benchmarks import Variant, torch_threads
 from sb3_geogp.toolbox.provenance import provenance
-from sb3_geogp.toolbox.scripts import DefaultsHelpFormatter
+from sb3_geogp.toolbox.scripts import DefaultsHelpFormatter, count_arg
 from sb3_geogp.toolbox.streams import Rollout, drifting_stream, pendulum_stream
 from sb3_geogp.toolbox.tables import format_table
 
@@ -346,10 +346,10 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     parser = argparse.ArgumentParser(
         description=__doc__.split("\n\n")[0], formatter_class=DefaultsHelpFormatter
     )
-    parser.add_argument("--points", type=int, default=1_000_000, help="points per variant")
+    parser.add_argument("--points", type=count_arg, default=1_000_000, help="points per variant")
     parser.add_argument("--stream", choices=STREAMS, default="pendulum", help="data stream")
     parser.add_argument("--batch-size", type=int, default=2048)
-    parser.add_argument("--max-basis", type=int, default=256)
+    parser.add_argument("--max-basis", type=count_arg, default=256)
     parser.add_argument("--sym-tol", type=float, default=1e-10, help="relative asymmetry")
     parser.add_argument("--eig-tol", type=float, default=1e-9, help="relative eigenvalue")
     parser.add_argument("--threads", type=int, default=None, help="torch.set_num_threads")

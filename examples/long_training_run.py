@@ -45,7 +45,7 @@ from stable_baselines3.common.evaluation import evaluate_policy
 
 from sb3_geogp import GPActorCriticPolicy, GPValueCallback
 from sb3_geogp.toolbox.provenance import provenance
-from sb3_geogp.toolbox.scripts import DefaultsHelpFormatter
+from sb3_geogp.toolbox.scripts import DefaultsHelpFormatter, count_arg
 
 ALGOS = {"ppo": PPO, "a2c": A2C}
 #: Runs with fewer rollouts read the memory at every one and draw their figures as lines.
@@ -193,7 +193,7 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument("--algo", choices=sorted(ALGOS), default="ppo")
     parser.add_argument("--env", default="Pendulum-v1")
-    parser.add_argument("--timesteps", type=int, default=300_000)
+    parser.add_argument("--timesteps", type=count_arg, default=300_000)
     parser.add_argument("--n-envs", type=int, default=4)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--device", default="auto", help="torch device of the policy and its GP")

@@ -43,7 +43,7 @@ from sb3_geogp.studies.pendulum.reproduction import (
     run_reproduction,
 )
 from sb3_geogp.studies.pendulum.task import Task
-from sb3_geogp.toolbox.scripts import DefaultsHelpFormatter
+from sb3_geogp.toolbox.scripts import DefaultsHelpFormatter, count_arg
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
@@ -53,8 +53,10 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     )
     parser.add_argument("--quick", action="store_true", help="smoke run: tiny sizes, < 1 min")
     parser.add_argument("--out", type=Path, default=Path("runs/reproduce_paper"))
-    parser.add_argument("--workers", type=int, default=None, help="processes (default 2; quick 1)")
-    parser.add_argument("--seeds", type=int, default=None, help="seeds (default 8; quick 2)")
+    parser.add_argument(
+        "--workers", type=count_arg, default=None, help="processes (default 2; quick 1)"
+    )
+    parser.add_argument("--seeds", type=count_arg, default=None, help="seeds (default 8; quick 2)")
     parser.add_argument("--map-basis", type=int, default=None, help="max BV of Figure 1's GP maps")
     parser.add_argument("--graph-basis", type=int, default=None, help="max BV of Figure 2")
     return parser.parse_args(argv)

@@ -61,7 +61,7 @@ def parse_args() -> argparse.Namespace:
     parser.add_argument("--seeds", type=count_arg, default=None, help="seeds (default 10; quick 2)")
     parser.add_argument("--lengthscale", type=float, default=FitSettings.lengthscale)
     parser.add_argument(
-        "--episodes-per-batch", type=int, default=None, help="walks per update (default: all)"
+        "--episodes-per-batch", type=count_arg, default=None, help="walks per update (default: all)"
     )
     parser.add_argument(
         "--novelty-tol", type=float, default=None, help="shared novelty_tol (default: library's)"

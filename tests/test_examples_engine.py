@@ -26,7 +26,7 @@ def test_benchmark_speed_refuses_a_warm_update_on_a_seen_rollout(
     bench = load_script("benchmark_speed")
     with pytest.raises(SystemExit):
         bench.main(["--quick", "--warm-rollouts", "0"])
-    assert "--warm-rollouts must be at least 1" in capsys.readouterr().err
+    assert "argument --warm-rollouts: must be at least 1, got 0" in capsys.readouterr().err
 
 
 def test_benchmark_speed_quick_writes_promised_json(tmp_path: Path) -> None:
