@@ -299,6 +299,8 @@ class GPValueCallback(BaseCallback):
             # SB3 has just computed returns and advantages from placeholder values; with the
             # values of one batched prediction they are what step-by-step values would give.
             self._fill_values(policy, buffer, self.locals["new_obs"], dones)
+        # SB3's returns, which the actor's advantages come from, whatever the critic is fed.
+        _check_targets(buffer.returns)
         targets = self._rollout_targets(buffer, dones)
         _check_targets(targets[1])
         self._held.append(targets)
@@ -639,9 +641,10 @@ _FLOAT32_MAX = float(np.finfo(np.float32).max)
 
 
 def _check_targets(targets: np.ndarray) -> None:
-    """Refuse targets that are not finite or that float32, SB3's precision, cannot hold: finite
-    rewards whose returns overflow (SB3's float32 returns, or the float64 Monte Carlo returns
-    that the critic's float32 values would turn into inf)."""
+    """Refuse returns (the critic's targets, or SB3's returns of the rollout) that are not
+    finite or that float32, SB3's precision, cannot hold: finite rewards whose returns overflow
+    (SB3's float32 returns, or the float64 Monte Carlo returns that the critic's float32 values
+    would turn into inf)."""
     largest = float(np.abs(targets).max()) if len(targets) else 0.0
     if not largest <= _FLOAT32_MAX:
         raise ValueError(

@@ -122,8 +122,8 @@ def _scored_alike(options: Any, gp: SparseOnlineGP) -> bool:
 
 def check_posterior(state: Mapping[str, Any], prefix: str, max_basis: int) -> None:
     """Refuse a saved basis count that a GP of ``max_basis`` cannot hold, or a state with NaN
-    or inf in what predictions read (its used part), or a fitted GP's lengthscale not finite
-    and positive (a corrupted save)."""
+    or inf in what predictions read (its used part), or a fitted GP's lengthscales (current or
+    starting) not finite and positive (a corrupted save)."""
     count = state.get(prefix + "count")
     if count is None:
         return
@@ -140,16 +140,17 @@ def check_posterior(state: Mapping[str, Any], prefix: str, max_basis: int) -> No
                 f"the saved state's {name} holds NaN or inf: the GP it came from was "
                 "corrupted; load an earlier save"
             )
-    # Before its first batch a GP's lengthscale may hold NaN: chosen from that batch.
+    # Before its first batch a GP's lengthscales may hold NaN: chosen from that batch.
     initialized = state.get(prefix + "initialized")
-    lengthscale = state.get(prefix + "kernel.lengthscale")
-    fitted = bool(initialized) if initialized is not None else m > 0
-    usable = lengthscale is None or bool(((lengthscale > 0) & torch.isfinite(lengthscale)).all())
-    if fitted and not usable:
-        raise ValueError(
-            "the saved state's kernel.lengthscale holds NaN, inf or values not above 0: the GP "
-            "it came from was corrupted; load an earlier save"
-        )
+    if not (bool(initialized) if initialized is not None else m > 0):
+        return
+    for name in ("kernel.lengthscale", "ls_start"):  # the adaptation starts from ls_start
+        saved = state.get(prefix + name)
+        if saved is not None and not bool(((saved > 0) & torch.isfinite(saved)).all()):
+            raise ValueError(
+                f"the saved state's {name} holds NaN, inf or values not above 0: the GP it "
+                "came from was corrupted; load an earlier save"
+            )
 
 
 def _upgrade_v02(state: dict[str, Any], prefix: str, gp: SparseOnlineGP) -> None:

@@ -1007,16 +1007,19 @@ class HugeRewardEnv(ScriptedEnv):
 
 @pytest.mark.filterwarnings("ignore::RuntimeWarning")  # SB3 computes its GAE in overflow
 @pytest.mark.parametrize(
-    ("algo", "target"), [(PPO, "monte_carlo"), (A2C, "returns")], ids=["float64-mc", "sb3"]
+    ("algo", "target", "episode"),
+    [(PPO, "monte_carlo", 3), (A2C, "returns", 3), (PPO, "monte_carlo", 20)],
+    ids=["float64-mc", "sb3", "mc-nothing-fed"],
 )
 def test_returns_beyond_float32_are_refused_with_the_fix(
-    algo: type[BaseAlgorithm], target: Target
+    algo: type[BaseAlgorithm], target: Target, episode: int
 ) -> None:
     """Finite rewards whose returns overflow float32 (SB3's returns turn inf; Monte Carlo
     returns, float64, would become inf values in the float32 value head): refused before the
-    GP learns anything, naming the fix."""
+    GP learns anything, naming the fix; also where no episode ends within the rollout, so no
+    Monte Carlo return is fed (the actor would train on SB3's inf returns)."""
     kwargs: dict[str, Any] = dict(batch_size=8, n_epochs=1) if algo is PPO else {}
-    env = DummyVecEnv([lambda: HugeRewardEnv(0, 3)])
+    env = DummyVecEnv([lambda: HugeRewardEnv(0, episode)])
     model = algo(GPActorCriticPolicy, env, n_steps=8, seed=0, **kwargs)
     before = snapshot(model.policy.gp)
     with pytest.raises(ValueError, match=r"returns reach .* beyond float32.*Scale the rewards"):

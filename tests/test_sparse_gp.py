@@ -838,11 +838,12 @@ def _first(value: float) -> Any:
         ),
         (_replaced("noise_var", _first(math.inf)), "noise_var holds NaN or inf"),
         (_replaced("kernel.lengthscale", _first(-1.0)), "lengthscale holds NaN, inf or"),
+        (_replaced("ls_start", _first(math.nan)), "ls_start holds NaN, inf or"),
     ],
     ids=[
         "no-P", "no-kernel-buffer", "short-alpha", "nan-alpha", "count-500", "nan-y-mean",
         "nan-y-scale", "nan-trend", "nan-signal-variance", "nan-basis-input", "inf-noise",
-        "negative-lengthscale",
+        "negative-lengthscale", "nan-starting-lengthscale",
     ],
 )  # fmt: skip
 def test_a_refused_state_leaves_the_gp_as_it_was(pendulum, spoil: Any, error: str) -> None:
