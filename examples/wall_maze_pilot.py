@@ -159,18 +159,23 @@ def failure_map(spec: RunSpec, n: int, out: Path) -> str:
     Returns the map as text (``.`` reached, ``X`` not, top row the top of the arena) and
     draws it into ``out/failure_map.png``.
     """
-    th.set_num_threads(1)
-    model = build_model(spec)
-    model.learn(spec.total_timesteps, progress_bar=True)
     maze = gym.make(spec.env_id).unwrapped
     assert isinstance(maze, WallMaze)
     u = (np.arange(n) + 0.5) / n * maze.layout.size
+    grid = [[np.array([x, y]) for x in u] for y in u[::-1]]  # top row first
+    valid = [[_is_start(maze.layout, p) for p in row] for row in grid]
+    if not any(map(any, valid)):  # checked before the training it would waste
+        raise SystemExit(
+            f"error: no start of the {n} x {n} grid is off the walls: use a larger --grid"
+        )
+    th.set_num_threads(1)
+    model = build_model(spec)
+    model.learn(spec.total_timesteps, progress_bar=True)
     rows, starts, reached = [], [], []
-    for y in u[::-1]:
+    for points, valid_row in zip(grid, valid, strict=True):
         row = ""
-        for x in u:
-            p = np.array([x, y])
-            if not _is_start(maze.layout, p):
+        for p, ok in zip(points, valid_row, strict=True):
+            if not ok:
                 row += " "
                 continue
             starts.append(p)

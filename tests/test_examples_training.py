@@ -360,6 +360,10 @@ def test_wall_maze_pilot_tiny_run_and_its_goal_test(tmp_path: Path) -> None:
     assert (tmp_path / "failure_map.png").stat().st_size > 0
     with pytest.raises(SystemExit, match="another --out"):
         pilot.main(["--max-step", "0.1", "--out", str(tmp_path)])
+    # A grid with no start off the walls (the one point of a 1 x 1 grid is on the wall at
+    # y = 0.5) is refused before the map's training.
+    with pytest.raises(SystemExit, match="larger --grid"):
+        pilot.main([*argv, "--grid", "1", "--out", str(tmp_path)])
     # Its run is not reused for another budget (whole rollouts: 1000 steps ran 2048) or
     # threshold: refused, naming the difference.
     for other in (["--timesteps", "5000"], ["--threshold", "-300"]):
