@@ -166,6 +166,10 @@ def _upgrade_v02(state: dict[str, Any], prefix: str, gp: SparseOnlineGP) -> None
         # 0.2 counted ages in blocks, not batches: a retained point keeps its age, in batches.
         offset = state[prefix + "n_batches"] - state[prefix + "n_blocks"]
         state[prefix + "window.batch"] = state.pop(prefix + "window.block") + offset
+    # Counters that start at 0: a state without the window lacks them all, code with the
+    # window but before the pruning counter (between 0.1.0 and 0.2.0) lacks n_pruned.
+    for name in ("n_blocks", "block_new", "n_pruned"):
+        state.setdefault(prefix + name, torch.zeros((), dtype=torch.long))
     if prefix + "window.count" in state:
         return
     extra = state.get(prefix + "_extra_state")
@@ -173,8 +177,6 @@ def _upgrade_v02(state: dict[str, Any], prefix: str, gp: SparseOnlineGP) -> None
         state[prefix + "_extra_state"] = {**extra, "window": gp.window.size, "adapt": None}
     for name, value in gp.window.state_dict().items():
         state[prefix + "window." + name] = value
-    for name in ("n_blocks", "block_new", "n_pruned"):
-        state[prefix + name] = torch.zeros((), dtype=torch.long)
     state[prefix + "block_forgetting"] = torch.tensor(gp.forgetting, dtype=gp.noise_var.dtype)
     saved = state.get(prefix + "kernel.lengthscale")
     state[prefix + "ls_start"] = gp.ls_start.clone() if saved is None else saved.clone()
@@ -184,10 +186,8 @@ def _upgrade_between_releases(state: dict[str, Any], prefix: str, gp: SparseOnli
     """Fill in, in place, what states saved by the repository's code between the 0.1.0 and
     0.2.0 releases lack or hold beyond any release: the first 0.1.0 code had no novelty floor
     (its threshold was ``novelty_tol``), code with the window but before the pruning counter
-    saved no ``n_pruned`` (nor, before them, the block counters), and some 0.2.0 code saved a
+    saved no ``n_pruned`` (:func:`_upgrade_v02` fills it in), and some 0.2.0 code saved a
     ``block_start`` that nothing reads now (loaded, each predicts as its code did)."""
-    for name in ("n_blocks", "block_new", "n_pruned"):
-        state.setdefault(prefix + name, torch.zeros((), dtype=torch.long))
     state.setdefault(prefix + "novelty_floor", torch.tensor(gp.novelty_tol, dtype=torch.float64))
     state.pop(prefix + "block_start", None)
 
