@@ -240,6 +240,11 @@ def _gp_fit(options: dict[str, Any], bounds: tuple[np.ndarray, np.ndarray], spre
     return fit
 
 
+def first_scored(n_rollouts: int, last: float) -> int:
+    """Index of the first of ``n_rollouts`` rollouts in the share ``last`` that is scored."""
+    return int(np.floor((1 - last) * n_rollouts))
+
+
 def run_one(
     spec: RunSpec,
     last: float,
@@ -254,7 +259,7 @@ def run_one(
     model = build_model(spec)
     per_rollout = model.n_steps * model.n_envs
     n_rollouts = -(-spec.total_timesteps // per_rollout)
-    first = int(np.floor((1 - last) * n_rollouts))
+    first = first_scored(n_rollouts, last)
     recorder = (
         WithCeiling(spec.env_id, first, ceiling_rollouts, tail, spec.seed, with_capacity)
         if ceiling_rollouts
@@ -360,7 +365,7 @@ def run_all(
                 f"{dict(spec.gp_kwargs)}: pass another --out"
             )
         n = len(result["explained_variance"])
-        tail_rollouts = n - int(np.floor((1 - last) * n))  # as run_one counts them
+        tail_rollouts = n - first_scored(n, last)
         if result["tail_rollouts"] != tail_rollouts:
             raise OtherSettingsError(
                 f"{_run_file(out, spec)} averaged its last {result['tail_rollouts']} of {n} "
