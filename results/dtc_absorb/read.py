@@ -28,13 +28,14 @@ def interval(d: np.ndarray) -> tuple[float, float]:
     return float(lo), float(hi)
 
 
-def critic_fit(root: Path) -> None:
-    """The planned reading: seeds 643-652, three envs, both readings of the score."""
+def critic_fit(root: Path, seeds: range = range(643, 653)) -> None:
+    """The planned reading: seeds 643-652, three envs, both readings of the score (also read
+    by results/fitc_rebuild on other seeds)."""
     print("| env | reading | default | switch | switch - default [95 % CI] | switch higher |")
     print("|---|---|---:|---:|---:|---:|")
     for env in ENVS:
         for key, label in (("tail_mean", "mean over rollouts"), ("tail_pooled", "pooled")):
-            a, b = (tail(root, arm, env, range(643, 653), key) for arm in ("default", "switch"))
+            a, b = (tail(root, arm, env, seeds, key) for arm in ("default", "switch"))
             lo, hi = interval(b - a)
             print(
                 f"| {env} | {label} | {a.mean():.3f} | {b.mean():.3f} | "
