@@ -539,6 +539,10 @@ class SparseOnlineGP(nn.Module):
         self.register_buffer("block_errors", torch.zeros(3, **kw))
         self.register_buffer("ls_start", self.kernel.lengthscale.to(**kw).clone())
         self.register_buffer("bonus_spreads", torch.zeros(2, **kw))
+        # Not state: what the posterior was computed under (_settle). A buffer so that .to()
+        # converts it as it converts the hyperparameters; a saved state's are its own.
+        self.register_buffer("_posterior_hypers", self._hyperparameters(), persistent=False)
+        self.register_load_state_dict_post_hook(SparseOnlineGP._settle_after_load)
 
     # ------------------------------------------------------------------------------------------
     # Read-only views
@@ -631,8 +635,16 @@ class SparseOnlineGP(nn.Module):
             In target units.
         var : Tensor, shape (n,) or None
             Predictive variance of the latent value (no observation noise), ``>= 0``.
+
+        Raises
+        ------
+        RuntimeError
+            If the lengthscales, signal variance or ``noise_var`` were changed in place since
+            the posterior was computed (set them at construction, or refit them with
+            :meth:`fit_hyperparameters`).
         """
         x = self._as_inputs(x, "x")
+        self._check_hyperparameters()
         m = self.n_basis
         variance = self.kernel.variance
         if m == 0:
@@ -681,6 +693,45 @@ class SparseOnlineGP(nn.Module):
         if self._cache is None:
             self._cache = PosteriorMatrices(self)
         return self._cache
+
+    def _hyperparameters(self) -> Tensor:
+        """The lengthscales, signal variance and noise variance in one vector, shape (k + 2,)."""
+        kernel = self.kernel
+        return torch.cat(
+            [kernel.lengthscale.reshape(-1), kernel.variance.reshape(1), self.noise_var.reshape(1)]
+        )
+
+    def _settle(self) -> None:
+        """Record the hyperparameters as those the posterior now has."""
+        self._posterior_hypers = self._hyperparameters()
+
+    @staticmethod
+    def _settle_after_load(gp: nn.Module, incompatible_keys: Any) -> None:
+        # A post hook: the kernel's hyperparameters load after the GP's own buffers, and a
+        # policy's load_state_dict reaches the GP only through torch's recursion.
+        assert isinstance(gp, SparseOnlineGP)
+        gp._settle()
+
+    def _check_hyperparameters(self) -> None:
+        """Refuse a posterior whose hyperparameters were changed from outside the engine.
+
+        ``alpha``, ``P`` and ``Q`` hold for the hyperparameters they were computed under; after
+        an in-place change (``gp.kernel.lengthscale.mul_(2)``) predictions would be silently
+        wrong. With no basis vectors there is no posterior to contradict.
+        """
+        now = self._hyperparameters()
+        if self.n_basis == 0 or torch.equal(now, self._posterior_hypers):
+            return
+        raise RuntimeError(
+            "the GP's hyperparameters (lengthscales, signal variance, noise_var) were changed in "
+            f"place, from {self._posterior_hypers.tolist()} to {now.tolist()}, but its "
+            "posterior was computed under the old ones and would now predict wrongly. Put the "
+            "old values back, or fit new ones with fit_hyperparameters() (change a geodesic "
+            "kernel's lengthscales through kernel.rescale(), which stretches its tree too), or "
+            "set them when the "
+            "GP is built (kernel=RBFKernel(lengthscale=...), noise_var=...; in a policy's "
+            "gp_kwargs, kernel_kwargs=dict(lengthscale=...))"
+        )
 
     def _apply(self, fn: Callable[[Tensor], Tensor], recurse: bool = True) -> SparseOnlineGP:
         # .to(dtype), .float(), .half() convert through here: refuse what the constructor
@@ -808,10 +859,14 @@ class SparseOnlineGP(nn.Module):
         ValueError
             On wrong shapes, non-finite values or non-numeric input; the state is left
             exactly as it was (as it is on any error raised inside the update).
+        RuntimeError
+            As :meth:`predict`, before anything changes.
         """
         x, y, starts = self._validate(x, y, episode_starts)
+        self._check_hyperparameters()
         with self._transaction():
             self._update(x, y, starts)
+        self._settle()
         if self._coverage is not None and not self._coverage.checked:
             self._coverage.add(x)
             if (message := self._coverage.check(self.kernel.lengthscale)) is not None:
@@ -1292,6 +1347,7 @@ class SparseOnlineGP(nn.Module):
             variance = self.kernel.variance
             projection = Projection(Kzz, Kxz, float(variance))
             final = projection.negative_bound(yn, self.noise_var / w, variance.expand(len(yn)))
+        self._settle()
         return {
             "lengthscale": float(self.kernel.lengthscale[0]),
             "variance": float(self.kernel.variance),

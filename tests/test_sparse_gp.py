@@ -979,21 +979,27 @@ def check_fit(gp: SparseOnlineGP, cross: Callable[[np.ndarray], np.ndarray]) -> 
     ``cross(points)`` gives the kernel rows of points over the BVs at the GP's current
     hyperparameters (the Gram matrix is ``cross`` of the BV inputs).
     """
-    x, y, _ = (t.numpy().copy() for t in gp.window.data())
-    yn = (y - float(gp.y_mean)) / float(gp.y_scale)
     before = gp.fit_hyperparameters(n_iter=0)["nlml"]
     fitted = gp.fit_hyperparameters(n_iter=60, lr=0.05)
-    z = gp.basis_inputs.numpy()  # after the fit, which may prune redundant BVs
     assert all(math.isfinite(v) for v in fitted.values())
     assert fitted["nlml"] < before
     assert fitted["variance"] == float(gp.kernel.variance)
     assert fitted["noise_var"] == float(gp.noise_var)
     assert fitted["lengthscale"] == float(gp.lengthscale[0])
+    assert_window_posterior(gp, cross)
+
+
+def assert_window_posterior(gp: SparseOnlineGP, cross: Callable[[np.ndarray], np.ndarray]) -> None:
+    """The GP predicts the sparse posterior of its retained data under its hyperparameters
+    (``cross`` as in :func:`check_fit`)."""
+    x, y, _ = (t.numpy().copy() for t in gp.window.data())
+    yn = (y - float(gp.y_mean)) / float(gp.y_scale)
+    z = gp.basis_inputs.numpy()  # after any fit, which may prune redundant BVs
     Kzz = cross(z) + np.diag(gp.nugget[: gp.n_basis].numpy())
     probe = x[::7] + 0.01
     mean, var = gp.predict(probe)
     ref_mean, ref_var = nystrom_posterior(
-        Kzz, cross(x), cross(probe), fitted["variance"], yn, fitted["noise_var"]
+        Kzz, cross(x), cross(probe), float(gp.kernel.variance), yn, float(gp.noise_var)
     )
     scale = float(gp.y_scale)
     np.testing.assert_allclose(mean.numpy(), ref_mean * scale + float(gp.y_mean), atol=1e-8 * scale)
@@ -1014,6 +1020,59 @@ def test_fit_hyperparameters_rbf() -> None:
         return rbf(points, gp.basis_inputs.numpy(), ls, float(gp.kernel.variance))
 
     check_fit(gp, cross)
+
+
+@pytest.mark.parametrize("changed", ["lengthscale", "variance", "noise_var"])
+def test_hyperparameters_changed_in_place_are_refused_until_refitted(changed: str) -> None:
+    rng = np.random.default_rng(11)
+    x = rng.uniform(size=(300, 2))
+    y = smooth(2 * x) + 0.1 * rng.normal(size=300)
+    gp = SparseOnlineGP(
+        2, RBFKernel(lengthscale=0.4, variance=0.5), max_basis=60, noise_var=0.5, novelty_tol=1e-3
+    )
+    gp.update(x[:250], y[:250])
+    probe = x[::9] + 0.01
+    mean, var = gp.predict(probe)
+    hyper = {"lengthscale": gp.kernel.lengthscale, "variance": gp.kernel.variance}
+    tensor = hyper.get(changed, gp.noise_var)
+    old = tensor.clone()
+    tensor.mul_(1.5)
+    before = snapshot(gp)
+    with pytest.raises(RuntimeError, match="changed in place"):
+        gp.predict(probe)
+    with pytest.raises(RuntimeError, match="fit_hyperparameters"):
+        gp.update(x[250:], y[250:])
+    assert_same_state(before, snapshot(gp))
+    tensor.copy_(old)  # the old values back: the same posterior, bit for bit
+    again = gp.predict(probe)
+    assert torch.equal(again[0], mean) and torch.equal(again[1], var)
+    tensor.mul_(1.5)
+    gp.fit_hyperparameters(n_iter=0)  # the posterior rebuilt under the new values
+
+    def cross(points: np.ndarray) -> np.ndarray:
+        ls = gp.lengthscale.numpy()
+        return rbf(points, gp.basis_inputs.numpy(), ls, float(gp.kernel.variance))
+
+    assert_window_posterior(gp, cross)
+    gp.update(x[250:], y[250:])
+
+
+def test_loaded_converted_and_empty_gps_take_their_hyperparameters() -> None:
+    """A posterior that comes with its hyperparameters (a loaded state, a converted dtype) is
+    not refused; nor is a change before there is any posterior."""
+    rng = np.random.default_rng(12)
+    x = rng.uniform(size=(200, 2))
+    y = smooth(2 * x)
+    gp = SparseOnlineGP(2, LaplacianKernel(lengthscale=0.4), max_basis=40, adapt=False)
+    gp.kernel.variance.fill_(2.0)  # no posterior yet: simply a prior setting
+    gp.update(x, y)
+    assert float(gp.kernel.variance) == 2.0
+    fresh = SparseOnlineGP(2, LaplacianKernel(lengthscale=0.9), max_basis=40, adapt=False)
+    fresh.update(x[:50], y[:50])
+    fresh.load_state_dict(gp.state_dict())
+    assert torch.equal(fresh.predict(x)[0], gp.predict(x)[0])
+    single = gp.to(torch.float32).predict(x)[0]
+    assert single.dtype == torch.float32
 
 
 def test_fit_hyperparameters_needs_data_and_leaves_the_state() -> None:
