@@ -39,7 +39,7 @@ from stable_baselines3.common.utils import explained_variance
 from torch import nn
 
 from sb3_geogp.adaptation import Adaptation, as_adaptation
-from sb3_geogp.kernels import KERNELS, make_kernel
+from sb3_geogp.kernels import KERNELS, kernel_names, kernels_taking, make_kernel
 from sb3_geogp.options import unknown_option
 from sb3_geogp.saved_state import state_to_restore
 from sb3_geogp.sparse_gp import SparseOnlineGP
@@ -840,9 +840,17 @@ def check_gp_kwargs(gp_kwargs: dict[str, Any] | None) -> dict[str, Any]:
     if reserved:
         raise ValueError(f"gp_kwargs must not contain {reserved}: the policy sets them")
     message = unknown_option("the GP critic's gp_kwargs", options, _GP_OPTIONS)
-    if message is not None:
-        raise TypeError(message)
-    return options
+    if message is None:
+        return options
+    # A kernel's option given beside the GP's (gp_kwargs=dict(lengthscale=1.0)): say where it goes.
+    option = next(k for k in options if k not in _GP_OPTIONS)
+    if takers := kernels_taking(option):
+        kernel = f"kernel={takers[0]!r}, " if len(takers) == 1 else ""
+        message += (
+            f"; {option!r} is an option of {kernel_names(takers)}: pass it as "
+            f"gp_kwargs=dict({kernel}kernel_kwargs=dict({option}=...))"
+        )
+    raise TypeError(message)
 
 
 def default_kernel(algorithm: type[BaseAlgorithm] | None) -> str:

@@ -878,8 +878,26 @@ def test_bad_options_raise(kwargs: dict[str, Any], match: str) -> None:
             r"did you mean 'lengthscale'",
             dict(kernel_kwargs=dict(lengthscale=1.0)),
         ),
+        (
+            dict(lengthscale=1.0),
+            r"'lengthscale' is an option of the rbf, laplacian and geodesic kernels: pass it as "
+            r"gp_kwargs=dict\(kernel_kwargs=dict\(lengthscale=\.\.\.\)\)",
+            dict(kernel_kwargs=dict(lengthscale=1.0)),
+        ),
+        (
+            dict(ard=False),
+            r"'ard' is an option of the geodesic kernel: pass it as "
+            r"gp_kwargs=dict\(kernel='geodesic', kernel_kwargs=dict\(ard=\.\.\.\)\)",
+            dict(kernel="geodesic", kernel_kwargs=dict(ard=False)),
+        ),
     ],
-    ids=["gp-option", "other-kernel's-option", "kernel-option"],
+    ids=[
+        "gp-option",
+        "other-kernel's-option",
+        "kernel-option",
+        "kernel-option-in-gp-kwargs",
+        "one-kernel's-option-in-gp-kwargs",
+    ],
 )
 def test_misspelt_options_name_the_option_they_meant(
     gp_kwargs: dict[str, Any], match: str, meant: dict[str, Any]

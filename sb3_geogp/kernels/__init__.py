@@ -66,9 +66,22 @@ def _check_options(kernel: str, kwargs: dict[str, Any]) -> None:
     if message is None:
         return
     option = next(k for k in kwargs if k not in accepted)
-    takers = [k for k, c in KERNELS.items() if option in (_options(c) or ())]
-    elsewhere = f"; {option!r} is an option of the {' and '.join(takers)} kernel" * bool(takers)
+    takers = kernels_taking(option)
+    elsewhere = f"; {option!r} is an option of {kernel_names(takers)}" if takers else ""
     raise TypeError(message + elsewhere)
+
+
+def kernels_taking(option: str) -> list[str]:
+    """The names (keys of :data:`KERNELS`) of the kernels whose constructor takes ``option``."""
+    return [k for k, c in KERNELS.items() if option in (_options(c) or ())]
+
+
+def kernel_names(kernels: list[str]) -> str:
+    """Kernel names for a message: ``"the geodesic kernel"``, ``"the rbf, laplacian and
+    geodesic kernels"``."""
+    if len(kernels) == 1:
+        return f"the {kernels[0]} kernel"
+    return f"the {', '.join(kernels[:-1])} and {kernels[-1]} kernels"
 
 
 def _options(cls: type[Kernel]) -> list[str] | None:
@@ -93,6 +106,8 @@ __all__ = [
     "RBFKernel",
     "Rows",
     "distances",
+    "kernel_names",
+    "kernels_taking",
     "make_kernel",
     "shepard_weights",
 ]
