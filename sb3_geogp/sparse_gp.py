@@ -719,18 +719,20 @@ class SparseOnlineGP(nn.Module):
         an in-place change (``gp.kernel.lengthscale.mul_(2)``) predictions would be silently
         wrong. With no basis vectors there is no posterior to contradict.
         """
+        if self.n_basis == 0:
+            return
         now = self._hyperparameters()
-        if self.n_basis == 0 or torch.equal(now, self._posterior_hypers):
+        if torch.equal(now, self._posterior_hypers):
             return
         raise RuntimeError(
             "the GP's hyperparameters (lengthscales, signal variance, noise_var) were changed in "
             f"place, from {self._posterior_hypers.tolist()} to {now.tolist()}, but its "
             "posterior was computed under the old ones and would now predict wrongly. Put the "
-            "old values back, or fit new ones with fit_hyperparameters() (change a geodesic "
-            "kernel's lengthscales through kernel.rescale(), which stretches its tree too), or "
-            "set them when the "
-            "GP is built (kernel=RBFKernel(lengthscale=...), noise_var=...; in a policy's "
-            "gp_kwargs, kernel_kwargs=dict(lengthscale=...))"
+            "old values back; or fit new ones with fit_hyperparameters() (change a geodesic "
+            "kernel's lengthscales through kernel.rescale(), which stretches its tree too); or "
+            "set them when the GP is built "
+            f"(kernel={type(self.kernel).__name__}(lengthscale=...), noise_var=...; in a "
+            "policy's gp_kwargs, kernel_kwargs=dict(lengthscale=...))"
         )
 
     def _apply(self, fn: Callable[[Tensor], Tensor], recurse: bool = True) -> SparseOnlineGP:

@@ -391,7 +391,11 @@ class Kernel(nn.Module):
         raise NotImplementedError
 
     def rescale(self, factor: Tensor) -> None:
-        """Multiply the lengthscale(s) by ``factor : Tensor, shape (n_factors,)``."""
+        """Multiply the lengthscale(s) by ``factor : Tensor, shape (n_factors,)``.
+
+        The GP's posterior does not follow: on a GP that holds data, refit it
+        (:meth:`~sb3_geogp.SparseOnlineGP.fit_hyperparameters`) before it predicts again.
+        """
         self.lengthscale.mul_(factor)
 
 
