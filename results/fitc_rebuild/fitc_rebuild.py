@@ -24,7 +24,7 @@ from typing import Any
 from torch import Tensor
 
 from sb3_geogp import sparse_gp
-from sb3_geogp.adaptation import Projection, Summary, sparse_posterior
+from sb3_geogp.adaptation import Projection, sparse_posterior
 
 _dtc_rebuild = sparse_gp.SparseOnlineGP._rebuild
 
@@ -33,14 +33,9 @@ _dtc_rebuild = sparse_gp.SparseOnlineGP._rebuild
 def _fitc_rebuild(self: sparse_gp.SparseOnlineGP, *args: Any) -> tuple[Tensor, Tensor]:
     sigma2 = self.noise_var
 
-    def fitc_posterior(
-        Kzz: Tensor,
-        Kxz: Tensor,
-        y: Tensor,
-        noise: Tensor,
-        variance: float,
-        summary: Summary | None = None,
-    ) -> tuple[Tensor, Tensor]:
+    def fitc_posterior(*args: Any) -> tuple[Tensor, Tensor]:
+        # As _rebuild calls sparse_posterior: (Kzz, Kxz, y, noise, variance, summary).
+        Kzz, Kxz, y, noise, variance, summary = args
         projection = Projection(Kzz, Kxz, variance)
         gamma = (variance - projection.q_diag()).clamp_min(0)
         # noise is sigma_n^2 / w: scaling by (1 + gamma / sigma_n^2) gives (sigma_n^2 + gamma) / w.
