@@ -729,7 +729,7 @@ class SparseOnlineGP(nn.Module):
             f"place, from {self._posterior_hypers.tolist()} to {now.tolist()}, but its "
             "posterior was computed under the old ones and would now predict wrongly. Put the "
             "old values back; or fit new ones with fit_hyperparameters() (change a geodesic "
-            "kernel's lengthscales through kernel.rescale(), which stretches its tree too); or "
+            "kernel's lengthscales through kernel.rescale(), which moves its tree too); or "
             "set them when the GP is built "
             f"(kernel={type(self.kernel).__name__}(lengthscale=...), noise_var=...; in a "
             "policy's gp_kwargs, kernel_kwargs=dict(lengthscale=...))"
@@ -1334,10 +1334,21 @@ class SparseOnlineGP(nn.Module):
         ------
         ValueError
             Before the first :meth:`update`; the state is then unchanged.
+        RuntimeError
+            If a geodesic kernel's lengthscales were changed in place rather than through
+            :meth:`~sb3_geogp.kernels.Kernel.rescale` (its tree would not follow them); the
+            state is then unchanged.
         """
         x, y, batch = self.window.data()
         if x.shape[0] == 0 or self.n_basis == 0:
             raise ValueError("fit_hyperparameters needs retained data; call update first")
+        if not self.kernel.follows_lengthscale(self.bv_x[: self.n_basis]):
+            raise RuntimeError(
+                f"{type(self.kernel).__name__}'s basis-vector tree is no longer in its "
+                "lengthscales' units: they were changed in place, which the tree does not "
+                "follow. Put the old values back, then change them with "
+                "kernel.rescale(factor), which moves the tree with them"
+            )
         forgetting = float(self.block_forgetting) if self.adaptation else self.forgetting
         w = self._age_weights(batch, forgetting).to(y)
         yn = self._standardised(x, y)

@@ -1075,12 +1075,49 @@ def test_loaded_converted_and_empty_gps_take_their_hyperparameters() -> None:
     assert single.dtype == torch.float32
 
 
+def test_a_geodesic_tree_left_behind_by_an_in_place_change_is_refused_by_the_fit(pendulum) -> None:
+    """The tree holds its nodes in lengthscale units. Changed in place, the lengthscales leave
+    it behind and the fit refuses to rebuild on it; the same change through
+    ``Kernel.rescale`` moves it (every path halves) and the fit rebuilds the posterior."""
+    obs, returns, starts = pendulum(600, 12)
+    gp = SparseOnlineGP(
+        3, GeodesicKernel(lengthscale=2.0, attach="nearest"), max_basis=40, noise_var=0.3
+    )
+    feed(gp, obs, returns, starts, 300)
+    paths = gp.shortest_paths.clone()
+    gp.kernel.lengthscale.mul_(2.0)
+    before = snapshot(gp)
+    with pytest.raises(RuntimeError, match=r"kernel\.rescale\(factor\)"):
+        gp.fit_hyperparameters(n_iter=0)
+    assert_same_state(before, snapshot(gp))
+    gp.kernel.lengthscale.div_(2.0)
+    gp.kernel.rescale(torch.tensor([2.0], dtype=torch.float64))
+    gp.fit_hyperparameters(n_iter=0)
+    torch.testing.assert_close(gp.shortest_paths, paths / 2, rtol=1e-12, atol=0)
+    assert_window_posterior(gp, nearest_attachment_cross(gp))
+
+
 def test_fit_hyperparameters_needs_data_and_leaves_the_state() -> None:
     gp = SparseOnlineGP(2, "rbf")
     before = snapshot(gp)
     with pytest.raises(ValueError, match="call update first"):
         gp.fit_hyperparameters()
     assert_same_state(before, snapshot(gp))
+
+
+def nearest_attachment_cross(gp: SparseOnlineGP) -> Callable[[np.ndarray], np.ndarray]:
+    """``cross`` of :func:`check_fit` for a geodesic GP with ``attach="nearest"``, at its
+    current hyperparameters and tree."""
+
+    def cross(points: np.ndarray) -> np.ndarray:
+        # A point hangs on its nearest BV (Euclidean, lengthscale units): r = w + SP.
+        ls, z = gp.lengthscale.numpy(), gp.basis_inputs.numpy()
+        near = cdist(points / ls, z / ls)
+        i = near.argmin(axis=1)
+        r = near[np.arange(len(points)), i][:, None] + gp.shortest_paths.numpy()[i]
+        return float(gp.kernel.variance) * np.exp(-r)
+
+    return cross
 
 
 @pytest.mark.parametrize("ard", [False, True])
@@ -1091,16 +1128,7 @@ def test_fit_hyperparameters_geodesic(pendulum, ard: bool) -> None:
     )
     feed(gp, obs, returns, starts, 500)
     sp_before, ls_before = gp.shortest_paths.numpy().copy(), gp.lengthscale.clone()
-
-    def cross(points: np.ndarray) -> np.ndarray:
-        # A point hangs on its nearest BV (Euclidean, lengthscale units): r = w + SP.
-        ls, z = gp.lengthscale.numpy(), gp.basis_inputs.numpy()
-        near = cdist(points / ls, z / ls)
-        i = near.argmin(axis=1)
-        r = near[np.arange(len(points)), i][:, None] + gp.shortest_paths.numpy()[i]
-        return float(gp.kernel.variance) * np.exp(-r)
-
-    check_fit(gp, cross)
+    check_fit(gp, nearest_attachment_cross(gp))
     factor = (gp.lengthscale / ls_before).numpy()
     if not ard:
         np.testing.assert_allclose(factor, factor[0], rtol=1e-12)  # one factor on all dimensions

@@ -390,6 +390,12 @@ class Kernel(nn.Module):
         """
         raise NotImplementedError
 
+    def follows_lengthscale(self, z: Tensor) -> bool:
+        """Whether the kernel's state over the basis (basis inputs ``z : (m, d)``) is in its
+        lengthscales' units: false once they were changed in place rather than through
+        :meth:`rescale`. Always true for a kernel without such state."""
+        return True
+
     def rescale(self, factor: Tensor) -> None:
         """Multiply the lengthscale(s) by ``factor : Tensor, shape (n_factors,)``.
 

@@ -302,6 +302,17 @@ class GeodesicKernel(Kernel):
 
         return n_factors, correlations
 
+    def follows_lengthscale(self, z: Tensor) -> bool:
+        # The tree holds its nodes in lengthscale units, and rescale() moves them with the
+        # lengthscales; a change in place leaves them where they were.
+        if z.shape[0] == 0:
+            return True
+        pos = self.tree.pos[self.tree.basis_nodes[: z.shape[0]]]
+        scaled = self.scale(z)
+        # Each rescale rounds both sides apart by an ulp or two: room for thousands of refits.
+        tol = 1e4 * torch.finfo(scaled.dtype).eps
+        return bool(torch.allclose(pos, scaled, rtol=tol, atol=tol * float(scaled.abs().max())))
+
     def rescale(self, factor: Tensor) -> None:
         super().rescale(factor)
         self.tree.rescale(factor)
