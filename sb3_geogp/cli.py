@@ -31,7 +31,7 @@ import time
 import zipfile
 from collections.abc import Iterator, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple, NoReturn
 
 import gymnasium as gym
 import numpy as np
@@ -69,7 +69,7 @@ from sb3_geogp.comparison.report import pyplot
 from sb3_geogp.comparison.run import write_json_atomic
 from sb3_geogp.comparison.specs import fed, setting_differences
 from sb3_geogp.policies import GPActorCriticPolicy, check_supported_spaces, default_kernel
-from sb3_geogp.toolbox.scripts import DefaultsHelpFormatter
+from sb3_geogp.toolbox.scripts import DefaultsHelpFormatter, count_arg
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -80,9 +80,17 @@ if TYPE_CHECKING:
 _MAX_BASIS = 256
 
 
+class _OneLineParser(argparse.ArgumentParser):
+    """An ``ArgumentParser`` whose mistakes end in one line, as the checks after parsing do
+    (:class:`UsageError`), instead of argparse's usage block; ``--help`` still shows it."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(2, f"{self.prog}: error: {message}; see {self.prog} --help\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The ``sb3-geogp`` argument parser (sub-commands ``train`` and ``compare``)."""
-    parser = argparse.ArgumentParser(
+    parser = _OneLineParser(
         prog="sb3-geogp", description="Sparse on-line (geodesic) GP critics for SB3."
     )
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
@@ -112,7 +120,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     train.add_argument(
         "--timesteps",
-        type=int,
+        type=count_arg,
         default=100_000,
         help="environment steps, rounded up to whole rollouts",
     )
@@ -123,14 +131,14 @@ def build_parser() -> argparse.ArgumentParser:
         default=None,
         help="output directory (default: runs/ALGO_CRITIC_ENV_sSEED)",
     )
-    train.add_argument("--n-envs", type=int, default=4, help="parallel environments")
+    train.add_argument("--n-envs", type=count_arg, default=4, help="parallel environments")
     train.add_argument(
         "--n-steps",
-        type=int,
+        type=count_arg,
         default=None,
         help="rollout length per env (default: the algorithm's, 2048 with ppo, 5 with a2c)",
     )
-    train.add_argument("--max-basis", type=int, default=_MAX_BASIS, help="GP basis capacity")
+    train.add_argument("--max-basis", type=count_arg, default=_MAX_BASIS, help="GP basis capacity")
     train.add_argument(
         "--forgetting",
         type=float,
@@ -148,7 +156,10 @@ def build_parser() -> argparse.ArgumentParser:
     )
     add_target_arguments(train)
     train.add_argument(
-        "--threads", type=int, default=1, help="torch CPU threads (1 is fastest for small nets)"
+        "--threads",
+        type=count_arg,
+        default=1,
+        help="torch CPU threads (1 is fastest for small nets)",
     )
     train.add_argument(
         "--device",
@@ -192,10 +203,6 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 def check_train_args(args: argparse.Namespace, out: Path) -> None:
     """Raise :class:`UsageError` naming the first bad ``train`` argument, before any work."""
-    for name in ("timesteps", "n_envs", "max_basis", "threads", "n_steps"):
-        value = getattr(args, name)
-        if value is not None and value < 1:
-            raise UsageError(f"--{name.replace('_', '-')} must be at least 1, got {value}")
     if args.save_every < 0:
         raise UsageError(
             f"--save-every must be at least 0 (0: no periodic saves), got {args.save_every}"

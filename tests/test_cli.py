@@ -195,8 +195,6 @@ def test_version(capsys: pytest.CaptureFixture[str]) -> None:
     ("extra", "message"),
     [
         (["--env", "NoSuchEnv-v0"], "unknown environment 'NoSuchEnv-v0'"),
-        (["--max-basis", "0"], "--max-basis must be at least 1, got 0"),
-        (["--timesteps", "0"], "--timesteps must be at least 1"),
         (["--forgetting", "1.5"], "--forgetting must be in (0, 1]"),
         (["--device", "gpu0"], "--device 'gpu0' is not a torch device"),
         (
@@ -231,6 +229,54 @@ def test_user_errors_are_one_line_with_exit_status_2(
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and message in err
     assert not (tmp_path / "run").exists()  # refused before any work
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["train", "--max-basis", "0"],
+        ["train", "--timesteps", "0"],
+        ["train", "--n-envs", "-2"],
+        ["train", "--n-steps", "0"],
+        ["train", "--threads", "0"],
+        ["compare", "--timesteps", "0"],
+        ["compare", "--seeds", "0"],
+        ["compare", "--workers", "0"],
+    ],
+)
+def test_counts_below_one_are_refused_by_the_parser_as_in_the_example_scripts(
+    argv: list[str], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Every count is read by the scripts' ``count_arg``, and refused in one line naming the
+    option, exit status 2, nothing written."""
+    command, option, value = argv
+    with pytest.raises(SystemExit) as exit_info:
+        main([command, "--out", str(tmp_path / "run"), option, value])
+    assert exit_info.value.code == 2
+    assert capsys.readouterr().err == (
+        f"sb3-geogp {command}: error: argument {option}: must be at least 1, got {value}; "
+        f"see sb3-geogp {command} --help\n"
+    )
+    assert not (tmp_path / "run").exists()
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["train", "--max-basis", "many"], "argument --max-basis: expected an integer, got 'many'"),
+        (["train", "--algo", "sac"], "argument --algo: invalid choice: 'sac'"),
+        (["compare", "--quick", "--nosuch"], "unrecognized arguments: --nosuch"),
+        ([], "the following arguments are required: command"),
+    ],
+)
+def test_what_argparse_refuses_also_ends_in_one_line(
+    argv: list[str], message: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    with pytest.raises(SystemExit) as exit_info:
+        main(argv)
+    assert exit_info.value.code == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and message in err and err.rstrip().endswith("--help"), err
 
 
 def test_an_out_that_is_a_file_or_holds_unreadable_settings_is_refused(

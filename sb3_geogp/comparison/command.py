@@ -37,6 +37,7 @@ from sb3_geogp.comparison.run import build_model
 from sb3_geogp.comparison.specs import RunSpec, SweepConfig
 from sb3_geogp.comparison.sweep import pending_runs, run_sweep
 from sb3_geogp.policies import build_gp_critic, check_gp_kwargs, resolved_gp_kwargs
+from sb3_geogp.toolbox.scripts import count_arg
 
 #: First line of ``--help``.
 DESCRIPTION = (
@@ -78,9 +79,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
         help="results dir (default: runs/compare; the published sweep is in results/compare)",
     )
     parser.add_argument("--quick", action="store_true", help="smoke sweep: 5%% budgets, 2 seeds")
-    parser.add_argument("--workers", type=int, default=2, help="parallel processes")
+    parser.add_argument("--workers", type=count_arg, default=2, help="parallel processes")
     parser.add_argument(
-        "--seeds", type=int, default=None, help="number of seeds (first-seed..first-seed+n-1)"
+        "--seeds", type=count_arg, default=None, help="number of seeds (first-seed..first-seed+n-1)"
     )
     parser.add_argument(
         "--first-seed",
@@ -92,7 +93,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
     )
     parser.add_argument(
         "--timesteps",
-        type=int,
+        type=count_arg,
         default=None,
         metavar="N",
         help="budget of every run (default: the built-in one per env, or n_timesteps of "
@@ -306,15 +307,11 @@ def config_from_args(args: argparse.Namespace) -> SweepConfig:
     Raises
     ------
     UsageError
-        Naming the first mistake: a count below 1, an unknown environment, an unreadable or
+        Naming the first mistake: an unknown environment, an unreadable or
         unusable hyperparameter file, an environment without hyperparameters, budget or
         threshold, or hyperparameters that do not build a model.
     """
     config = SweepConfig.quick() if args.quick else SweepConfig()
-    for name in ("workers", "seeds", "timesteps"):
-        value = getattr(args, name)
-        if value is not None and value < 1:
-            raise UsageError(f"--{name} must be at least 1, got {value}")
     if args.first_seed < 0:
         raise UsageError(f"--first-seed must be at least 0, got {args.first_seed}")
     changes: dict[str, Any] = {}
