@@ -104,6 +104,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
     )
     parser.add_argument("--ray", action="store_true", help="run the runs as Ray tasks")
     parser.add_argument(
+        "--mlp-normalize",
+        action="store_true",
+        help="SB3's MLP critic trains in VecNormalize where the zoo's entry has normalize, as "
+        "rl-baselines3-zoo trains it (evaluated on observations normalised with its training "
+        "statistics); the GP critics never do. Default: no VecNormalize for any critic",
+    )
+    parser.add_argument(
         "--algos",
         nargs="+",
         choices=sorted(ALGOS),
@@ -362,6 +369,7 @@ def config_from_args(args: argparse.Namespace) -> SweepConfig:
     check_target_arguments(args)
     changes["horizon"] = args.horizon
     changes["feed_every"] = args.feed_every
+    changes["mlp_normalize"] = args.mlp_normalize
     config = dataclasses.replace(config, **changes)
     try:
         for env_id in envs:

@@ -12,7 +12,7 @@ from __future__ import annotations
 import copy
 import importlib
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -75,6 +75,7 @@ def lockstep_returns(
     horizon: int,
     gamma: float = 1.0,
     sde_sample_freq: int = -1,
+    obs_transform: Callable[[np.ndarray], np.ndarray] | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Returns of ``len(envs)`` episodes stepped together, one batched policy call per step.
 
@@ -95,6 +96,9 @@ def lockstep_returns(
         With gSDE and ``deterministic=False``: every episode draws its own exploration
         matrix at the start and again every ``sde_sample_freq`` steps (if positive), as SB3
         does during rollouts. The policy's own exploration matrices are restored afterwards.
+    obs_transform : callable, optional
+        What the policy sees of the observations, e.g. ``VecNormalize.normalize_obs`` of a
+        policy trained in ``VecNormalize``.
 
     Returns
     -------
@@ -120,7 +124,8 @@ def lockstep_returns(
                 policy.reset_noise(n)
             # The whole batch every step (finished episodes are ignored), so that each row
             # keeps its own gSDE exploration matrix.
-            actions, _ = policy.predict(obs, deterministic=deterministic)
+            seen = obs if obs_transform is None else obs_transform(obs)
+            actions, _ = policy.predict(seen, deterministic=deterministic)
             for i in idx.tolist():
                 o, r, terminated, truncated, _ = envs[i].step(actions[i])
                 returns[i] += discount * float(r)
@@ -210,11 +215,13 @@ class ProbeStates:
         n_rollouts: int,
         seed: int,
         sde_sample_freq: int = -1,
+        obs_transform: Callable[[np.ndarray], np.ndarray] | None = None,
     ) -> tuple[np.ndarray, np.ndarray, int]:
         """Monte Carlo values of the probes, their standard errors and the env steps taken.
 
-        ``sde_sample_freq`` as in :func:`lockstep_returns`; standard errors are NaN with a
-        single rollout per probe. Returns arrays of shape (n,), (n,) and an int.
+        ``sde_sample_freq`` and ``obs_transform`` as in :func:`lockstep_returns`; standard
+        errors are NaN with a single rollout per probe. Returns arrays of shape (n,), (n,) and
+        an int.
         """
         horizon = mc_horizon(gamma, self.episode_steps)
         n = len(self.snapshots)
@@ -226,7 +233,14 @@ class ProbeStates:
                 envs.append(env)
         obs = np.repeat(self.obs, n_rollouts, axis=0)
         returns, lengths = lockstep_returns(
-            policy, envs, obs, False, horizon, gamma, sde_sample_freq=sde_sample_freq
+            policy,
+            envs,
+            obs,
+            False,
+            horizon,
+            gamma,
+            sde_sample_freq=sde_sample_freq,
+            obs_transform=obs_transform,
         )
         returns = returns.reshape(n, n_rollouts)
         stderr = returns.std(axis=1, ddof=1) / math.sqrt(n_rollouts) if n_rollouts > 1 else None

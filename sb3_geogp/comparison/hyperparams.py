@@ -423,6 +423,37 @@ def _policy_kwargs(value: Any) -> dict[str, Any]:
     )
 
 
+def normalize_kwargs(entry: Mapping[str, Any]) -> dict[str, Any] | None:
+    """The ``VecNormalize`` keyword arguments rl-baselines3-zoo builds from an entry's
+    ``normalize``, or ``None`` where the entry does not normalise.
+
+    ``normalize: true`` gives SB3's defaults (observations and rewards), a mapping or the
+    zoo's string ``"dict(norm_obs=False, ...)"`` those arguments; the zoo adds the entry's
+    ``gamma`` so that the reward scale follows the algorithm's discount. The comparison drops
+    ``normalize`` for every critic (:data:`DEVIATIONS`) unless a sweep asks for it for SB3's
+    MLP critic (``sb3-geogp compare --mlp-normalize``).
+
+    Raises
+    ------
+    ValueError
+        If ``normalize`` is neither a boolean nor such a dict.
+    """
+    value = entry.get("normalize", False)
+    if value is False:
+        return None
+    if value is True:
+        kwargs: dict[str, Any] = {}
+    elif isinstance(value, dict):
+        kwargs = dict(value)
+    elif isinstance(value, str):
+        kwargs = parse_policy_kwargs(value)
+    else:
+        raise ValueError(f"normalize must be true, false or dict(...), got {value!r}")
+    if "gamma" in entry:
+        kwargs["gamma"] = entry["gamma"]
+    return kwargs
+
+
 def parse_policy_kwargs(text: str) -> dict[str, Any]:
     """The zoo's ``policy_kwargs`` string as a dict, without evaluating code.
 

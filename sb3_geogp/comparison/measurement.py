@@ -4,6 +4,7 @@ records."""
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from typing import Any
 
 import gymnasium as gym
@@ -11,6 +12,7 @@ import numpy as np
 import torch as th
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.policies import ActorCriticPolicy
+from stable_baselines3.common.vec_env import VecNormalize, unwrap_vec_normalize
 
 from sb3_geogp.callbacks import GPValueCallback
 from sb3_geogp.comparison.evaluation import (
@@ -167,11 +169,39 @@ class MeasureCallback(BaseCallback):
         self.seconds += time.perf_counter() - start
         self.cpu_seconds += time.process_time() - cpu_start
 
+    def _normalizer(self) -> VecNormalize | None:
+        """The training environments' ``VecNormalize`` (:attr:`RunSpec.normalize`), if any."""
+        env = self.model.get_env()
+        return None if env is None else unwrap_vec_normalize(env)
+
+    def _obs_transform(self) -> Callable[[np.ndarray], np.ndarray] | None:
+        """What the policy sees of a raw observation: normalised with the training statistics,
+        as rl-baselines3-zoo's evaluation environments see it."""
+        normalizer = self._normalizer()
+        if normalizer is None:
+            return None
+        return lambda obs: np.asarray(normalizer.normalize_obs(obs))  # Box observations only
+
+    def _seen(self, obs: np.ndarray) -> np.ndarray:
+        transform = self._obs_transform()
+        return obs if transform is None else transform(obs)
+
+    def _value_scale(self) -> float:
+        """Returns per unit of the critic's values: ``VecNormalize`` divides rewards by the
+        running standard deviation of the discounted return, so a critic trained on them
+        predicts returns divided by it (exactly where the rewards' clipping did not act)."""
+        normalizer = self._normalizer()
+        if normalizer is None or not normalizer.norm_reward:
+            return 1.0
+        return float(np.sqrt(normalizer.ret_rms.var + normalizer.epsilon))
+
     def _evaluate(self, policy: ActorCriticPolicy) -> None:
         obs = np.stack([env.reset(seed=EVAL_SEED + i)[0] for i, env in enumerate(self.eval_envs)])
         horizon = max_episode_steps(self.spec.env_id)
         start, cpu_start = time.perf_counter(), time.process_time()
-        returns, lengths = lockstep_returns(policy, self.eval_envs, obs, True, horizon)
+        returns, lengths = lockstep_returns(
+            policy, self.eval_envs, obs, True, horizon, obs_transform=self._obs_transform()
+        )
         self.cost["eval_seconds"] += time.perf_counter() - start
         self.cost["eval_cpu_seconds"] += time.process_time() - cpu_start
         self.cost["eval_env_steps"] += int(lengths.sum())
@@ -187,13 +217,15 @@ class MeasureCallback(BaseCallback):
             self.spec.n_mc_rollouts,
             seed=len(self.eval_timesteps),
             sde_sample_freq=int(getattr(self.model, "sde_sample_freq", -1)),
+            obs_transform=self._obs_transform(),
         )
         self.cost["mc_seconds"] += time.perf_counter() - start
         self.cost["mc_cpu_seconds"] += time.process_time() - cpu_start
         self.cost["mc_env_steps"] += n_steps
         with th.no_grad():
-            obs_t, _ = policy.obs_to_tensor(self.probes.obs)
+            obs_t, _ = policy.obs_to_tensor(self._seen(self.probes.obs))
             pred = policy.predict_values(obs_t).cpu().numpy().reshape(-1).astype(np.float64)
+        pred *= self._value_scale()
         err = pred - mc
         c = self.critic
         c["timesteps"].append(int(self.model.num_timesteps))

@@ -42,6 +42,7 @@ import torch as th
 from stable_baselines3.common.callbacks import BaseCallback, CallbackList
 from stable_baselines3.common.env_util import make_vec_env
 from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
+from stable_baselines3.common.vec_env import VecEnv, VecNormalize
 
 import sb3_geogp.envs  # noqa: F401  (registers the package's environments with gymnasium)
 from sb3_geogp.comparison.evaluation import (
@@ -50,7 +51,13 @@ from sb3_geogp.comparison.evaluation import (
     ProbeStates,
     mc_horizon,
 )
-from sb3_geogp.comparison.hyperparams import ALGOS, ALL_CRITICS, DEVIATIONS, algo_kwargs
+from sb3_geogp.comparison.hyperparams import (
+    ALGOS,
+    ALL_CRITICS,
+    DEVIATIONS,
+    algo_kwargs,
+    normalize_kwargs,
+)
 from sb3_geogp.comparison.measurement import ForwardTimer, MeasureCallback, TimedGPValueCallback
 from sb3_geogp.comparison.specs import RunSpec
 from sb3_geogp.kernels import Kernel
@@ -136,14 +143,25 @@ def build_model(spec: RunSpec, kernel: Kernel | None = None) -> OnPolicyAlgorith
     SB3's ``"MlpPolicy"`` for the ``mlp`` critic, else :class:`~sb3_geogp.GPActorCriticPolicy`
     with the spec's GP options and the same ``policy_kwargs``: its actor starts from the MLP
     policy's parameters for the same seed. ``kernel``, if given, replaces the kernel
-    ``spec.critic`` names (a GP critic's only). Close ``model.get_env()`` when done.
+    ``spec.critic`` names (a GP critic's only). With ``spec.normalize`` the environments are
+    wrapped in ``VecNormalize`` as rl-baselines3-zoo wraps them. Close ``model.get_env()``
+    when done.
     """
     if spec.critic not in ALL_CRITICS:
         raise ValueError(f"critic must be one of {ALL_CRITICS}, got {spec.critic!r}")
     if kernel is not None and spec.critic == "mlp":
         raise ValueError("a kernel is for a GP critic; the spec's critic is 'mlp'")
+    if spec.normalize and spec.critic != "mlp":
+        raise ValueError(f"normalize is for SB3's MLP critic, not the {spec.critic} GP critic")
     n_envs, kwargs, policy_kwargs = algo_kwargs(spec.algo, spec.hyperparams)
-    env = make_vec_env(spec.env_id, n_envs=n_envs, seed=spec.seed)
+    env: VecEnv = make_vec_env(spec.env_id, n_envs=n_envs, seed=spec.seed)
+    if spec.normalize:
+        vec_kwargs = normalize_kwargs(spec.hyperparams)
+        if vec_kwargs is None:
+            raise ValueError(
+                f"normalize: the {spec.algo} entry for {spec.env_id} does not normalise"
+            )
+        env = VecNormalize(env, **vec_kwargs)
     if spec.critic == "mlp":
         return ALGOS[spec.algo](
             "MlpPolicy", env, seed=spec.seed, policy_kwargs=policy_kwargs, device="cpu", **kwargs

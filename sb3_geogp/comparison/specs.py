@@ -17,6 +17,7 @@ from sb3_geogp.comparison.hyperparams import (
     HyperparamsFile,
     algo_kwargs,
     hyperparams,
+    normalize_kwargs,
     threshold,
 )
 from sb3_geogp.comparison.results import env_file_name
@@ -57,7 +58,12 @@ def setting_differences(made: Any, asked: Any) -> str:
 
 #: :class:`RunSpec` fields added after result files existed, and the value that runs made
 #: before them had: a spec records them only where they differ from it.
-_RECORDED_WHERE_SET: dict[str, Any] = {"target": "returns", "horizon": None, "feed_every": 1}
+_RECORDED_WHERE_SET: dict[str, Any] = {
+    "target": "returns",
+    "horizon": None,
+    "feed_every": 1,
+    "normalize": False,
+}
 
 
 @dataclass(frozen=True)
@@ -94,6 +100,11 @@ class RunSpec:
         ``GPValueCallback``'s ``horizon`` (with ``target="monte_carlo"``).
     feed_every : int
         ``GPValueCallback``'s ``feed_every`` (ignored for ``mlp``).
+    normalize : bool
+        Train in ``VecNormalize`` as rl-baselines3-zoo does where the entry has ``normalize``
+        (:func:`~sb3_geogp.comparison.hyperparams.normalize_kwargs`); SB3's MLP critic only.
+        The evaluations and the probes then see observations normalised with the training
+        statistics, and the critic's values are scaled back to returns.
     hyperparams : dict
         The algorithm's hyperparameters, an entry in rl-baselines3-zoo's format
         (:func:`~sb3_geogp.comparison.hyperparams.algo_kwargs`).
@@ -119,6 +130,7 @@ class RunSpec:
     target: Target = "returns"
     horizon: int | None = None
     feed_every: int = 1
+    normalize: bool = False
     hyperparams: dict[str, Any] = field(kw_only=True, hash=False)
     hyperparams_source: str = field(kw_only=True)
     threshold: float = field(kw_only=True)
@@ -134,8 +146,9 @@ class RunSpec:
 
         Without ``hyperparams``, ``hyperparams_source`` and ``threshold``: a result file
         records them beside the spec (``hyperparams``, ``threshold``). ``target`` only where it
-        is not ``"returns"``, ``horizon`` only where set and ``feed_every`` only where not 1,
-        so that the files of runs made before they existed still match.
+        is not ``"returns"``, ``horizon`` only where set, ``feed_every`` only where not 1 and
+        ``normalize`` only where true, so that the files of runs made before they existed
+        still match.
         """
         d = dataclasses.asdict(self)
         d["gp_kwargs"] = dict(self.gp_kwargs)
@@ -180,6 +193,9 @@ class SweepConfig:
         ``target="returns"`` and no horizon whatever these are.
     feed_every : int
         As :class:`RunSpec`; the MLP critic's runs record 1.
+    mlp_normalize : bool
+        SB3's MLP critic trains in ``VecNormalize`` where the zoo's entry normalises
+        (:attr:`RunSpec.normalize`); the GP critics never do.
     """
 
     algos: tuple[str, ...] = tuple(ALGOS)
@@ -196,6 +212,7 @@ class SweepConfig:
     target: Target | None = None
     horizon: int | None = None
     feed_every: int = 1
+    mlp_normalize: bool = False
     timesteps: int | None = None
     thresholds: tuple[tuple[str, float], ...] = ()
     hyperparams_files: tuple[tuple[str, HyperparamsFile], ...] = ()
@@ -231,6 +248,7 @@ class SweepConfig:
                 hp = hyperparams(algo, env_id, files.get(algo))
                 try:
                     n_envs, kwargs, _ = algo_kwargs(algo, hp.values)
+                    normalize = self.mlp_normalize and normalize_kwargs(hp.values) is not None
                 except ValueError as err:
                     raise ValueError(f"{hp.source}, {algo} on {env_id}: {err}") from None
                 rollout = n_envs * int(kwargs.get("n_steps", 2048 if algo == "ppo" else 5))
@@ -255,6 +273,7 @@ class SweepConfig:
                                 target=target,
                                 horizon=horizon,
                                 feed_every=1 if critic == "mlp" else self.feed_every,
+                                normalize=critic == "mlp" and normalize,
                                 hyperparams=hp.values,
                                 hyperparams_source=hp.source,
                                 threshold=level,

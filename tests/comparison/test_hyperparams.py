@@ -21,6 +21,7 @@ from sb3_geogp.comparison.hyperparams import (
     HyperparamsFile,
     algo_kwargs,
     hyperparams,
+    normalize_kwargs,
     parse_policy_kwargs,
     threshold,
 )
@@ -179,3 +180,23 @@ def test_threshold_given_built_in_registered_or_asked_for() -> None:
     assert threshold("tests.comparison.toy_env:ToyEnvWarns-v0") == -2.0  # reward_threshold
     with pytest.raises(ValueError, match=r"no threshold for .*pass --threshold"):
         threshold(TOY)
+
+
+def test_normalize_kwargs_are_those_rl_zoo3_builds() -> None:
+    """rl-baselines3-zoo wraps a normalising entry in ``VecNormalize(**kwargs)``, with SB3's
+    defaults for ``normalize: true`` and the entry's ``gamma`` added (``ExperimentManager``)."""
+    assert normalize_kwargs(ZOO_HYPERPARAMS["ppo"]["Acrobot-v1"]) == {"gamma": 0.99}
+    assert normalize_kwargs(ZOO_HYPERPARAMS["a2c"]["Acrobot-v1"]) == {}
+    assert normalize_kwargs(ZOO_HYPERPARAMS["ppo"]["CartPole-v1"]) is None
+    entry = dict(normalize="dict(norm_obs=False, norm_reward=True)", gamma=0.9)
+    assert normalize_kwargs(entry) == {"norm_obs": False, "norm_reward": True, "gamma": 0.9}
+    assert normalize_kwargs(dict(normalize=dict(norm_obs=True))) == {"norm_obs": True}
+    for bad in (1, [True]):
+        with pytest.raises(ValueError, match="normalize must be true, false or dict"):
+            normalize_kwargs(dict(normalize=bad))
+    # Every zoo entry the comparison marks "(normalize)" gives VecNormalize's arguments.
+    marked = [(a, e) for a, t in ZOO_HYPERPARAMS.items() for e, v in t.items() if "normalize" in v]
+    assert len(marked) == 5
+    for algo, env_id in marked:
+        kwargs = normalize_kwargs(ZOO_HYPERPARAMS[algo][env_id])
+        assert kwargs is not None and set(kwargs) <= {"gamma"}, (algo, env_id)

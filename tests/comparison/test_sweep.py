@@ -11,16 +11,24 @@ from pathlib import Path
 from types import SimpleNamespace
 from typing import Any
 
+import gymnasium as gym
 import numpy as np
 import pytest
 import torch
+from stable_baselines3.common.callbacks import BaseCallback
+from stable_baselines3.common.evaluation import evaluate_policy
 from stable_baselines3.common.utils import explained_variance
+from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize, sync_envs_normalization
 
 from sb3_geogp.cli import main
 from sb3_geogp.comparison import run as run_module
-from sb3_geogp.comparison.evaluation import mc_horizon
+from sb3_geogp.comparison.evaluation import EVAL_SEED, mc_horizon
 from sb3_geogp.comparison.hyperparams import TIMESTEPS, HyperparamsFile
-from sb3_geogp.comparison.measurement import RolloutRecorder, rollout_explained_variance
+from sb3_geogp.comparison.measurement import (
+    MeasureCallback,
+    RolloutRecorder,
+    rollout_explained_variance,
+)
 from sb3_geogp.comparison.report import write_report
 from sb3_geogp.comparison.results import (
     comparisons,
@@ -368,3 +376,53 @@ def test_result_files_get_the_mode_of_any_new_file(tmp_path: Path) -> None:
     ordinary.write_text("{}")
     assert path.stat().st_mode == ordinary.stat().st_mode
     assert json.loads(path.read_text()) == {"a": 1}
+
+
+def test_the_mlp_critic_in_the_zoos_vecnormalize_is_evaluated_as_sb3_evaluates_it(
+    tmp_path: Path,
+) -> None:
+    """``mlp_normalize``: only the MLP critic's runs of a normalising entry train in
+    ``VecNormalize`` (with the entry's gamma), the spec records it, and the evaluations equal
+    SB3's ``evaluate_policy`` on evaluation environments normalised with the training
+    statistics, as rl-baselines3-zoo evaluates; the critic's values are scaled back to
+    returns by the inverse of ``VecNormalize.normalize_reward``."""
+    config = dataclasses.replace(
+        TINY, envs=("Pendulum-v1",), seeds=(0,), mlp_normalize=True, n_eval_episodes=3
+    )
+    mlp, gp = config.specs()
+    assert (mlp.normalize, gp.normalize) == (True, False)
+    assert "normalize" not in gp.as_dict() and mlp.as_dict()["normalize"] is True
+    assert not any(s.normalize for s in dataclasses.replace(config, envs=TINY.envs).specs())
+    with pytest.raises(ValueError, match="normalize is for SB3's MLP critic"):
+        build_model(dataclasses.replace(gp, normalize=True))
+
+    seen: dict[str, Any] = {}
+
+    class AtTheEnd(BaseCallback):
+        def _on_step(self) -> bool:
+            return True
+
+        def _on_training_end(self) -> None:
+            venv = self.model.get_env()
+            assert isinstance(venv, VecNormalize) and venv.gamma == 0.9 == self.model.gamma
+            evaluation = VecNormalize(
+                DummyVecEnv([lambda: gym.make("Pendulum-v1")] * 3),
+                training=False,
+                norm_reward=False,
+            )
+            sync_envs_normalization(venv, evaluation)
+            evaluation.seed(EVAL_SEED)
+            seen["returns"], _ = evaluate_policy(
+                self.model, evaluation, n_eval_episodes=3, return_episode_rewards=True, warn=False
+            )
+            measure = MeasureCallback(mlp, [], None, None)  # type: ignore[arg-type]
+            measure.init_callback(self.model)
+            seen["unscaled"] = measure._value_scale() * venv.normalize_reward(np.array([-3.7]))
+
+    result = run_one(mlp, tmp_path, recorders=[AtTheEnd()])
+    # SB3's vectorised environments hand out rewards in float32.
+    assert result["eval"]["returns"][-1] == pytest.approx(seen["returns"], rel=1e-6)
+    assert seen["unscaled"] == pytest.approx([-3.7], rel=1e-6)  # normalize_reward: float32
+    assert result["spec"]["normalize"] is True
+    with pytest.raises(ValueError, match="other settings"):
+        pending_runs([dataclasses.replace(mlp, normalize=False)], tmp_path)
