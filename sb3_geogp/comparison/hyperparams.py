@@ -123,7 +123,8 @@ OWN_HYPERPARAMS: dict[str, dict[str, dict[str, Any]]] = {
 
 #: Deviations from the zoo, applied identically to every critic.
 DEVIATIONS = (
-    "normalize (VecNormalize) is dropped for every critic: the GP stores its basis vectors in "
+    "normalize (VecNormalize) is dropped for every critic (unless --mlp-normalize gives it to "
+    "SB3's MLP critic, whose runs then record normalize): the GP stores its basis vectors in "
     "the units it was fed, so running observation statistics would move old basis vectors "
     "away from new observations (GPValueCallback warns about it), and running reward "
     "statistics would put critic values in drifting units that cannot be compared with Monte "
