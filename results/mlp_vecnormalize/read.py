@@ -85,10 +85,13 @@ def critic_rmse(runs: list[dict[str, Any]]) -> dict[tuple[str, str], float]:
 
 def plot(sets: dict[str, dict[tuple[str, str], dict[str, Any]]], metric: str, path: str) -> None:
     """Each cell's GP − MLP without and with the MLP critic's ``VecNormalize``."""
-    shown = {k: v for k, v in sets.items() if k.startswith("GP")}
+    shown = {"table": sets["GP − MLP (the table)"], "VecNorm": sets["GP − MLP in VecNormalize"]}
     panels = [{"env": env, "algo": algo, **{k: t.get((env, algo)) for k, t in shown.items()}}
-              for env, algo in CELLS if (env, algo) in shown["GP − MLP (the table)"]]  # fmt: skip
-    title = f"default GP critic − SB3's MLP critic (without / with VecNormalize), {metric}"
+              for env, algo in CELLS if (env, algo) in shown["table"]]  # fmt: skip
+    title = (
+        f"default GP critic − SB3's MLP critic, {metric}: the MLP critic as in issue 13's "
+        "table (without VecNormalize) and in the zoo's VecNormalize"
+    )
     plot_difference_panels(panels, list(shown), path, title, n_cols=5, panel_size=(2.6, 2.6))
 
 
