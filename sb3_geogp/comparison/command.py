@@ -108,7 +108,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
         action="store_true",
         help="SB3's MLP critic trains in VecNormalize where the zoo's entry has normalize, as "
         "rl-baselines3-zoo trains it (evaluated on observations normalised with its training "
-        "statistics); the GP critics never do. Default: no VecNormalize for any critic",
+        "statistics). Default: no VecNormalize for any critic",
+    )
+    parser.add_argument(
+        "--gp-normalize",
+        action="store_true",
+        help="the same for the GP critics, whose basis vectors then keep observations in the "
+        "units of their time (GPValueCallback warns)",
     )
     parser.add_argument(
         "--algos",
@@ -370,6 +376,7 @@ def config_from_args(args: argparse.Namespace) -> SweepConfig:
     changes["horizon"] = args.horizon
     changes["feed_every"] = args.feed_every
     changes["mlp_normalize"] = args.mlp_normalize
+    changes["gp_normalize"] = args.gp_normalize
     config = dataclasses.replace(config, **changes)
     try:
         for env_id in envs:

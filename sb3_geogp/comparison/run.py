@@ -151,8 +151,6 @@ def build_model(spec: RunSpec, kernel: Kernel | None = None) -> OnPolicyAlgorith
         raise ValueError(f"critic must be one of {ALL_CRITICS}, got {spec.critic!r}")
     if kernel is not None and spec.critic == "mlp":
         raise ValueError("a kernel is for a GP critic; the spec's critic is 'mlp'")
-    if spec.normalize and spec.critic != "mlp":
-        raise ValueError(f"normalize is for SB3's MLP critic, not the {spec.critic} GP critic")
     n_envs, kwargs, policy_kwargs = algo_kwargs(spec.algo, spec.hyperparams)
     env: VecEnv = make_vec_env(spec.env_id, n_envs=n_envs, seed=spec.seed)
     if spec.normalize:

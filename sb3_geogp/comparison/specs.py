@@ -102,9 +102,10 @@ class RunSpec:
         ``GPValueCallback``'s ``feed_every`` (ignored for ``mlp``).
     normalize : bool
         Train in ``VecNormalize`` as rl-baselines3-zoo does where the entry has ``normalize``
-        (:func:`~sb3_geogp.comparison.hyperparams.normalize_kwargs`); SB3's MLP critic only.
-        The evaluations and the probes then see observations normalised with the training
-        statistics, and the critic's values are scaled back to returns.
+        (:func:`~sb3_geogp.comparison.hyperparams.normalize_kwargs`). The evaluations and the
+        probes then see observations normalised with the training statistics, and the
+        critic's values are scaled back to returns. A GP critic then learns from observations
+        and returns in moving units (``GPValueCallback`` warns).
     hyperparams : dict
         The algorithm's hyperparameters, an entry in rl-baselines3-zoo's format
         (:func:`~sb3_geogp.comparison.hyperparams.algo_kwargs`).
@@ -193,9 +194,9 @@ class SweepConfig:
         ``target="returns"`` and no horizon whatever these are.
     feed_every : int
         As :class:`RunSpec`; the MLP critic's runs record 1.
-    mlp_normalize : bool
-        SB3's MLP critic trains in ``VecNormalize`` where the zoo's entry normalises
-        (:attr:`RunSpec.normalize`); the GP critics never do.
+    mlp_normalize, gp_normalize : bool
+        SB3's MLP critic, and the GP critics, train in ``VecNormalize`` where the zoo's entry
+        normalises (:attr:`RunSpec.normalize`).
     """
 
     algos: tuple[str, ...] = tuple(ALGOS)
@@ -213,6 +214,7 @@ class SweepConfig:
     horizon: int | None = None
     feed_every: int = 1
     mlp_normalize: bool = False
+    gp_normalize: bool = False
     timesteps: int | None = None
     thresholds: tuple[tuple[str, float], ...] = ()
     hyperparams_files: tuple[tuple[str, HyperparamsFile], ...] = ()
@@ -248,7 +250,7 @@ class SweepConfig:
                 hp = hyperparams(algo, env_id, files.get(algo))
                 try:
                     n_envs, kwargs, _ = algo_kwargs(algo, hp.values)
-                    normalize = self.mlp_normalize and normalize_kwargs(hp.values) is not None
+                    normalises = normalize_kwargs(hp.values) is not None
                 except ValueError as err:
                     raise ValueError(f"{hp.source}, {algo} on {env_id}: {err}") from None
                 rollout = n_envs * int(kwargs.get("n_steps", 2048 if algo == "ppo" else 5))
@@ -273,7 +275,8 @@ class SweepConfig:
                                 target=target,
                                 horizon=horizon,
                                 feed_every=1 if critic == "mlp" else self.feed_every,
-                                normalize=critic == "mlp" and normalize,
+                                normalize=normalises
+                                and (self.mlp_normalize if critic == "mlp" else self.gp_normalize),
                                 hyperparams=hp.values,
                                 hyperparams_source=hp.source,
                                 threshold=level,

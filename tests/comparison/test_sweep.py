@@ -378,23 +378,23 @@ def test_result_files_get_the_mode_of_any_new_file(tmp_path: Path) -> None:
     assert json.loads(path.read_text()) == {"a": 1}
 
 
-def test_the_mlp_critic_in_the_zoos_vecnormalize_is_evaluated_as_sb3_evaluates_it(
-    tmp_path: Path,
+@pytest.mark.parametrize("side", ["mlp", "gp"])
+def test_a_critic_in_the_zoos_vecnormalize_is_evaluated_as_sb3_evaluates_it(
+    side: str, tmp_path: Path
 ) -> None:
-    """``mlp_normalize``: only the MLP critic's runs of a normalising entry train in
-    ``VecNormalize`` (with the entry's gamma), the spec records it, and the evaluations equal
-    SB3's ``evaluate_policy`` on evaluation environments normalised with the training
-    statistics, as rl-baselines3-zoo evaluates; the critic's values are scaled back to
-    returns by the inverse of ``VecNormalize.normalize_reward``."""
+    """``mlp_normalize`` (``gp_normalize``): only the MLP (GP) critic's runs of a normalising
+    entry train in ``VecNormalize`` (with the entry's gamma), the spec records it, and the
+    evaluations equal SB3's ``evaluate_policy`` on evaluation environments normalised with the
+    training statistics, as rl-baselines3-zoo evaluates; the critic's values are scaled back
+    to returns by the inverse of ``VecNormalize.normalize_reward``."""
     config = dataclasses.replace(
-        TINY, envs=("Pendulum-v1",), seeds=(0,), mlp_normalize=True, n_eval_episodes=3
+        TINY, envs=("Pendulum-v1",), seeds=(0,), n_eval_episodes=3, **{f"{side}_normalize": True}
     )
     mlp, gp = config.specs()
-    assert (mlp.normalize, gp.normalize) == (True, False)
-    assert "normalize" not in gp.as_dict() and mlp.as_dict()["normalize"] is True
+    spec, other = (mlp, gp) if side == "mlp" else (gp, mlp)
+    assert (spec.normalize, other.normalize) == (True, False)
+    assert "normalize" not in other.as_dict() and spec.as_dict()["normalize"] is True
     assert not any(s.normalize for s in dataclasses.replace(config, envs=TINY.envs).specs())
-    with pytest.raises(ValueError, match="normalize is for SB3's MLP critic"):
-        build_model(dataclasses.replace(gp, normalize=True))
 
     seen: dict[str, Any] = {}
 
@@ -415,14 +415,14 @@ def test_the_mlp_critic_in_the_zoos_vecnormalize_is_evaluated_as_sb3_evaluates_i
             seen["returns"], _ = evaluate_policy(
                 self.model, evaluation, n_eval_episodes=3, return_episode_rewards=True, warn=False
             )
-            measure = MeasureCallback(mlp, [], None, None)  # type: ignore[arg-type]
+            measure = MeasureCallback(spec, [], None, None)  # type: ignore[arg-type]
             measure.init_callback(self.model)
             seen["unscaled"] = measure._value_scale() * venv.normalize_reward(np.array([-3.7]))
 
-    result = run_one(mlp, tmp_path, recorders=[AtTheEnd()])
+    result = run_one(spec, tmp_path, recorders=[AtTheEnd()])
     # SB3's vectorised environments hand out rewards in float32.
     assert result["eval"]["returns"][-1] == pytest.approx(seen["returns"], rel=1e-6)
     assert seen["unscaled"] == pytest.approx([-3.7], rel=1e-6)  # normalize_reward: float32
     assert result["spec"]["normalize"] is True
     with pytest.raises(ValueError, match="other settings"):
-        pending_runs([dataclasses.replace(mlp, normalize=False)], tmp_path)
+        pending_runs([dataclasses.replace(spec, normalize=False)], tmp_path)
