@@ -18,42 +18,67 @@ SEEDS = set(range(20))
 FAMILY = len(CONTROL.CELLS)
 
 
-def arms() -> tuple[list[dict[str, Any]], list[dict[str, Any]], list[dict[str, Any]]]:
-    """The GP critic in ``VecNormalize`` (this folder), and on the same seeds the MLP critic in
+#: The screen's arms: the GP critic in the zoo's ``VecNormalize``, and with rewards only
+#: normalised (the addendum), each in its folders.
+ARMS = {
+    "VecNormalize": (HERE / "ppo", HERE / "a2c"),
+    "rewards only": (HERE / "reward_only" / "ppo", HERE / "reward_only" / "a2c"),
+}
+
+
+def on_seeds(runs: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    return [r for r in runs if r["spec"]["seed"] in SEEDS]
+
+
+def arms() -> dict[str, list[dict[str, Any]]]:
+    """The screen's arms that have runs, and on the same seeds the MLP critic in
     ``VecNormalize`` and the GP critic without it (the registered control's runs)."""
-    gp_normalised = pool_sweeps([HERE / "ppo", HERE / "a2c"])
-    assert all(r["spec"].get("normalize") is True for r in gp_normalised)
     gp, _, mlp_normalised = CONTROL.arms()
-
-    def on_seeds(runs: list[dict[str, Any]]) -> list[dict[str, Any]]:
-        return [r for r in runs if r["spec"]["seed"] in SEEDS]
-
-    return gp_normalised, on_seeds(mlp_normalised), on_seeds(gp)
+    out = {"GP": on_seeds(gp), "MLP in VecNormalize": on_seeds(mlp_normalised)}
+    for name, folders in ARMS.items():
+        present = [f for f in folders if (f / "runs").is_dir()]
+        if present:
+            runs = pool_sweeps(present)
+            assert all(r["spec"].get("normalize") is True for r in runs)
+            out[f"GP, {name}"] = runs
+    return out
 
 
 def main() -> None:
-    gp_normalised, mlp_normalised, gp = arms()
+    runs = arms()
+    mlp_normalised, gp = runs["MLP in VecNormalize"], runs["GP"]
+    screened = [name for name in runs if name.startswith("GP, ")]
     print("# The default GP critic in the zoo's VecNormalize: exploratory screen, seeds 0-19\n")
-    for metric in ("final_return", "mean_return"):
-        label = CONTROL.LABELS[metric]
-        against_mlp = {
-            (c["env"], c["algo"]): c
-            for c in comparisons(gp_normalised + mlp_normalised, family_size=FAMILY)
-            if c["metric"] == metric and c["b"] == "mlp"
-        }
-        print(f"## GP in VecNormalize − MLP in VecNormalize, {label}\n")
-        CONTROL.POOL30.print_table(against_mlp, label)
-        print(f"\n## GP in VecNormalize − GP without it, {label}\n")
-        against_gp = CONTROL.POOL30.against_baseline(gp_normalised, gp, metric, family=FAMILY)
-        CONTROL.POOL30.print_table(against_gp, label, "with − without")
-        print()
-    print("## Final critic RMSE against Monte Carlo returns (mean over seeds)\n")
-    print("| env | algo | GP | GP in VecNormalize | MLP in VecNormalize |")
-    print("|---|---|---:|---:|---:|")
-    columns = [CONTROL.critic_rmse(arm) for arm in (gp, gp_normalised, mlp_normalised)]
+    for name in screened:
+        for metric in ("final_return", "mean_return"):
+            label = CONTROL.LABELS[metric]
+            against_mlp = {
+                (c["env"], c["algo"]): c
+                for c in comparisons(runs[name] + mlp_normalised, family_size=FAMILY)
+                if c["metric"] == metric and c["b"] == "mlp"
+            }
+            print(f"## {name} − MLP in VecNormalize, {label}\n")
+            CONTROL.POOL30.print_table(against_mlp, label)
+            print(f"\n## {name} − GP without VecNormalize, {label}\n")
+            against_gp = CONTROL.POOL30.against_baseline(runs[name], gp, metric, family=FAMILY)
+            CONTROL.POOL30.print_table(against_gp, label, "with − without")
+            print()
+    print("## Final return and critic RMSE against Monte Carlo returns (means over seeds)\n")
+    print("| env | algo | " + " | ".join(runs) + " |")
+    print("|---|---|" + "---:|" * len(runs))
+    returns = {name: _means(arm, "final_return") for name, arm in runs.items()}
+    rmse = {name: CONTROL.critic_rmse(arm) for name, arm in runs.items()}
     for cell in CONTROL.CELLS:
-        rmse = " | ".join(f"{c[cell]:.2f}" for c in columns)
-        print(f"| `{cell[0]}` | {cell[1]} | {rmse} |")
+        shown = [f"{returns[n].get(cell, float('nan')):.1f} / {rmse[n].get(cell, float('nan')):.1f}"
+                 for n in runs]  # fmt: skip
+        print(f"| `{cell[0]}` | {cell[1]} | " + " | ".join(shown) + " |")
+
+
+def _means(runs: list[dict[str, Any]], key: str) -> dict[tuple[str, str], float]:
+    per_cell: dict[tuple[str, str], list[float]] = {}
+    for r in runs:
+        per_cell.setdefault(CONTROL._cell(r), []).append(r[key])
+    return {cell: sum(v) / len(v) for cell, v in per_cell.items()}
 
 
 if __name__ == "__main__":
