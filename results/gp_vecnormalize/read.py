@@ -18,11 +18,12 @@ SEEDS = set(range(20))
 FAMILY = len(CONTROL.CELLS)
 
 
-#: The screen's arms: the GP critic in the zoo's ``VecNormalize``, and with rewards only
-#: normalised (the addendum), each in its folders.
+#: The screen's arms: the GP critic in the zoo's ``VecNormalize``, with rewards only normalised
+#: (the addendum), and with the statistics frozen after 2,000 steps (the second addendum).
 ARMS = {
     "VecNormalize": (HERE / "ppo", HERE / "a2c"),
     "rewards only": (HERE / "reward_only" / "ppo", HERE / "reward_only" / "a2c"),
+    "frozen after 2,000 steps": (HERE / "frozen",),
 }
 
 
