@@ -3,10 +3,15 @@ zoo's ``VecNormalize`` with its statistics frozen after a warm-up, as ``GPValueC
 warning suggests (``vec_env.training = False``), seeds 0-19, the five cells::
 
     python results/gp_vecnormalize/frozen.py --out results/gp_vecnormalize/frozen
+    python results/gp_vecnormalize/frozen.py --lengthscale 1.0 \
+        --out results/gp_vecnormalize/frozen_unit_lengthscale
 
-Each run is ``sb3-geogp compare --gp-normalize``'s run of the same spec with one more callback,
-which freezes the statistics once ``--warmup`` steps have been taken; the result file records
-it as ``normalize_frozen_after``. Runs already in ``--out`` are skipped.
+``--lengthscale`` (the third addendum) gives the GP critics that starting lengthscale, as
+docs/usage.md advises for normalised observations (unit variance), instead of one from the
+observation space's raw bounds. Each run is ``sb3-geogp compare --gp-normalize``'s run of the
+same spec with one more callback, which freezes the statistics once ``--warmup`` steps have
+been taken; the result file records it as ``normalize_frozen_after``. Runs already in
+``--out`` are skipped.
 """
 
 from __future__ import annotations
@@ -44,12 +49,19 @@ class FreezeNormalization(BaseCallback):
         return True
 
 
-def specs(seeds: range) -> list[RunSpec]:
-    """``sb3-geogp compare --gp-normalize``'s specs of the five cells' default GP critics."""
+def specs(seeds: range, lengthscale: float | None = None) -> list[RunSpec]:
+    """``sb3-geogp compare --gp-normalize``'s specs of the five cells' default GP critics (with
+    ``--gp-option 'kernel_kwargs={"lengthscale": ...}'`` where ``lengthscale`` is given)."""
+    options = () if lengthscale is None else (("kernel_kwargs", {"lengthscale": lengthscale}),)
     out = []
     for algo, (envs, critic) in CELLS.items():
         config = SweepConfig(
-            algos=(algo,), critics=(critic,), envs=envs, seeds=tuple(seeds), gp_normalize=True
+            algos=(algo,),
+            critics=(critic,),
+            envs=envs,
+            seeds=tuple(seeds),
+            gp_normalize=True,
+            gp_options=options,
         )
         out += config.specs()
     return out
@@ -68,10 +80,11 @@ def main() -> None:
     parser.add_argument("--warmup", type=count_arg, default=2_000, help="steps before freezing")
     parser.add_argument("--seeds", type=count_arg, default=20, help="seeds 0..N-1")
     parser.add_argument("--workers", type=count_arg, default=2)
+    parser.add_argument("--lengthscale", type=float, default=None, help="the GP's starting one")
     args = parser.parse_args()
     todo = [
         (spec, args.out, args.warmup)
-        for spec in specs(range(args.seeds))
+        for spec in specs(range(args.seeds), args.lengthscale)
         if load_result(result_path(args.out, spec)) is None
     ]
     with mp.get_context("spawn").Pool(args.workers) as pool:

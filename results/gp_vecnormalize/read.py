@@ -19,11 +19,13 @@ FAMILY = len(CONTROL.CELLS)
 
 
 #: The screen's arms: the GP critic in the zoo's ``VecNormalize``, with rewards only normalised
-#: (the addendum), and with the statistics frozen after 2,000 steps (the second addendum).
+#: (the addendum), with the statistics frozen after 2,000 steps (the second addendum), and the
+#: same with a starting lengthscale of 1 (the third).
 ARMS = {
     "VecNormalize": (HERE / "ppo", HERE / "a2c"),
     "rewards only": (HERE / "reward_only" / "ppo", HERE / "reward_only" / "a2c"),
     "frozen after 2,000 steps": (HERE / "frozen",),
+    "frozen, lengthscale 1": (HERE / "frozen_unit_lengthscale",),
 }
 
 
