@@ -245,7 +245,10 @@ class GPValueCallback(BaseCallback):
                 "VecNormalize keeps updating its observation statistics while the GP's basis "
                 "vectors stay in the units they were fed in, so old basis vectors drift away "
                 "from new observations. Freeze the statistics after a warm-up "
-                "(vec_env.training = False) or use norm_obs=False with the GP critic."
+                "(vec_env.training = False) or use norm_obs=False with the GP critic, and "
+                "compare with and without VecNormalize on your task: on issue 13's tasks no "
+                "setting of it helped the GP critic everywhere (docs/results.md, 'The GP "
+                "critic's policy in VecNormalize')."
             )
         self._check_bounds_wrappers(vec_normalize)
         gp = policy.gp
