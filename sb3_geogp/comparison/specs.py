@@ -250,7 +250,10 @@ class SweepConfig:
                 hp = hyperparams(algo, env_id, files.get(algo))
                 try:
                     n_envs, kwargs, _ = algo_kwargs(algo, hp.values)
-                    normalises = normalize_kwargs(hp.values) is not None
+                    # Read only when asked for: without it every critic drops normalize.
+                    normalises = (self.mlp_normalize or self.gp_normalize) and (
+                        normalize_kwargs(hp.values) is not None
+                    )
                 except ValueError as err:
                     raise ValueError(f"{hp.source}, {algo} on {env_id}: {err}") from None
                 rollout = n_envs * int(kwargs.get("n_steps", 2048 if algo == "ppo" else 5))
