@@ -447,7 +447,7 @@ def normalize_kwargs(entry: Mapping[str, Any]) -> dict[str, Any] | None:
     elif isinstance(value, dict):
         kwargs = dict(value)
     elif isinstance(value, str):
-        kwargs = parse_policy_kwargs(value)
+        kwargs = parse_policy_kwargs(value, "normalize")
     else:
         raise ValueError(f"normalize must be true, false or dict(...), got {value!r}")
     if "gamma" in entry:
@@ -455,8 +455,9 @@ def normalize_kwargs(entry: Mapping[str, Any]) -> dict[str, Any] | None:
     return kwargs
 
 
-def parse_policy_kwargs(text: str) -> dict[str, Any]:
-    """The zoo's ``policy_kwargs`` string as a dict, without evaluating code.
+def parse_policy_kwargs(text: str, key: str = "policy_kwargs") -> dict[str, Any]:
+    """The zoo's ``policy_kwargs`` string (or another key's ``"dict(...)"``, e.g.
+    ``normalize``'s) as a dict, without evaluating code.
 
     The zoo evaluates e.g. ``"dict(log_std_init=-2, activation_fn=nn.ReLU,
     net_arch=dict(pi=[64], vf=[64]))"`` as Python; here only ``dict(...)`` calls, ``{...}``,
@@ -466,15 +467,18 @@ def parse_policy_kwargs(text: str) -> dict[str, Any]:
     Raises
     ------
     ValueError
-        Naming the first part of ``text`` that is not one of those.
+        Naming ``key`` and the first part of ``text`` that is not one of those.
     """
     try:
         tree = ast.parse(text.strip(), mode="eval")
     except SyntaxError:
-        raise ValueError(f"policy_kwargs is not a Python expression: {text!r}") from None
-    value = _literal(tree.body)
+        raise ValueError(f"{key} is not a Python expression: {text!r}") from None
+    try:
+        value = _literal(tree.body)
+    except ValueError as err:
+        raise ValueError(f"{key}: {err}") from None
     if not isinstance(value, dict):
-        raise ValueError(f"policy_kwargs must be dict(...), got {text!r}")
+        raise ValueError(f"{key} must be dict(...), got {text!r}")
     return value
 
 
@@ -509,8 +513,8 @@ def _literal(node: ast.expr) -> Any:
     if isinstance(node, (ast.Name, ast.Attribute)) and ast.unparse(node) in _NAMED_CLASSES:
         return _NAMED_CLASSES[ast.unparse(node)]
     raise ValueError(
-        f"policy_kwargs: {ast.unparse(node)!r} is not allowed (only dict(...), literals and "
-        "activation functions such as nn.ReLU)"
+        f"{ast.unparse(node)!r} is not allowed (only dict(...), literals and activation "
+        "functions such as nn.ReLU)"
     )
 
 

@@ -194,6 +194,14 @@ def test_normalize_kwargs_are_those_rl_zoo3_builds() -> None:
     for bad in (1, [True]):
         with pytest.raises(ValueError, match="normalize must be true, false or dict"):
             normalize_kwargs(dict(normalize=bad))
+    # A string is read as policy_kwargs' are, and its mistakes name normalize.
+    for bad, why in (
+        ("dict(norm_obs=os.system)", "normalize: 'os.system' is not allowed"),
+        ("[1]", "normalize must be dict"),
+        ("dict(", "normalize is not a Python"),
+    ):
+        with pytest.raises(ValueError, match=re.escape(why)):
+            normalize_kwargs(dict(normalize=bad))
     # Every zoo entry the comparison marks "(normalize)" gives VecNormalize's arguments.
     marked = [(a, e) for a, t in ZOO_HYPERPARAMS.items() for e, v in t.items() if "normalize" in v]
     assert len(marked) == 5
