@@ -69,19 +69,12 @@ def main() -> None:
     print("## Final return and critic RMSE against Monte Carlo returns (means over seeds)\n")
     print("| env | algo | " + " | ".join(runs) + " |")
     print("|---|---|" + "---:|" * len(runs))
-    returns = {name: _means(arm, "final_return") for name, arm in runs.items()}
+    returns = {n: CONTROL.cell_means(arm, lambda r: r["final_return"]) for n, arm in runs.items()}
     rmse = {name: CONTROL.critic_rmse(arm) for name, arm in runs.items()}
     for cell in CONTROL.CELLS:
         shown = [f"{returns[n].get(cell, float('nan')):.1f} / {rmse[n].get(cell, float('nan')):.1f}"
                  for n in runs]  # fmt: skip
         print(f"| `{cell[0]}` | {cell[1]} | " + " | ".join(shown) + " |")
-
-
-def _means(runs: list[dict[str, Any]], key: str) -> dict[tuple[str, str], float]:
-    per_cell: dict[tuple[str, str], list[float]] = {}
-    for r in runs:
-        per_cell.setdefault(CONTROL._cell(r), []).append(r[key])
-    return {cell: sum(v) / len(v) for cell, v in per_cell.items()}
 
 
 if __name__ == "__main__":

@@ -12,6 +12,7 @@ on the same seeds. Only cells with all 50 MLP runs are read::
 from __future__ import annotations
 
 import argparse
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -75,12 +76,19 @@ def readings(metric: str) -> dict[str, dict[tuple[str, str], dict[str, Any]]]:
     }
 
 
-def critic_rmse(runs: list[dict[str, Any]]) -> dict[tuple[str, str], float]:
-    """Mean over seeds of the final critic RMSE against Monte Carlo returns, per cell."""
+def cell_means(
+    runs: list[dict[str, Any]], value: Callable[[dict[str, Any]], float]
+) -> dict[tuple[str, str], float]:
+    """Mean over seeds of ``value(run)``, per cell."""
     per_cell: dict[tuple[str, str], list[float]] = {}
     for r in runs:
-        per_cell.setdefault(_cell(r), []).append(r["critic_accuracy"]["rmse"][-1])
+        per_cell.setdefault(_cell(r), []).append(value(r))
     return {cell: float(np.mean(v)) for cell, v in per_cell.items()}
+
+
+def critic_rmse(runs: list[dict[str, Any]]) -> dict[tuple[str, str], float]:
+    """Mean over seeds of the final critic RMSE against Monte Carlo returns, per cell."""
+    return cell_means(runs, lambda r: r["critic_accuracy"]["rmse"][-1])
 
 
 def plot(sets: dict[str, dict[tuple[str, str], dict[str, Any]]], metric: str, path: str) -> None:
