@@ -182,10 +182,6 @@ class MeasureCallback(BaseCallback):
             return None
         return lambda obs: np.asarray(normalizer.normalize_obs(obs))  # Box observations only
 
-    def _seen(self, obs: np.ndarray) -> np.ndarray:
-        transform = self._obs_transform()
-        return obs if transform is None else transform(obs)
-
     def _value_scale(self) -> float:
         """Returns per unit of the critic's values: ``VecNormalize`` divides rewards by the
         running standard deviation of the discounted return, so a critic trained on them
@@ -210,6 +206,7 @@ class MeasureCallback(BaseCallback):
 
     def _critic_accuracy(self, policy: ActorCriticPolicy) -> None:
         gamma = float(getattr(self.model, "gamma", 0.99))
+        transform = self._obs_transform()
         start, cpu_start = time.perf_counter(), time.process_time()
         mc, stderr, n_steps = self.probes.monte_carlo(
             policy,
@@ -217,13 +214,14 @@ class MeasureCallback(BaseCallback):
             self.spec.n_mc_rollouts,
             seed=len(self.eval_timesteps),
             sde_sample_freq=int(getattr(self.model, "sde_sample_freq", -1)),
-            obs_transform=self._obs_transform(),
+            obs_transform=transform,
         )
         self.cost["mc_seconds"] += time.perf_counter() - start
         self.cost["mc_cpu_seconds"] += time.process_time() - cpu_start
         self.cost["mc_env_steps"] += n_steps
         with th.no_grad():
-            obs_t, _ = policy.obs_to_tensor(self._seen(self.probes.obs))
+            seen = self.probes.obs if transform is None else transform(self.probes.obs)
+            obs_t, _ = policy.obs_to_tensor(seen)
             pred = policy.predict_values(obs_t).cpu().numpy().reshape(-1).astype(np.float64)
         pred *= self._value_scale()
         err = pred - mc
