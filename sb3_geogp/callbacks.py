@@ -273,7 +273,11 @@ class GPValueCallback(BaseCallback):
 
     def _on_rollout_start(self) -> None:
         self._truncations = []
-        self._policy.defer_values = self.deferred_values
+        policy = self._policy
+        policy.defer_values = self.deferred_values
+        if policy.actor_normalizer is not None:
+            # Not at the rollout's end: the actor trains on it under the statistics it acted by.
+            policy.actor_normalizer.publish()
 
     def _on_step(self) -> bool:
         truncations = time_limit_truncations(self._algo, self.locals)
@@ -321,6 +325,10 @@ class GPValueCallback(BaseCallback):
                 self.logger.record(f"gp/{key}", value)
         if not self._warned_still and not buffer.advantages.any():
             self._warn_still()
+        if policy.actor_normalizer is not None:
+            policy.actor_normalizer.observe(
+                buffer.observations.reshape(buffer.buffer_size * buffer.n_envs, -1)
+            )
 
     def _rollout_targets(self, buffer: RolloutBuffer, dones: np.ndarray) -> tuple[np.ndarray, ...]:
         """What this rollout feeds: SB3's returns as the buffer's time-major ``(observations,

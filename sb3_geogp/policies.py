@@ -40,6 +40,7 @@ from torch import nn
 
 from sb3_geogp.adaptation import Adaptation, as_adaptation
 from sb3_geogp.kernels import KERNELS, kernel_names, kernels_taking, make_kernel
+from sb3_geogp.normalization import ActorObservationNormalizer
 from sb3_geogp.options import unknown_option
 from sb3_geogp.saved_state import state_to_restore
 from sb3_geogp.sparse_gp import SparseOnlineGP
@@ -263,9 +264,15 @@ class GPCriticMixin(_PolicyBase):
         lr_schedule: Schedule,
         net_arch: list[int] | dict[str, list[int]] | None = None,
         gp_kwargs: dict[str, Any] | None = None,
+        normalize_actor_obs: bool = False,
         **kwargs: Any,
     ) -> None:
         check_supported_spaces(observation_space, action_space)
+        if not isinstance(normalize_actor_obs, bool):
+            raise TypeError(
+                f"normalize_actor_obs must be True or False, got {normalize_actor_obs!r}"
+            )
+        self.normalize_actor_obs = normalize_actor_obs
         # Needed by _build(), which the SB3 policy's __init__ calls.
         algorithm = _constructing_algorithm()
         algorithm_class = None if algorithm is None else type(algorithm)
@@ -307,10 +314,30 @@ class GPCriticMixin(_PolicyBase):
         # The GP reads the critic's features directly.
         self.mlp_extractor.value_net = nn.Sequential()
         self.mlp_extractor.latent_dim_vf = self.vf_features_extractor.features_dim
+        if self.normalize_actor_obs:
+            self._build_actor_normalizer()
         self._build_gp()
         self.optimizer = self.optimizer_class(  # type: ignore[call-arg]
             self.parameters(), lr=lr_schedule(1), **self.optimizer_kwargs
         )
+
+    def _build_actor_normalizer(self) -> None:
+        """Put an :class:`~sb3_geogp.normalization.ActorObservationNormalizer` in front of
+        the actor's layers (after SB3's initialisation, which it leaves as it was)."""
+        if not isinstance(self.pi_features_extractor, FlattenExtractor):
+            raise ValueError(
+                "normalize_actor_obs normalises the flattened observations, but the actor's "
+                f"features extractor is {type(self.pi_features_extractor).__name__}; use the "
+                "default FlattenExtractor or normalise inside your extractor"
+            )
+        normalizer = ActorObservationNormalizer(self.pi_features_extractor.features_dim)
+        self.mlp_extractor.policy_net = nn.Sequential(normalizer, *self.mlp_extractor.policy_net)
+
+    @property
+    def actor_normalizer(self) -> ActorObservationNormalizer | None:
+        """The actor's observation normalisation (``normalize_actor_obs=True``), else None."""
+        first = next(iter(self.mlp_extractor.policy_net), None)
+        return first if isinstance(first, ActorObservationNormalizer) else None
 
     def _build_gp(self) -> None:
         """Set ``value_net`` to a new GP critic of ``self._gp_options`` (it has no parameters
@@ -333,6 +360,7 @@ class GPCriticMixin(_PolicyBase):
         # keeps the algorithm's policy_kwargs: load_state_dict then adopts the saved kernel,
         # trend and adaptation.)
         data.update(gp_kwargs=resolved_gp_kwargs(self.gp_kwargs, *self._defaults))
+        data.update(normalize_actor_obs=self.normalize_actor_obs)
         return data
 
     @property

@@ -20,6 +20,7 @@ from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.callbacks import BaseCallback, CallbackList
 from stable_baselines3.common.env_util import make_vec_env
 from stable_baselines3.common.logger import configure
+from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
 from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 
 import sb3_geogp
@@ -39,6 +40,7 @@ from sb3_geogp.policies import (
     LAGGED_ADAPTATION,
     SUPPORTED_ALGORITHMS,
 )
+from tests.test_normalization import moments
 from tests.test_sparse_gp import assert_refused_assign_load_restores
 
 ALGOS = [PPO, A2C]
@@ -1162,3 +1164,137 @@ def test_the_docstring_names_every_gp_kwargs_option() -> None:
     missing = sorted(name for name in _GP_OPTIONS if f"``{name}``" not in doc)
     assert not missing, f"gp_kwargs options the docstring does not name: {missing}"
     assert "input_dim" not in _GP_OPTIONS and "kernel_kwargs" in _GP_OPTIONS
+
+
+# ------------------------------------------------------------------------------------------------
+# The actor's observation normalisation (normalize_actor_obs)
+# ------------------------------------------------------------------------------------------------
+class NormalisationRecorder(BaseCallback):
+    """After GPValueCallback at each rollout's end: the rollout's observations, the published
+    statistics, and the log-probabilities the actor gives the rollout's actions now (as
+    training is about to see them)."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.observations: list[np.ndarray] = []
+        self.published: list[tuple[np.ndarray, np.ndarray]] = []
+        self.log_prob_gaps: list[float] = []
+
+    def _on_step(self) -> bool:
+        return True
+
+    def _on_rollout_end(self) -> None:
+        buf = self.model.rollout_buffer
+        norm = self.model.policy.actor_normalizer
+        self.published.append((norm.mean.numpy().copy(), norm.var.numpy().copy()))
+        obs = flat_obs(self.model)
+        actions = th.as_tensor(buf.actions.reshape(len(obs), -1))
+        with th.no_grad():
+            _, log_prob, _ = self.model.policy.evaluate_actions(obs, actions)
+        gap = (log_prob - th.as_tensor(buf.log_probs.ravel())).abs().max()
+        self.log_prob_gaps.append(float(gap))
+        self.observations.append(obs.numpy().reshape(len(obs), -1).copy())
+
+
+def normalised_actor_model(algo: type[BaseAlgorithm], seed: int = 0) -> BaseAlgorithm:
+    env = make_vec_env("Pendulum-v1", n_envs=2, seed=seed)
+    kwargs = dict(normalize_actor_obs=True, gp_kwargs=dict(max_basis=64))
+    return algo(GPActorCriticPolicy, env, seed=seed, policy_kwargs=kwargs, **algo_kwargs(algo, 2))
+
+
+@pytest.mark.parametrize("algo", ALGOS)
+def test_the_actor_acts_and_trains_on_the_statistics_of_the_rollouts_before(
+    algo: type[BaseAlgorithm],
+) -> None:
+    model = normalised_actor_model(algo)
+    recorder = NormalisationRecorder()
+    model.learn(4 * 128, callback=CallbackList([feed(), recorder]))
+    assert len(recorder.published) == 4
+    for k, (mean, var) in enumerate(recorder.published):
+        if k == 0:
+            assert np.array_equal(mean, np.zeros(3)) and np.array_equal(var, np.ones(3))
+        else:
+            seen = np.concatenate(recorder.observations[:k]).astype(np.float64)
+            expected_mean, expected_var = moments(seen)
+            np.testing.assert_allclose(mean, expected_mean, rtol=1e-10)
+            np.testing.assert_allclose(var, expected_var, rtol=1e-10)
+    # The statistics change between rollouts, never within one: the actions' log-probabilities
+    # as training sees them are those they were sampled with (PPO's ratios start at one).
+    assert not np.allclose(recorder.published[1][0], recorder.published[2][0])
+    assert max(recorder.log_prob_gaps) < 1e-4, recorder.log_prob_gaps
+    # The critic keeps raw observations: its basis vectors are visited observations.
+    gp = model.policy.gp
+    basis = gp.bv_x[: gp.n_basis].numpy()
+    visited = np.concatenate(recorder.observations)
+    nearest = np.abs(basis[:, None, :] - visited[None, :, :]).max(axis=2).min(axis=1)
+    assert nearest.max() < 1e-6
+
+
+@pytest.mark.parametrize("algo", ALGOS)
+def test_the_normalised_actor_starts_from_the_mlp_policys_parameters(
+    algo: type[BaseAlgorithm],
+) -> None:
+    mlp = algo("MlpPolicy", "Pendulum-v1", seed=5, **algo_kwargs(algo, 1))
+    gp = algo(
+        GPActorCriticPolicy,
+        "Pendulum-v1",
+        seed=5,
+        policy_kwargs=dict(normalize_actor_obs=True),
+        **algo_kwargs(algo, 1),
+    )
+    assert gp.policy.actor_normalizer is not None and mlp.policy.mlp_extractor.policy_net
+    for part in ("mlp_extractor.policy_net", "action_net"):
+        expected = list(mlp.policy.get_submodule(part).parameters())
+        got = list(gp.policy.get_submodule(part).parameters())
+        assert len(got) == len(expected) > 0
+        assert all(th.equal(a, b) for a, b in zip(got, expected, strict=True)), part
+    assert th.equal(gp.policy.log_std, mlp.policy.log_std)
+
+
+def test_the_normalised_actor_survives_save_and_load(tmp_path: Path) -> None:
+    model = normalised_actor_model(PPO)
+    model.learn(3 * 128, callback=feed())
+    obs = flat_obs(model)
+    norm = model.policy.actor_normalizer
+    assert not th.equal(norm.mean, th.zeros(3, dtype=th.float64))
+    actions, _ = model.predict(obs.numpy(), deterministic=True)
+    model.save(tmp_path / "model.zip")
+    loaded = PPO.load(tmp_path / "model.zip", env=make_vec_env("Pendulum-v1", n_envs=2))
+    model.policy.save(str(tmp_path / "policy.pth"))
+    policy = GPActorCriticPolicy.load(str(tmp_path / "policy.pth"))
+    for other in (loaded.policy, policy):
+        assert other.normalize_actor_obs and other.actor_normalizer is not None
+        for name, value in model.policy.state_dict().items():
+            got = other.state_dict()[name]
+            assert th.equal(got, value) if isinstance(value, th.Tensor) else got == value, name
+        assert np.array_equal(other.predict(obs.numpy(), deterministic=True)[0], actions)
+    loaded.learn(128, callback=feed(), reset_num_timesteps=False)
+    assert float(loaded.policy.actor_normalizer.running_count) > float(norm.running_count)
+
+
+class HalvedFeatures(BaseFeaturesExtractor):
+    """Fixed features that are not the flattened observations."""
+
+    def __init__(self, observation_space: spaces.Box) -> None:
+        super().__init__(observation_space, int(np.prod(observation_space.shape)))
+
+    def forward(self, observations: th.Tensor) -> th.Tensor:
+        return th.flatten(observations, start_dim=1) / 2
+
+
+@pytest.mark.parametrize(
+    ("policy_kwargs", "error", "match"),
+    [
+        (dict(normalize_actor_obs="yes"), TypeError, "normalize_actor_obs must be True or False"),
+        (
+            dict(normalize_actor_obs=True, features_extractor_class=HalvedFeatures),
+            ValueError,
+            "actor's features extractor is HalvedFeatures",
+        ),
+    ],
+)
+def test_bad_actor_normalisation_raises(
+    policy_kwargs: dict[str, Any], error: type[Exception], match: str
+) -> None:
+    with pytest.raises(error, match=match):
+        PPO(GPActorCriticPolicy, "Pendulum-v1", policy_kwargs=policy_kwargs)

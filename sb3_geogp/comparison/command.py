@@ -117,6 +117,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
         "units of their time (GPValueCallback warns)",
     )
     parser.add_argument(
+        "--gp-actor-normalize",
+        action="store_true",
+        help="where the zoo's entry normalises observations, the GP critics' policies "
+        "normalise their actors' observations alone (normalize_actor_obs=True): the critic's "
+        "observations and the rewards stay raw. Not with --gp-normalize",
+    )
+    parser.add_argument(
         "--algos",
         nargs="+",
         choices=sorted(ALGOS),
@@ -377,6 +384,7 @@ def config_from_args(args: argparse.Namespace) -> SweepConfig:
     changes["feed_every"] = args.feed_every
     changes["mlp_normalize"] = args.mlp_normalize
     changes["gp_normalize"] = args.gp_normalize
+    changes["gp_actor_normalize"] = args.gp_actor_normalize
     config = dataclasses.replace(config, **changes)
     try:
         for env_id in envs:

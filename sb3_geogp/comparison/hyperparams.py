@@ -455,6 +455,30 @@ def normalize_kwargs(entry: Mapping[str, Any]) -> dict[str, Any] | None:
     return kwargs
 
 
+def normalizes_actor(entry: Mapping[str, Any]) -> bool:
+    """Whether a GP critic's policy normalises its actor's observations for this entry
+    (``sb3-geogp compare --gp-actor-normalize``): where the zoo's ``VecNormalize``
+    (:func:`normalize_kwargs`) normalises observations.
+
+    Raises
+    ------
+    ValueError
+        If ``normalize`` sets ``clip_obs`` or ``epsilon``, which the actor's normalisation
+        (:class:`~sb3_geogp.normalization.ActorObservationNormalizer`) takes at
+        ``VecNormalize``'s defaults.
+    """
+    kwargs = normalize_kwargs(entry)
+    if kwargs is None:
+        return False
+    unsupported = sorted({"clip_obs", "epsilon"} & set(kwargs))
+    if unsupported:
+        raise ValueError(
+            f"normalize sets {', '.join(unsupported)}; the actor's observation normalisation "
+            "takes VecNormalize's defaults: drop them or use --gp-normalize"
+        )
+    return bool(kwargs.get("norm_obs", True))
+
+
 def parse_policy_kwargs(text: str, key: str = "policy_kwargs") -> dict[str, Any]:
     """The zoo's ``policy_kwargs`` string (or another key's ``"dict(...)"``, e.g.
     ``normalize``'s) as a dict, without evaluating code.

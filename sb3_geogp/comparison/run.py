@@ -144,13 +144,16 @@ def build_model(spec: RunSpec, kernel: Kernel | None = None) -> OnPolicyAlgorith
     with the spec's GP options and the same ``policy_kwargs``: its actor starts from the MLP
     policy's parameters for the same seed. ``kernel``, if given, replaces the kernel
     ``spec.critic`` names (a GP critic's only). With ``spec.normalize`` the environments are
-    wrapped in ``VecNormalize`` as rl-baselines3-zoo wraps them. Close ``model.get_env()``
+    wrapped in ``VecNormalize`` as rl-baselines3-zoo wraps them; with ``spec.actor_normalize``
+    the GP critic's policy normalises its actor's observations. Close ``model.get_env()``
     when done.
     """
     if spec.critic not in ALL_CRITICS:
         raise ValueError(f"critic must be one of {ALL_CRITICS}, got {spec.critic!r}")
-    if kernel is not None and spec.critic == "mlp":
-        raise ValueError("a kernel is for a GP critic; the spec's critic is 'mlp'")
+    if spec.critic == "mlp" and (kernel is not None or spec.actor_normalize):
+        raise ValueError(
+            "a kernel and actor_normalize are for a GP critic; the spec's critic is 'mlp'"
+        )
     n_envs, kwargs, policy_kwargs = algo_kwargs(spec.algo, spec.hyperparams)
     env: VecEnv = make_vec_env(spec.env_id, n_envs=n_envs, seed=spec.seed)
     if spec.normalize:
@@ -164,6 +167,8 @@ def build_model(spec: RunSpec, kernel: Kernel | None = None) -> OnPolicyAlgorith
         return ALGOS[spec.algo](
             "MlpPolicy", env, seed=spec.seed, policy_kwargs=policy_kwargs, device="cpu", **kwargs
         )
+    if spec.actor_normalize:
+        policy_kwargs["normalize_actor_obs"] = True
     policy_kwargs["gp_kwargs"] = dict(
         kernel=spec.critic if kernel is None else kernel, **dict(spec.gp_kwargs)
     )

@@ -18,6 +18,7 @@ from sb3_geogp.comparison.hyperparams import (
     algo_kwargs,
     hyperparams,
     normalize_kwargs,
+    normalizes_actor,
     threshold,
 )
 from sb3_geogp.comparison.results import env_file_name
@@ -63,6 +64,7 @@ _RECORDED_WHERE_SET: dict[str, Any] = {
     "horizon": None,
     "feed_every": 1,
     "normalize": False,
+    "actor_normalize": False,
 }
 
 
@@ -106,6 +108,10 @@ class RunSpec:
         probes then see observations normalised with the training statistics, and the
         critic's values are scaled back to returns. A GP critic then learns from observations
         and returns in moving units (``GPValueCallback`` warns).
+    actor_normalize : bool
+        A GP critic's policy normalises its actor's observations
+        (``GPActorCriticPolicy(normalize_actor_obs=True)``), where the entry's ``normalize``
+        normalises observations; the critic's observations and the rewards stay raw.
     hyperparams : dict
         The algorithm's hyperparameters, an entry in rl-baselines3-zoo's format
         (:func:`~sb3_geogp.comparison.hyperparams.algo_kwargs`).
@@ -132,6 +138,7 @@ class RunSpec:
     horizon: int | None = None
     feed_every: int = 1
     normalize: bool = False
+    actor_normalize: bool = False
     hyperparams: dict[str, Any] = field(kw_only=True, hash=False)
     hyperparams_source: str = field(kw_only=True)
     threshold: float = field(kw_only=True)
@@ -147,9 +154,9 @@ class RunSpec:
 
         Without ``hyperparams``, ``hyperparams_source`` and ``threshold``: a result file
         records them beside the spec (``hyperparams``, ``threshold``). ``target`` only where it
-        is not ``"returns"``, ``horizon`` only where set, ``feed_every`` only where not 1 and
-        ``normalize`` only where true, so that the files of runs made before they existed
-        still match.
+        is not ``"returns"``, ``horizon`` only where set, ``feed_every`` only where not 1,
+        ``normalize`` and ``actor_normalize`` only where true, so that the files of runs made
+        before they existed still match.
         """
         d = dataclasses.asdict(self)
         d["gp_kwargs"] = dict(self.gp_kwargs)
@@ -197,6 +204,9 @@ class SweepConfig:
     mlp_normalize, gp_normalize : bool
         SB3's MLP critic, and the GP critics, train in ``VecNormalize`` where the zoo's entry
         normalises (:attr:`RunSpec.normalize`).
+    gp_actor_normalize : bool
+        The GP critics' policies normalise their actors' observations where the zoo's entry
+        normalises observations (:attr:`RunSpec.actor_normalize`); not with ``gp_normalize``.
     """
 
     algos: tuple[str, ...] = tuple(ALGOS)
@@ -215,6 +225,7 @@ class SweepConfig:
     feed_every: int = 1
     mlp_normalize: bool = False
     gp_normalize: bool = False
+    gp_actor_normalize: bool = False
     timesteps: int | None = None
     thresholds: tuple[tuple[str, float], ...] = ()
     hyperparams_files: tuple[tuple[str, HyperparamsFile], ...] = ()
@@ -238,8 +249,14 @@ class SweepConfig:
         Raises
         ------
         ValueError
-            If an environment has no hyperparameters, a bad one, no budget or no threshold.
+            If an environment has no hyperparameters, a bad one, no budget or no threshold,
+            or with both ``gp_normalize`` and ``gp_actor_normalize``.
         """
+        if self.gp_normalize and self.gp_actor_normalize:
+            raise ValueError(
+                "gp_normalize puts the GP critics' environments in VecNormalize, "
+                "gp_actor_normalize normalises their actors' observations alone: choose one"
+            )
         gp_kwargs = tuple(sorted({**GP_KWARGS, **dict(self.gp_options)}.items()))
         files = dict(self.hyperparams_files)
         levels = dict(self.thresholds)
@@ -254,6 +271,7 @@ class SweepConfig:
                     normalises = (self.mlp_normalize or self.gp_normalize) and (
                         normalize_kwargs(hp.values) is not None
                     )
+                    actor_normalises = self.gp_actor_normalize and normalizes_actor(hp.values)
                 except ValueError as err:
                     raise ValueError(f"{hp.source}, {algo} on {env_id}: {err}") from None
                 rollout = n_envs * int(kwargs.get("n_steps", 2048 if algo == "ppo" else 5))
@@ -280,6 +298,7 @@ class SweepConfig:
                                 feed_every=1 if critic == "mlp" else self.feed_every,
                                 normalize=normalises
                                 and (self.mlp_normalize if critic == "mlp" else self.gp_normalize),
+                                actor_normalize=actor_normalises and critic != "mlp",
                                 hyperparams=hp.values,
                                 hyperparams_source=hp.source,
                                 threshold=level,

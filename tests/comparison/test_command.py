@@ -71,6 +71,19 @@ def test_cli_arguments() -> None:
     assert config_from_args(_parse("--quick", "--first-seed", "7")).seeds == (7, 8)
 
 
+def test_gp_actor_normalize_reaches_the_gp_runs_of_entries_that_normalise() -> None:
+    specs = config_from_args(_parse("--gp-actor-normalize")).specs()
+    default = config_from_args(_parse()).specs()
+    assert [s.run_id for s in specs] == [s.run_id for s in default]
+    normalised = {(s.algo, s.env_id) for s in specs if s.actor_normalize}
+    assert all(s.critic != "mlp" and not s.normalize for s in specs if s.actor_normalize)
+    # A2C's PaperPendulum takes the zoo's Pendulum-v1 entry, which normalises.
+    pendulums = {"Pendulum-v1", "sb3_geogp/PaperPendulum-v0"}
+    expected = {("ppo", e) for e in ("MountainCarContinuous-v0", "Acrobot-v1")}
+    expected |= {("a2c", e) for e in (*pendulums, "MountainCarContinuous-v0", "Acrobot-v1")}
+    assert normalised == expected
+
+
 def test_target_reaches_every_gp_run_and_keeps_the_run_ids() -> None:
     """``--target``/``--horizon`` reach every GP critic's run; unset, each algorithm's default
     (GPValueCallback's: Monte Carlo returns under PPO since 0.24, cut after 200 steps since
@@ -312,6 +325,7 @@ def test_mistakes_end_in_one_line_and_status_2_before_any_run(
         (("--envs", "CartPole-v1", "Pendulum-v1", "CartPole-v1"), "names CartPole-v1 twice"),
         (("--critics", "mlp", "mlp"), "--critics names mlp twice"),
         (("--baseline", str(tmp_path / "nowhere")), "no run files in its runs/ folder"),
+        (("--gp-normalize", "--gp-actor-normalize"), "alone: choose one"),
     ):
         out = tmp_path / "out"
         assert main(["compare", "--out", str(out), *argv]) == 2, argv

@@ -22,6 +22,7 @@ from sb3_geogp.comparison.hyperparams import (
     algo_kwargs,
     hyperparams,
     normalize_kwargs,
+    normalizes_actor,
     parse_policy_kwargs,
     threshold,
 )
@@ -208,3 +209,12 @@ def test_normalize_kwargs_are_those_rl_zoo3_builds() -> None:
     for algo, env_id in marked:
         kwargs = normalize_kwargs(ZOO_HYPERPARAMS[algo][env_id])
         assert kwargs is not None and set(kwargs) <= {"gamma"}, (algo, env_id)
+
+
+def test_the_actor_is_normalised_where_the_zoos_vecnormalize_normalises_observations() -> None:
+    assert normalizes_actor(ZOO_HYPERPARAMS["ppo"]["Acrobot-v1"])
+    assert normalizes_actor(ZOO_HYPERPARAMS["a2c"]["MountainCarContinuous-v0"])
+    assert not normalizes_actor(ZOO_HYPERPARAMS["ppo"]["CartPole-v1"])
+    assert not normalizes_actor(dict(normalize="dict(norm_obs=False, norm_reward=True)"))
+    with pytest.raises(ValueError, match=r"normalize sets clip_obs; .* --gp-normalize"):
+        normalizes_actor(dict(normalize=dict(clip_obs=5.0)))

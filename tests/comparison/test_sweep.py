@@ -362,7 +362,7 @@ def test_a_kernel_instance_replaces_the_named_kernel(tmp_path: Path) -> None:
     )
     model.get_env().close()
     mlp = next(s for s in TINY.specs() if s.critic == "mlp")
-    with pytest.raises(ValueError, match="kernel is for a GP critic"):
+    with pytest.raises(ValueError, match="are for a GP critic"):
         build_model(mlp, kernel=GeodesicKernel())
 
 
@@ -426,3 +426,44 @@ def test_a_critic_in_the_zoos_vecnormalize_is_evaluated_as_sb3_evaluates_it(
     assert result["spec"]["normalize"] is True
     with pytest.raises(ValueError, match="other settings"):
         pending_runs([dataclasses.replace(spec, normalize=False)], tmp_path)
+
+
+def test_gp_actor_normalize_normalises_the_gp_critics_actors_alone(tmp_path: Path) -> None:
+    """``gp_actor_normalize``: only the GP critic's runs of an entry that normalises
+    observations get ``normalize_actor_obs``, on raw environments; the spec records it, a run
+    evaluates the policy's own actions (SB3's ``evaluate_policy`` on raw environments), and the
+    result refuses to share a folder with runs without it."""
+    config = dataclasses.replace(
+        TINY, envs=("Pendulum-v1",), seeds=(0,), n_eval_episodes=3, gp_actor_normalize=True
+    )
+    mlp, gp = config.specs()
+    assert (mlp.actor_normalize, gp.actor_normalize, gp.normalize) == (False, True, False)
+    assert "actor_normalize" not in mlp.as_dict() and gp.as_dict()["actor_normalize"] is True
+    assert not any(s.actor_normalize for s in dataclasses.replace(config, envs=TINY.envs).specs())
+    with pytest.raises(ValueError, match="choose one"):
+        dataclasses.replace(config, gp_normalize=True).specs()
+    with pytest.raises(ValueError, match="are for a GP critic"):
+        build_model(dataclasses.replace(mlp, actor_normalize=True))
+
+    seen: dict[str, Any] = {}
+
+    class AtTheEnd(BaseCallback):
+        def _on_step(self) -> bool:
+            return True
+
+        def _on_training_end(self) -> None:
+            assert not isinstance(self.model.get_env(), VecNormalize)
+            norm = self.model.policy.actor_normalizer
+            seen["count"], seen["steps"] = float(norm.running_count), self.model.num_timesteps
+            evaluation = DummyVecEnv([lambda: gym.make("Pendulum-v1")] * 3)
+            evaluation.seed(EVAL_SEED)
+            seen["returns"], _ = evaluate_policy(
+                self.model, evaluation, n_eval_episodes=3, return_episode_rewards=True, warn=False
+            )
+
+    result = run_one(gp, tmp_path, recorders=[AtTheEnd()])
+    assert seen["count"] == pytest.approx(seen["steps"], abs=1e-3)  # every step observed
+    assert result["eval"]["returns"][-1] == pytest.approx(seen["returns"], rel=1e-6)
+    assert result["spec"]["actor_normalize"] is True
+    with pytest.raises(ValueError, match="other settings"):
+        pending_runs([dataclasses.replace(gp, actor_normalize=False)], tmp_path)
