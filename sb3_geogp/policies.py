@@ -750,6 +750,14 @@ class GPActorCriticPolicy(GPCriticMixin, ActorCriticPolicy):
         per 4,096 points, :data:`DEFAULT_FORGETTING`; A2C none);
         ``adapt=sb3_geogp.CHEAP_ADAPTATION`` is 0.7's cheaper preset, with the losses
         docs/results.md reports ("Cheaper adaptation, 0.7").
+    normalize_actor_obs : bool
+        Normalise the actor's inputs (the flattened observations) by running statistics, as
+        ``VecNormalize(norm_obs=True)`` does, while the critic keeps raw observations (since
+        0.32; default ``False``): :class:`~sb3_geogp.normalization.ActorObservationNormalizer`.
+        :class:`~sb3_geogp.GPValueCallback` adds each rollout's observations to the
+        statistics and applies them from the next rollout on, so an update trains the actor
+        under the statistics it acted by. Use it instead of ``VecNormalize``'s observation
+        normalisation, whose moving units the GP's basis vectors cannot follow.
     **kwargs
         Every other option of :class:`~stable_baselines3.common.policies.ActorCriticPolicy`.
 
@@ -775,6 +783,8 @@ class GPActorCriticPolicy(GPCriticMixin, ActorCriticPolicy):
         the last rollout (calls of :meth:`forward`) have not been passed to
         :meth:`update_critic`: the symptom of ``learn`` without
         :class:`~sb3_geogp.GPValueCallback`.
+    actor_normalizer : ActorObservationNormalizer or None
+        The actor's normalisation with ``normalize_actor_obs=True``; saved with the policy.
     unfinished_episodes : object or None
         Kept by :class:`~sb3_geogp.GPValueCallback` between ``learn()`` calls: the steps of the
         episodes still running when a call ended (Monte Carlo targets), which the next call

@@ -31,6 +31,7 @@ from sb3_geogp import (
 )
 from sb3_geogp.callbacks import default_feed
 from sb3_geogp.policies import SUPPORTED_ALGORITHMS
+from tests.test_policies import assert_actor_normalised_between_rollouts
 
 UNSUPPORTED = re.escape(SUPPORTED_ALGORITHMS)
 
@@ -257,6 +258,21 @@ def test_callback_checks_the_algorithm_too() -> None:
     model.policy = GPActorCriticPolicy(model.observation_space, model.action_space, lambda _: 1e-3)
     with pytest.raises(TypeError, match=UNSUPPORTED):
         model.learn(64, callback=GPValueCallback())
+
+
+@pytest.mark.parametrize("algo", [TRPO, MaskablePPO])
+def test_the_actor_is_normalised_between_rollouts(algo: type[BaseAlgorithm]) -> None:
+    """``normalize_actor_obs`` under TRPO and MaskablePPO, as under PPO and A2C
+    (tests/test_policies.py): MaskablePPO's log-probabilities under the rollout's masks."""
+    kwargs = dict(normalize_actor_obs=True, gp_kwargs=dict(kernel="rbf", max_basis=32))
+    if algo is MaskablePPO:
+        env = make_vec_env(MaskedOneHot, n_envs=2, seed=0)
+        model = algo(MaskableGPActorCriticPolicy, env, n_steps=64, batch_size=64, n_epochs=2,
+                     seed=0, policy_kwargs=kwargs)  # fmt: skip
+    else:
+        env = make_vec_env("Pendulum-v1", n_envs=2, seed=0)
+        model = algo(GPActorCriticPolicy, env, n_steps=64, seed=0, policy_kwargs=kwargs)
+    assert_actor_normalised_between_rollouts(model, n_rollouts=3, rollout=128)
 
 
 def test_sb3_geogp_imports_without_sb3_contrib() -> None:

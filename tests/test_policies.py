@@ -1189,8 +1189,13 @@ class NormalisationRecorder(BaseCallback):
         self.published.append((norm.mean.numpy().copy(), norm.var.numpy().copy()))
         obs = flat_obs(self.model)
         actions = th.as_tensor(buf.actions.reshape(len(obs), -1))
+        if isinstance(self.model.action_space, spaces.Discrete):
+            actions = actions.long().flatten()  # as PPO's train() passes them
+        # MaskablePPO's buffer keeps the masks its actions were sampled under.
+        masks = getattr(buf, "action_masks", None)
+        kwargs = {} if masks is None else {"action_masks": masks.reshape(len(obs), -1)}
         with th.no_grad():
-            _, log_prob, _ = self.model.policy.evaluate_actions(obs, actions)
+            _, log_prob, _ = self.model.policy.evaluate_actions(obs, actions, **kwargs)
         gap = (log_prob - th.as_tensor(buf.log_probs.ravel())).abs().max()
         self.log_prob_gaps.append(float(gap))
         self.observations.append(obs.numpy().reshape(len(obs), -1).copy())
@@ -1202,17 +1207,19 @@ def normalised_actor_model(algo: type[BaseAlgorithm], seed: int = 0) -> BaseAlgo
     return algo(GPActorCriticPolicy, env, seed=seed, policy_kwargs=kwargs, **algo_kwargs(algo, 2))
 
 
-@pytest.mark.parametrize("algo", ALGOS)
-def test_the_actor_acts_and_trains_on_the_statistics_of_the_rollouts_before(
-    algo: type[BaseAlgorithm],
+def assert_actor_normalised_between_rollouts(
+    model: BaseAlgorithm, n_rollouts: int, rollout: int
 ) -> None:
-    model = normalised_actor_model(algo)
+    """Train ``model`` (``normalize_actor_obs=True``) for ``n_rollouts`` rollouts; at each
+    rollout's end the actor's statistics are the moments of the rollouts before, they change
+    between rollouts but not within one, and the critic's basis vectors are raw observations."""
     recorder = NormalisationRecorder()
-    model.learn(4 * 128, callback=CallbackList([feed(), recorder]))
-    assert len(recorder.published) == 4
+    model.learn(n_rollouts * rollout, callback=CallbackList([feed(), recorder]))
+    assert len(recorder.published) == n_rollouts
+    dim = recorder.observations[0].shape[1]
     for k, (mean, var) in enumerate(recorder.published):
         if k == 0:
-            assert np.array_equal(mean, np.zeros(3)) and np.array_equal(var, np.ones(3))
+            assert np.array_equal(mean, np.zeros(dim)) and np.array_equal(var, np.ones(dim))
         else:
             seen = np.concatenate(recorder.observations[:k]).astype(np.float64)
             expected_mean, expected_var = moments(seen)
@@ -1228,6 +1235,14 @@ def test_the_actor_acts_and_trains_on_the_statistics_of_the_rollouts_before(
     visited = np.concatenate(recorder.observations)
     nearest = np.abs(basis[:, None, :] - visited[None, :, :]).max(axis=2).min(axis=1)
     assert nearest.max() < 1e-6
+
+
+@pytest.mark.parametrize("algo", ALGOS)
+def test_the_actor_acts_and_trains_on_the_statistics_of_the_rollouts_before(
+    algo: type[BaseAlgorithm],
+) -> None:
+    model = normalised_actor_model(algo)
+    assert_actor_normalised_between_rollouts(model, n_rollouts=4, rollout=128)
 
 
 @pytest.mark.parametrize("algo", ALGOS)

@@ -1,0 +1,127 @@
+"""The GP critic with its actor's observations normalised against SB3's MLP critic in the zoo's
+``VecNormalize``: the registered reading of ``PREREGISTRATION.md`` (session 62).
+
+This folder's runs (``run.sh``: ``sb3-geogp compare --gp-actor-normalize``) against session
+61's MLP runs in ``VecNormalize`` (``results/mlp_vecnormalize``) and issue 13's 50-seed table
+(``results/table50``), on the same seeds. Only cells with all 50 runs of each arm are read::
+
+    python results/gp_actor_normalize/read.py --plot results/gp_actor_normalize/read.png \\
+        > results/gp_actor_normalize/read.md
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import Any
+
+from sb3_geogp.comparison.report import plot_difference_panels
+from sb3_geogp.comparison.results import pool_sweeps
+from sb3_geogp.toolbox.scripts import load_script
+
+HERE = Path(__file__).resolve().parent
+MLPV = load_script(HERE.parent / "mlp_vecnormalize" / "read.py", "mlp_vecnormalize_read")
+POOL30, TABLE50 = MLPV.POOL30, MLPV.TABLE50
+CELLS, LABELS = MLPV.CELLS, MLPV.LABELS
+Runs = list[dict[str, Any]]
+Rows = dict[tuple[str, str], dict[str, Any]]
+PRIMARY = "GP, actor normalised − MLP in VecNormalize"
+
+
+def arms() -> tuple[Runs, Runs, Runs, Runs]:
+    """This folder's GP runs, the table's GP and MLP runs and the MLP runs in
+    ``VecNormalize``, in the cells where all four arms have their 50 seeds."""
+    folders = [f for f in (HERE / "ppo", HERE / "a2c") if (f / "runs").is_dir()]
+    actor = pool_sweeps(folders) if folders else []
+    assert all(r["spec"].get("actor_normalize") is True for r in actor)
+    gp, mlp, normalised = MLPV.arms()
+    ready = {MLPV._cell(r) for r in normalised}
+    whole = set()
+    for cell in ready:
+        seeds = sorted(r["spec"]["seed"] for r in actor if MLPV._cell(r) == cell)
+        if len(seeds) == MLPV.SEEDS_PER_CELL:
+            assert seeds == sorted(r["spec"]["seed"] for r in gp if MLPV._cell(r) == cell), cell
+            whole.add(cell)
+    return tuple([r for r in arm if MLPV._cell(r) in whole] for arm in (actor, gp, mlp, normalised))  # type: ignore[return-value]
+
+
+def readings(metric: str) -> dict[str, Rows]:
+    """The primary reading (the table's rule and family) and the option's effect on the GP
+    critic's agents (a family of the six cells)."""
+    actor, gp, _, normalised = arms()
+    return {
+        PRIMARY: POOL30.mlp_rows(actor + normalised, metric),
+        "GP, actor normalised − GP default": POOL30.against_baseline(
+            actor, gp, metric, family=len(CELLS)
+        ),
+    }
+
+
+def zoo_table(primary: Rows, metric: str) -> Rows:
+    """Issue 13's 14 cells with each critic given the zoo's normalisation in the form it can
+    use: the table's rows, the normalising cells' from the primary reading."""
+    return {**POOL30.mlp_rows(TABLE50.published_and_fresh(), metric), **primary}
+
+
+def plot(final: Rows, path: str) -> None:
+    """Each cell's final-return difference: as in the table, the MLP in ``VecNormalize``, and
+    the GP with its actor normalised against the latter."""
+    gp, mlp, normalised = MLPV.arms()
+    shown = {
+        "table": POOL30.mlp_rows(gp + mlp, "final_return"),
+        "MLP VecNorm": POOL30.mlp_rows(gp + normalised, "final_return"),
+        "GP actor-norm": final,
+    }
+    panels = [{"env": env, "algo": algo, **{k: t.get((env, algo)) for k, t in shown.items()}}
+              for env, algo in CELLS if (env, algo) in final]  # fmt: skip
+    title = (
+        "GP critic − SB3's MLP critic, final return: the table (neither normalised), the MLP "
+        "in the zoo's VecNormalize, and the GP critic with its actor's observations normalised"
+    )
+    plot_difference_panels(panels, list(shown), path, title, n_cols=3, panel_size=(3.2, 2.6))
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--plot", metavar="PNG", help="draw each cell's final-return readings")
+    args = parser.parse_args()
+    actor, gp, mlp, normalised = arms()
+    cells = {MLPV._cell(r) for r in actor}
+    state = "" if len(cells) == len(CELLS) else f" (partial: {len(cells)} of {len(CELLS)} cells)"
+    print(f"# The GP critic's actor normalised: the registered reading{state}\n")
+    for metric in ("final_return", "mean_return"):
+        sets = readings(metric)
+        for name, rows in sets.items():
+            print(f"## {name}, {LABELS[metric]}\n")
+            difference = "critic − MLP" if name == PRIMARY else "with − without"
+            POOL30.print_table(rows, LABELS[metric], difference)
+            print()
+        if metric == "final_return":
+            print("## The 14 cells, each critic with the zoo's normalisation in its form\n")
+            POOL30.print_table(zoo_table(sets[PRIMARY], metric), LABELS[metric])
+            print()
+            if args.plot:
+                plot(sets[PRIMARY], args.plot)
+    print("## Final critic RMSE against Monte Carlo returns (mean over seeds; lower is better)\n")
+    print("| env | algo | GP | GP, actor normalised | MLP | MLP in VecNormalize |")
+    print("|---|---|---:|---:|---:|---:|")
+    columns = [MLPV.critic_rmse(arm) for arm in (gp, actor, mlp, normalised)]
+    for cell in CELLS:
+        if cell in cells:
+            rmse = " | ".join(f"{c[cell]:.2f}" for c in columns)
+            print(f"| `{cell[0]}` | {cell[1]} | {rmse} |")
+    print("\n## Mean final return over seeds\n")
+    print("| env | algo | GP | GP, actor normalised | MLP | MLP in VecNormalize |")
+    print("|---|---|---:|---:|---:|---:|")
+    means = [
+        MLPV.cell_means(arm, lambda r: r["final_return"]) for arm in (gp, actor, mlp, normalised)
+    ]
+    for cell in CELLS:
+        if cell in cells:
+            print(
+                f"| `{cell[0]}` | {cell[1]} | " + " | ".join(f"{m[cell]:.1f}" for m in means) + " |"
+            )
+
+
+if __name__ == "__main__":
+    main()
