@@ -124,7 +124,9 @@ OWN_HYPERPARAMS: dict[str, dict[str, dict[str, Any]]] = {
 #: Deviations from the zoo, applied identically to every critic.
 DEVIATIONS = (
     "normalize (VecNormalize) is dropped for every critic (unless --mlp-normalize gives it to "
-    "SB3's MLP critic, whose runs then record normalize): the GP stores its basis vectors in "
+    "SB3's MLP critic or --gp-normalize to the GP critics, whose runs then record normalize, "
+    "or --gp-actor-normalize gives the GP critics' actors its observation normalisation, "
+    "whose runs record actor_normalize): the GP stores its basis vectors in "
     "the units it was fed, so running observation statistics would move old basis vectors "
     "away from new observations (GPValueCallback warns about it), and running reward "
     "statistics would put critic values in drifting units that cannot be compared with Monte "
@@ -431,8 +433,8 @@ def normalize_kwargs(entry: Mapping[str, Any]) -> dict[str, Any] | None:
     ``normalize: true`` gives SB3's defaults (observations and rewards), a mapping or the
     zoo's string ``"dict(norm_obs=False, ...)"`` those arguments; the zoo adds the entry's
     ``gamma`` so that the reward scale follows the algorithm's discount. The comparison drops
-    ``normalize`` for every critic (:data:`DEVIATIONS`) unless a sweep asks for it for SB3's
-    MLP critic (``sb3-geogp compare --mlp-normalize``).
+    ``normalize`` for every critic (:data:`DEVIATIONS`) unless a sweep asks for it
+    (``sb3-geogp compare --mlp-normalize``, ``--gp-normalize``).
 
     Raises
     ------
