@@ -96,7 +96,7 @@ def main() -> None:
             difference = "critic − MLP" if name == PRIMARY else "with − without"
             POOL30.print_table(rows, LABELS[metric], difference)
             print()
-        if metric == "final_return":
+        if metric == "final_return" and not state:
             print("## The 14 cells, each critic with the zoo's normalisation in its form\n")
             POOL30.print_table(zoo_table(sets[PRIMARY], metric), LABELS[metric])
             print()

@@ -82,6 +82,11 @@ def test_gp_actor_normalize_reaches_the_gp_runs_of_entries_that_normalise() -> N
     expected = {("ppo", e) for e in ("MountainCarContinuous-v0", "Acrobot-v1")}
     expected |= {("a2c", e) for e in (*pendulums, "MountainCarContinuous-v0", "Acrobot-v1")}
     assert normalised == expected
+    # With --mlp-normalize too, each critic gets the zoo's normalisation in its own form.
+    both = config_from_args(_parse("--gp-actor-normalize", "--mlp-normalize")).specs()
+    mlp = {(s.algo, s.env_id) for s in both if s.normalize}
+    assert mlp == expected and all(s.critic == "mlp" for s in both if s.normalize)
+    assert [s.actor_normalize for s in both] == [s.actor_normalize for s in specs]
 
 
 def test_target_reaches_every_gp_run_and_keeps_the_run_ids() -> None:
