@@ -244,11 +244,13 @@ class GPValueCallback(BaseCallback):
             warn_user(
                 "VecNormalize keeps updating its observation statistics while the GP's basis "
                 "vectors stay in the units they were fed in, so old basis vectors drift away "
-                "from new observations. Freeze the statistics after a warm-up "
-                "(vec_env.training = False) or use norm_obs=False with the GP critic, and "
-                "compare with and without VecNormalize on your task: on issue 13's tasks no "
-                "setting of it helped the GP critic everywhere (docs/results.md, 'The GP "
-                "critic's policy in VecNormalize')."
+                "from new observations. Use norm_obs=False and give the actor alone the "
+                "normalisation with policy_kwargs=dict(normalize_actor_obs=True): on issue "
+                "13's tasks whose zoo entry normalises, that made the GP critic no worse than "
+                "SB3's MLP critic in VecNormalize, where no setting of VecNormalize did "
+                "(docs/results.md, 'The GP critic's actor with the zoo's observation "
+                "normalisation'). Or freeze the statistics after a warm-up "
+                "(vec_env.training = False)."
             )
         self._check_bounds_wrappers(vec_normalize)
         gp = policy.gp

@@ -154,6 +154,12 @@ def build_parser() -> argparse.ArgumentParser:
         help="the GP learns hyperparameters, target scale and forgetting from the data "
         "(--no-adapt: fixed, as in 0.2)",
     )
+    train.add_argument(
+        "--normalize-actor-obs",
+        action="store_true",
+        help="normalise the actor's observations by running statistics, as VecNormalize does, "
+        "while the GP critic keeps raw ones (GPActorCriticPolicy's normalize_actor_obs)",
+    )
     add_target_arguments(train)
     train.add_argument(
         "--threads",
@@ -260,6 +266,7 @@ def check_gp_options(args: argparse.Namespace) -> None:
             ("--max-basis", args.max_basis, _MAX_BASIS),
             ("--forgetting", args.forgetting, None),
             ("--no-adapt", args.adapt, True),
+            ("--normalize-actor-obs", args.normalize_actor_obs, False),
         )
         if value != default
     ]
@@ -318,7 +325,7 @@ def _settings(args: argparse.Namespace) -> dict[str, Any]:
 #: ``train`` options that do not change the run, so a directory does not record them.
 _NOT_SETTINGS = ("command", "out", "no_progress", "save_every")
 #: ``train`` options added after 0.20 and their defaults, recorded only when set otherwise.
-_ADDED: dict[str, Any] = {"horizon": None, "feed_every": 1}
+_ADDED: dict[str, Any] = {"horizon": None, "feed_every": 1, "normalize_actor_obs": False}
 
 
 def train(args: argparse.Namespace) -> Path:
@@ -413,7 +420,7 @@ def _new_model(args: argparse.Namespace, env: VecEnv) -> OnPolicyAlgorithm:
         GPActorCriticPolicy,
         env,
         seed=args.seed,
-        policy_kwargs=dict(gp_kwargs=gp_kwargs),
+        policy_kwargs=dict(gp_kwargs=gp_kwargs, normalize_actor_obs=args.normalize_actor_obs),
         device=args.device,
         **algo_kwargs,
     )

@@ -840,12 +840,19 @@ def test_vec_normalize_warns_about_drifting_statistics() -> None:
     model = PPO(GPActorCriticPolicy, env, n_steps=64, batch_size=64, n_epochs=1)
     # SB3's returns: fed every rollout (Monte Carlo targets would warn that 64 steps of
     # Pendulum's 200-step episodes fed nothing).
-    with pytest.warns(UserWarning, match="VecNormalize"):
+    with pytest.warns(UserWarning, match="norm_obs=False.*normalize_actor_obs=True"):
         model.learn(64, callback=GPValueCallback(target="returns"))
     env.training = False  # frozen statistics: no warning
     with warnings.catch_warnings():
         warnings.simplefilter("error", UserWarning)
         model.learn(64, callback=GPValueCallback(target="returns"), reset_num_timesteps=False)
+    # The other fix it names: raw observations for the GP, normalised ones for the actor alone.
+    env = VecNormalize(make_vec_env("Pendulum-v1", n_envs=1, seed=0), norm_obs=False)
+    kwargs = dict(normalize_actor_obs=True)
+    model = PPO(GPActorCriticPolicy, env, n_steps=64, batch_size=64, policy_kwargs=kwargs)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", UserWarning)
+        model.learn(64, callback=GPValueCallback(target="returns"))
 
 
 @pytest.mark.parametrize(

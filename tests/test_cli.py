@@ -210,6 +210,10 @@ def test_version(capsys: pytest.CaptureFixture[str]) -> None:
         (["--save-every", "-1"], "--save-every must be at least 0"),
         (["--critic", "mlp", "--max-basis", "10"], "--max-basis configures the GP critic"),
         (["--critic", "mlp", "--no-adapt"], "--no-adapt configures the GP critic"),
+        (
+            ["--critic", "mlp", "--normalize-actor-obs"],
+            "--normalize-actor-obs configures the GP critic",
+        ),
         (["--env", "Taxi-v4"], "Taxi-v4: the GP critic supports Box observations"),
         (["--seed", "-1"], "--seed must be in [0, 2**32), got -1"),
         (["--seed", str(2**32)], "--seed must be in [0, 2**32)"),
@@ -572,6 +576,16 @@ def test_monitor_logs_of_all_parts_are_ordered_by_absolute_time(tmp_path: Path) 
     np.testing.assert_array_equal(steps, [10, 30, 60, 100])
 
 
+def test_train_normalize_actor_obs_reaches_the_policy_and_is_recorded(tmp_path: Path) -> None:
+    out = tmp_path / "run"
+    argv = ["train", "--algo", "a2c", "--env", "CartPole-v1", "--timesteps", "64"]
+    argv += ["--n-envs", "2", "--out", str(out), "--no-progress", "--normalize-actor-obs"]
+    assert main(argv) == 0
+    policy = A2C.load(out / "model.zip").policy
+    assert policy.normalize_actor_obs and float(policy.actor_normalizer.running_count) > 1
+    assert json.loads((out / "train_settings.json").read_text())["normalize_actor_obs"] is True
+
+
 def test_unset_horizon_keeps_older_run_directories_valid(tmp_path: Path) -> None:
     out = tmp_path / "run"
     argv = ["train", "--algo", "a2c", "--env", "CartPole-v1", "--timesteps", "64"]
@@ -579,7 +593,7 @@ def test_unset_horizon_keeps_older_run_directories_valid(tmp_path: Path) -> None
     assert main(argv) == 0
     settings = json.loads((out / "train_settings.json").read_text())
     # As 0.20 wrote it, so re-running there is accepted.
-    assert "horizon" not in settings and "feed_every" not in settings
+    assert not {"horizon", "feed_every", "normalize_actor_obs"} & set(settings)
     assert main(argv) == 0
 
 
