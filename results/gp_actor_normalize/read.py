@@ -45,6 +45,37 @@ def arms() -> tuple[Runs, Runs, Runs, Runs]:
     return tuple([r for r in arm if MLPV._cell(r) in whole] for arm in (actor, gp, mlp, normalised))  # type: ignore[return-value]
 
 
+def rerun(cells: set[tuple[str, str]]) -> Runs:
+    """``ADDENDUM.md``'s runs of the default GP critic with this code, in ``cells`` where all
+    50 seeds have finished (the seeds of the table's cell)."""
+    folders = [f for f in (HERE / "default" / "ppo", HERE / "default" / "a2c") if f.is_dir()]
+    runs = pool_sweeps(folders) if folders else []
+    assert not any(r["spec"].get("actor_normalize") for r in runs)
+    _, gp, _, _ = arms()
+    whole = {
+        cell
+        for cell in cells
+        if sorted(r["spec"]["seed"] for r in runs if MLPV._cell(r) == cell)
+        == sorted(r["spec"]["seed"] for r in gp if MLPV._cell(r) == cell)
+    }
+    return [r for r in runs if MLPV._cell(r) in whole]
+
+
+def addendum_readings(metric: str, default: Runs) -> dict[str, Rows]:
+    """``ADDENDUM.md``'s readings, in the cells ``default`` (:func:`rerun`) covers."""
+    cells = {MLPV._cell(r) for r in default}
+    actor, gp, _, normalised = ([r for r in a if MLPV._cell(r) in cells] for a in arms())
+    return {
+        "GP, actor normalised − GP default re-run": POOL30.against_baseline(
+            actor, default, metric, family=len(CELLS)
+        ),
+        "GP default re-run − the table's GP default": POOL30.against_baseline(
+            default, gp, metric, family=len(CELLS)
+        ),
+        "GP default re-run − MLP in VecNormalize": POOL30.mlp_rows(default + normalised, metric),
+    }
+
+
 def readings(metric: str) -> dict[str, Rows]:
     """The primary reading (the table's rule and family) and the option's effect on the GP
     critic's agents (a family of the six cells)."""
@@ -102,25 +133,48 @@ def main() -> None:
             print()
             if args.plot:
                 plot(sets[PRIMARY], args.plot)
-    print("## Final critic RMSE against Monte Carlo returns (mean over seeds; lower is better)\n")
-    print("| env | algo | GP | GP, actor normalised | MLP | MLP in VecNormalize |")
-    print("|---|---|---:|---:|---:|---:|")
-    columns = [MLPV.critic_rmse(arm) for arm in (gp, actor, mlp, normalised)]
+    default = rerun(cells)
+    if default:
+        done = {MLPV._cell(r) for r in default}
+        part = "" if done == cells else f" (partial: {len(done)} of {len(cells)} cells)"
+        print(f"# Addendum: the GP default re-run with this code{part}\n")
+        for metric in ("final_return", "mean_return"):
+            for name, rows in addendum_readings(metric, default).items():
+                print(f"## {name}, {LABELS[metric]}\n")
+                difference = "critic − MLP" if name.endswith("VecNormalize") else "a − b"
+                POOL30.print_table(rows, LABELS[metric], difference)
+                print()
+    shown = {"GP": gp, "GP, actor normalised": actor, "MLP": mlp, "MLP in VecNormalize": normalised}
+    if default:
+        shown["GP default re-run"] = default
+    print_cell_table(
+        "Final critic RMSE against Monte Carlo returns (mean over seeds; lower is better)",
+        {name: MLPV.critic_rmse(arm) for name, arm in shown.items()},
+        "{:.2f}",
+    )
+    print_cell_table(
+        "Mean final return over seeds",
+        {name: MLPV.cell_means(arm, final_return) for name, arm in shown.items()},
+        "{:.1f}",
+    )
+
+
+def final_return(run: dict[str, Any]) -> float:
+    return float(run["final_return"])
+
+
+def print_cell_table(
+    title: str, columns: dict[str, dict[tuple[str, str], float]], form: str
+) -> None:
+    """One row per cell of :data:`CELLS` that any column has, one column per arm."""
+    print(f"## {title}\n")
+    print("| env | algo | " + " | ".join(columns) + " |")
+    print("|---|---|" + "---:|" * len(columns))
     for cell in CELLS:
-        if cell in cells:
-            rmse = " | ".join(f"{c[cell]:.2f}" for c in columns)
-            print(f"| `{cell[0]}` | {cell[1]} | {rmse} |")
-    print("\n## Mean final return over seeds\n")
-    print("| env | algo | GP | GP, actor normalised | MLP | MLP in VecNormalize |")
-    print("|---|---|---:|---:|---:|---:|")
-    means = [
-        MLPV.cell_means(arm, lambda r: r["final_return"]) for arm in (gp, actor, mlp, normalised)
-    ]
-    for cell in CELLS:
-        if cell in cells:
-            print(
-                f"| `{cell[0]}` | {cell[1]} | " + " | ".join(f"{m[cell]:.1f}" for m in means) + " |"
-            )
+        if any(cell in c for c in columns.values()):
+            row = " | ".join(form.format(c[cell]) if cell in c else "" for c in columns.values())
+            print(f"| `{cell[0]}` | {cell[1]} | {row} |")
+    print()
 
 
 if __name__ == "__main__":
