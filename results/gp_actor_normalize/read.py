@@ -15,7 +15,6 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from sb3_geogp.comparison.report import plot_difference_panels
 from sb3_geogp.comparison.results import pool_sweeps
 from sb3_geogp.toolbox.scripts import load_script
 
@@ -103,13 +102,11 @@ def plot(final: Rows, path: str) -> None:
         "MLP VecNorm": POOL30.mlp_rows(gp + normalised, "final_return"),
         "GP actor-norm": final,
     }
-    panels = [{"env": env, "algo": algo, **{k: t.get((env, algo)) for k, t in shown.items()}}
-              for env, algo in CELLS if (env, algo) in final]  # fmt: skip
     title = (
         "GP critic − SB3's MLP critic, final return: the table (neither normalised), the MLP "
         "in the zoo's VecNormalize, and the GP critic with its actor's observations normalised"
     )
-    plot_difference_panels(panels, list(shown), path, title, n_cols=3, panel_size=(3.2, 2.6))
+    MLPV.plot_cells(shown, path, title)
 
 
 def main() -> None:
@@ -118,15 +115,11 @@ def main() -> None:
     args = parser.parse_args()
     actor, gp, mlp, normalised = arms()
     cells = {MLPV._cell(r) for r in actor}
-    state = "" if len(cells) == len(CELLS) else f" (partial: {len(cells)} of {len(CELLS)} cells)"
+    state = MLPV.partial(cells)
     print(f"# The GP critic's actor normalised: the registered reading{state}\n")
     for metric in ("final_return", "mean_return"):
         sets = readings(metric)
-        for name, rows in sets.items():
-            print(f"## {name}, {LABELS[metric]}\n")
-            difference = "critic − MLP" if name == PRIMARY else "with − without"
-            POOL30.print_table(rows, LABELS[metric], difference)
-            print()
+        MLPV.print_readings(sets, metric, lambda name: name == PRIMARY)
         if metric == "final_return" and not state:
             print("## The 14 cells, each critic with the zoo's normalisation in its form\n")
             POOL30.print_table(zoo_table(sets[PRIMARY], metric), LABELS[metric])
@@ -135,15 +128,11 @@ def main() -> None:
                 plot(sets[PRIMARY], args.plot)
     default = rerun(cells)
     if default:
-        done = {MLPV._cell(r) for r in default}
-        part = "" if done == cells else f" (partial: {len(done)} of {len(cells)} cells)"
+        part = MLPV.partial({MLPV._cell(r) for r in default})
         print(f"# Addendum: the GP default re-run with this code{part}\n")
         for metric in ("final_return", "mean_return"):
-            for name, rows in addendum_readings(metric, default).items():
-                print(f"## {name}, {LABELS[metric]}\n")
-                difference = "critic − MLP" if name.endswith("VecNormalize") else "a − b"
-                POOL30.print_table(rows, LABELS[metric], difference)
-                print()
+            sets = addendum_readings(metric, default)
+            MLPV.print_readings(sets, metric, lambda name: name.endswith("VecNormalize"), "a − b")
     shown = {"GP": gp, "GP, actor normalised": actor, "MLP": mlp, "MLP in VecNormalize": normalised}
     if default:
         shown["GP default re-run"] = default

@@ -96,12 +96,40 @@ def critic_rmse(runs: list[dict[str, Any]]) -> dict[tuple[str, str], float]:
 def plot(sets: dict[str, dict[tuple[str, str], dict[str, Any]]], metric: str, path: str) -> None:
     """Each cell's GP − MLP without and with the MLP critic's ``VecNormalize``."""
     shown = {"table": sets["GP − MLP (the table)"], "VecNorm": sets["GP − MLP in VecNormalize"]}
-    panels = [{"env": env, "algo": algo, **{k: t.get((env, algo)) for k, t in shown.items()}}
-              for env, algo in CELLS if (env, algo) in shown["table"]]  # fmt: skip
     title = (
         f"default GP critic − SB3's MLP critic, {metric}: the MLP critic as in issue 13's "
         "table (without VecNormalize) and in the zoo's VecNormalize"
     )
+    plot_cells(shown, path, title)
+
+
+def partial(cells: set[tuple[str, str]]) -> str:
+    """A heading's note where only some of :data:`CELLS` are read."""
+    return "" if len(cells) == len(CELLS) else f" (partial: {len(cells)} of {len(CELLS)} cells)"
+
+
+def print_readings(
+    sets: dict[str, dict[tuple[str, str], dict[str, Any]]],
+    metric: str,
+    against_mlp: Callable[[str], bool],
+    other: str = "with − without",
+) -> None:
+    """Each reading of ``sets`` on ``metric`` as a table; ``against_mlp(name)`` tells a
+    critic − MLP reading from the others, whose difference is labelled ``other``."""
+    for name, rows in sets.items():
+        print(f"## {name}, {LABELS[metric]}\n")
+        difference = "critic − MLP" if against_mlp(name) else other
+        POOL30.print_table(rows, LABELS[metric], difference)
+        print()
+
+
+def plot_cells(
+    shown: dict[str, dict[tuple[str, str], dict[str, Any]]], path: str, title: str
+) -> None:
+    """One panel per cell of :data:`CELLS` that every reading of ``shown`` has, one point
+    (with its interval) per reading."""
+    panels = [{"env": env, "algo": algo, **{k: t[(env, algo)] for k, t in shown.items()}}
+              for env, algo in CELLS if all((env, algo) in t for t in shown.values())]  # fmt: skip
     plot_difference_panels(panels, list(shown), path, title, n_cols=3, panel_size=(3.2, 2.6))
 
 
@@ -111,15 +139,10 @@ def main() -> None:
     args = parser.parse_args()
     gp, mlp, normalised = arms()
     cells = {_cell(r) for r in normalised}
-    state = "" if len(cells) == len(CELLS) else f" (partial: {len(cells)} of {len(CELLS)} cells)"
-    print(f"# SB3's MLP critic in the zoo's VecNormalize: the registered reading{state}\n")
+    print(f"# SB3's MLP critic in the zoo's VecNormalize: the registered reading{partial(cells)}\n")
     for metric in ("final_return", "mean_return"):
         sets = readings(metric)
-        for name, rows in sets.items():
-            print(f"## {name}, {LABELS[metric]}\n")
-            difference = "critic − MLP" if name.startswith("GP") else "with − without"
-            POOL30.print_table(rows, LABELS[metric], difference)
-            print()
+        print_readings(sets, metric, lambda name: name.startswith("GP"))
         if metric == "final_return" and args.plot:
             plot(sets, LABELS[metric], args.plot)
     print("## Final critic RMSE against Monte Carlo returns (mean over seeds; lower is better)\n")
