@@ -24,8 +24,9 @@ after ``+adapt`` or ``+cheap`` by other adaptation settings (``+gapN``: ``max_ga
 ``settle=False``; ``+snapshot``: ``summary="snapshot"``; ``+lagged``:
 ``forgetting_score="lagged"``; and anywhere ``+returns``, ``GPValueCallback(target="returns")``,
 SB3's returns as the GP's targets instead of the algorithm's default, and ``+everyN``,
-``GPValueCallback(feed_every=N)``, the GP fed every N-th rollout, and ``+basisN``,
-``max_basis=N`` for this critic); settings after
+``GPValueCallback(feed_every=N)``, the GP fed every N-th rollout, ``+basisN``,
+``max_basis=N`` for this critic, and ``+actornorm``, the policy's
+``normalize_actor_obs=True``); settings after
 ``+adapt`` start from :class:`~sb3_geogp.Adaptation`'s defaults, so ``laplacian+adapt+gap1+f1``
 is PPO's critic before 0.10, a refit every block, ``+adapt+score256`` folds every point, and
 ``laplacian+adapt+gap16+nosettle+score256+fold256+floor80+snapshot+f1`` is 0.13's PPO critic,
@@ -109,6 +110,8 @@ CALLBACK_SUFFIXES: dict[str, dict[str, Any]] = {"returns": {"target": "returns"}
 #: Suffixes with a count that configure ``GPValueCallback``, and the option the count sets:
 #: ``+every4`` (``feed_every=4``).
 CALLBACK_COUNTS: dict[str, str] = {"every": "feed_every"}
+#: Suffixes that configure the policy instead of the GP, and its options they set.
+POLICY_SUFFIXES: dict[str, dict[str, Any]] = {"actornorm": {"normalize_actor_obs": True}}
 #: Suffixes without a count (after ``+adapt``) and the settings they give it.
 SETTING_FLAGS: dict[str, dict[str, Any]] = {
     "nosettle": {"settle": False},
@@ -138,7 +141,7 @@ def gp_kwargs_of(suffixes: Sequence[str]) -> dict[str, Any] | None:
     options: dict[str, Any] = {}
     settings: dict[str, Any] = {}
     for suffix in suffixes:
-        if callback_option(suffix) is not None:
+        if callback_option(suffix) is not None or suffix in POLICY_SUFFIXES:
             continue
         name = suffix.rstrip("0123456789")
         count = suffix[len(name) :]
@@ -170,7 +173,7 @@ def critic_name(text: str) -> str:
     if not known or gp_kwargs_of(suffixes) is None:
         counted = " +".join([*(f"{k}N" for k in SETTING_SUFFIXES), *SETTING_FLAGS])
         counts = (f"{k}N" for k in (*GP_COUNTS, *CALLBACK_COUNTS))
-        anywhere = [*SUFFIXES, *CALLBACK_SUFFIXES, *counts]
+        anywhere = [*SUFFIXES, *CALLBACK_SUFFIXES, *POLICY_SUFFIXES, *counts]
         raise argparse.ArgumentTypeError(
             f"unknown critic {text!r}: use one of {ALL_CRITICS}, a GP kernel optionally followed "
             f"by +{' +'.join(anywhere)}"
@@ -204,6 +207,8 @@ def run(workload: str, critic: str, seed: int, max_basis: int, scale: float) -> 
         suffixes = critic.split("+")[1:]
         gp_kwargs = critic_gp_kwargs(workload, critic, max_basis)
         policy_kwargs = {**policy_kwargs, "gp_kwargs": gp_kwargs}
+        for suffix in suffixes:
+            policy_kwargs.update(POLICY_SUFFIXES.get(suffix, {}))
         model = algo_cls(GPActorCriticPolicy, env, seed=seed, policy_kwargs=policy_kwargs, **kwargs)
         seconds = GPClock(model.policy.gp).seconds
         callback = GPValueCallback(**callback_kwargs_of(suffixes))

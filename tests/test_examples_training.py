@@ -68,6 +68,28 @@ def test_benchmark_training_critics_option(tmp_path: Path, monkeypatch: pytest.M
             bench.main([*argv, "--critics", bad])
 
 
+def test_benchmark_training_actornorm_normalises_the_actor(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """``+actornorm`` gives the policy ``normalize_actor_obs=True``, and the GP nothing."""
+    from sb3_geogp.normalization import ActorObservationNormalizer
+
+    bench = load_script("benchmark_training")
+    built: list[int] = []
+    init = ActorObservationNormalizer.__init__
+
+    def recording_init(self: ActorObservationNormalizer, dim: int, *args: float) -> None:
+        init(self, dim, *args)
+        built.append(dim)
+
+    monkeypatch.setattr(ActorObservationNormalizer, "__init__", recording_init)
+    for critic, expected in (("rbf+adapt", []), ("rbf+adapt+actornorm", [4])):
+        built.clear()
+        bench.run("A2C CartPole-v1", bench.critic_name(critic), 0, 16, 0.005)
+        assert built == expected, critic
+    assert bench.gp_kwargs_of(["adapt", "actornorm"]) == bench.gp_kwargs_of(["adapt"])
+
+
 def test_benchmark_training_adapting_a2c_critic_is_the_drop_ins() -> None:
     """The A2C workload's ``rbf+adapt`` is the critic ``A2C(GPActorCriticPolicy, env)`` builds
     (the same forgetting and adaptation); only a critic that does not adapt gets the fixed
