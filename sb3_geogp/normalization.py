@@ -10,8 +10,6 @@ ratios compare the actor's outputs under the statistics the rollout was collecte
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 import torch as th
 from stable_baselines3.common.running_mean_std import RunningMeanStd
@@ -49,10 +47,7 @@ class ActorObservationNormalizer(nn.Module):
     The statistics are buffers (``mean``, ``var``: published; ``running_mean``,
     ``running_var``, ``running_count``: observed), so they are saved and loaded with the
     policy's state. It has no parameters: the optimiser and the actor's initialisation do
-    not see it. The map is applied as ``clip(x * gain + shift)`` with ``gain`` and ``shift``
-    derived in float64 from the published statistics and kept in float32, SB3's policy dtype
-    (unsaved buffers, derived again on publishing and loading): the actor calls it on every
-    step and minibatch, and dtype conversions there would double its cost.
+    not see it.
     """
 
     mean: th.Tensor
@@ -60,8 +55,6 @@ class ActorObservationNormalizer(nn.Module):
     running_mean: th.Tensor
     running_var: th.Tensor
     running_count: th.Tensor
-    gain: th.Tensor
-    shift: th.Tensor
 
     def __init__(self, dim: int, clip_obs: float = CLIP_OBS, epsilon: float = EPSILON) -> None:
         super().__init__()
@@ -78,23 +71,11 @@ class ActorObservationNormalizer(nn.Module):
             self.register_buffer(name, th.tensor(value, dtype=th.float64))
             self.register_buffer(f"running_{name}", th.tensor(value, dtype=th.float64))
         self.register_buffer("running_count", th.tensor(start.count, dtype=th.float64))
-        self.register_buffer("gain", th.empty(self.dim), persistent=False)
-        self.register_buffer("shift", th.empty(self.dim), persistent=False)
-        self._derive()
 
     def forward(self, x: th.Tensor) -> th.Tensor:
         """Normalise ``x``, shape (N, dim), by the published statistics, in ``x``'s dtype."""
-        scaled = th.addcmul(self.shift.to(x.dtype), x, self.gain.to(x.dtype))
-        return scaled.clamp_(-self.clip_obs, self.clip_obs)
-
-    def _derive(self) -> None:
-        gain = 1.0 / th.sqrt(self.var + self.epsilon)
-        self.gain.copy_(gain)
-        self.shift.copy_(-self.mean * gain)
-
-    def _load_from_state_dict(self, *args: Any, **kwargs: Any) -> None:
-        super()._load_from_state_dict(*args, **kwargs)
-        self._derive()
+        scaled = (x.to(self.mean.dtype) - self.mean) / th.sqrt(self.var + self.epsilon)
+        return scaled.clamp(-self.clip_obs, self.clip_obs).to(x.dtype)
 
     def observe(self, x: np.ndarray) -> None:
         """Add inputs, shape (N, dim), to the running statistics (not yet to the published).
@@ -124,7 +105,6 @@ class ActorObservationNormalizer(nn.Module):
         """Normalise by the running statistics from now on."""
         self.mean.copy_(self.running_mean)
         self.var.copy_(self.running_var)
-        self._derive()
 
     def extra_repr(self) -> str:
         return f"dim={self.dim}, clip_obs={self.clip_obs}, epsilon={self.epsilon}"
