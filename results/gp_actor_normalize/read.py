@@ -12,6 +12,7 @@ This folder's runs (``run.sh``: ``sb3-geogp compare --gp-actor-normalize``) agai
 from __future__ import annotations
 
 import argparse
+import functools
 from pathlib import Path
 from typing import Any
 
@@ -27,6 +28,7 @@ Rows = dict[tuple[str, str], dict[str, Any]]
 PRIMARY = "GP, actor normalised − MLP in VecNormalize"
 
 
+@functools.cache  # every reading reads the same files
 def arms() -> tuple[Runs, Runs, Runs, Runs]:
     """This folder's GP runs, the table's GP and MLP runs and the MLP runs in
     ``VecNormalize``, in the cells where all four arms have their 50 seeds."""

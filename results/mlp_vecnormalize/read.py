@@ -12,6 +12,7 @@ on the same seeds. Only cells with all 50 MLP runs are read::
 from __future__ import annotations
 
 import argparse
+import functools
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -44,6 +45,7 @@ def _cell(run: dict[str, Any]) -> tuple[str, str]:
     return run["spec"]["env_id"], run["spec"]["algo"]
 
 
+@functools.cache  # every reading reads the same files
 def arms() -> tuple[list[dict[str, Any]], list[dict[str, Any]], list[dict[str, Any]]]:
     """The table's GP runs and MLP runs, and this folder's MLP runs in ``VecNormalize``, in the
     cells where all 50 of the latter have finished (and on the same seeds as the table's)."""
