@@ -49,15 +49,17 @@ from __future__ import annotations
 
 import argparse
 import concurrent.futures as cf
+import copy
 import json
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import torch as th
 from stable_baselines3.common.callbacks import BaseCallback, CallbackList
+from stable_baselines3.common.policies import ActorCriticPolicy
 from tqdm.auto import tqdm
 
 from sb3_geogp import GPActorCriticPolicy, GPValueCallback
@@ -83,6 +85,7 @@ from sb3_geogp.studies.value_ceiling import (
     ceiling,
     horizon,
     knn_fit,
+    lagged_ceiling,
     mlp_fit,
     model_returns,
 )
@@ -140,15 +143,18 @@ class WithCeiling(ExplainedVariance):
         tail: float,
         seed: int,
         with_capacity: bool = False,
+        with_lag: bool = False,
     ) -> None:
         super().__init__()
         if env_id not in TASKS:
             raise ValueError(f"--ceiling supports {sorted(TASKS)}, not {env_id}")
         self.task, self.first, self.n_rollouts, self.tail = TASKS[env_id], first, n_rollouts, tail
         self.seed = seed
-        self.with_capacity = with_capacity
+        self.with_capacity, self.with_lag = with_capacity, with_lag
         # The previous scored rollout and its V^pi, for capacity's "lag" targets.
         self._previous: tuple[Rollout, np.ndarray] | None = None
+        # A copy of the policy that collected the previous rollout, for the lagged ceiling.
+        self._earlier_policy: ActorCriticPolicy | None = None
         self.rewards: list[np.ndarray] = []
         self.truncations: list[tuple[int, int, np.ndarray]] = []
 
@@ -163,8 +169,12 @@ class WithCeiling(ExplainedVariance):
 
     def row(self) -> dict[str, Any]:
         row = super().row()
-        if len(self.rows) >= self.first:
+        index = len(self.rows)
+        if index >= self.first:
             row["ceiling"] = self.ceiling()
+        if self.with_lag and index >= self.first - 1:
+            # the policy that collected this rollout, before PPO trains it on the rollout
+            self._earlier_policy = copy.deepcopy(self.model.policy)
         return row
 
     def rollout(self) -> Rollout:
@@ -180,12 +190,16 @@ class WithCeiling(ExplainedVariance):
             truncations=self.truncations,
         )
 
-    def monte_carlo(self) -> tuple[Rollout, np.ndarray]:
-        """The rollout that just ended and the policy's Monte Carlo returns from each of its
-        states (:meth:`Rollout.states`), shape (m, ``n_rollouts``)."""
+    def monte_carlo(self, policy: ActorCriticPolicy | None = None) -> tuple[Rollout, np.ndarray]:
+        """The rollout that just ended and the policy's (or ``policy``'s) Monte Carlo returns
+        from each of its states (:meth:`Rollout.states`), shape (m, ``n_rollouts``); every
+        policy scored on a rollout draws the same random numbers."""
         rollout, steps = self.rollout(), horizon(float(self.model.gamma), self.tail)
         seed = self.seed * 1000 + len(self.rows)
-        mc = model_returns(self.model, self.task, rollout.states(), steps, self.n_rollouts, seed)
+        states = rollout.states()
+        mc = model_returns(
+            self.model, self.task, states, steps, self.n_rollouts, seed, policy=policy
+        )
         return rollout, mc
 
     def ceiling(self) -> dict[str, Any]:
@@ -196,6 +210,9 @@ class WithCeiling(ExplainedVariance):
             rollout, mc, gamma, lam, critic=buffer.values.ravel(),
             advantages=buffer.advantages.ravel(),
         )  # fmt: skip
+        if self._earlier_policy is not None:
+            lagged = self.monte_carlo(self._earlier_policy)[1]
+            result["lag"] = lagged_ceiling(rollout, mc, lagged, gamma, lam)
         if self.with_capacity:
             values = mc.mean(axis=1)
             result["capacity"] = capacity(
@@ -251,17 +268,19 @@ def run_one(
     ceiling_rollouts: int = 0,
     tail: float = 0.1,
     with_capacity: bool = False,
+    with_lag: bool = False,
 ) -> dict[str, Any]:
     """Train ``spec``'s model and return its per-rollout explained variance (and with
     ``ceiling_rollouts`` Monte Carlo rollouts per state, the ceilings of the scored ones, with
-    ``with_capacity`` their :func:`~sb3_geogp.studies.value_ceiling.capacity` too)."""
+    ``with_capacity`` their :func:`~sb3_geogp.studies.value_ceiling.capacity` too, with
+    ``with_lag`` their :func:`~sb3_geogp.studies.value_ceiling.lagged_ceiling`)."""
     th.set_num_threads(1)
     model = build_model(spec)
     per_rollout = model.n_steps * model.n_envs
     n_rollouts = -(-spec.total_timesteps // per_rollout)
     first = first_scored(n_rollouts, last)
     recorder = (
-        WithCeiling(spec.env_id, first, ceiling_rollouts, tail, spec.seed, with_capacity)
+        WithCeiling(spec.env_id, first, ceiling_rollouts, tail, spec.seed, with_capacity, with_lag)
         if ceiling_rollouts
         else ExplainedVariance()
     )
@@ -298,6 +317,7 @@ def run_one(
             n_rollouts=ceiling_rollouts,
             tail=tail,
             **({"with_capacity": True} if with_capacity else {}),
+            **({"with_lag": True} if with_lag else {}),
             rollouts=ceilings,
             tail_mean=float(np.nanmean([c["explained"] for c in ceilings])),
             tail_halves=float(np.nanmean([c["halves"] for c in ceilings])),
@@ -329,9 +349,15 @@ def _run_file(out: Path, spec: RunSpec) -> Path:
 
 
 def _run_and_save(
-    spec: RunSpec, last: float, out: Path, ceiling_rollouts: int, tail: float, with_capacity: bool
+    spec: RunSpec,
+    last: float,
+    out: Path,
+    ceiling_rollouts: int,
+    tail: float,
+    with_capacity: bool,
+    with_lag: bool,
 ) -> dict[str, Any]:
-    result = run_one(spec, last, ceiling_rollouts, tail, with_capacity)
+    result = run_one(spec, last, ceiling_rollouts, tail, with_capacity, with_lag)
     write_json_atomic(_run_file(out, spec), result)
     return result
 
@@ -348,6 +374,7 @@ def run_all(
     ceiling_rollouts: int = 0,
     tail: float = 0.1,
     with_capacity: bool = False,
+    with_lag: bool = False,
 ) -> list[dict[str, Any]]:
     """Every run of ``specs`` not already in ``out`` (resumable), with a progress bar."""
     (out / "runs").mkdir(parents=True, exist_ok=True)
@@ -383,11 +410,12 @@ def run_all(
             recorded.get("n_rollouts", 0),
             recorded.get("tail", tail),
             recorded.get("with_capacity", False),
+            recorded.get("with_lag", False),
         )
-        if settings != (ceiling_rollouts, tail, with_capacity):
+        if settings != (ceiling_rollouts, tail, with_capacity, with_lag):
             raise OtherSettingsError(
-                f"{_run_file(out, spec)} ran with another --ceiling, --ceiling-tail or "
-                "--capacity: pass another --out"
+                f"{_run_file(out, spec)} ran with another --ceiling, --ceiling-tail, "
+                "--capacity or --lag: pass another --out"
             )
     todo = [s for s in specs if s not in existing]
     bar = tqdm(total=len(specs), initial=len(done), unit="run", desc="runs")
@@ -399,16 +427,14 @@ def run_all(
         bar.set_postfix_str(f"{result['critic']} {result['env_id']} {shown}")
         bar.update()
 
+    options = (ceiling_rollouts, tail, with_capacity, with_lag)
     if workers <= 1:
         for spec in todo:
-            finished(_run_and_save(spec, last, out, ceiling_rollouts, tail, with_capacity))
+            finished(_run_and_save(spec, last, out, *options))
     else:
         # Spawned, not forked: a fork after autograd has run on a GPU cannot backpropagate.
         with worker_pool(workers) as pool:
-            futures = [
-                pool.submit(_run_and_save, s, last, out, ceiling_rollouts, tail, with_capacity)
-                for s in todo
-            ]
+            futures = [pool.submit(_run_and_save, s, last, out, *options) for s in todo]
             for future in cf.as_completed(futures):
                 finished(future.result())
     bar.close()
@@ -433,6 +459,8 @@ def summary(results: list[dict[str, Any]], critics: Sequence[str], last: float) 
         lines += ["", *ceiling_table(results, critics)]
     if all("capacity" in c for r in results for c in r.get("ceiling", {}).get("rollouts", [{}])):
         lines += ["", *capacity_table(results, critics)]
+    if all(r.get("ceiling", {}).get("with_lag") for r in results):
+        lines += ["", *lag_table(results, critics)]
     return "\n".join(lines) + "\n"
 
 
@@ -578,36 +606,111 @@ def _on_g(runs: list[dict[str, Any]], key: str) -> str:
     return f"{np.mean(varying):.3f}{count}" if varying else "–"
 
 
+def _mean(values: Sequence[float | None], fmt: str = ".3f") -> str:
+    """The mean of the defined ``values`` (a critic's score may be undefined), "–" if none."""
+    defined = [v for v in values if v is not None]
+    return f"{np.mean(defined):{fmt}}" if defined else "–"
+
+
+def _per_run(
+    runs: list[dict[str, Any]], get: Callable[[dict[str, Any]], float | None]
+) -> list[float | None]:
+    """Each run's mean over its scored rollouts of ``get(rollout's ceiling record)`` (``None``
+    and NaN left out); ``None`` where a run has no defined value."""
+    means = []
+    for r in runs:
+        values = [get(c) for c in r["ceiling"]["rollouts"]]
+        defined = [v for v in values if v is not None and not np.isnan(v)]
+        means.append(float(np.mean(defined)) if defined else None)
+    return means
+
+
 def _ceiling_cells(runs: list[dict[str, Any]]) -> list[str]:
     """The cells of :func:`ceiling_table`'s row of ``runs`` (one env and critic)."""
     ceilings = [r["ceiling"]["tail_mean"] for r in runs]
 
-    def mean(values: list[float | None], fmt: str = ".3f") -> str:
-        defined = [v for v in values if v is not None]  # a critic's score may be undefined
-        return f"{np.mean(defined):{fmt}}" if defined else "–"
-
     def per_rollout(key: str) -> list[float | None]:
-        """Each run's mean over its scored rollouts (NaN ones left out); ``None`` where the
-        run's rollouts lack ``key`` or have no defined value."""
-        means = []
-        for r in runs:
-            values = [c.get(key) for c in r["ceiling"]["rollouts"]]
-            defined = [v for v in values if v is not None and not np.isnan(v)]
-            means.append(float(np.mean(defined)) if defined else None)
-        return means
+        return _per_run(runs, lambda c: c.get(key))
 
     reached = sum(c >= GOAL for c in ceilings)
     return [
-        mean([r["tail_mean"] for r in runs]),
-        f"{mean(ceilings)} [{min(ceilings):.2f}, {max(ceilings):.2f}], {reached}/{len(runs)}",
-        mean([r["ceiling"]["tail_halves"] for r in runs]),
-        mean([r["tail_pooled"] for r in runs]),
-        mean([r["ceiling"]["tail_pooled"] for r in runs]),
+        _mean([r["tail_mean"] for r in runs]),
+        f"{_mean(ceilings)} [{min(ceilings):.2f}, {max(ceilings):.2f}], {reached}/{len(runs)}",
+        _mean([r["ceiling"]["tail_halves"] for r in runs]),
+        _mean([r["tail_pooled"] for r in runs]),
+        _mean([r["ceiling"]["tail_pooled"] for r in runs]),
         *(_on_g(runs, key) for key in ("mc_critic", "mc_ceiling")),
-        mean(per_rollout("value_rmse"), ".2f"),
-        mean(per_rollout("value_bias"), "+.2f"),
-        mean(per_rollout("truth_sd"), ".2f"),
-        mean(per_rollout("advantage_correlation")),
+        _mean(per_rollout("value_rmse"), ".2f"),
+        _mean(per_rollout("value_bias"), "+.2f"),
+        _mean(per_rollout("truth_sd"), ".2f"),
+        _mean(per_rollout("advantage_correlation")),
+    ]
+
+
+def lag_table(results: list[dict[str, Any]], critics: Sequence[str]) -> list[str]:
+    """Markdown lines: per environment and critic, the critic's score beside the lagged ceiling
+    (the previous rollout's policy's ``V^pi'`` scored on each rollout,
+    :func:`~sb3_geogp.studies.value_ceiling.lagged_ceiling`) and the ceiling, over the scored
+    rollouts that have a previous policy; each a mean over seeds."""
+    lines = [
+        "The lagged ceiling: the score of the previous rollout's policy's value function V^pi' "
+        "on each scored rollout (Monte Carlo, the same random numbers as V^pi), what a critic "
+        "that knew the previous policy's values exactly would score; beside it the critic's "
+        "score and the ceiling (V^pi) on the same rollouts. Per run the mean over its scored "
+        "rollouts, then mean over seeds [min, max], seeds of at least "
+        f"{GOAL}; pooled over each run's rollouts; on G (the rollouts' own returns "
+        "bootstrapped with V^pi), pooled, over the runs whose V^pi varies; how far V^pi' is "
+        "from V^pi at the scored states (RMSE) and V^pi's standard deviation there:",
+        "",
+        "| env | critic | critic's score | lagged ceiling V^pi' | ceiling V^pi | pooled: critic | "
+        "pooled: V^pi' | pooled: V^pi | on G: critic | on G: V^pi' | on G: V^pi | "
+        "V^pi' − V^pi RMSE | V^pi's sd |",
+        "|---|---|" + "---:|" * 11,
+    ]
+    for env_id in dict.fromkeys(r["env_id"] for r in results):
+        for critic in critics:
+            runs = [r for r in results if (r["env_id"], r["critic"]) == (env_id, critic)]
+            if runs:
+                lines.append(f"| `{env_id}` | {critic} | " + " | ".join(_lag_cells(runs)) + " |")
+    return lines
+
+
+def _lag_cells(runs: list[dict[str, Any]]) -> list[str]:
+    """The cells of :func:`lag_table`'s row of ``runs`` (one env and critic)."""
+
+    def lagged(key: str) -> Callable[[dict[str, Any]], Any]:
+        return lambda c: c["lag"][key] if "lag" in c else None
+
+    lags = [v for v in _per_run(runs, lagged("explained")) if v is not None]
+    reached = sum(v >= GOAL for v in lags)
+    spread = f" [{min(lags):.2f}, {max(lags):.2f}], {reached}/{len(lags)}" if lags else ""
+    lag_pooled = [
+        pooled_explained_variance(
+            [c["lag"]["moments"] for c in r["ceiling"]["rollouts"] if "lag" in c]
+        )
+        for r in runs
+    ]
+    varying = [
+        r for r in runs if np.mean([c["truth_sd"] for c in r["ceiling"]["rollouts"]]) > VARYING
+    ]
+    lag_on_g = [
+        pooled_explained_variance(
+            [c["lag"]["mc_critic_moments"] for c in r["ceiling"]["rollouts"] if "lag" in c]
+        )
+        for r in varying
+    ]
+    return [
+        _mean([r["tail_mean"] for r in runs]),
+        _mean(lags) + spread,
+        _mean([r["ceiling"]["tail_mean"] for r in runs]),
+        _mean([r["tail_pooled"] for r in runs]),
+        _mean(lag_pooled),
+        _mean([r["ceiling"]["tail_pooled"] for r in runs]),
+        _on_g(runs, "mc_critic"),
+        _mean(lag_on_g),
+        _on_g(runs, "mc_ceiling"),
+        _mean(_per_run(runs, lagged("value_rmse")), ".2f"),
+        _mean(_per_run(runs, lagged("truth_sd")), ".2f"),
     ]
 
 
@@ -733,6 +836,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         help="option of both GP critics, as in sb3-geogp compare (repeatable)",
     )
     parser.add_argument(
+        "--lag",
+        action="store_true",
+        help="with --ceiling: also score the previous rollout's policy's V^pi on each scored "
+        "rollout (the lagged ceiling: what a critic one policy behind could score)",
+    )
+    parser.add_argument(
         "--capacity",
         action="store_true",
         help="with --ceiling: also fit value models once to half of each scored rollout and "
@@ -761,6 +870,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.error(f"--ceiling supports {', '.join(TASKS)}, not {set(args.envs) - set(TASKS)}")
     if args.capacity and not args.ceiling:
         parser.error("--capacity scores against V^pi: it needs --ceiling N")
+    if args.lag and not args.ceiling:
+        parser.error("--lag scores by Monte Carlo: it needs --ceiling N")
     try:
         results = run_all(
             config.specs(),
@@ -770,6 +881,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             args.ceiling,
             args.ceiling_tail,
             args.capacity,
+            args.lag,
         )
     except OtherSettingsError as err:
         parser.error(str(err))

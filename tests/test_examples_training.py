@@ -285,16 +285,24 @@ def test_critic_fit_feeds_the_gp_critic_the_target_asked_for(
 def test_critic_fit_ceiling_leaves_the_run_as_it_was(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    """``--ceiling`` adds the scored rollouts' ceilings without changing a single score of the
-    run (its Monte Carlo draws have their own random stream), and a run resumed with another
-    ``--ceiling`` is refused."""
+    """``--ceiling`` adds the scored rollouts' ceilings, and ``--lag`` their lagged ceilings,
+    without changing a single score of the run (their Monte Carlo draws have their own random
+    stream); a run resumed with another ``--ceiling`` or ``--lag``, and ``--lag`` without
+    ``--ceiling``, are refused."""
     critic_fit = load_script("critic_fit")
     argv = ["--envs", "CartPole-v1", "--critics", "mlp", "--seeds", "0", "--scale", "0.01"]
-    variants = {"plain": [], "ceiling": ["--ceiling", "4"]}
-    plain, with_ceiling = _each_run(
+    variants = {"plain": [], "ceiling": ["--ceiling", "4"], "lag": ["--ceiling", "4", "--lag"]}
+    plain, with_ceiling, with_lag = _each_run(
         critic_fit, argv, variants, tmp_path, "mlp__CartPole-v1__s0.json"
     )
     assert with_ceiling["explained_variance"] == plain["explained_variance"]
+    assert with_lag["explained_variance"] == plain["explained_variance"]
+    # every scored rollout has a previous one here (the last 20 % of 5), so every one a lag
+    lagged = [c["lag"] for c in with_lag["ceiling"]["rollouts"]]
+    assert len(lagged) == plain["tail_rollouts"] and with_lag["ceiling"]["with_lag"]
+    assert all(lag["explained"] <= 1 and lag["value_rmse"] >= 0 for lag in lagged)
+    assert "The lagged ceiling" in (tmp_path / "lag" / "critic_fit.md").read_text()
+    assert "lag" not in with_ceiling["ceiling"]["rollouts"][0]
     ceilings = with_ceiling["ceiling"]["rollouts"]
     assert len(ceilings) == plain["tail_rollouts"] and "ceiling" not in plain
     assert all(c["explained"] <= 1 and c["truth_sd"] > 0 for c in ceilings)
@@ -306,6 +314,12 @@ def test_critic_fit_ceiling_leaves_the_run_as_it_was(
     with pytest.raises(SystemExit):
         critic_fit.main([*argv, "--out", str(tmp_path / "plain"), "--ceiling", "4"])
     assert "another --ceiling" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        critic_fit.main([*argv, "--out", str(tmp_path / "ceiling"), "--ceiling", "4", "--lag"])
+    assert "--lag" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        critic_fit.main([*argv, "--lag", "--out", str(tmp_path / "no_ceiling")])
+    assert not (tmp_path / "no_ceiling").exists()
     with pytest.raises(SystemExit):  # no restartable dynamics for it: refused before any run
         critic_fit.main(["--envs", "Pendulum-v1", "--ceiling", "4", "--out", str(tmp_path / "p")])
     assert not (tmp_path / "p").exists()

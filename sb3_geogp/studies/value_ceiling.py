@@ -34,6 +34,10 @@ Monte Carlo noise in ``V^pi`` lowers the estimated ceiling; :func:`ceiling` also
 half of the rollouts, whose difference from the whole measures that bias (it shrinks as
 ``1 / n_rollouts``), and checks the estimate against the rollout's own returns.
 
+:func:`lagged_ceiling` scores, on the same rollout, the value function of the policy one
+rollout earlier: what a critic would score that knew that policy's values exactly, as critics
+are trained on earlier policies' returns and predict a rollout's values before they see it.
+
 :func:`capacity` asks what a value model fitted once to a rollout can know of ``V^pi``: each
 model of a set is fitted to half the rollout's environments and scored against ``V^pi`` on the
 other half, on three sets of targets (``V^pi`` itself, ``G``, and the previous rollout's
@@ -75,6 +79,7 @@ from sb3_geogp.toolbox.stats import correlation, explained_variance, moments
 
 if TYPE_CHECKING:  # the studies import without stable-baselines3 (tests/toolbox/test_layers.py)
     from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
+    from stable_baselines3.common.policies import ActorCriticPolicy
 
 #: ``act(obs, step) -> actions``: a stochastic policy's draws for a batch of observations,
 #: shape (n, obs_dim) -> (n,) (discrete actions) or (n, action_dim); ``step`` counts the steps
@@ -319,6 +324,7 @@ def model_returns(
     steps: int,
     n_rollouts: int,
     seed: int,
+    policy: ActorCriticPolicy | None = None,
 ) -> np.ndarray:
     """:func:`policy_returns` of an SB3 model's current policy at its discount, leaving its
     training as it was.
@@ -337,6 +343,10 @@ def model_returns(
     steps, n_rollouts : int
         As :func:`policy_returns`.
     seed : int
+    policy : ActorCriticPolicy, optional
+        The policy to roll out instead of the model's own, e.g. a copy of an earlier one
+        (:func:`lagged_ceiling`); the model still gives the spaces, discount and gSDE
+        schedule. The same ``seed`` draws the same random numbers for either policy.
 
     Returns
     -------
@@ -353,7 +363,8 @@ def model_returns(
             f"obs must have shape (n, {', '.join(map(str, expected))}) as the model's "
             f"observations, got {np.shape(obs)}"
         )
-    policy, space = model.policy, model.action_space
+    policy = model.policy if policy is None else policy
+    space = model.action_space
     shape = space.shape or ()
 
     def act(o: np.ndarray, step: int) -> np.ndarray:
@@ -534,6 +545,55 @@ def ceiling(
             ),
         )
     return result
+
+
+def lagged_ceiling(
+    rollout: Rollout,
+    mc_returns: np.ndarray,
+    lagged_returns: np.ndarray,
+    gamma: float,
+    gae_lambda: float,
+) -> dict[str, Any]:
+    """What the previous rollout's policy's value function ``V^pi'`` scores on this rollout:
+    the *lagged ceiling*, what a critic would score that knew the previous policy's values
+    exactly and nothing of the policy that collected the rollout.
+
+    A critic predicts a rollout's values before it sees the rollout's returns, from returns of
+    earlier policies: SB3's MLP critic last trained on the previous rollout's GAE returns, and
+    the GP critic is fed the returns of episodes as they end. ``V^pi'`` is what both learn
+    towards; the score asks for ``V^pi``. A critic can beat ``V^pi'`` only by foreseeing how
+    the policy changed (or, by the goal's reading, by agreeing with itself).
+
+    Parameters
+    ----------
+    rollout : Rollout
+    mc_returns : ndarray, shape (m, n_rollouts)
+        :func:`policy_returns` of the policy that collected the rollout, from
+        :meth:`Rollout.states`.
+    lagged_returns : ndarray, shape (m, n_lagged)
+        The same for the previous policy (:func:`model_returns` with ``policy=``).
+    gamma, gae_lambda : float
+
+    Returns
+    -------
+    dict
+        By the goal's reading, ``V^pi'`` scored as a critic on its own GAE returns, as
+        :func:`ceiling` scores ``V^pi``: ``explained``, ``halves``, ``moments``. On G (the
+        rollout's returns bootstrapped with ``V^pi``), as :func:`ceiling` scores a critic:
+        ``mc_critic``, ``mc_critic_moments``; and ``V^pi' - V^pi`` at the rollout's steps:
+        ``value_rmse``, ``value_bias``, ``truth_sd``.
+    """
+    n = rollout.rewards.size
+    own = ceiling(rollout, lagged_returns, gamma, gae_lambda)
+    lagged = np.asarray(lagged_returns, dtype=np.float64).mean(axis=1)[:n]
+    versus = ceiling(rollout, mc_returns, gamma, gae_lambda, critic=lagged)
+    return {
+        **{key: own[key] for key in ("explained", "halves", "moments")},
+        **{
+            key: versus[key]
+            for key in ("mc_critic", "mc_critic_moments", "value_rmse", "value_bias", "truth_sd")
+        },
+    }
 
 
 def reference_advantages(

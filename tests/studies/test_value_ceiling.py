@@ -23,6 +23,7 @@ from sb3_geogp.studies.value_ceiling import (
     ceiling,
     horizon,
     knn_fit,
+    lagged_ceiling,
     mlp_fit,
     model_returns,
     own_value_weight,
@@ -326,6 +327,92 @@ def test_the_ceiling_of_certain_returns_is_one_and_of_a_guess_below() -> None:
     assert ceiling(rollout, noisy, gamma, lam)["explained"] < 0.99
     # values one too high: the rollout's own returns fall short of them
     assert ceiling(rollout, mc + 1, gamma, lam)["check_mean"] < -0.1
+
+
+def test_the_lagged_ceiling_scores_the_earlier_policys_values() -> None:
+    """Deterministic policies, so every value is certain. The rollout pushes right; the
+    earlier policy pushed left. On G (the rollout's returns bootstrapped with ``V^pi``, which
+    are ``V^pi`` itself here) the earlier values explain ``1 - Var(V^pi - V') / Var(V^pi)``,
+    computed here from the two value arrays alone; by the goal's reading they are scored on
+    their own GAE returns, as the ceiling scores ``V^pi`` (so the same policy twice gives the
+    ceiling)."""
+    rollout = _always_right_rollout(60, 4)
+    task, gamma, lam = TASKS["CartPole-v1"], 0.97, 0.9
+    steps, states, n = horizon(gamma, 1e-12), rollout.states(), rollout.rewards.size
+    right = lambda o, t: np.ones(len(o), dtype=np.int64)  # noqa: E731
+    left = lambda o, t: np.zeros(len(o), dtype=np.int64)  # noqa: E731
+    now = policy_returns(right, task, states, gamma, steps, 2)
+    before = policy_returns(left, task, states, gamma, steps, 2)
+    truth, earlier = now.mean(axis=1)[:n], before.mean(axis=1)[:n]
+    assert not np.allclose(truth, earlier)
+    lag = lagged_ceiling(rollout, now, before, gamma, lam)
+    expected = 1 - np.var(truth - earlier) / np.var(truth)
+    assert lag["mc_critic"] == pytest.approx(expected, rel=1e-9)
+    assert lag["value_rmse"] == pytest.approx(np.sqrt(np.mean((earlier - truth) ** 2)))
+    assert lag["value_bias"] == pytest.approx(np.mean(earlier - truth))
+    assert lag["truth_sd"] == pytest.approx(np.std(truth))
+    assert lag["explained"] == ceiling(rollout, before, gamma, lam)["explained"]
+    same = lagged_ceiling(rollout, now, now, gamma, lam)
+    scores = ceiling(rollout, now, gamma, lam)
+    assert same["explained"] == scores["explained"] == pytest.approx(1.0, abs=1e-9)
+    assert same["mc_critic"] == scores["mc_ceiling"] and same["value_rmse"] == 0.0
+
+
+def test_the_lagged_ceiling_rolls_out_the_policy_of_the_previous_rollout() -> None:
+    """The recorder's lagged ceiling of each scored rollout equals, bit for bit, the one
+    computed from a copy of the policy taken at the previous rollout's end (a reference
+    callback, before PPO trains on that rollout) with the same seed. With a learning rate of
+    0 the policy never changes and the same seed draws the same actions: the lagged ceiling is
+    the ceiling."""
+    import copy
+
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    from tests.test_examples_training import load_script
+
+    critic_fit = load_script("critic_fit")
+    task = TASKS["CartPole-v1"]
+
+    def train(learning_rate: float) -> tuple[Any, Any, list[Any]]:
+        kept: list[Any] = []
+
+        class Keep(BaseCallback):
+            def _on_step(self) -> bool:
+                return True
+
+            def _on_rollout_end(self) -> None:
+                # PPO's training flattens the buffer in place: read the rollout now
+                kept.append((copy.deepcopy(self.model.policy), recorder.rollout()))
+
+        env = make_vec_env("CartPole-v1", n_envs=2, seed=4)
+        model = PPO("MlpPolicy", env, n_steps=32, batch_size=64, learning_rate=learning_rate,
+                    seed=4)  # fmt: skip
+        recorder = critic_fit.WithCeiling(
+            "CartPole-v1", first=1, n_rollouts=4, tail=0.1, seed=4, with_lag=True
+        )
+        model.learn(3 * 64, callback=[recorder, Keep()])
+        return model, recorder, kept
+
+    model, recorder, kept = train(3e-3)
+    rows = [r["ceiling"] for r in recorder.rows[1:]]
+    assert "ceiling" not in recorder.rows[0] and len(rows) == 2
+    assert all("lag" in row for row in rows)
+    gamma, lam = float(model.gamma), float(model.gae_lambda)
+    # the last rollout (index 2), rolled out with its policy and the one before it
+    last, steps, seed = kept[2][1], horizon(gamma, 0.1), 4 * 1000 + 2
+    reference = [
+        model_returns(model, task, last.states(), steps, 4, seed, policy=kept[i][0]) for i in (2, 1)
+    ]
+    expected = lagged_ceiling(last, *reference, gamma, lam)
+    assert rows[-1]["explained"] == ceiling(last, reference[0], gamma, lam)["explained"]
+    assert rows[-1]["lag"]["explained"] == expected["explained"]
+    assert rows[-1]["lag"]["mc_critic"] == expected["mc_critic"]
+    assert rows[-1]["explained"] != rows[-1]["lag"]["explained"]
+    _, frozen, _ = train(0.0)
+    for row in (r["ceiling"] for r in frozen.rows[1:]):
+        assert row["lag"]["explained"] == row["explained"]
+        assert row["lag"]["value_rmse"] == 0.0
 
 
 def test_reference_advantages_vanish_where_returns_are_certain() -> None:
