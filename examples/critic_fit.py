@@ -580,13 +580,12 @@ def paired_differences(
     for env_id in dict.fromkeys(r["env_id"] for r in results):
         cells = []
         for critic in critics[1:]:
-            diff = np.array(
-                [t - tails[env_id, first, seed] for (e, c, seed), t in tails.items()
-                 if (e, c) == (env_id, critic) and (env_id, first, seed) in tails]
-            )  # fmt: skip
-            mean, half = (float(v) for v in mean_ci(diff, nan_policy="propagate"))
-            interval = f"[{mean - half:+.3f}, {mean + half:+.3f}]"
-            cells.append(f"{estimate_cell(f'{mean:+.3f}', interval, len(diff))} ({len(diff)})")
+            pairs = [
+                (t, tails[env_id, first, seed])
+                for (e, c, seed), t in tails.items()
+                if (e, c) == (env_id, critic) and (env_id, first, seed) in tails
+            ]
+            cells.append(_paired(*zip(*pairs, strict=True)) if pairs else "–")
         lines.append(f"| `{env_id}` | " + " | ".join(cells) + " |")
     return lines
 
@@ -660,12 +659,14 @@ def lag_table(results: list[dict[str, Any]], critics: Sequence[str]) -> list[str
         "rollouts, then mean over seeds [min, max], seeds of at least "
         f"{GOAL}; pooled over each run's rollouts; on G (the rollouts' own returns "
         "bootstrapped with V^pi), pooled, over the runs whose V^pi varies; how far V^pi' is "
-        "from V^pi at the scored states (RMSE) and V^pi's standard deviation there:",
+        "from V^pi at the scored states (RMSE) and V^pi's standard deviation there; the "
+        "ceiling and the critic's score minus the lagged ceiling, paired by seed [95 % t] "
+        "(seeds):",
         "",
         "| env | critic | critic's score | lagged ceiling V^pi' | ceiling V^pi | pooled: critic | "
         "pooled: V^pi' | pooled: V^pi | on G: critic | on G: V^pi' | on G: V^pi | "
-        "V^pi' − V^pi RMSE | V^pi's sd |",
-        "|---|---|" + "---:|" * 11,
+        "V^pi' − V^pi RMSE | V^pi's sd | V^pi − V^pi' | critic − V^pi' |",
+        "|---|---|" + "---:|" * 13,
     ]
     for env_id in dict.fromkeys(r["env_id"] for r in results):
         for critic in critics:
@@ -681,7 +682,8 @@ def _lag_cells(runs: list[dict[str, Any]]) -> list[str]:
     def lagged(key: str) -> Callable[[dict[str, Any]], Any]:
         return lambda c: c["lag"][key] if "lag" in c else None
 
-    lags = [v for v in _per_run(runs, lagged("explained")) if v is not None]
+    per_run = _per_run(runs, lagged("explained"))
+    lags = [v for v in per_run if v is not None]
     reached = sum(v >= GOAL for v in lags)
     spread = f" [{min(lags):.2f}, {max(lags):.2f}], {reached}/{len(lags)}" if lags else ""
     lag_pooled = [
@@ -711,7 +713,21 @@ def _lag_cells(runs: list[dict[str, Any]]) -> list[str]:
         _on_g(runs, "mc_ceiling"),
         _mean(_per_run(runs, lagged("value_rmse")), ".2f"),
         _mean(_per_run(runs, lagged("truth_sd")), ".2f"),
+        _paired([r["ceiling"]["tail_mean"] for r in runs], per_run),
+        _paired([r["tail_mean"] for r in runs], per_run),
     ]
+
+
+def _paired(first: Sequence[float | None], second: Sequence[float | None]) -> str:
+    """``first - second`` paired by run over the runs where both are defined: mean and 95 % t
+    interval (the mean alone from too few runs), and how many runs."""
+    pairs = zip(first, second, strict=True)
+    diff = np.array([a - b for a, b in pairs if a is not None and b is not None])
+    if not len(diff):
+        return "–"
+    mean, half = (float(v) for v in mean_ci(diff, nan_policy="propagate"))
+    interval = f"[{mean - half:+.3f}, {mean + half:+.3f}]"
+    return f"{estimate_cell(f'{mean:+.3f}', interval, len(diff))} ({len(diff)})"
 
 
 def plot(results: list[dict[str, Any]], path: Path) -> None:

@@ -248,6 +248,38 @@ def test_critic_fit_leaves_undefined_scores_out_of_its_means(tmp_path: Path) -> 
     assert (tmp_path / "fit.png").stat().st_size > 0
 
 
+def test_critic_fit_lag_table_averages_each_run_then_pairs_by_seed() -> None:
+    """The lagged ceiling's row: per run the mean over the rollouts that have one (the first
+    scored rollout may not), then over seeds; the ceiling and the critic's score minus it,
+    paired by seed, here worked out by hand (two seeds: the mean alone)."""
+    critic_fit = load_script("critic_fit")
+    moments = [2.0, 1.0, 1.0, 0.5, 0.25]  # any valid pooled moments: the pooled cells' input
+
+    def rollout(ceiling: float, lag: float | None) -> dict[str, Any]:
+        row: dict[str, Any] = dict(explained=ceiling, truth_sd=1.0)
+        if lag is not None:
+            row["lag"] = dict(explained=lag, moments=moments, mc_critic_moments=moments,
+                              value_rmse=2.0, truth_sd=1.0)  # fmt: skip
+        return row
+
+    def run(seed: int, critic: float, ceilings: list[float], lags: list[float | None]) -> Any:
+        rollouts = [rollout(c, g) for c, g in zip(ceilings, lags, strict=True)]
+        return dict(env_id="Acrobot-v1", critic="laplacian", seed=seed, tail_mean=critic,
+                    tail_pooled=critic, ceiling=dict(rollouts=rollouts, tail_mean=np.mean(ceilings),
+                    tail_pooled=0.9, with_lag=True))  # fmt: skip
+
+    runs = [run(0, 0.6, [0.9, 0.9], [None, 0.5]), run(1, 0.7, [0.95, 0.95], [0.6, 0.8])]
+    cells = critic_fit._lag_cells(runs)
+    # lagged ceilings per run: 0.5 (its first rollout has none) and 0.7; neither reaches 0.9
+    assert cells[0] == "0.650" and cells[1] == "0.600 [0.50, 0.70], 0/2"
+    assert cells[2] == "0.925" and cells[-4] == "2.00" and cells[-3] == "1.00"
+    # ceiling - lag: 0.9 - 0.5 and 0.95 - 0.7; critic - lag: 0.6 - 0.5 and 0.7 - 0.7
+    assert cells[-2] == f"+0.325 ({NO_INTERVAL}) (2)"
+    assert cells[-1] == f"+0.050 ({NO_INTERVAL}) (2)"
+    table = critic_fit.lag_table(runs, ["laplacian"])
+    assert table[-1].startswith("| `Acrobot-v1` | laplacian | 0.650 |")
+
+
 def _each_run(
     critic_fit: Any, argv: list[str], variants: dict[str, list[str]], tmp_path: Path, run: str
 ) -> list[dict[str, Any]]:
