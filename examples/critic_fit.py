@@ -590,16 +590,18 @@ def paired_differences(
     return lines
 
 
-def _on_g(runs: list[dict[str, Any]], key: str) -> str:
-    """Mean over ``runs`` of ``key``'s pooled score on G, over the runs whose ``V^pi`` varies
-    (where it is constant so is G, and a score of it is noise over nothing), how many if not
-    all; "–" for runs recorded before that reading."""
-    if not all(f"{key}_pooled" in r["ceiling"] for r in runs):
-        return "–"
+def _on_g(runs: list[dict[str, Any]], key: str | Callable[[dict[str, Any]], float]) -> str:
+    """Mean over ``runs`` of a pooled score on G (``key``'s in the run's ceiling record, or
+    ``key(run)``), over the runs whose ``V^pi`` varies (where it is constant so is G, and a
+    score of it is noise over nothing), how many if not all; "–" for runs recorded before that
+    reading."""
+    if isinstance(key, str):
+        name = f"{key}_pooled"
+        if not all(name in r["ceiling"] for r in runs):
+            return "–"
+        key = lambda r: r["ceiling"][name]  # noqa: E731
     varying = [
-        r["ceiling"][f"{key}_pooled"]
-        for r in runs
-        if np.mean([c["truth_sd"] for c in r["ceiling"]["rollouts"]]) > VARYING
+        key(r) for r in runs if np.mean([c["truth_sd"] for c in r["ceiling"]["rollouts"]]) > VARYING
     ]
     count = "" if len(varying) == len(runs) else f" ({len(varying)} runs)"
     return f"{np.mean(varying):.3f}{count}" if varying else "–"
@@ -686,30 +688,22 @@ def _lag_cells(runs: list[dict[str, Any]]) -> list[str]:
     lags = [v for v in per_run if v is not None]
     reached = sum(v >= GOAL for v in lags)
     spread = f" [{min(lags):.2f}, {max(lags):.2f}], {reached}/{len(lags)}" if lags else ""
-    lag_pooled = [
-        pooled_explained_variance(
-            [c["lag"]["moments"] for c in r["ceiling"]["rollouts"] if "lag" in c]
+
+    def pooled(key: str) -> Callable[[dict[str, Any]], float]:
+        """A run's rollouts pooled, from the lag's moments ``key``."""
+        return lambda r: pooled_explained_variance(
+            [c["lag"][key] for c in r["ceiling"]["rollouts"] if "lag" in c]
         )
-        for r in runs
-    ]
-    varying = [
-        r for r in runs if np.mean([c["truth_sd"] for c in r["ceiling"]["rollouts"]]) > VARYING
-    ]
-    lag_on_g = [
-        pooled_explained_variance(
-            [c["lag"]["mc_critic_moments"] for c in r["ceiling"]["rollouts"] if "lag" in c]
-        )
-        for r in varying
-    ]
+
     return [
         _mean([r["tail_mean"] for r in runs]),
         _mean(lags) + spread,
         _mean([r["ceiling"]["tail_mean"] for r in runs]),
         _mean([r["tail_pooled"] for r in runs]),
-        _mean(lag_pooled),
+        _mean([pooled("moments")(r) for r in runs]),
         _mean([r["ceiling"]["tail_pooled"] for r in runs]),
         _on_g(runs, "mc_critic"),
-        _mean(lag_on_g),
+        _on_g(runs, pooled("mc_critic_moments")),
         _on_g(runs, "mc_ceiling"),
         _mean(_per_run(runs, lagged("value_rmse")), ".2f"),
         _mean(_per_run(runs, lagged("truth_sd")), ".2f"),
@@ -774,33 +768,45 @@ def plot(results: list[dict[str, Any]], path: Path) -> None:
 
 def plot_ceiling(results: list[dict[str, Any]], path: Path) -> None:
     """Each scored rollout's score against its ceiling, one panel per environment (top: the
-    goal's reading; bottom, where recorded: on G, the same targets for both): points below the
-    diagonal are what a better critic could still gain."""
+    goal's reading; then, where recorded, on G, the same targets for both): points below the
+    diagonal are what a better critic could still gain. Where the lagged ceiling is recorded,
+    a last row puts it against the ceiling: points on the diagonal are rollouts where knowing
+    the previous policy's values would have been as good as knowing the current one's."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    def critic_scores(runs: list[dict[str, Any]]) -> list[float]:
+        return [s for r in runs for s in r["explained_variance"][-r["tail_rollouts"] :]]
+
+    def recorded(key: str) -> Callable[[list[dict[str, Any]]], list[float]]:
+        return lambda runs: [c[key] for r in runs for c in r["ceiling"]["rollouts"]]
+
+    def lagged(runs: list[dict[str, Any]]) -> list[float]:
+        rollouts = [c for r in runs for c in r["ceiling"]["rollouts"]]
+        return [c["lag"]["explained"] if "lag" in c else np.nan for c in rollouts]
+
     envs = list(dict.fromkeys(r["env_id"] for r in results))
-    readings = [("explained", None, "the goal's reading")]
-    if all("mc_critic" in c for r in results for c in r["ceiling"]["rollouts"]):
-        readings.append(("mc_ceiling", "mc_critic", "on G (lambda = 1, V^pi bootstraps)"))
+    rollouts = [c for r in results for c in r["ceiling"]["rollouts"]]
+    score = "the critic's score (clipped at -1)"
+    readings = [("explained", critic_scores, "the goal's reading", score)]
+    if all("mc_critic" in c for c in rollouts):
+        on_g = "on G (lambda = 1, V^pi bootstraps)"
+        readings.append(("mc_ceiling", recorded("mc_critic"), on_g, score))
+    if any("lag" in c for c in rollouts):
+        lag_label = "V^pi''s score, one policy behind"
+        readings.append(("explained", lagged, "the lagged ceiling (goal's reading)", lag_label))
     fig, axes = plt.subplots(
         len(readings), len(envs), figsize=(4.6 * len(envs), 4.2 * len(readings)), squeeze=False
     )
-    for row, (x_key, y_key, reading) in zip(axes, readings, strict=True):
+    for row, (x_key, y_of, reading, label) in zip(axes, readings, strict=True):
         for ax, env_id in zip(row, envs, strict=True):
             for critic in dict.fromkeys(r["critic"] for r in results):
                 runs = [r for r in results if (r["env_id"], r["critic"]) == (env_id, critic)]
-                rollouts = [c for r in runs for c in r["ceiling"]["rollouts"]]
-                scores = (
-                    [s for r in runs for s in r["explained_variance"][-r["tail_rollouts"] :]]
-                    if y_key is None
-                    else [c[y_key] for c in rollouts]
-                )
                 ax.scatter(
-                    np.clip([c[x_key] for c in rollouts], -1, 1),
-                    np.clip(np.array(scores, dtype=float), -1, 1),
+                    np.clip(recorded(x_key)(runs), -1, 1),
+                    np.clip(np.array(y_of(runs), dtype=float), -1, 1),
                     s=12,
                     alpha=0.6,
                     color=COLORS.get(critic),
@@ -811,7 +817,7 @@ def plot_ceiling(results: list[dict[str, Any]], path: Path) -> None:
             ax.set(title=f"{env_id}: {reading}", xlim=(-1.05, 1.05), ylim=(-1.05, 1.05))
             ax.set(xlabel="V^pi's score (Monte Carlo)")
             ax.grid(alpha=0.3)
-        row[0].set_ylabel("the critic's score (clipped at -1)")
+        row[0].set_ylabel(label)
     axes[0][0].legend(loc="lower right")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
