@@ -173,7 +173,7 @@ class WithCeiling(ExplainedVariance):
         if index >= self.first:
             row["ceiling"] = self.ceiling()
         if self.with_lag and index >= self.first - 1:
-            # the policy that collected this rollout, before PPO trains it on the rollout
+            # the policy that collected this rollout, before the algorithm trains on it
             self._earlier_policy = copy.deepcopy(self.model.policy)
         return row
 
@@ -193,7 +193,7 @@ class WithCeiling(ExplainedVariance):
     def monte_carlo(self, policy: ActorCriticPolicy | None = None) -> tuple[Rollout, np.ndarray]:
         """The rollout that just ended and the policy's (or ``policy``'s) Monte Carlo returns
         from each of its states (:meth:`Rollout.states`), shape (m, ``n_rollouts``); every
-        policy scored on a rollout draws the same random numbers."""
+        policy scored on a rollout draws from the same seeded random stream."""
         rollout, steps = self.rollout(), horizon(float(self.model.gamma), self.tail)
         seed = self.seed * 1000 + len(self.rows)
         states = rollout.states()
@@ -651,12 +651,13 @@ def _ceiling_cells(runs: list[dict[str, Any]]) -> list[str]:
 def lag_table(results: list[dict[str, Any]], critics: Sequence[str]) -> list[str]:
     """Markdown lines: per environment and critic, the critic's score beside the lagged ceiling
     (the previous rollout's policy's ``V^pi'`` scored on each rollout,
-    :func:`~sb3_geogp.studies.value_ceiling.lagged_ceiling`) and the ceiling, over the scored
-    rollouts that have a previous policy; each a mean over seeds."""
+    :func:`~sb3_geogp.studies.value_ceiling.lagged_ceiling`) and the ceiling; each a mean over
+    seeds. The lag's columns average the scored rollouts that have a previous policy (all of
+    them unless the scored share starts at the first rollout), the others every scored one."""
     lines = [
         "The lagged ceiling: the score of the previous rollout's policy's value function V^pi' "
-        "on each scored rollout (Monte Carlo, the same random numbers as V^pi), what a critic "
-        "that knew the previous policy's values exactly would score; beside it the critic's "
+        "on each scored rollout (Monte Carlo, the same seeded random stream as V^pi), what a "
+        "critic that knew the previous policy's values exactly would score; beside it the critic's "
         "score and the ceiling (V^pi) on the same rollouts. Per run the mean over its scored "
         "rollouts, then mean over seeds [min, max], seeds of at least "
         f"{GOAL}; pooled over each run's rollouts; on G (the rollouts' own returns "

@@ -346,7 +346,8 @@ def model_returns(
     policy : ActorCriticPolicy, optional
         The policy to roll out instead of the model's own, e.g. a copy of an earlier one
         (:func:`lagged_ceiling`); the model still gives the spaces, discount and gSDE
-        schedule. The same ``seed`` draws the same random numbers for either policy.
+        schedule. The same ``seed`` starts either policy's draws from the same random stream
+        (the same draws while their rollouts run alike).
 
     Returns
     -------
