@@ -31,6 +31,15 @@ are from it. The run itself is unchanged.
     python examples/critic_fit.py --envs CartPole-v1 Acrobot-v1 --critics mlp laplacian \
         --seeds 0 1 2 3 4 5 6 7 8 9 --workers 2 --ceiling 32 --out docs/critic_fit_ceiling
 
+``--lag`` (with ``--ceiling``) also scores, on every scored rollout, the value function of the
+policy that collected the rollout before it (a copy kept at that rollout's end), the *lagged
+ceiling* (:func:`~sb3_geogp.studies.value_ceiling.lagged_ceiling`): what a critic would score
+that knew the previous policy's values exactly, which is what critics trained on earlier
+returns learn towards. The run itself is unchanged.
+
+    python examples/critic_fit.py --envs CartPole-v1 Acrobot-v1 --critics mlp laplacian \
+        --seeds 0 1 2 3 4 5 6 7 8 9 --workers 2 --ceiling 32 --lag --out docs/critic_fit_lag
+
 ``--capacity`` (with ``--ceiling``) also fits value models once to half of each scored rollout's
 environments and scores them against ``V^pi`` on the other half
 (:func:`~sb3_geogp.studies.value_ceiling.capacity`): a fresh GP with the run's critic's options,
