@@ -11,6 +11,7 @@ Each reading compares two arms on the cells where both have all 20 seeds, by the
 from __future__ import annotations
 
 import argparse
+import statistics
 from pathlib import Path
 from typing import Any
 
@@ -22,6 +23,8 @@ HERE = Path(__file__).resolve().parent
 POOL30 = load_script(HERE.parent / "replication_0_15" / "pool30.py", "pool30")
 SCREEN = load_script(HERE / "screen.py", "actor_norm_warmup_screen")
 READINGS = (("actor", "default"), ("frozen", "default"), ("frozen", "actor"))
+#: ``ADDENDUM.md``'s reading: the option on PaperPendulum with gSDE off.
+NO_SDE = ("no_sde_actor", "no_sde_default")
 LABELS = {"final_return": "final return", "mean_return": "area under the curve"}
 Runs = list[dict[str, Any]]
 
@@ -46,6 +49,15 @@ def reading(a: str, b: str, metric: str) -> dict[tuple[str, str], dict[str, Any]
     if not runs:
         return {}
     return POOL30.against_baseline(runs, baseline, metric, family=len(SCREEN.ENVS))
+
+
+def file_check() -> bool:
+    """Whether ``sde_a2c.yml``'s run of seed 154 equals the screen's built-in ``default`` run of
+    that seed, evaluation by evaluation."""
+    (checked,) = load_results(HERE / "sde_check")
+    built_in = [r for r in arm("default") if r["spec"]["env_id"] == checked["spec"]["env_id"]]
+    (same,) = [r for r in built_in if r["spec"]["seed"] == checked["spec"]["seed"]]
+    return bool(checked["eval"] == same["eval"])
 
 
 def plot(path: str) -> None:
@@ -73,6 +85,15 @@ def main() -> None:
                 print(f"## {a} − {b}, {label}\n")
                 POOL30.print_table(rows, label, f"{a} − {b}")
                 print()
+    if (HERE / NO_SDE[0]).is_dir() and (rows := reading(*NO_SDE, "final_return")):
+        print("## Addendum: the option without gSDE (PaperPendulum), final return\n")
+        POOL30.print_table(rows, "final return", "option − default, no gSDE")
+        print(f"\nthe hyperparameter file reproduces the built-in entry: {file_check()}")
+        for name in NO_SDE:
+            finals = [r["final_return"] for r in arm(name)]
+            spread = statistics.stdev(finals)
+            print(f"\n{name}: mean final return {statistics.mean(finals):.1f} (sd {spread:.1f})")
+        print()
     print("## Mean final return over seeds\n")
     print("| env | " + " | ".join(SCREEN.ARMS) + " |")
     print("|---|" + "---:|" * len(SCREEN.ARMS))
