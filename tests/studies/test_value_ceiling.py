@@ -3,6 +3,7 @@ returns against SB3's buffer, and the ceiling of a policy whose returns are cert
 
 from __future__ import annotations
 
+import copy
 import math
 from typing import Any
 
@@ -364,8 +365,6 @@ def test_the_lagged_ceiling_rolls_out_the_policy_of_the_previous_rollout() -> No
     callback, before PPO trains on that rollout) with the same seed. With a learning rate of
     0 the policy never changes and the same seed draws the same actions: the lagged ceiling is
     the ceiling."""
-    import copy
-
     from stable_baselines3 import PPO
     from stable_baselines3.common.callbacks import BaseCallback
 
