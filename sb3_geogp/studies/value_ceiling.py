@@ -583,7 +583,17 @@ def lagged_ceiling(
         rollout's returns bootstrapped with ``V^pi``), as :func:`ceiling` scores a critic:
         ``mc_critic``, ``mc_critic_moments``; and ``V^pi' - V^pi`` at the rollout's steps:
         ``value_rmse``, ``value_bias``, ``truth_sd``.
+
+    Raises
+    ------
+    ValueError
+        If the two sets of returns do not start from the same states.
     """
+    if np.shape(lagged_returns)[0] != np.shape(mc_returns)[0]:
+        raise ValueError(
+            f"the lagged returns start from {np.shape(lagged_returns)[0]} states and the "
+            f"rollout's from {np.shape(mc_returns)[0]}: roll both out from Rollout.states()"
+        )
     n = rollout.rewards.size
     own = ceiling(rollout, lagged_returns, gamma, gae_lambda)
     lagged = np.asarray(lagged_returns, dtype=np.float64).mean(axis=1)[:n]

@@ -357,6 +357,8 @@ def test_the_lagged_ceiling_scores_the_earlier_policys_values() -> None:
     scores = ceiling(rollout, now, gamma, lam)
     assert same["explained"] == scores["explained"] == pytest.approx(1.0, abs=1e-9)
     assert same["mc_critic"] == scores["mc_ceiling"] and same["value_rmse"] == 0.0
+    with pytest.raises(ValueError, match="start from"):
+        lagged_ceiling(rollout, now, before[:-1], gamma, lam)
 
 
 def test_the_lagged_ceiling_rolls_out_the_policy_of_the_previous_rollout() -> None:
