@@ -17,7 +17,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from scipy import stats
+
+from sb3_geogp.toolbox.stats import mean_ci
 
 HERE = Path(__file__).resolve().parent
 DEFAULT = HERE.parent / "critic_fit_lag"
@@ -51,11 +52,11 @@ def main() -> None:
             a = np.array([get(run(HERE / name, critic, s)) for s in SEEDS])
             b = np.array([get(run(DEFAULT, "laplacian", s)) for s in SEEDS])
             d = a - b
-            half = stats.t.ppf(0.975, len(d) - 1) * d.std(ddof=1) / np.sqrt(len(d))
+            mean, half = (float(v) for v in mean_ci(d, nan_policy="propagate"))
             cells = [
                 f"{a.mean():.3f}",
                 f"{b.mean():.3f}",
-                f"{d.mean():+.3f} [{d.mean() - half:+.3f}, {d.mean() + half:+.3f}]",
+                f"{mean:+.3f} [{mean - half:+.3f}, {mean + half:+.3f}]",
                 f"{np.median(d):+.3f}",
             ]
             print(f"| `{name}` | {reading} | " + " | ".join(cells) + " |")

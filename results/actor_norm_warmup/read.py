@@ -11,6 +11,7 @@ Each reading compares two arms on the cells where both have all 20 seeds, by the
 from __future__ import annotations
 
 import argparse
+import functools
 import statistics
 from pathlib import Path
 from typing import Any
@@ -29,6 +30,7 @@ LABELS = {"final_return": "final return", "mean_return": "area under the curve"}
 Runs = list[dict[str, Any]]
 
 
+@functools.cache  # every reading reads the same files
 def arm(name: str) -> Runs:
     """The arm's runs, in the cells where all of the screen's seeds have finished."""
     runs = load_results(HERE / name)
