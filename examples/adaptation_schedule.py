@@ -66,6 +66,7 @@ from sb3_geogp import GPValueCallback, SparseOnlineGP
 from sb3_geogp.comparison.run import build_model, write_json_atomic
 from sb3_geogp.comparison.shadow import MLPShadow, gp_critic, gp_shadow, ppo_spec
 from sb3_geogp.kernels import LaplacianKernel
+from sb3_geogp.studies.exact_gp import exact_gp
 from sb3_geogp.studies.pendulum.batch_check import batch_sparse_gp, online_hyper
 from sb3_geogp.toolbox.benchmarks import GPClock
 from sb3_geogp.toolbox.provenance import provenance
@@ -88,6 +89,19 @@ MLP = "SB3 MLP critic"
 #: with the Euclidean Laplacian kernel (the geodesic kernel's profile without the graph).
 BATCH = "batch sparse GP, newest batch"
 BATCH_EUCLIDEAN = "batch sparse GP, newest batch, Euclidean Laplacian kernel"
+#: Reference rows of ``--exact``: exact GPs (no basis) on the newest batch or two.
+EXACT = {
+    "exact GP, newest batch, Laplacian, its own hyperparameters": {},
+    "exact GP, newest batch, RBF, its own hyperparameters": {"kernel": "rbf"},
+    "exact GP, two newest batches, Laplacian, its own hyperparameters": {"history": 2},
+    "exact GP, newest batch, the on-line GP's hyperparameters": {"online": True},
+    "exact GP, two newest batches, the on-line GP's hyperparameters": {
+        "online": True,
+        "history": 2,
+    },
+}
+#: Points of each ``--exact`` maximum-likelihood fit (its cost is cubic in them).
+EXACT_FIT_POINTS = 1024
 #: L-BFGS iterations of each ``--batch`` fit (from the on-line GP's hyperparameters).
 BATCH_ITERS = 30
 #: Share of the last batches whose explained variance is averaged (as in critic_fit.py).
@@ -328,6 +342,49 @@ def replay_batch(
     )
 
 
+def replay_exact(
+    env_id: str,
+    seed: int,
+    batches: list[Any],
+    kernel: str = "laplacian",
+    history: int = 1,
+    online: bool = False,
+) -> dict[str, Any]:
+    """An exact GP on the ``history`` newest batches (:func:`~sb3_geogp.studies.exact_gp.exact_gp`).
+
+    Each batch is predicted by the exact posterior on every point of the ``history`` batches
+    before it, with the hyperparameters at the optimum of the exact marginal likelihood on
+    :data:`EXACT_FIT_POINTS` of those points, or with ``online`` the default GP critic's own
+    at that moment (a fresh one fed the batches as in :func:`replay`; lengthscales, and its
+    noise to signal ratio): no basis, no summary of older batches, so what scores above the
+    on-line GP here its approximations lose.
+    """
+    gp = gp_shadow(ppo_spec(env_id, seed, 1, {})) if online else None
+    kept: list[tuple[np.ndarray, np.ndarray]] = []
+    learnt = [0]  # batches learnt so far: each fit draws its points with its own seed
+
+    def predict(x: th.Tensor) -> th.Tensor:
+        inputs = np.concatenate([k[0] for k in kept])
+        targets = np.concatenate([k[1] for k in kept])
+        fixed = None
+        if gp is not None:
+            ratio = float(gp.noise_var) / float(gp.kernel.variance)
+            fixed = (gp.kernel.lengthscale.double().numpy(), 1.0, ratio)
+        fit = exact_gp(inputs, targets, kernel, EXACT_FIT_POINTS, seed=learnt[0], fixed=fixed)
+        return th.as_tensor(fit.predict(x.double().numpy()))
+
+    def learn(x: th.Tensor, y: th.Tensor, starts: th.Tensor | None) -> None:
+        if gp is not None:
+            gp.update(x, y, starts)
+        kept.append((x.double().numpy(), y.double().numpy()))
+        del kept[:-history]
+        learnt[0] += 1
+
+    return dict(
+        update=None, adaptation=None, share=None, n_basis=0, **_scored(batches, predict, learn)
+    )
+
+
 def table(results: dict[str, Any], settings: Sequence[str]) -> str:
     """Markdown: per environment and setting, the adaptation's share of the update time and
     the tail explained variance (means over seeds; difference from the first setting, paired
@@ -414,6 +471,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         help=f"also score the default GP's basis fitted in batch ({BATCH!r}, {BATCH_EUCLIDEAN!r})",
     )
     parser.add_argument(
+        "--exact",
+        action="store_true",
+        help="also score exact GPs on the newest batch or two (needs the bench extra): "
+        + "; ".join(EXACT),
+    )
+    parser.add_argument(
         "--same-policy",
         action="store_true",
         help="also score each critic's fit to other environments of the same rollout "
@@ -443,6 +506,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.batch:
         references[BATCH] = replay_batch
         references[BATCH_EUCLIDEAN] = functools.partial(replay_batch, euclidean=True)
+    if args.exact:
+        references.update({k: functools.partial(replay_exact, **v) for k, v in EXACT.items()})
     first = next(iter(settings))
     learners: dict[str, Callable[[str, int], Any]] = {}
     if args.same_policy:
