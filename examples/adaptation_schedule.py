@@ -29,9 +29,12 @@ untimed). Written to ``OUT/same_policy.md`` and ``same_policy`` in ``OUT/results
 
 References, scored on the same batches and untimed: ``--mlp``, SB3's MLP critic trained on
 them as PPO trains it (:func:`replay_mlp`); ``--batch``, the default GP critic's basis refitted
-in batch on each newest batch alone, with its kernel and with the Euclidean Laplacian kernel
-(:func:`replay_batch`), which separates what the basis and the kernel allow from what the
-on-line GP makes of them.
+in batch on each newest batch alone, with its kernel and with the Euclidean Laplacian kernel,
+and with its kernel at the on-line GP's own hyperparameters (:func:`replay_batch`), which
+separates what the basis and the kernel allow from what the on-line GP makes of them;
+``--exact`` (the ``bench`` extra), exact GPs without a basis on the newest batch or two, their
+hyperparameters fitted by maximum likelihood or the on-line GP's own (:func:`replay_exact`,
+:data:`EXACT`), which separates what the model allows from what the basis loses.
 
 Writes ``OUT/results.json`` (per environment, seed and setting: update and adaptation
 seconds, explained variance per batch), ``OUT/table.md`` (adaptation share of the update
@@ -41,6 +44,8 @@ difference from the first setting with a 95% t interval) and ``OUT/frontier.png`
     python examples/adaptation_schedule.py --seeds 0 1 2 --out docs/adaptation_schedule
     python examples/adaptation_schedule.py --settings '{"default": {}, "gap4": {"max_gap": 4}}'
     python examples/adaptation_schedule.py --envs sb3_geogp/PaperPendulum-v0 --mlp --batch
+    python examples/adaptation_schedule.py --envs Acrobot-v1 --timesteps 30000 \
+        --settings '{"default": {}}' --exact
     python examples/adaptation_schedule.py --envs Acrobot-v1 --settings '{"default": {}}' \
         --mlp --same-policy
 
@@ -86,9 +91,11 @@ SETTINGS: dict[str, dict[str, Any]] = {
 #: Name of the reference row of ``--mlp``: SB3's MLP critic replayed on the same batches.
 MLP = "SB3 MLP critic"
 #: Reference rows of ``--batch``: the default GP's basis fitted in batch, with its kernel and
-#: with the Euclidean Laplacian kernel (the geodesic kernel's profile without the graph).
+#: with the Euclidean Laplacian kernel (the geodesic kernel's profile without the graph), and
+#: with its kernel at the on-line GP's own hyperparameters (no fit).
 BATCH = "batch sparse GP, newest batch"
 BATCH_EUCLIDEAN = "batch sparse GP, newest batch, Euclidean Laplacian kernel"
+BATCH_ONLINE = "batch sparse GP, newest batch, the on-line GP's hyperparameters"
 #: Reference rows of ``--exact``: exact GPs (no basis) on the newest batch or two.
 EXACT = {
     "exact GP, newest batch, Laplacian, its own hyperparameters": {},
@@ -299,7 +306,7 @@ def replay_mlp(env_id: str, seed: int, batches: list[Any]) -> dict[str, Any]:
 
 
 def replay_batch(
-    env_id: str, seed: int, batches: list[Any], euclidean: bool = False
+    env_id: str, seed: int, batches: list[Any], euclidean: bool = False, refit: bool = True
 ) -> dict[str, Any]:
     """The default GP critic's basis and kernel, refitted in batch on the newest batch alone.
 
@@ -310,6 +317,8 @@ def replay_batch(
     bound of that batch (:data:`BATCH_ITERS` L-BFGS iterations from the on-line GP's own).
     What this reference scores above the on-line GP, the basis and the kernel allow; the
     on-line GP loses it to what it keeps of older batches and to its few Adam steps. With
+    ``refit=False`` the hyperparameters are the on-line GP's own (no iteration): the basis
+    alone then separates it from the exact GP's of :func:`replay_exact`. With
     ``euclidean``, the kernel is instead a :class:`~sb3_geogp.kernels.LaplacianKernel` with the
     on-line GP's lengthscales: the same basis without the graph.
     """
@@ -325,7 +334,7 @@ def replay_batch(
             kernel = LaplacianKernel(gp.kernel.lengthscale.tolist())
             kernel.bind(z.shape[1], z.shape[0])
         fit = batch_sparse_gp(
-            kernel, newest["x"], newest["y"], z, x.double().numpy(), (start,), BATCH_ITERS
+            kernel, newest["x"], newest["y"], z, x.double().numpy(), (start,), BATCH_ITERS * refit
         )
         return th.as_tensor(fit.mean)
 
@@ -468,7 +477,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument(
         "--batch",
         action="store_true",
-        help=f"also score the default GP's basis fitted in batch ({BATCH!r}, {BATCH_EUCLIDEAN!r})",
+        help="also score the default GP's basis fitted in batch "
+        f"({BATCH!r}, {BATCH_EUCLIDEAN!r}, {BATCH_ONLINE!r})",
     )
     parser.add_argument(
         "--exact",
@@ -506,6 +516,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.batch:
         references[BATCH] = replay_batch
         references[BATCH_EUCLIDEAN] = functools.partial(replay_batch, euclidean=True)
+        references[BATCH_ONLINE] = functools.partial(replay_batch, refit=False)
     if args.exact:
         references.update({k: functools.partial(replay_exact, **v) for k, v in EXACT.items()})
     first = next(iter(settings))

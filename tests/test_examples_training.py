@@ -498,8 +498,9 @@ def test_adaptation_schedule_replays_the_recorded_stream(tmp_path: Path) -> None
 
 
 def test_adaptation_schedule_batch_reference_learns_a_fixed_function() -> None:
-    """Refitted in batch on each newest batch, the default GP's basis predicts the next batch
-    of a fixed smooth function of the state almost exactly, with either kernel."""
+    """Fitted in batch on each newest batch, the default GP's basis predicts the next batch
+    of a fixed smooth function of the state almost exactly, with either kernel, refitted or
+    at the on-line GP's hyperparameters."""
     schedule = load_script("adaptation_schedule")
     generator = th.Generator().manual_seed(0)
     high = th.tensor([3.0, 8.0])
@@ -509,10 +510,28 @@ def test_adaptation_schedule_batch_reference_learns_a_fixed_function() -> None:
         return x, th.cos(x[:, 0]) + 0.1 * x[:, 1], None
 
     batches = [batch() for _ in range(4)]
-    for euclidean in (False, True):
-        r = schedule.replay_batch("sb3_geogp/PaperPendulum-v0", 0, batches, euclidean=euclidean)
+    for options in ({}, {"euclidean": True}, {"refit": False}):
+        r = schedule.replay_batch("sb3_geogp/PaperPendulum-v0", 0, batches, **options)
         assert len(r["explained_variance"]) == 3 and r["share"] is None
-        assert min(r["explained_variance"]) > 0.9, (euclidean, r["explained_variance"])
+        assert min(r["explained_variance"]) > 0.9, (options, r["explained_variance"])
+
+
+def test_adaptation_schedule_exact_references_learn_a_fixed_function() -> None:
+    """Exact GPs on the newest batch or two predict the next batch of a fixed smooth function
+    of the state almost exactly, with fitted or with the on-line GP's hyperparameters."""
+    schedule = load_script("adaptation_schedule")
+    generator = th.Generator().manual_seed(1)
+    high = th.tensor([3.0, 8.0])
+
+    def batch() -> tuple[th.Tensor, th.Tensor, None]:
+        x = (2 * th.rand(150, 2, generator=generator) - 1) * high
+        return x, th.cos(x[:, 0]) + 0.1 * x[:, 1], None
+
+    batches = [batch() for _ in range(3)]
+    for name, options in schedule.EXACT.items():
+        r = schedule.replay_exact("sb3_geogp/PaperPendulum-v0", 0, batches, **options)
+        assert len(r["explained_variance"]) == 2 and r["share"] is None
+        assert min(r["explained_variance"]) > 0.9, (name, r["explained_variance"])
 
 
 def assert_study_resumes(study: Any, argv: list[str], out: Path, actor: str, figure: str) -> None:
