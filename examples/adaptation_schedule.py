@@ -57,6 +57,7 @@ from __future__ import annotations
 import argparse
 import copy
 import functools
+import hashlib
 import json
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -134,12 +135,16 @@ class StreamRecorder(BaseCallback):
         return True
 
 
-def record(env_id: str, seed: int, timesteps: int, path: Path) -> list[Any]:
-    """The batches of one PPO run's GP critic (from ``path`` if recorded before)."""
+def record(
+    env_id: str, seed: int, timesteps: int, path: Path, setting: dict[str, Any] | None = None
+) -> list[Any]:
+    """The batches of one PPO run's GP critic (from ``path`` if recorded before), the critic of
+    ``setting`` (:func:`~sb3_geogp.comparison.shadow.ppo_spec`; the comparison's geodesic
+    critic fed SB3's returns by default)."""
     if path.exists():
         return th.load(path, weights_only=False)
     th.set_num_threads(1)
-    spec = ppo_spec(env_id, seed, timesteps, {})
+    spec = ppo_spec(env_id, seed, timesteps, setting or {})
     model = build_model(spec)
     recorder = StreamRecorder(gp_critic(model))
     feed = GPValueCallback(target=spec.target, horizon=spec.horizon)
@@ -306,7 +311,12 @@ def replay_mlp(env_id: str, seed: int, batches: list[Any]) -> dict[str, Any]:
 
 
 def replay_batch(
-    env_id: str, seed: int, batches: list[Any], euclidean: bool = False, refit: bool = True
+    env_id: str,
+    seed: int,
+    batches: list[Any],
+    euclidean: bool = False,
+    refit: bool = True,
+    recorded: dict[str, Any] | None = None,
 ) -> dict[str, Any]:
     """The default GP critic's basis and kernel, refitted in batch on the newest batch alone.
 
@@ -317,12 +327,14 @@ def replay_batch(
     bound of that batch (:data:`BATCH_ITERS` L-BFGS iterations from the on-line GP's own).
     What this reference scores above the on-line GP, the basis and the kernel allow; the
     on-line GP loses it to what it keeps of older batches and to its few Adam steps. With
-    ``refit=False`` the hyperparameters are the on-line GP's own (no iteration): the basis
+    ``recorded``, the setting the batches were recorded with (:func:`record`), makes the GP
+    critic. With ``refit=False`` the hyperparameters are the on-line GP's own (no iteration):
+    the basis
     alone then separates it from the exact GP's of :func:`replay_exact`. With
     ``euclidean``, the kernel is instead a :class:`~sb3_geogp.kernels.LaplacianKernel` with the
     on-line GP's lengthscales: the same basis without the graph.
     """
-    gp = gp_shadow(ppo_spec(env_id, seed, 1, {}))
+    gp = gp_shadow(ppo_spec(env_id, seed, 1, recorded or {}))
     newest: dict[str, np.ndarray] = {}
 
     def predict(x: th.Tensor) -> th.Tensor:
@@ -358,17 +370,19 @@ def replay_exact(
     kernel: str = "laplacian",
     history: int = 1,
     online: bool = False,
+    recorded: dict[str, Any] | None = None,
 ) -> dict[str, Any]:
     """An exact GP on the ``history`` newest batches (:func:`~sb3_geogp.studies.exact_gp.exact_gp`).
 
     Each batch is predicted by the exact posterior on every point of the ``history`` batches
     before it, with the hyperparameters at the optimum of the exact marginal likelihood on
-    :data:`EXACT_FIT_POINTS` of those points, or with ``online`` the default GP critic's own
-    at that moment (a fresh one fed the batches as in :func:`replay`; lengthscales, and its
-    noise to signal ratio): no basis, no summary of older batches, so what scores above the
-    on-line GP here its approximations lose.
+    :data:`EXACT_FIT_POINTS` of those points, or with ``online`` the recorded GP critic's own
+    at that moment (a fresh one of the ``recorded`` setting, :func:`record`'s, fed the
+    batches as in :func:`replay`; lengthscales, and its noise to signal ratio): no basis, no
+    summary of older batches, so what scores above the on-line GP here its approximations
+    lose.
     """
-    gp = gp_shadow(ppo_spec(env_id, seed, 1, {})) if online else None
+    gp = gp_shadow(ppo_spec(env_id, seed, 1, recorded or {})) if online else None
     kept: list[tuple[np.ndarray, np.ndarray]] = []
     learnt = [0]  # batches learnt so far: each fit draws its points with its own seed
 
@@ -455,6 +469,17 @@ def plot(results: dict[str, Any], settings: Sequence[str], path: Path) -> None:
     plt.close(fig)
 
 
+def stream_path(streams: Path, env_id: str, seed: int, args: argparse.Namespace) -> Path:
+    """Where the stream of ``env_id`` and ``seed`` is kept: the budget in the name, and a
+    digest of ``--record`` where it is not the default (another critic's stream is another
+    stream)."""
+    name = f"{env_id.replace('/', '-')}__s{seed}__t{args.timesteps}"
+    if args.record:
+        canonical = json.dumps(args.record, sort_keys=True).encode()
+        name += f"__{hashlib.sha256(canonical).hexdigest()[:10]}"
+    return streams / f"{name}.pt"
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
         description=__doc__.split("\n\n")[0], formatter_class=DefaultsHelpFormatter
@@ -496,6 +521,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument(
         "--streams", type=Path, default=None, help="recorded streams (default: OUT/streams)"
     )
+    parser.add_argument(
+        "--record",
+        type=json.loads,
+        default={},
+        help="JSON setting of the recorded critic, as --settings' entries, plus "
+        '"target"/"horizon" (null: the drop-in policy\'s feed); {} is the comparison\'s '
+        "geodesic critic fed SB3's returns. --batch and --exact build their GP from it",
+    )
     args = parser.parse_args(argv)
     for env_id in args.envs:
         # Each batch is scored before it is learnt, so the first is never scored.
@@ -513,12 +546,15 @@ def main(argv: Sequence[str] | None = None) -> int:
     jobs = [(e, s) for e in args.envs for s in args.seeds]
     results: dict[str, dict[int, dict[str, Any]]] = {e: {} for e in args.envs}
     references = {MLP: replay_mlp} if args.mlp else {}
+    recorded = {"recorded": args.record}
     if args.batch:
-        references[BATCH] = replay_batch
-        references[BATCH_EUCLIDEAN] = functools.partial(replay_batch, euclidean=True)
-        references[BATCH_ONLINE] = functools.partial(replay_batch, refit=False)
+        references[BATCH] = functools.partial(replay_batch, **recorded)
+        references[BATCH_EUCLIDEAN] = functools.partial(replay_batch, euclidean=True, **recorded)
+        references[BATCH_ONLINE] = functools.partial(replay_batch, refit=False, **recorded)
     if args.exact:
-        references.update({k: functools.partial(replay_exact, **v) for k, v in EXACT.items()})
+        references.update(
+            {k: functools.partial(replay_exact, **v, **recorded) for k, v in EXACT.items()}
+        )
     first = next(iter(settings))
     learners: dict[str, Callable[[str, int], Any]] = {}
     if args.same_policy:
@@ -531,9 +567,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     per_job = 1 + len(settings) + len(references) + len(learners)
     bar = tqdm(total=len(jobs) * per_job, unit="run", desc="record + replay")
     for env_id, seed in jobs:
-        # the budget in the name: a stream of another --timesteps is another stream
-        stream = streams / f"{env_id.replace('/', '-')}__s{seed}__t{args.timesteps}.pt"
-        batches = record(env_id, seed, args.timesteps, stream)
+        batches = record(
+            env_id, seed, args.timesteps, stream_path(streams, env_id, seed, args), args.record
+        )
         bar.update()
         results[env_id][seed] = {}
         for name, setting in settings.items():

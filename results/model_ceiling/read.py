@@ -35,8 +35,12 @@ LAPLACE, RBF, TWO, ONLINE, ONLINE_TWO = SCHEDULE.EXACT
 PLANNED = ((LAPLACE, DEFAULT), (RBF, LAPLACE), (TWO, LAPLACE))
 BESIDE = (
     (ONLINE, DEFAULT),
+    (SCHEDULE.BATCH_ONLINE, DEFAULT),
+    (ONLINE, SCHEDULE.BATCH_ONLINE),
+    (LAPLACE, ONLINE),
     (ONLINE_TWO, ONLINE),
-    (SCHEDULE.BATCH, DEFAULT),
+    (SCHEDULE.BATCH, SCHEDULE.BATCH_ONLINE),
+    (SCHEDULE.BATCH_EUCLIDEAN, SCHEDULE.BATCH),
     (SCHEDULE.MLP, DEFAULT),
 )
 
@@ -55,7 +59,7 @@ def merged() -> dict[str, dict[str, Any]]:
 def paired(by_seed: dict[str, dict[str, Any]], first: str, second: str) -> str:
     """Mean paired difference of the tail scores with its 95 % t interval."""
     diff = np.array([r[first]["tail"] - r[second]["tail"] for r in by_seed.values()])
-    mean, half = (float(v) for v in mean_ci(diff))
+    mean, half = (float(v) for v in mean_ci(diff, nan_policy="propagate"))
     return f"{mean:+.3f} [{mean - half:+.3f}, {mean + half:+.3f}]"
 
 

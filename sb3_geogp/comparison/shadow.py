@@ -68,10 +68,14 @@ def ppo_spec(env_id: str, seed: int, timesteps: int, setting: dict[str, Any]) ->
     timesteps : int
     setting : dict
         :class:`~sb3_geogp.adaptation.Adaptation` settings, plus optionally ``"gp_options"``
-        (other options of the GP critic, e.g. ``{"max_basis": 1024}``) and ``"kernel"`` (the
-        critic: ``"geodesic"``, the default, ``"rbf"``, ``"laplacian"``, or ``"mlp"``).
+        (other options of the GP critic, e.g. ``{"max_basis": 1024}``), ``"kernel"`` (the
+        critic: ``"geodesic"``, the default, ``"rbf"``, ``"laplacian"``, or ``"mlp"``) and
+        ``"target"`` / ``"horizon"`` (what the GP critic is fed: SB3's returns by default;
+        ``None`` for :class:`~sb3_geogp.GPValueCallback`'s default feed, as the drop-in policy
+        is trained).
     """
-    adapt = {k: v for k, v in setting.items() if k not in ("gp_options", "kernel")}
+    special = ("gp_options", "kernel", "target", "horizon")
+    adapt = {k: v for k, v in setting.items() if k not in special}
     options = {**setting.get("gp_options", {}), **({"adapt": adapt} if adapt else {})}
     config = SweepConfig(
         algos=("ppo",),
@@ -80,7 +84,8 @@ def ppo_spec(env_id: str, seed: int, timesteps: int, setting: dict[str, Any]) ->
         seeds=(seed,),
         timesteps=timesteps,
         gp_options=tuple(sorted(options.items())),
-        target="returns",
+        target=setting.get("target", "returns"),
+        horizon=setting.get("horizon"),
     )
     (spec,) = config.specs()
     return spec

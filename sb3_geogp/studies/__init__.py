@@ -8,7 +8,9 @@
   pendulum are from those of the policy's true value function (Monte Carlo);
 * :mod:`~sb3_geogp.studies.value_ceiling`: what the policy's own value function (Monte Carlo)
   scores by issue 13's critic-fit measure on CartPole and Acrobot rollouts, and how far a
-  critic's values are from it.
+  critic's values are from it;
+* :mod:`~sb3_geogp.studies.exact_gp`: an exact GP with maximum-likelihood hyperparameters, the
+  reference for what the GP critic's model allows on data it was fed, without its basis.
 
 They share :mod:`sb3_geogp.toolbox` with the critic comparison (:mod:`sb3_geogp.comparison`).
 """
