@@ -497,19 +497,39 @@ def test_adaptation_schedule_replays_the_recorded_stream(tmp_path: Path) -> None
     assert not (tmp_path / "short").exists()
 
 
+def test_adaptation_schedule_names_another_critics_stream_apart(tmp_path: Path) -> None:
+    """The default recording keeps its name (earlier streams stay valid); another --record
+    gets its own, the same for the same setting whatever its key order."""
+    schedule = load_script("adaptation_schedule")
+
+    def path(record: dict[str, Any]) -> Path:
+        args = argparse.Namespace(timesteps=1200, record=record)
+        return schedule.stream_path(tmp_path, "sb3_geogp/PaperPendulum-v0", 3, args)
+
+    assert path({}) == tmp_path / "sb3_geogp-PaperPendulum-v0__s3__t1200.pt"
+    laplacian = path({"kernel": "laplacian", "target": None})
+    assert laplacian.name.startswith("sb3_geogp-PaperPendulum-v0__s3__t1200__")
+    assert laplacian == path({"target": None, "kernel": "laplacian"})
+    assert laplacian != path({"kernel": "laplacian"}) != path({})
+
+
+def _smooth_batches(n_batches: int, size: int, seed: int) -> list[tuple[th.Tensor, ...]]:
+    """Batches of a fixed smooth function of a pendulum-like 2-d state (no episode starts)."""
+    generator = th.Generator().manual_seed(seed)
+    high = th.tensor([3.0, 8.0])
+    batches = []
+    for _ in range(n_batches):
+        x = (2 * th.rand(size, 2, generator=generator) - 1) * high
+        batches.append((x, th.cos(x[:, 0]) + 0.1 * x[:, 1], None))
+    return batches
+
+
 def test_adaptation_schedule_batch_reference_learns_a_fixed_function() -> None:
     """Fitted in batch on each newest batch, the default GP's basis predicts the next batch
     of a fixed smooth function of the state almost exactly, with either kernel, refitted or
     at the on-line GP's hyperparameters."""
     schedule = load_script("adaptation_schedule")
-    generator = th.Generator().manual_seed(0)
-    high = th.tensor([3.0, 8.0])
-
-    def batch() -> tuple[th.Tensor, th.Tensor, None]:
-        x = (2 * th.rand(300, 2, generator=generator) - 1) * high
-        return x, th.cos(x[:, 0]) + 0.1 * x[:, 1], None
-
-    batches = [batch() for _ in range(4)]
+    batches = _smooth_batches(4, 300, seed=0)
     for options in ({}, {"euclidean": True}, {"refit": False}):
         r = schedule.replay_batch("sb3_geogp/PaperPendulum-v0", 0, batches, **options)
         assert len(r["explained_variance"]) == 3 and r["share"] is None
@@ -520,14 +540,7 @@ def test_adaptation_schedule_exact_references_learn_a_fixed_function() -> None:
     """Exact GPs on the newest batch or two predict the next batch of a fixed smooth function
     of the state almost exactly, with fitted or with the on-line GP's hyperparameters."""
     schedule = load_script("adaptation_schedule")
-    generator = th.Generator().manual_seed(1)
-    high = th.tensor([3.0, 8.0])
-
-    def batch() -> tuple[th.Tensor, th.Tensor, None]:
-        x = (2 * th.rand(150, 2, generator=generator) - 1) * high
-        return x, th.cos(x[:, 0]) + 0.1 * x[:, 1], None
-
-    batches = [batch() for _ in range(3)]
+    batches = _smooth_batches(3, 150, seed=1)
     for name, options in schedule.EXACT.items():
         r = schedule.replay_exact("sb3_geogp/PaperPendulum-v0", 0, batches, **options)
         assert len(r["explained_variance"]) == 2 and r["share"] is None

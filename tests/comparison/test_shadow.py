@@ -15,7 +15,7 @@ from stable_baselines3 import PPO
 from stable_baselines3.common.callbacks import BaseCallback, CallbackList
 
 from sb3_geogp import GPValueCallback
-from sb3_geogp.callbacks import Target
+from sb3_geogp.callbacks import Target, default_feed
 from sb3_geogp.comparison import shadow
 from sb3_geogp.comparison.run import build_model
 from sb3_geogp.comparison.shadow import (
@@ -39,6 +39,22 @@ def test_ppo_spec_names_the_critic_and_its_options() -> None:
     assert (spec.critic, spec.seed, spec.algo, spec.total_timesteps) == ("rbf", 3, "ppo", 1000)
     assert options["max_basis"] == 8 and options["adapt"] == {"max_gap": 4}
     assert ppo_spec("CartPole-v1", 0, 1000, {}).critic == "geodesic"
+
+
+@pytest.mark.parametrize("env_id", ["CartPole-v1", "Acrobot-v1"])
+def test_ppo_spec_feeds_sb3_returns_unless_asked(env_id: str) -> None:
+    """SB3's returns by default (the shadows' feed); ``"target": None`` is the drop-in
+    policy's own feed under PPO, as GPValueCallback chooses it for the zoo's discount; neither
+    key reaches the adaptation settings."""
+    assert (ppo_spec(env_id, 0, 1, {}).target, ppo_spec(env_id, 0, 1, {}).horizon) == (
+        "returns",
+        None,
+    )
+    spec = ppo_spec(env_id, 0, 1, {"kernel": "laplacian", "target": None, "max_gap": 2})
+    assert (spec.target, spec.horizon) == default_feed(PPO, spec.hyperparams["gamma"])
+    assert dict(spec.gp_kwargs)["adapt"] == {"max_gap": 2}
+    asked = ppo_spec(env_id, 0, 1, {"target": "monte_carlo", "horizon": 50})
+    assert (asked.target, asked.horizon) == ("monte_carlo", 50)
 
 
 def test_a_shadow_with_the_runs_settings_reproduces_the_runs_critic() -> None:
