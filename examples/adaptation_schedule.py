@@ -326,11 +326,10 @@ def replay_batch(
     (for the geodesic kernel, its tree), the hyperparameters at the optimum of the collapsed
     bound of that batch (:data:`BATCH_ITERS` L-BFGS iterations from the on-line GP's own).
     What this reference scores above the on-line GP, the basis and the kernel allow; the
-    on-line GP loses it to what it keeps of older batches and to its few Adam steps. With
-    ``recorded``, the setting the batches were recorded with (:func:`record`), makes the GP
-    critic. With ``refit=False`` the hyperparameters are the on-line GP's own (no iteration):
-    the basis
-    alone then separates it from the exact GP's of :func:`replay_exact`. With
+    on-line GP loses it to what it keeps of older batches and to its few Adam steps. The GP
+    critic is that of ``recorded``, the setting the batches were recorded with
+    (:func:`record`). With ``refit=False`` the hyperparameters are the on-line GP's own (no
+    iteration): the basis alone then separates it from :func:`replay_exact`'s exact GP. With
     ``euclidean``, the kernel is instead a :class:`~sb3_geogp.kernels.LaplacianKernel` with the
     on-line GP's lengthscales: the same basis without the graph.
     """
@@ -380,7 +379,7 @@ def replay_exact(
     at that moment (a fresh one of the ``recorded`` setting, :func:`record`'s, fed the
     batches as in :func:`replay`; lengthscales, and its noise to signal ratio): no basis, no
     summary of older batches, so what scores above the on-line GP here its approximations
-    lose.
+    lose. The distance is Euclidean: for a geodesic critic the graph goes too.
     """
     gp = gp_shadow(ppo_spec(env_id, seed, 1, recorded or {})) if online else None
     kept: list[tuple[np.ndarray, np.ndarray]] = []
@@ -527,7 +526,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         default={},
         help="JSON setting of the recorded critic, as --settings' entries, plus "
         '"target"/"horizon" (null: the drop-in policy\'s feed); {} is the comparison\'s '
-        "geodesic critic fed SB3's returns. --batch and --exact build their GP from it",
+        "geodesic critic fed SB3's returns. --batch and --exact build their GP from it; "
+        "--settings are replayed as given",
     )
     args = parser.parse_args(argv)
     for env_id in args.envs:

@@ -9,8 +9,10 @@ others of ``PLAN.md`` left out for time)::
         --out results/model_ceiling/laplacian_a
     python results/model_ceiling/laplacian.py --seeds 1 3 5 7 9 --streams STREAMS \\
         --out results/model_ceiling/laplacian_b
-    python results/model_ceiling/laplacian.py --extra --seeds 0 1 2 3 4 5 6 7 8 9 \\
-        --streams STREAMS --out results/model_ceiling/laplacian_c
+    python results/model_ceiling/laplacian.py --extra --seeds 0 2 4 6 8 --streams STREAMS \\
+        --out results/model_ceiling/laplacian_c
+    python results/model_ceiling/laplacian.py --extra --seeds 1 3 5 7 9 --streams STREAMS \\
+        --out results/model_ceiling/laplacian_d
 """
 
 from __future__ import annotations

@@ -12,8 +12,8 @@ two calls of ``examples/adaptation_schedule.py`` (one per core), then the added 
         --streams STREAMS --out results/model_ceiling/b
     python results/model_ceiling/extra.py STREAMS results/model_ceiling/c
 
-Part 2, the drop-in PPO default (``laplacian.py``, folders ``laplacian_a`` and
-``laplacian_b``; its docstring has the commands). Then::
+Part 2, the drop-in PPO default (``laplacian.py``, folders ``laplacian_a`` to ``laplacian_d``;
+its docstring has the commands). Then::
 
     python results/model_ceiling/read.py --plot results/model_ceiling/read.png \\
         > results/model_ceiling/read.md
@@ -142,8 +142,8 @@ def main() -> None:
     args = parser.parse_args()
     parts = {
         "the drop-in PPO default (Laplacian, Monte Carlo targets)": (
-            load("laplacian_a", "laplacian_b"),
-            STEPS,
+            load("laplacian_a", "laplacian_b", "laplacian_c", "laplacian_d"),
+            (*STEPS, (ONLINE_TWO, ONLINE)),
         ),
         "the comparison's geodesic critic fed SB3's returns": (
             load("a", "b", "c"),

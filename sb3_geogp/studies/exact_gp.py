@@ -122,7 +122,7 @@ def exact_gp(
             tuned.fit(x[fit], y[fit])
         found = tuned.kernel_
     else:
-        found = _kernel(kernel, fixed, None)
+        found = _kernel(kernel, _checked_hyper(fixed, x.shape[1]), None)
     regressor = GaussianProcessRegressor(found, optimizer=None, normalize_y=True).fit(x, y)
     params = found.get_params()
     return ExactFit(
@@ -145,11 +145,9 @@ def _kernel(name: str, hyper: tuple[np.ndarray, float, float], spread: np.ndarra
 
     lengthscale, signal, noise = hyper
     free = spread is not None
-    bounds: Any = (
-        (LENGTHSCALE_BOUNDS[0] * spread.min(), LENGTHSCALE_BOUNDS[1] * spread.max())
-        if spread is not None
-        else "fixed"
-    )
+    bounds: Any = "fixed"
+    if spread is not None:
+        bounds = (LENGTHSCALE_BOUNDS[0] * spread.min(), LENGTHSCALE_BOUNDS[1] * spread.max())
     profile = (
         Matern(length_scale=lengthscale, length_scale_bounds=bounds, nu=0.5)
         if name == "laplacian"
@@ -158,6 +156,22 @@ def _kernel(name: str, hyper: tuple[np.ndarray, float, float], spread: np.ndarra
     return ConstantKernel(signal, SIGNAL_BOUNDS if free else "fixed") * profile + WhiteKernel(
         noise, NOISE_BOUNDS if free else "fixed"
     )
+
+
+def _checked_hyper(
+    fixed: tuple[np.ndarray, float, float], dims: int
+) -> tuple[np.ndarray, float, float]:
+    """``fixed`` with its lengthscales as shape (``dims``,), refused with the fix unless every
+    entry is positive and finite."""
+    lengthscale = np.broadcast_to(_checked(fixed[0], "fixed lengthscale"), (dims,)).copy()
+    values = np.array([*lengthscale, fixed[1], fixed[2]], dtype=np.float64)
+    if not (np.isfinite(values).all() and (values > 0).all()):
+        raise ValueError(
+            f"fixed hyperparameters must be positive: got lengthscale {lengthscale}, "
+            f"signal_var {fixed[1]}, noise_var {fixed[2]}; pass positive values or fixed=None "
+            "to fit them"
+        )
+    return lengthscale, float(fixed[1]), float(fixed[2])
 
 
 def _checked(a: np.ndarray, name: str) -> np.ndarray:

@@ -97,3 +97,7 @@ def test_bad_input_is_refused_with_the_fix(change, message: str) -> None:  # typ
         exact_gp(x, y, "matern52")
     with pytest.raises(ValueError, match="fit_points"):
         exact_gp(x, y, fit_points=1)
+    with pytest.raises(ValueError, match="must be positive"):
+        exact_gp(x, y, fixed=(np.array([0.5]), 1.0, 0.0))
+    with pytest.raises(ValueError, match="must be positive"):
+        exact_gp(x, y, fixed=(np.array([-0.5]), 1.0, 0.1))
