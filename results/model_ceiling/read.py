@@ -143,7 +143,7 @@ def main() -> None:
     parts = {
         "the drop-in PPO default (Laplacian, Monte Carlo targets)": (
             load("laplacian_a", "laplacian_b", "laplacian_c", "laplacian_d"),
-            (*STEPS, (ONLINE_TWO, ONLINE)),
+            (*STEPS, (ONLINE_TWO, ONLINE), (ONLINE_TWO, DEFAULT)),
         ),
         "the comparison's geodesic critic fed SB3's returns": (
             load("a", "b", "c"),
