@@ -6,6 +6,7 @@ GP's own hyperparameters, in batch on the newest batch, on the same recorded str
 
 from __future__ import annotations
 
+import argparse
 import sys
 from pathlib import Path
 
@@ -20,13 +21,17 @@ HERE = Path(__file__).resolve().parent
 SCHEDULE = load_script(HERE.parents[1] / "examples" / "adaptation_schedule.py", "schedule")
 ENV = "Acrobot-v1"
 SEEDS = range(10)
+STEPS = 30_000
 
 
 def main() -> None:
     streams, out = Path(sys.argv[1]), Path(sys.argv[2])
     results = {}
     for seed in tqdm(SEEDS, desc=SCHEDULE.BATCH_ONLINE):
-        batches = th.load(streams / f"{ENV}__s{seed}__t30000.pt", weights_only=False)
+        path = SCHEDULE.stream_path(
+            streams, ENV, seed, argparse.Namespace(timesteps=STEPS, record={})
+        )
+        batches = th.load(path, weights_only=False)
         row = SCHEDULE.replay_batch(ENV, seed, batches, refit=False)
         results[seed] = {SCHEDULE.BATCH_ONLINE: row}
     out.mkdir(parents=True, exist_ok=True)

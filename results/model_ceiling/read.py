@@ -65,16 +65,21 @@ def load(*folders: str) -> BySeed:
     return out
 
 
-def paired(by_seed: BySeed, first: str, second: str) -> str:
-    """Mean paired difference of the tail scores with its 95 % t interval."""
+def paired(by_seed: BySeed, first: str, second: str) -> tuple[float, float, float]:
+    """Mean paired difference of the tail scores and its 95 % t interval (mean, low, high)."""
     diff = np.array([r[first]["tail"] - r[second]["tail"] for r in by_seed.values()])
     mean, half = (float(v) for v in mean_ci(diff, nan_policy="propagate"))
-    return f"{mean:+.3f} [{mean - half:+.3f}, {mean + half:+.3f}]"
+    return mean, mean - half, mean + half
 
 
-def verdict(interval: str) -> str:
+def shown(interval: tuple[float, float, float]) -> str:
+    mean, low, high = interval
+    return f"{mean:+.3f} [{low:+.3f}, {high:+.3f}]"
+
+
+def verdict(interval: tuple[float, float, float]) -> str:
     """``PLAN.md``'s rule for its first reading."""
-    low, high = (float(v) for v in interval.split("[")[1].rstrip("]").split(","))
+    _, low, high = interval
     if low > 0.05:
         return "the on-line approximation loses fit the model allows"
     if low >= -0.05 and high <= 0.05:
@@ -99,7 +104,7 @@ def report(by_seed: BySeed, title: str, readings: tuple[tuple[str, str], ...]) -
         lines.append(f"| {name} | {np.mean(tails):.3f} | {min(tails):.3f} | {max(tails):.3f} |")
     lines += ["", "| reading | paired by seed [95 % t] |", "|---|---|"]
     for first, second in readings:
-        lines.append(f"| {first} − {second} | {paired(by_seed, first, second)} |")
+        lines.append(f"| {first} − {second} | {shown(paired(by_seed, first, second))} |")
     rule = verdict(paired(by_seed, LAPLACE, DEFAULT))
     lines += ["", f"`PLAN.md`'s rule on exact (maximum likelihood) − default: {rule}.", ""]
     return "\n".join(lines) + "\n"

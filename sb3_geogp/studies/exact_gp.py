@@ -13,7 +13,7 @@ to zero mean and unit variance. The hyperparameters ``(l, sigma_f^2, sigma_n^2)`
 exact log marginal likelihood of ``fit_points`` of the points drawn at random (the cost is
 cubic in their number); the posterior then conditions on all of them. scikit-learn's
 :class:`~sklearn.gaussian_process.GaussianProcessRegressor` does both (L-BFGS-B from
-lengthscales equal to the inputs' spreads). It needs the ``bench`` extra.
+lengthscales equal to the inputs' spreads). It needs the ``bench`` or ``dev`` extra.
 """
 
 from __future__ import annotations
@@ -44,7 +44,8 @@ class ExactFit:
     signal_var, noise_var : float
         ``sigma_f^2`` and ``sigma_n^2``, in standardised target units.
     log_marginal_likelihood : float
-        At the optimum, on the fit points (standardised targets).
+        Of the standardised targets: at the optimum on the fit points, or, for given
+        hyperparameters, on all the points.
     regressor : GaussianProcessRegressor
         Conditioned on every point given.
     """
