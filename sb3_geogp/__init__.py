@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING, Any
 
 from sb3_geogp.adaptation import CHEAP_ADAPTATION, Adaptation
 from sb3_geogp.graph import BVGraph
-from sb3_geogp.kernels import GeodesicKernel, Kernel, LaplacianKernel, RBFKernel
+from sb3_geogp.kernels import GeodesicKernel, Kernel, LaplacianKernel, MaternKernel, RBFKernel
 from sb3_geogp.sparse_gp import SparseOnlineGP
 from sb3_geogp.user_warnings import GPCriticWarning
 
@@ -67,6 +67,7 @@ __all__ = [
     "Kernel",
     "LaplacianKernel",
     "MaskableGPActorCriticPolicy",
+    "MaternKernel",
     "RBFKernel",
     "SparseOnlineGP",
     "__version__",

@@ -242,9 +242,9 @@ class SparseOnlineGP(nn.Module):
     ----------
     input_dim : int
         Dimension ``d`` of the inputs (flattened observations).
-    kernel : Kernel or {"rbf", "laplacian", "geodesic"}
-        Covariance function; a name builds :class:`RBFKernel`, :class:`LaplacianKernel` or
-        :class:`GeodesicKernel` with default options.
+    kernel : Kernel or {"rbf", "laplacian", "matern", "geodesic"}
+        Covariance function; a name builds :class:`RBFKernel`, :class:`LaplacianKernel`,
+        :class:`MaternKernel` or :class:`GeodesicKernel` with default options.
     max_basis : int
         Capacity ``m_max`` of the basis set.
     noise_var : float

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import copy
 import math
+from collections.abc import Callable
 
 import numpy as np
 import pytest
@@ -11,7 +12,7 @@ import torch
 from scipy.optimize import minimize
 from scipy.stats import norm
 
-from sb3_geogp import RBFKernel, SparseOnlineGP
+from sb3_geogp import MaternKernel, RBFKernel, SparseOnlineGP
 from sb3_geogp.adaptation import (
     WEIGHT_FLOOR,
     Adaptation,
@@ -28,7 +29,7 @@ from sb3_geogp.adaptation import (
     thinned,
     whitened_prior,
 )
-from tests.test_sparse_gp import assert_same_state, nystrom_posterior, rbf, snapshot
+from tests.test_sparse_gp import assert_same_state, matern, nystrom_posterior, rbf, snapshot
 
 
 # -- settings -----------------------------------------------------------------------------------
@@ -290,21 +291,30 @@ def test_lagged_scores_are_those_of_each_candidates_posterior_solved_directly() 
 
 
 # -- the adapting GP ----------------------------------------------------------------------------
+#: ``cov(a, b, lengthscale, variance)`` of a GP the tests draw from.
+Covariance = Callable[[np.ndarray, np.ndarray, np.ndarray, float], np.ndarray]
+
+
+def matern52(a: np.ndarray, b: np.ndarray, ls: np.ndarray, variance: float = 1.0) -> np.ndarray:
+    return matern(a, b, ls, variance, 2.5)
+
+
 def gp_draw(
-    rng: np.random.Generator, x: np.ndarray, ls: np.ndarray, noise: float
+    rng: np.random.Generator, x: np.ndarray, ls: np.ndarray, noise: float, cov: Covariance = rbf
 ) -> tuple[np.ndarray, np.ndarray]:
-    """A draw of a zero-mean unit-variance RBF GP at ``x`` and its noisy observations."""
-    K = rbf(x, x, ls) + 1e-9 * np.eye(len(x))
+    """A draw of a zero-mean unit-variance GP (RBF by default) at ``x`` and its noisy
+    observations."""
+    K = cov(x, x, ls, 1.0) + 1e-9 * np.eye(len(x))
     f = np.linalg.cholesky(K) @ rng.normal(size=len(x))
     return f, f + np.sqrt(noise) * rng.normal(size=len(x))
 
 
-def exact_ml_optimum(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+def exact_ml_optimum(x: np.ndarray, y: np.ndarray, cov: Covariance = rbf) -> np.ndarray:
     """Lengthscales, signal and noise variance maximising the exact marginal likelihood."""
 
     def nlml(log_p: np.ndarray) -> float:
         ls, var, noise = np.exp(log_p[:-2]), np.exp(log_p[-2]), np.exp(log_p[-1])
-        L = np.linalg.cholesky(rbf(x, x, ls, var) + noise * np.eye(len(x)))
+        L = np.linalg.cholesky(cov(x, x, ls, var) + noise * np.eye(len(x)))
         a = np.linalg.solve(L, y)
         return 0.5 * a @ a + np.log(np.diag(L)).sum()
 
@@ -316,19 +326,22 @@ def exact_ml_optimum(x: np.ndarray, y: np.ndarray) -> np.ndarray:
     return np.exp(best.x)
 
 
-def test_adaptation_recovers_the_marginal_likelihood_optimum() -> None:
+@pytest.mark.parametrize(("kernel", "cov"), [("rbf", rbf), (MaternKernel(nu=2.5), matern52)])
+def test_adaptation_recovers_the_marginal_likelihood_optimum(
+    kernel: str | MaternKernel, cov: Covariance
+) -> None:
     """Draws of a known GP; the reference is the exact-GP optimum on the retained window."""
     rng = np.random.default_rng(1)
     true_ls, true_noise = np.array([0.15, 0.6]), 0.04
     x = rng.uniform(size=(2400, 2))
-    _, y = gp_draw(rng, x, true_ls, true_noise)
+    _, y = gp_draw(rng, x, true_ls, true_noise, cov)
     y = 3.0 + 2.0 * y  # the adaptation also learns the target mean and scale
     adapt = Adaptation(window=400, interval=200, steps=10, lr=0.1, forgetting=(1.0,))
-    gp = SparseOnlineGP(2, "rbf", max_basis=150, novelty_tol=1e-3, adapt=adapt)
+    gp = SparseOnlineGP(2, kernel, max_basis=150, novelty_tol=1e-3, adapt=adapt)
     for i in range(0, len(x), 200):
         gp.update(x[i : i + 200], y[i : i + 200])
     wx, wy, _ = (t.numpy() for t in gp.window.data())
-    ref = exact_ml_optimum(wx, (wy - wy.mean()))
+    ref = exact_ml_optimum(wx, (wy - wy.mean()), cov)
     scale2 = float(gp.y_scale) ** 2
     np.testing.assert_allclose(gp.lengthscale.numpy(), ref[:2], rtol=0.25)
     np.testing.assert_allclose(float(gp.noise_var) * scale2, ref[3], rtol=0.5)

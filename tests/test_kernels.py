@@ -17,11 +17,13 @@ from sb3_geogp.kernels import (
     Gram,
     KernelName,
     LaplacianKernel,
+    MaternKernel,
     RBFKernel,
     make_kernel,
     shepard_weights,
 )
 from sb3_geogp.kernels.base import DenseRows, Kernel
+from tests.test_sparse_gp import assert_same_state, matern, snapshot
 
 
 # -- independent references ---------------------------------------------------------------------
@@ -83,6 +85,54 @@ def test_rbf_gram_and_cross_match_closed_form() -> None:
     cross = kernel.cross(kernel.scale(torch.as_tensor(x)), z).numpy()
     np.testing.assert_allclose(cross, expected(x, b), rtol=1e-12)
     np.testing.assert_allclose(kernel.gram(z).numpy(), expected(b, b), rtol=1e-12)
+
+
+# -- Matérn ---------------------------------------------------------------------------------------
+@pytest.mark.parametrize("nu", [0.5, 1.5, 2.5])
+def test_matern_gram_and_cross_match_closed_form(nu: float) -> None:
+    rng = np.random.default_rng(0)
+    ls, variance = np.array([0.5, 2.0, 1.3]), 1.7
+    kernel = make_kernel("matern", nu=nu, lengthscale=ls.tolist(), variance=variance)
+    kernel.bind(3, 5)
+    x, b = rng.normal(size=(7, 3)), rng.normal(size=(5, 3))
+    z = kernel.scale(torch.as_tensor(b))
+    cross = kernel.cross(kernel.scale(torch.as_tensor(x)), z).numpy()
+    np.testing.assert_allclose(cross, matern(x, b, ls, variance, nu), rtol=1e-12)
+    np.testing.assert_allclose(kernel.gram(z).numpy(), matern(b, b, ls, variance, nu), rtol=1e-12)
+    assert float(torch.linalg.eigvalsh(kernel.gram(z)).min()) > 0
+
+
+def test_matern_one_half_is_the_laplacian_kernel_and_allows_float32() -> None:
+    x = torch.as_tensor(np.random.default_rng(1).normal(size=(6, 2)))
+    half, laplace = MaternKernel(nu=0.5, lengthscale=0.7), LaplacianKernel(lengthscale=0.7)
+    for kernel in (half, laplace):
+        kernel.bind(2, 6)
+    np.testing.assert_array_equal(half.gram(half.scale(x)), laplace.gram(laplace.scale(x)))
+    SparseOnlineGP(2, half, dtype=torch.float32)
+    with pytest.raises(ValueError, match="not numerically safe in float32"):
+        SparseOnlineGP(2, MaternKernel(nu=2.5), dtype=torch.float32)
+
+
+@pytest.mark.parametrize("nu", [2.0, 0.0, float("nan"), True, "2.5"], ids=str)
+def test_matern_rejects_a_smoothness_without_closed_form(nu: object) -> None:
+    with pytest.raises(ValueError, match=r"nu must be one of \[0.5, 1.5, 2.5\]"):
+        MaternKernel(nu=nu)  # type: ignore[arg-type]
+
+
+def test_a_state_of_another_matern_smoothness_is_refused_and_the_same_loads_exactly() -> None:
+    x = np.random.default_rng(2).normal(size=(60, 2))
+    gp = SparseOnlineGP(2, MaternKernel(nu=1.5), max_basis=16, adapt=True)
+    gp.update(x, np.sin(x[:, 0]))
+    other = SparseOnlineGP(2, MaternKernel(nu=2.5), max_basis=16, adapt=True)
+    before = snapshot(other)
+    with pytest.raises(ValueError, match="nu"):
+        other.load_state_dict(gp.state_dict())
+    assert_same_state(before, snapshot(other))
+    same = SparseOnlineGP(2, MaternKernel(nu=1.5), max_basis=16, adapt=True)
+    same.load_state_dict(gp.state_dict())
+    probe = torch.as_tensor(x[:9])
+    for got, want in zip(same.predict(probe), gp.predict(probe), strict=True):
+        assert torch.equal(got, want)
 
 
 # -- geodesic kernel: rows ----------------------------------------------------------------------
@@ -207,6 +257,10 @@ def test_geodesic_rows_without_trajectory_hang_on_nearest_bv(small_tree) -> None
         (RBFKernel(variance=2.0), lambda r: 1 - np.exp(-(r**2))),
         (GeodesicKernel(variance=2.0), lambda r: 1 - np.exp(-2 * r)),
         (GeodesicKernel(variance=2.0, profile="gaussian"), lambda r: 1 - np.exp(-(r**2))),
+        (
+            MaternKernel(nu=2.5, variance=2.0),
+            lambda r: 1 - ((1 + 5**0.5 * r + 5 * r**2 / 3) * np.exp(-(5**0.5) * r)) ** 2,
+        ),
     ],
 )
 def test_novelty_at_distance_from_a_single_bv(kernel, novelty) -> None:
@@ -316,7 +370,7 @@ def test_geodesic_kernel_rejects_bad_options(kwargs: dict, match: str) -> None:
         GeodesicKernel(**kwargs)
 
 
-@pytest.mark.parametrize("kernel", [RBFKernel, LaplacianKernel, GeodesicKernel])
+@pytest.mark.parametrize("kernel", [RBFKernel, LaplacianKernel, MaternKernel, GeodesicKernel])
 @pytest.mark.parametrize(
     "kwargs",
     [

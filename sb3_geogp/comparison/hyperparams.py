@@ -41,8 +41,9 @@ ALGOS: dict[str, type[OnPolicyAlgorithm]] = {"ppo": PPO, "a2c": A2C}
 CRITICS = ("mlp", "rbf", "geodesic")
 #: Every critic a sweep can run (also ``sb3-geogp train --critic``), in the order reports list
 #: them: the published ones, then the GP critic with the Euclidean Laplacian kernel, the
-#: default critic since 0.6 (:data:`sb3_geogp.policies.KERNEL_DEFAULTS`).
-ALL_CRITICS = (*CRITICS, "laplacian")
+#: default critic since 0.6 (:data:`sb3_geogp.policies.KERNEL_DEFAULTS`), and with the Matérn
+#: kernel (``nu=2.5`` unless ``--gp-option kernel_kwargs='{"nu": 1.5}'``; since 0.33).
+ALL_CRITICS = (*CRITICS, "laplacian", "matern")
 #: Environments of the published comparison.
 ENVS = (
     "Pendulum-v1",

@@ -51,7 +51,13 @@ from sb3_geogp.toolbox.tables import (
     markdown_table,
 )
 
-COLORS = {"mlp": "tab:gray", "rbf": "tab:blue", "geodesic": "tab:red", "laplacian": "tab:green"}
+COLORS = {
+    "mlp": "tab:gray",
+    "rbf": "tab:blue",
+    "geodesic": "tab:red",
+    "laplacian": "tab:green",
+    "matern": "tab:purple",
+}
 #: Confidence level of the figures' bands.
 LEVEL = 0.95
 

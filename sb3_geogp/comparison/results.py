@@ -36,8 +36,9 @@ Key = tuple[str, str, str]  # (env_id, algo, critic)
 VerdictTest = Literal["bootstrap", "permutation"]
 VERDICT_TESTS: tuple[VerdictTest, ...] = ("bootstrap", "permutation")
 #: The critic pairs ``(a, b)`` compared where a sweep ran both: each GP critic against the MLP,
-#: the geodesic against the RBF kernel (the published sweep's three), and the Laplacian kernel
-#: (the default critic since 0.6) against the MLP and both other kernels.
+#: the geodesic against the RBF kernel (the published sweep's three), the Laplacian kernel
+#: (the default critic since 0.6) against the MLP and both other kernels, and the Matérn
+#: kernel against the MLP and the Laplacian kernel.
 PAIRS = (
     ("rbf", "mlp"),
     ("geodesic", "mlp"),
@@ -45,6 +46,8 @@ PAIRS = (
     ("laplacian", "mlp"),
     ("laplacian", "rbf"),
     ("laplacian", "geodesic"),
+    ("matern", "mlp"),
+    ("matern", "laplacian"),
 )
 #: Comparisons per metric of the published sweep (7 environments, 2 algorithms, 3 critic
 #: pairs): the family its family-wise level corrects for, kept by re-runs of some cells.

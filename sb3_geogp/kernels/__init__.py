@@ -2,7 +2,8 @@
 
 * :mod:`~sb3_geogp.kernels.base`: the interface the GP talks to (:class:`Kernel`) and the two
   forms of kernel rows (:class:`DenseRows`, :class:`MixedRows`).
-* :mod:`~sb3_geogp.kernels.euclidean`: :class:`RBFKernel`, :class:`LaplacianKernel`.
+* :mod:`~sb3_geogp.kernels.euclidean`: :class:`RBFKernel`, :class:`LaplacianKernel`,
+  :class:`MaternKernel`.
 * :mod:`~sb3_geogp.kernels.geodesic`: :class:`GeodesicKernel`, which owns the basis-vector
   graph, and :func:`shepard_weights`.
 
@@ -25,16 +26,17 @@ from sb3_geogp.kernels.base import (
     Rows,
     distances,
 )
-from sb3_geogp.kernels.euclidean import EuclideanKernel, LaplacianKernel, RBFKernel
+from sb3_geogp.kernels.euclidean import EuclideanKernel, LaplacianKernel, MaternKernel, RBFKernel
 from sb3_geogp.kernels.geodesic import GeodesicKernel, shepard_weights
 from sb3_geogp.options import unknown_option
 
 #: Names of the kernels of :data:`KERNELS`.
-KernelName = Literal["rbf", "laplacian", "geodesic"]
+KernelName = Literal["rbf", "laplacian", "matern", "geodesic"]
 #: Kernels that :func:`make_kernel` (and so ``gp_kwargs=dict(kernel=...)``) builds by name.
 KERNELS: dict[str, type[Kernel]] = {
     "rbf": RBFKernel,
     "laplacian": LaplacianKernel,
+    "matern": MaternKernel,
     "geodesic": GeodesicKernel,
 }
 
@@ -102,6 +104,7 @@ __all__ = [
     "Kernel",
     "KernelName",
     "LaplacianKernel",
+    "MaternKernel",
     "MixedRows",
     "RBFKernel",
     "Rows",

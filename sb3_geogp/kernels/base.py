@@ -149,11 +149,16 @@ Rows = DenseRows | MixedRows
 
 
 #: Names of the correlation profiles of :data:`PROFILES`.
-Profile = Literal["laplacian", "gaussian"]
+Profile = Literal["laplacian", "matern32", "matern52", "gaussian"]
+_SQRT3 = math.sqrt(3.0)
+_SQRT5 = math.sqrt(5.0)
 #: Correlation profiles ``rho(r)`` of a distance ``r`` in lengthscale units, ``rho(0) = 1``:
-#: ``exp(-r)`` and ``exp(-r^2 / 2)``.
+#: the Matérn family from ``nu = 1/2`` (``exp(-r)``) through ``3/2`` and ``5/2`` to its limit,
+#: the Gaussian ``exp(-r^2 / 2)`` (Rasmussen & Williams 2006, eq. 4.17).
 PROFILES: dict[str, Callable[[Tensor], Tensor]] = {
     "laplacian": lambda r: torch.exp(-r),
+    "matern32": lambda r: (1.0 + _SQRT3 * r) * torch.exp(-_SQRT3 * r),
+    "matern52": lambda r: (1.0 + _SQRT5 * r + (5.0 / 3.0) * r * r) * torch.exp(-_SQRT5 * r),
     "gaussian": lambda r: torch.exp(-0.5 * r * r),
 }
 

@@ -7,8 +7,9 @@ them: the exact GP posterior with a stationary kernel on Euclidean distance,
 
 .. math::  k(x, x') = \\sigma_f^2 \\rho\\big(\\|(x - x') / l\\|\\big) + \\sigma_n^2 [x = x'],
 
-``rho(r) = exp(-r)`` (``"laplacian"``, the GP critic's profile under PPO; Matérn 1/2) or
-``exp(-r^2 / 2)`` (``"rbf"``), one lengthscale per input dimension, on targets standardised
+``rho(r) = exp(-r)`` (``"laplacian"``, the GP critic's profile under PPO; Matérn 1/2),
+Matérn 3/2 and 5/2 (``"matern32"``, ``"matern52"``) or ``exp(-r^2 / 2)`` (``"rbf"``), one
+lengthscale per input dimension, on targets standardised
 to zero mean and unit variance. The hyperparameters ``(l, sigma_f^2, sigma_n^2)`` maximise the
 exact log marginal likelihood of ``fit_points`` of the points drawn at random (the cost is
 cubic in their number); the posterior then conditions on all of them. scikit-learn's
@@ -25,7 +26,9 @@ from typing import Any
 import numpy as np
 
 #: Kernel profiles :func:`exact_gp` fits.
-KERNELS = ("laplacian", "rbf")
+KERNELS = ("laplacian", "matern32", "matern52", "rbf")
+#: Matérn smoothness ``nu`` of each profile but the RBF's.
+_NU = {"laplacian": 0.5, "matern32": 1.5, "matern52": 2.5}
 #: Box of each hyperparameter during the fit (standardised targets; lengthscales in units of
 #: the inputs' spreads): wide enough that the optimum of a learnable target is inside.
 LENGTHSCALE_BOUNDS = (1e-3, 1e3)
@@ -77,7 +80,7 @@ def exact_gp(
         Inputs.
     y : ndarray, shape (n,)
         Targets (not constant).
-    kernel : {"laplacian", "rbf"}
+    kernel : {"laplacian", "matern32", "matern52", "rbf"}
         The profile ``rho``.
     fit_points : int
         How many of the points, drawn without replacement with ``seed``, the hyperparameters
@@ -150,9 +153,9 @@ def _kernel(name: str, hyper: tuple[np.ndarray, float, float], spread: np.ndarra
     if spread is not None:
         bounds = (LENGTHSCALE_BOUNDS[0] * spread.min(), LENGTHSCALE_BOUNDS[1] * spread.max())
     profile = (
-        Matern(length_scale=lengthscale, length_scale_bounds=bounds, nu=0.5)
-        if name == "laplacian"
-        else RBF(length_scale=lengthscale, length_scale_bounds=bounds)
+        RBF(length_scale=lengthscale, length_scale_bounds=bounds)
+        if name == "rbf"
+        else Matern(length_scale=lengthscale, length_scale_bounds=bounds, nu=_NU[name])
     )
     return ConstantKernel(signal, SIGNAL_BOUNDS if free else "fixed") * profile + WhiteKernel(
         noise, NOISE_BOUNDS if free else "fixed"

@@ -304,10 +304,10 @@ def test_monte_carlo_targets_reach_the_gp_critic_and_its_result(
 def test_every_critic_starts_from_the_same_actor() -> None:
     """A file's net_arch with vf layers reaches every critic unchanged: the GP critics build the
     MLP critic's layers (then drop them) so that their actor starts identically. A kernel
-    outside the compared ones (``laplacian``) builds too, with that kernel; an unknown name
-    is refused."""
+    outside the compared ones (``laplacian``, ``matern``) builds too, with that kernel; an
+    unknown name is refused."""
     entry = dict(n_steps=8, policy_kwargs="dict(net_arch=dict(pi=[16], vf=[24]))")
-    critics = ("mlp", "rbf", "geodesic", "laplacian")
+    critics = ("mlp", "rbf", "geodesic", "laplacian", "matern")
     specs = dataclasses.replace(TINY, critics=critics, seeds=(3,)).specs()
     actors = []
     for spec in specs:
@@ -322,7 +322,7 @@ def test_every_critic_starts_from_the_same_actor() -> None:
     for key, value in actors[0].items():
         assert all(torch.equal(value, other[key]) for other in actors[1:]), key
     with pytest.raises(ValueError, match="critic must be one of"):
-        build_model(dataclasses.replace(specs[0], critic="matern"))
+        build_model(dataclasses.replace(specs[0], critic="matern32"))
 
 
 def test_a_warning_of_every_run_is_shown_once(
