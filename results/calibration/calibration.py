@@ -4,6 +4,9 @@
     python results/calibration/calibration.py            # resumes: finished cases are kept
     python results/calibration/calibration.py --read --plot results/calibration/calibration.png \\
         > results/calibration/read.md
+    python results/calibration/calibration.py --matern      # addendum 5: the Matérn arms
+    python results/calibration/calibration.py --matern --read \\
+        --plot results/calibration/matern.png > results/calibration/matern.md
 
 Each case feeds one on-line GP the stream of the fixed-policy check
 (:func:`~sb3_geogp.studies.pendulum.batch_check.new_online_gp`, the configuration of
@@ -64,6 +67,20 @@ ARMS: dict[str, tuple[KernelName, bool]] = {
 }
 #: Arm -> the algorithm whose drop-in critic it is (``PLAN.md``, addendum 1).
 DROP_INS: dict[str, type[OnPolicyAlgorithm]] = {"ppo drop-in": PPO, "a2c drop-in": A2C}
+#: ``PLAN.md``'s addendum 5 (``--matern``, into :data:`MATERN_RUNS`): arms as :data:`ARMS`, ...
+MATERN_ARMS: dict[str, tuple[KernelName, bool]] = {"matern52, adaptive": ("matern", True)}
+#: ... and drop-ins with the Matérn kernel: arm -> (algorithm, its ``gp_kwargs``).
+MATERN_DROP_INS: dict[str, tuple[type[OnPolicyAlgorithm], dict[str, Any]]] = {
+    "ppo drop-in, matern": (PPO, {"kernel": "matern"}),
+    "a2c drop-in, matern": (A2C, {"kernel": "matern"}),
+}
+#: Each Matérn arm's references: the published arms that differ from it in the kernel only.
+MATERN_PAIRS: dict[str, tuple[str, ...]] = {
+    "matern52, adaptive": ("laplacian, adaptive", "rbf, adaptive"),
+    "ppo drop-in, matern": ("ppo drop-in",),
+    "a2c drop-in, matern": ("a2c drop-in",),
+}
+MATERN_RUNS = HERE / "matern_runs.json"
 SEEDS = (0, 1, 2, 3, 4)
 CAPACITIES = (20, 50, 100, 200)
 #: Nominal coverages recorded (the plan reads 0.5, 0.9 and 0.95; the rest draw the curve).
@@ -131,10 +148,13 @@ def drop_in_critic(
 
 
 def new_critic(arm: str, task: Task, capacity: int, config: CheckConfig) -> SparseOnlineGP:
-    """The unfed GP of ``arm`` (one of :data:`ARMS` or :data:`DROP_INS`)."""
+    """The unfed GP of ``arm`` (of :data:`ARMS`, :data:`DROP_INS` or their Matérn forms)."""
     if arm in DROP_INS:
         return drop_in_critic(DROP_INS[arm], task, capacity)
-    kernel, adaptive = ARMS[arm]
+    if arm in MATERN_DROP_INS:
+        algorithm, gp_kwargs = MATERN_DROP_INS[arm]
+        return drop_in_critic(algorithm, task, capacity, gp_kwargs)
+    kernel, adaptive = {**ARMS, **MATERN_ARMS}[arm]
     return new_online_gp(task, kernel, 2, capacity, config, adapt=adaptive)
 
 
@@ -161,18 +181,19 @@ def key(row: dict[str, Any]) -> tuple[str, int, int]:
     return row["arm"], row["seed"], row["max_basis"]
 
 
-def run(workers: int) -> None:
-    done = json.loads(RUNS.read_text()) if RUNS.is_file() else {"rows": []}
+def run(workers: int, arms: list[str], path: Path) -> None:
+    """Run every case of ``arms`` not yet in ``path``, adding each to it as it ends."""
+    done = json.loads(path.read_text()) if path.is_file() else {"rows": []}
     have = {key(r) for r in done["rows"]}
     cases = [
         (arm, seed, m)
         for m in sorted(CAPACITIES, reverse=True)
-        for arm in [*ARMS, *DROP_INS]
+        for arm in arms
         for seed in SEEDS
         if (arm, seed, m) not in have
     ]
     if not cases:
-        print(f"all {len(have)} cases in {RUNS}")
+        print(f"all {len(have)} cases in {path}")
         return
     config = check_config()
     done.setdefault("provenance", provenance())
@@ -183,7 +204,7 @@ def run(workers: int) -> None:
         for future in tqdm(cf.as_completed(futures), total=len(futures), unit="case"):
             done["rows"].append(future.result())
             done["rows"].sort(key=key)
-            RUNS.write_text(json.dumps(done, indent=1) + "\n")
+            path.write_text(json.dumps(done, indent=1) + "\n")
 
 
 def values(rows: list[dict[str, Any]], arm: str, m: int, region: str, metric: str) -> np.ndarray:
@@ -221,36 +242,8 @@ METRICS = {
 
 
 def read(rows: list[dict[str, Any]]) -> str:
-    lines = [
-        "## Calibration on the fixed-policy pendulum, all 3,600 cells",
-        "",
-        "Mean over stream seeds 0-4 [95 % Student-t interval]. Coverage: share of cells whose",
-        "Monte Carlo value lies in the GP's central interval at that nominal level.",
-        "",
-        "| arm | max BV | " + " | ".join(METRICS.values()) + " |",
-        "|---|---:|" + "---:|" * len(METRICS),
-    ]
-    for arm in [*ARMS, *DROP_INS]:
-        for m in CAPACITIES:
-            cells = [interval(values(rows, arm, m, "all", k)) for k in METRICS]
-            lines.append(f"| {arm} | {m} | " + " | ".join(cells) + " |")
-    lines += [
-        "",
-        "## Visited cells and the rest (95 % coverage; z_rms)",
-        "",
-        "| arm | max BV | visited cells | 95 %, visited | 95 %, rest | z_rms, visited | "
-        "z_rms, rest |",
-        "|---|---:|---:|---:|---:|---:|---:|",
-    ]
-    for arm in [*ARMS, *DROP_INS]:
-        for m in CAPACITIES:
-            n = values(rows, arm, m, "visited", "cells")
-            cells = [
-                interval(values(rows, arm, m, region, k))
-                for k in ("coverage_0.95", "z_rms")
-                for region in ("visited", "unvisited")
-            ]
-            lines.append(f"| {arm} | {m} | {np.mean(n):.0f} | " + " | ".join(cells) + " |")
+    """``PLAN.md``'s reading of the arms and drop-ins (``read.md``)."""
+    lines = arm_tables(rows, [*ARMS, *DROP_INS])
     lines += [
         "",
         "## Adaptive − fixed hyperparameters (Laplacian), paired by seed",
@@ -275,10 +268,81 @@ def read(rows: list[dict[str, Any]]) -> str:
     return "\n".join(lines)
 
 
-def plot(rows: list[dict[str, Any]], path: Path) -> None:
+def read_matern(rows: list[dict[str, Any]]) -> str:
+    """Addendum 5's reading (``matern.md``): the Matérn arms beside their references, and each
+    minus its references paired by seed."""
+    arms = [a for arm in MATERN_PAIRS for a in (*MATERN_PAIRS[arm], arm)]
+    lines = arm_tables(rows, list(dict.fromkeys(arms)))
+    lines += [
+        "",
+        "## Matérn − the same critic with its published kernel, paired by seed",
+        "",
+        "| arm | reference | max BV | log z_rms | 95 % coverage | RMSE |",
+        "|---|---|---:|---:|---:|---:|",
+    ]
+    for arm, references in MATERN_PAIRS.items():
+        for reference, m in ((r, m) for r in references for m in CAPACITIES):
+            pair = [
+                np.log(values(rows, arm, m, "all", "z_rms"))
+                - np.log(values(rows, reference, m, "all", "z_rms")),
+                *(
+                    values(rows, arm, m, "all", k) - values(rows, reference, m, "all", k)
+                    for k in ("coverage_0.95", "rmse")
+                ),
+            ]
+            cells = " | ".join(interval(d, 3) for d in pair)
+            lines.append(f"| {arm} | {reference} | {m} | {cells} |")
+    between = {
+        m: sorted(
+            np.log(values(rows, a, m, "all", "z_rms")).mean()
+            for a in ("laplacian, adaptive", "matern52, adaptive", "rbf, adaptive")
+        )[1]
+        == np.log(values(rows, "matern52, adaptive", m, "all", "z_rms")).mean()
+        for m in CAPACITIES
+    }
+    lines += ["", f"matern52 z_rms between laplacian's and rbf's, per capacity: {between}"]
+    return "\n".join(lines)
+
+
+def arm_tables(rows: list[dict[str, Any]], arms: list[str]) -> list[str]:
+    """The calibration table of ``arms`` over all cells, then over visited cells and the rest."""
+    lines = [
+        "## Calibration on the fixed-policy pendulum, all 3,600 cells",
+        "",
+        "Mean over stream seeds 0-4 [95 % Student-t interval]. Coverage: share of cells whose",
+        "Monte Carlo value lies in the GP's central interval at that nominal level.",
+        "",
+        "| arm | max BV | " + " | ".join(METRICS.values()) + " |",
+        "|---|---:|" + "---:|" * len(METRICS),
+    ]
+    for arm in arms:
+        for m in CAPACITIES:
+            cells = [interval(values(rows, arm, m, "all", k)) for k in METRICS]
+            lines.append(f"| {arm} | {m} | " + " | ".join(cells) + " |")
+    lines += [
+        "",
+        "## Visited cells and the rest (95 % coverage; z_rms)",
+        "",
+        "| arm | max BV | visited cells | 95 %, visited | 95 %, rest | z_rms, visited | "
+        "z_rms, rest |",
+        "|---|---:|---:|---:|---:|---:|---:|",
+    ]
+    for arm in arms:
+        for m in CAPACITIES:
+            n = values(rows, arm, m, "visited", "cells")
+            cells = [
+                interval(values(rows, arm, m, region, k))
+                for k in ("coverage_0.95", "z_rms")
+                for region in ("visited", "unvisited")
+            ]
+            lines.append(f"| {arm} | {m} | {np.mean(n):.0f} | " + " | ".join(cells) + " |")
+    return lines
+
+
+def plot(rows: list[dict[str, Any]], path: Path, arms: list[str]) -> None:
     fig, axes = plt.subplots(1, 3, figsize=(14, 4.2))
     levels = np.array(LEVELS)
-    for i, arm in enumerate([*ARMS, *DROP_INS]):
+    for i, arm in enumerate(arms):
         colour = f"C{i}"
         for ax, metric in zip(axes[:2], ("z_rms", "coverage_0.95"), strict=True):
             mean, half = mean_ci(
@@ -324,14 +388,22 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--read", action="store_true", help="print the tables of runs.json")
     parser.add_argument("--plot", type=Path, default=None, help="with --read: the figure")
     parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--matern", action="store_true", help="addendum 5's Matérn arms")
     args = parser.parse_args(argv)
     if not args.read:
-        run(args.workers)
+        if args.matern:
+            run(args.workers, [*MATERN_ARMS, *MATERN_DROP_INS], MATERN_RUNS)
+        else:
+            run(args.workers, [*ARMS, *DROP_INS], RUNS)
         return
     rows = json.loads(RUNS.read_text())["rows"]
-    print(read(rows))
+    arms = [*ARMS, *DROP_INS]
+    if args.matern:
+        rows += json.loads(MATERN_RUNS.read_text())["rows"]
+        arms = list(dict.fromkeys(a for m in MATERN_PAIRS for a in (*MATERN_PAIRS[m], m)))
+    print(read_matern(rows) if args.matern else read(rows))
     if args.plot is not None:
-        plot(rows, args.plot)
+        plot(rows, args.plot, arms)
 
 
 if __name__ == "__main__":
