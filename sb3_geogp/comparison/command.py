@@ -41,7 +41,8 @@ from sb3_geogp.toolbox.scripts import count_arg
 
 #: First line of ``--help``.
 DESCRIPTION = (
-    "Compare critics inside ordinary SB3 training: MLP vs GP critics (RBF, geodesic, Laplacian)."
+    "Compare critics inside ordinary SB3 training: MLP vs GP critics (RBF, geodesic, Laplacian,"
+    " Matérn)."
 )
 #: End of ``--help``.
 EPILOG = """\

@@ -38,7 +38,7 @@ VERDICT_TESTS: tuple[VerdictTest, ...] = ("bootstrap", "permutation")
 #: The critic pairs ``(a, b)`` compared where a sweep ran both: each GP critic against the MLP,
 #: the geodesic against the RBF kernel (the published sweep's three), the Laplacian kernel
 #: (the default critic since 0.6) against the MLP and both other kernels, and the Matérn
-#: kernel against the MLP and the Laplacian kernel.
+#: kernel against the MLP and the two default kernels (RBF under A2C, Laplacian under PPO).
 PAIRS = (
     ("rbf", "mlp"),
     ("geodesic", "mlp"),
@@ -47,6 +47,7 @@ PAIRS = (
     ("laplacian", "rbf"),
     ("laplacian", "geodesic"),
     ("matern", "mlp"),
+    ("matern", "rbf"),
     ("matern", "laplacian"),
 )
 #: Comparisons per metric of the published sweep (7 environments, 2 algorithms, 3 critic
