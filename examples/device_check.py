@@ -44,7 +44,7 @@ from stable_baselines3.common.env_util import make_vec_env
 from sb3_geogp import Adaptation, GPActorCriticPolicy, GPValueCallback, SparseOnlineGP
 from sb3_geogp.toolbox.scripts import DefaultsHelpFormatter, count_arg
 
-KERNELS = ("rbf", "laplacian", "geodesic")
+KERNELS = ("rbf", "laplacian", "matern", "geodesic")
 #: Adaptations the engine check runs, by name.
 ADAPTATIONS = {
     "fold": Adaptation(),

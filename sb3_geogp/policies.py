@@ -722,12 +722,13 @@ class GPActorCriticPolicy(GPCriticMixin, ActorCriticPolicy):
         ``target_scale``, ``prior_mean``, ``optimism``, ``optimism_cap``, ``dtype``,
         ``num_threads``, ``condition_guard``, and ``trend`` and ``adapt`` below; a misspelt one
         raises ``TypeError`` naming the closest) plus ``kernel`` (``"laplacian"``, ``"geodesic"``,
-        ``"rbf"`` or a :class:`~sb3_geogp.Kernel`, which is copied; by default since 0.6
-        ``"laplacian"`` under PPO, TRPO and MaskablePPO and under A2C ``"rbf"`` since 0.22
+        ``"rbf"``, ``"matern"`` or a :class:`~sb3_geogp.Kernel`, which is copied; by default
+        since 0.6 ``"laplacian"`` under PPO, TRPO and MaskablePPO and under A2C ``"rbf"`` since 0.22
         (``"geodesic"`` from 0.6 to 0.21), see :func:`default_kernel`; ``"geodesic"`` for
         every algorithm before) and
         ``kernel_kwargs`` (options of the named kernel, e.g.
-        ``dict(profile="laplacian", n_neighbors=4)`` for the geodesic one).
+        ``dict(profile="laplacian", n_neighbors=4)`` for the geodesic one, ``dict(nu=1.5)``
+        for the Matérn one).
         A kernel given by name gets the options of :data:`KERNEL_DEFAULTS` that ``gp_kwargs``
         leaves unset (the Laplacian kernel: ``novelty_tol=0.1``); the others get the engine's
         defaults. ``trend`` is ``"level"`` under PPO, TRPO and MaskablePPO and ``"none"`` under

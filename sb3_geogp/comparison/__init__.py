@@ -2,9 +2,9 @@
 
 The harness behind ``sb3-geogp compare``. A sweep is the product ``{ppo, a2c} x critics x
 environments x seeds``, the critics ``{mlp, rbf, geodesic}`` by default (the published
-sweep's) or any of ``{mlp, rbf, geodesic, laplacian}``; each run trains one model exactly as a
-user would and writes one JSON result file, atomically, so an interrupted sweep resumes where
-it stopped.
+sweep's) or any of ``{mlp, rbf, geodesic, laplacian, matern}``; each run trains one model
+exactly as a user would and writes one JSON result file, atomically, so an interrupted sweep
+resumes where it stopped.
 One concept per module:
 
 * :mod:`~sb3_geogp.comparison.hyperparams`: algorithms, critics, environments, budgets,
