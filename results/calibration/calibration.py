@@ -81,6 +81,8 @@ MATERN_PAIRS: dict[str, tuple[str, ...]] = {
     "a2c drop-in, matern": ("a2c drop-in",),
 }
 MATERN_RUNS = HERE / "matern_runs.json"
+#: Addendum 5's tables list each Matérn arm after its references.
+MATERN_READ = list(dict.fromkeys(a for arm, refs in MATERN_PAIRS.items() for a in (*refs, arm)))
 SEEDS = (0, 1, 2, 3, 4)
 CAPACITIES = (20, 50, 100, 200)
 #: Nominal coverages recorded (the plan reads 0.5, 0.9 and 0.95; the rest draw the curve).
@@ -271,8 +273,7 @@ def read(rows: list[dict[str, Any]]) -> str:
 def read_matern(rows: list[dict[str, Any]]) -> str:
     """Addendum 5's reading (``matern.md``): the Matérn arms beside their references, and each
     minus its references paired by seed."""
-    arms = [a for arm in MATERN_PAIRS for a in (*MATERN_PAIRS[arm], arm)]
-    lines = arm_tables(rows, list(dict.fromkeys(arms)))
+    lines = arm_tables(rows, MATERN_READ)
     lines += [
         "",
         "## Matérn − the same critic with its published kernel, paired by seed",
@@ -400,7 +401,7 @@ def main(argv: list[str] | None = None) -> None:
     arms = [*ARMS, *DROP_INS]
     if args.matern:
         rows += json.loads(MATERN_RUNS.read_text())["rows"]
-        arms = list(dict.fromkeys(a for m in MATERN_PAIRS for a in (*MATERN_PAIRS[m], m)))
+        arms = MATERN_READ
     print(read_matern(rows) if args.matern else read(rows))
     if args.plot is not None:
         plot(rows, args.plot, arms)
