@@ -468,13 +468,15 @@ def plot(results: dict[str, Any], settings: Sequence[str], path: Path) -> None:
     plt.close(fig)
 
 
-def stream_path(streams: Path, env_id: str, seed: int, args: argparse.Namespace) -> Path:
+def stream_path(
+    streams: Path, env_id: str, seed: int, timesteps: int, record: dict[str, Any]
+) -> Path:
     """Where the stream of ``env_id`` and ``seed`` is kept: the budget in the name, and a
-    digest of ``--record`` where it is not the default (another critic's stream is another
-    stream)."""
-    name = f"{env_id.replace('/', '-')}__s{seed}__t{args.timesteps}"
-    if args.record:
-        canonical = json.dumps(args.record, sort_keys=True).encode()
+    digest of the recorded setting (``--record``) where it is not the default (another
+    critic's stream is another stream)."""
+    name = f"{env_id.replace('/', '-')}__s{seed}__t{timesteps}"
+    if record:
+        canonical = json.dumps(record, sort_keys=True).encode()
         name += f"__{hashlib.sha256(canonical).hexdigest()[:10]}"
     return streams / f"{name}.pt"
 
@@ -567,9 +569,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     per_job = 1 + len(settings) + len(references) + len(learners)
     bar = tqdm(total=len(jobs) * per_job, unit="run", desc="record + replay")
     for env_id, seed in jobs:
-        batches = record(
-            env_id, seed, args.timesteps, stream_path(streams, env_id, seed, args), args.record
-        )
+        stream = stream_path(streams, env_id, seed, args.timesteps, args.record)
+        batches = record(env_id, seed, args.timesteps, stream, args.record)
         bar.update()
         results[env_id][seed] = {}
         for name, setting in settings.items():

@@ -503,8 +503,7 @@ def test_adaptation_schedule_names_another_critics_stream_apart(tmp_path: Path) 
     schedule = load_script("adaptation_schedule")
 
     def path(record: dict[str, Any]) -> Path:
-        args = argparse.Namespace(timesteps=1200, record=record)
-        return schedule.stream_path(tmp_path, "sb3_geogp/PaperPendulum-v0", 3, args)
+        return schedule.stream_path(tmp_path, "sb3_geogp/PaperPendulum-v0", 3, 1200, record)
 
     assert path({}) == tmp_path / "sb3_geogp-PaperPendulum-v0__s3__t1200.pt"
     laplacian = path({"kernel": "laplacian", "target": None})

@@ -38,10 +38,11 @@ def main() -> None:
     parser.add_argument("--out", type=Path, required=True)
     args = parser.parse_args()
     done = json.loads(args.out.read_text())["results"] if args.out.exists() else {}
-    where = argparse.Namespace(timesteps=CEILING.STEPS, record=CEILING.RECORDED)
     bar = tqdm(total=len(args.seeds) * len(KERNELS), unit="fit")
     for seed in args.seeds:
-        stream = SCHEDULE.stream_path(args.streams, CEILING.ENV, seed, where)
+        stream = SCHEDULE.stream_path(
+            args.streams, CEILING.ENV, seed, CEILING.STEPS, CEILING.RECORDED
+        )
         batches = SCHEDULE.record(CEILING.ENV, seed, CEILING.STEPS, stream, CEILING.RECORDED)
         for kernel in KERNELS:
             key = f"{kernel}/{seed}"

@@ -6,7 +6,6 @@ GP's own hyperparameters, in batch on the newest batch, on the same recorded str
 
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
 
@@ -28,9 +27,7 @@ def main() -> None:
     streams, out = Path(sys.argv[1]), Path(sys.argv[2])
     results = {}
     for seed in tqdm(SEEDS, desc=SCHEDULE.BATCH_ONLINE):
-        path = SCHEDULE.stream_path(
-            streams, ENV, seed, argparse.Namespace(timesteps=STEPS, record={})
-        )
+        path = SCHEDULE.stream_path(streams, ENV, seed, STEPS, {})
         batches = th.load(path, weights_only=False)
         row = SCHEDULE.replay_batch(ENV, seed, batches, refit=False)
         results[seed] = {SCHEDULE.BATCH_ONLINE: row}

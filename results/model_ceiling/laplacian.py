@@ -55,11 +55,10 @@ def main() -> None:
     parser.add_argument("--extra", action="store_true", help="score the EXTRA rows only")
     args = parser.parse_args()
     predictors = EXTRA if args.extra else PREDICTORS
-    where = argparse.Namespace(timesteps=STEPS, record=RECORDED)
     results = {}
     bar = tqdm(total=len(args.seeds) * (1 + len(predictors)), unit="run")
     for seed in args.seeds:
-        stream = SCHEDULE.stream_path(args.streams, ENV, seed, where)
+        stream = SCHEDULE.stream_path(args.streams, ENV, seed, STEPS, RECORDED)
         batches = SCHEDULE.record(ENV, seed, STEPS, stream, RECORDED)
         bar.update()
         results[seed] = {}
