@@ -236,6 +236,9 @@ class Kernel(nn.Module):
         """
         return {}
 
+    def extra_repr(self) -> str:
+        return ", ".join(f"{k}={v!r}" for k, v in self.options().items())
+
     #: Options that only say how the kernel learns (stored, but free to differ on load).
     update_rules: tuple[str, ...] = ()
 

@@ -117,6 +117,3 @@ class MaternKernel(EuclideanKernel):
 
     def options(self) -> dict[str, Any]:
         return {"nu": self.nu}
-
-    def extra_repr(self) -> str:
-        return f"nu={self.nu}"

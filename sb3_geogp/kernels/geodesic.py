@@ -135,9 +135,6 @@ class GeodesicKernel(Kernel):
         self.tree = BVGraph(0, 1)
         self.register_buffer("traj_node", torch.full((), -1, dtype=torch.long))
 
-    def extra_repr(self) -> str:
-        return ", ".join(f"{k}={v!r}" for k, v in self.options().items())
-
     def options(self) -> dict[str, Any]:
         return {
             "profile": self.profile_name,
