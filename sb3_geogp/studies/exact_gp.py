@@ -25,10 +25,12 @@ from typing import Any
 
 import numpy as np
 
+from sb3_geogp.kernels import MaternKernel
+
 #: Kernel profiles :func:`exact_gp` fits.
 KERNELS = ("laplacian", "matern32", "matern52", "rbf")
-#: Matérn smoothness ``nu`` of each profile but the RBF's.
-_NU = {"laplacian": 0.5, "matern32": 1.5, "matern52": 2.5}
+#: Matérn smoothness ``nu`` of each profile but the RBF's (the engine's profile names).
+_NU: dict[str, float] = {profile: nu for nu, profile in MaternKernel.NU.items()}
 #: Box of each hyperparameter during the fit (standardised targets; lengthscales in units of
 #: the inputs' spreads): wide enough that the optimum of a learnable target is inside.
 LENGTHSCALE_BOUNDS = (1e-3, 1e3)

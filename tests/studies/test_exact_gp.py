@@ -6,18 +6,17 @@ import numpy as np
 import pytest
 
 from sb3_geogp.studies.exact_gp import exact_gp
+from tests.test_sparse_gp import matern, rbf
+
+#: Matérn smoothness of each profile name but the RBF's.
+NU = {"laplacian": 0.5, "matern32": 1.5, "matern52": 2.5}
 
 
 def _gram(a: np.ndarray, b: np.ndarray, lengthscale: np.ndarray, kernel: str) -> np.ndarray:
     """Unit-variance correlation of every row of ``a`` with every row of ``b``."""
-    r = np.sqrt((((a[:, None, :] - b[None, :, :]) / lengthscale) ** 2).sum(-1))
-    s3, s5 = np.sqrt(3) * r, np.sqrt(5) * r  # Rasmussen & Williams (2006), eq. 4.17
-    return {
-        "laplacian": np.exp(-r),
-        "matern32": (1 + s3) * np.exp(-s3),
-        "matern52": (1 + s5 + s5**2 / 3) * np.exp(-s5),
-        "rbf": np.exp(-0.5 * r**2),
-    }[kernel]
+    if kernel == "rbf":
+        return rbf(a, b, lengthscale)
+    return matern(a, b, lengthscale, 1.0, NU[kernel])
 
 
 def _standardised(y: np.ndarray) -> np.ndarray:
