@@ -316,7 +316,7 @@ class GPValueCallback(BaseCallback):
         self._fed[0] += 1
         if len(self._held) < self.feed_every:
             # Only marks the rollout handled: the GP, and so the advantages, stay as they are.
-            policy.update_critic(*_empty_segment(self.model.observation_space.shape))
+            policy.update_critic(*_empty_segment(buffer.obs_shape))
         else:
             if self.recompute_advantages:
                 old_bootstrap = self._bootstrap_values(policy)
@@ -456,7 +456,7 @@ class GPValueCallback(BaseCallback):
         )
         if continues:
             return list(last.pending)
-        return [_empty_segment(self.model.observation_space.shape)] * self.model.n_envs
+        return [_empty_segment(self._algo.rollout_buffer.obs_shape)] * self.model.n_envs
 
     def _check_bounds_wrappers(self, normalize: VecNormalize | None) -> None:
         """Before the GP's first data: warn where a VecEnv wrapper (``normalize``, the model's
@@ -668,10 +668,9 @@ def _check_targets(targets: np.ndarray) -> None:
         )
 
 
-def _empty_segment(obs_shape: tuple[int, ...] | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    shape = obs_shape or ()
+def _empty_segment(obs_shape: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return (
-        np.empty((0, *shape), dtype=np.float32),
+        np.empty((0, *obs_shape), dtype=np.float32),
         np.empty(0, dtype=np.float64),
         np.empty(0, dtype=bool),
     )

@@ -32,7 +32,7 @@ from gymnasium import spaces
 from stable_baselines3 import A2C, PPO
 from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.policies import ActorCriticPolicy, BaseModel
-from stable_baselines3.common.preprocessing import is_image_space
+from stable_baselines3.common.preprocessing import get_flattened_obs_dim, is_image_space
 from stable_baselines3.common.torch_layers import FlattenExtractor
 from stable_baselines3.common.type_aliases import PyTorchObs, Schedule
 from stable_baselines3.common.utils import explained_variance
@@ -186,9 +186,12 @@ KERNEL_DEFAULTS: dict[str, dict[str, Any]] = {"laplacian": {"novelty_tol": 0.1}}
 _KERNEL_NAMES = {cls.__name__: name for name, cls in KERNELS.items()}
 
 _SUPPORTED = (
-    "the GP critic supports Box observations of any shape (flattened; not images) with "
+    "the GP critic supports Box observations of any shape (flattened; not images) and "
+    "Discrete, MultiDiscrete or MultiBinary observations (one-hot, as SB3 encodes them), with "
     "Box, Discrete, MultiDiscrete or MultiBinary actions"
 )
+#: Observation spaces SB3 hands the critic as 0/1 features (one-hot or binary).
+_ENCODED_SPACES = (spaces.Discrete, spaces.MultiDiscrete, spaces.MultiBinary)
 
 #: Which algorithm trains which GP policy: the message of every error about it.
 SUPPORTED_ALGORITHMS = (
@@ -272,6 +275,12 @@ class GPCriticMixin(_PolicyBase):
             raise TypeError(
                 f"normalize_actor_obs must be True or False, got {normalize_actor_obs!r}"
             )
+        if normalize_actor_obs and not isinstance(observation_space, spaces.Box):
+            raise ValueError(
+                "normalize_actor_obs normalises Box observations, as VecNormalize does; the "
+                f"actor sees {observation_space} observations as 0/1 features, which need no "
+                "normalisation: drop normalize_actor_obs"
+            )
         self.normalize_actor_obs = normalize_actor_obs
         # Needed by _build(), which the SB3 policy's __init__ calls.
         algorithm = _constructing_algorithm()
@@ -345,7 +354,7 @@ class GPCriticMixin(_PolicyBase):
         # The observation bounds bound the GP's inputs only when the features are the
         # flattened observations.
         bounds = (
-            _flat_bounds(self.observation_space)
+            feature_bounds(self.observation_space)
             if isinstance(self.vf_features_extractor, FlattenExtractor)
             else None
         )
@@ -842,19 +851,34 @@ def _fit_before_update(
     return stats
 
 
-def _flat_bounds(space: spaces.Space) -> tuple[np.ndarray, np.ndarray]:
-    assert isinstance(space, spaces.Box)
-    return space.low.ravel(), space.high.ravel()
+def feature_bounds(space: spaces.Space) -> tuple[np.ndarray, np.ndarray]:
+    """Bounds of the features SB3's ``FlattenExtractor`` makes of ``space``'s observations.
+
+    Parameters
+    ----------
+    space : Box, Discrete, MultiDiscrete or MultiBinary
+
+    Returns
+    -------
+    (low, high) : ndarrays, shape (d,)
+        A Box's own bounds, flattened; 0 and 1 for the one-hot (Discrete, MultiDiscrete) or
+        binary (MultiBinary) features SB3 encodes the others as.
+    """
+    if isinstance(space, spaces.Box):
+        return space.low.ravel(), space.high.ravel()
+    assert isinstance(space, _ENCODED_SPACES)
+    dim = get_flattened_obs_dim(space)
+    return np.zeros(dim), np.ones(dim)
 
 
 def check_supported_spaces(observation_space: spaces.Space, action_space: spaces.Space) -> None:
     """Raise ``ValueError`` naming the fix unless the GP critic supports the spaces."""
-    if isinstance(observation_space, spaces.Dict):
+    if isinstance(observation_space, spaces.Dict | spaces.Tuple):
         raise ValueError(
-            f"{_SUPPORTED}; got a Dict observation space: flatten it into one Box with "
-            "gymnasium.wrappers.FlattenObservation(env)"
+            f"{_SUPPORTED}; got a {type(observation_space).__name__} observation space: "
+            "flatten it into one Box with gymnasium.wrappers.FlattenObservation(env)"
         )
-    if not isinstance(observation_space, spaces.Box):
+    if not isinstance(observation_space, (spaces.Box, *_ENCODED_SPACES)):
         raise ValueError(f"{_SUPPORTED}; got observation space {observation_space}")
     if is_image_space(observation_space, check_channels=False):
         raise ValueError(

@@ -214,7 +214,7 @@ def test_version(capsys: pytest.CaptureFixture[str]) -> None:
             ["--critic", "mlp", "--normalize-actor-obs"],
             "--normalize-actor-obs configures the GP critic",
         ),
-        (["--env", "Taxi-v4"], "Taxi-v4: the GP critic supports Box observations"),
+        (["--env", "Blackjack-v1"], "Blackjack-v1: the GP critic supports Box observations"),
         (["--seed", "-1"], "--seed must be in [0, 2**32), got -1"),
         (["--seed", str(2**32)], "--seed must be in [0, 2**32)"),
         (["--n-steps", "1", "--n-envs", "1"], "PPO needs rollouts of at least 2 steps"),

@@ -633,6 +633,108 @@ def test_multidim_observations_and_other_action_spaces(
 
 
 # ------------------------------------------------------------------------------------------------
+# Discrete observations: the GP reads them one-hot, as SB3 encodes them
+# ------------------------------------------------------------------------------------------------
+#: The chain's observation spaces for its n states, by name.
+CHAIN_SPACES = {
+    "discrete": lambda n: spaces.Discrete(n),
+    "multidiscrete": lambda n: spaces.MultiDiscrete([n, 2]),
+    "multibinary": lambda n: spaces.MultiBinary(n),
+}
+
+
+class _Chain(gym.Env[Any, int]):
+    """States 0, ..., n - 1 in a row, the episode starting at 0; every action moves one state
+    right, and reaching n - 1 ends the episode with reward 1. So whatever the policy,
+    ``V(s) = gamma ** (n - 2 - s)``. Observed as ``kind`` of :data:`CHAIN_SPACES`: the state;
+    the state and its parity; the state's bits one-hot."""
+
+    def __init__(self, kind: str, n: int = 6) -> None:
+        self.kind, self.n, self.state = kind, n, 0
+        self.observation_space = CHAIN_SPACES[kind](n)
+        self.action_space = spaces.Discrete(2)
+
+    def observe(self, state: int) -> Any:
+        if self.kind == "discrete":
+            return state
+        if self.kind == "multidiscrete":
+            return np.array([state, state % 2])
+        return (np.arange(self.n) == state).astype(np.int8)
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> Any:
+        super().reset(seed=seed)
+        self.state = 0
+        return self.observe(0), {}
+
+    def step(self, action: int) -> tuple[Any, float, bool, bool, dict[str, Any]]:
+        self.state += 1
+        done = self.state == self.n - 1
+        return self.observe(self.state), float(done), done, False, {}
+
+
+def one_hot(kind: str, states: np.ndarray, n: int) -> np.ndarray:
+    """The chain's observations of ``states`` encoded by hand: one 0/1 column per value."""
+    eye = np.eye(n)
+    if kind == "multidiscrete":
+        return np.hstack([eye[states], np.eye(2)[states % 2]])
+    return eye[states]
+
+
+@pytest.mark.parametrize("kind", CHAIN_SPACES)
+def test_discrete_observations_reach_the_gp_one_hot_with_unit_bounds(kind: str) -> None:
+    """The GP's inputs are the hand-made one-hot codes, and its starting lengthscales are the
+    bound rule's ``(1 - 0) / sqrt(12)``."""
+    env, n = _Chain(kind), 6
+    policy = GPActorCriticPolicy(env.observation_space, env.action_space, lambda _: 1e-3)
+    states = np.arange(n)
+    obs = np.array([env.observe(s) for s in states])
+    expected = one_hot(kind, states, n)
+    assert policy.gp.input_dim == expected.shape[1]
+    assert np.array_equal(policy.critic_features(obs).cpu().numpy(), expected)
+    assert policy.gp.lengthscale_from_bounds.all()
+    assert th.allclose(policy.gp.lengthscale.cpu(), th.tensor(1 / np.sqrt(12), dtype=th.float64))
+    with pytest.raises(ValueError, match="normalize_actor_obs normalises Box observations"):
+        GPActorCriticPolicy(
+            env.observation_space, env.action_space, lambda _: 1e-3, normalize_actor_obs=True
+        )
+
+
+@pytest.mark.parametrize(
+    ("algo", "kind", "kernel"),
+    [
+        (PPO, "discrete", None),
+        (A2C, "discrete", None),
+        (PPO, "multidiscrete", "geodesic"),
+        (A2C, "multibinary", "laplacian"),
+    ],
+)
+def test_the_gp_critic_learns_a_chains_values_from_discrete_observations_and_reloads(
+    algo: type[BaseAlgorithm], kind: str, kernel: str | None, tmp_path: Path
+) -> None:
+    """Trained with the callback's default targets, the critic's values of the chain's states
+    are the closed form ``gamma ** (n - 2 - s)``; a saved model predicts them bit for bit."""
+    n, gamma = 6, 0.9
+    env = make_vec_env(lambda: _Chain(kind, n), n_envs=2, seed=0)
+    gp_kwargs = {} if kernel is None else dict(kernel=kernel)
+    model = algo(
+        GPActorCriticPolicy,
+        env,
+        gamma=gamma,
+        policy_kwargs=dict(gp_kwargs=gp_kwargs),
+        seed=0,
+        **algo_kwargs(algo, 2),
+    )
+    model.learn(1024, callback=GPValueCallback())
+    states = np.arange(n - 1)
+    obs = th.as_tensor(np.array([_Chain(kind, n).observe(s) for s in states]))
+    values = model.policy.predict_values(obs)[:, 0].double().numpy()
+    assert np.allclose(values, gamma ** (n - 2 - states), atol=0.01)
+    model.save(tmp_path / "model.zip")
+    loaded = algo.load(tmp_path / "model.zip", env=env)
+    assert th.equal(loaded.policy.predict_values(obs), model.policy.predict_values(obs))
+
+
+# ------------------------------------------------------------------------------------------------
 # The actor starts as SB3's MLP policy's (same seed, same net_arch)
 # ------------------------------------------------------------------------------------------------
 #: (policy_kwargs, algorithm kwargs on Box actions) given to every critic.
@@ -809,6 +911,7 @@ def test_a_nan_observation_raises_naming_its_env_and_leaves_the_critic_as_it_was
 
 _IMAGE = spaces.Box(0, 255, shape=(32, 32, 3), dtype=np.uint8)
 _BOX = spaces.Box(-1, 1, shape=(3,))
+_TUPLE = spaces.Tuple([spaces.Discrete(4), spaces.Discrete(2)])
 
 
 @pytest.mark.parametrize(
@@ -816,10 +919,11 @@ _BOX = spaces.Box(-1, 1, shape=(3,))
     [
         (spaces.Dict({"a": _BOX}), spaces.Discrete(2), "Dict observation.*FlattenObservation"),
         (_IMAGE, spaces.Discrete(2), "image observation.*DtypeObservation"),
-        (spaces.Discrete(4), spaces.Discrete(2), "supports Box observations"),
+        (_TUPLE, spaces.Discrete(2), "Tuple observation.*FlattenObservation"),
+        (spaces.Graph(_BOX, None), spaces.Discrete(2), "got observation space Graph"),
         (_BOX, spaces.Tuple([spaces.Discrete(2)]), "action space"),
     ],
-    ids=["dict-obs", "image-obs", "discrete-obs", "tuple-action"],
+    ids=["dict-obs", "image-obs", "tuple-obs", "graph-obs", "tuple-action"],
 )
 def test_unsupported_spaces_raise(
     obs_space: spaces.Space, action_space: spaces.Space, match: str
@@ -912,12 +1016,13 @@ def test_misspelt_options_name_the_option_they_meant(
 
 
 def test_the_fixes_named_for_unsupported_observations_work() -> None:
-    """The errors name FlattenObservation (Dict) and DtypeObservation (an image-like Box): the
-    spaces they make are accepted."""
+    """The errors name FlattenObservation (Dict, Tuple) and DtypeObservation (an image-like
+    Box): the spaces they make are accepted."""
     dict_space = spaces.Dict({"a": _BOX, "b": spaces.Box(0, 2, shape=(2,))})
     flat = gym.wrappers.FlattenObservation(_SpaceEnv(dict_space)).observation_space
+    flat_tuple = gym.wrappers.FlattenObservation(_SpaceEnv(_TUPLE)).observation_space
     as_float = gym.wrappers.DtypeObservation(_SpaceEnv(_IMAGE), np.float32).observation_space
-    for space in (flat, as_float):
+    for space in (flat, flat_tuple, as_float):
         policy = GPActorCriticPolicy(space, spaces.Discrete(2), lambda _: 1e-3)
         assert policy.gp.input_dim == int(np.prod(space.shape))
 
