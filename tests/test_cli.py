@@ -11,7 +11,7 @@ import shutil
 import signal
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 import gymnasium as gym
 import numpy as np
@@ -308,11 +308,34 @@ def test_an_out_that_is_a_file_or_holds_unreadable_settings_is_refused(
     assert [p.name for p in foreign.iterdir()] == ["model.zip"]
 
 
+class ImageObs(gym.Env[np.ndarray, int]):
+    """Image observations (which the GP critic refuses and SB3's MlpPolicy takes), 8 steps."""
+
+    metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array"]}
+    observation_space = gym.spaces.Box(0, 255, shape=(36, 36, 3), dtype=np.uint8)
+    action_space = gym.spaces.Discrete(2)
+
+    def __init__(self, render_mode: str | None = None) -> None:
+        self.render_mode = render_mode
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> Any:
+        super().reset(seed=seed)
+        self.t = 0
+        return self.observation_space.sample(), {}
+
+    def step(self, action: int) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        self.t += 1
+        return self.observation_space.sample(), float(action), self.t >= 8, False, {}
+
+
+gym.register("ImageObs-v0", entry_point=ImageObs)
+
+
 def test_an_env_the_gp_critic_refuses_leaves_the_directory_free_for_the_mlp_critic(
     tmp_path: Path,
 ) -> None:
     """Refused before anything is written, so the same --out trains SB3's MLP critic next."""
-    argv = ["train", "--env", "Taxi-v4", "--out", str(tmp_path / "run"), "--no-progress"]
+    argv = ["train", "--env", "ImageObs-v0", "--out", str(tmp_path / "run"), "--no-progress"]
     assert main(argv) == 2
     tiny = ["--timesteps", "8", "--n-envs", "1", "--n-steps", "8"]
     assert main([*argv, "--critic", "mlp", *tiny]) == 0

@@ -22,7 +22,7 @@ from sb3_geogp.kernels import (
     make_kernel,
     shepard_weights,
 )
-from sb3_geogp.kernels.base import DenseRows, Kernel
+from sb3_geogp.kernels.base import PRODUCT_MIN_DIM, DenseRows, Kernel, distances
 from tests.test_sparse_gp import assert_same_state, matern, snapshot
 
 
@@ -71,6 +71,23 @@ def gram_eigmin(kernel: GeodesicKernel, graph: BVGraph, pos: np.ndarray) -> floa
 
 
 # -- RBF ------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("dim", [3, PRODUCT_MIN_DIM, 500])
+@pytest.mark.parametrize("offset", [0.0, 1e7])
+def test_distances_match_coordinate_differences(dim: int, offset: float) -> None:
+    """Both formulas of ``distances`` against scipy's coordinate differences, 1e7 from the
+    origin too: within 1e-13 of the largest distance, and a point on another within 1e-7 of
+    it (the product formula's rounding; the differences give exactly 0)."""
+    rng = np.random.default_rng(dim)
+    a, b = rng.normal(size=(70, dim)) + offset, rng.normal(size=(40, dim)) + offset
+    a[:5] = b[:5]
+    got = distances(torch.as_tensor(a), torch.as_tensor(b)).numpy()
+    expected = cdist(a, b)
+    apart = ~np.eye(70, 40, dtype=bool)
+    assert np.abs(got - expected)[apart].max() <= 1e-13 * expected.max()
+    on_points = np.diag(got[:5, :5]).max()
+    assert on_points <= 1e-7 * expected.max() if dim >= PRODUCT_MIN_DIM else on_points == 0.0
+
+
 def test_rbf_gram_and_cross_match_closed_form() -> None:
     rng = np.random.default_rng(0)
     ls, variance = np.array([0.5, 2.0, 1.3]), 1.7

@@ -34,6 +34,7 @@ from sb3_geogp import (
     RBFKernel,
     SparseOnlineGP,
 )
+from sb3_geogp.kernels.base import PRODUCT_MIN_DIM
 from sb3_geogp.policies import (
     _GP_OPTIONS,
     DEFAULT_ADAPTATION,
@@ -700,20 +701,22 @@ def test_discrete_observations_reach_the_gp_one_hot_with_unit_bounds(kind: str) 
 
 
 @pytest.mark.parametrize(
-    ("algo", "kind", "kernel"),
+    ("algo", "kind", "kernel", "n"),
     [
-        (PPO, "discrete", None),
-        (A2C, "discrete", None),
-        (PPO, "multidiscrete", "geodesic"),
-        (A2C, "multibinary", "laplacian"),
+        (PPO, "discrete", None, 6),
+        (A2C, "discrete", None, 6),
+        (PPO, "multidiscrete", "geodesic", 6),
+        (A2C, "multibinary", "laplacian", 6),
+        # one-hot codes of PRODUCT_MIN_DIM or more columns: distances by the matrix product
+        (PPO, "discrete", None, PRODUCT_MIN_DIM + 8),
     ],
 )
 def test_the_gp_critic_learns_a_chains_values_from_discrete_observations_and_reloads(
-    algo: type[BaseAlgorithm], kind: str, kernel: str | None, tmp_path: Path
+    algo: type[BaseAlgorithm], kind: str, kernel: str | None, n: int, tmp_path: Path
 ) -> None:
     """Trained with the callback's default targets, the critic's values of the chain's states
     are the closed form ``gamma ** (n - 2 - s)``; a saved model predicts them bit for bit."""
-    n, gamma = 6, 0.9
+    gamma = 0.9
     env = make_vec_env(lambda: _Chain(kind, n), n_envs=2, seed=0)
     gp_kwargs = {} if kernel is None else dict(kernel=kernel)
     model = algo(
@@ -732,6 +735,36 @@ def test_the_gp_critic_learns_a_chains_values_from_discrete_observations_and_rel
     model.save(tmp_path / "model.zip")
     loaded = algo.load(tmp_path / "model.zip", env=env)
     assert th.equal(loaded.policy.predict_values(obs), model.policy.predict_values(obs))
+
+
+@pytest.mark.parametrize("kind", CHAIN_SPACES)
+@pytest.mark.parametrize("algo", ALGOS)
+def test_discrete_observations_train_as_their_flattened_box_does(
+    algo: type[BaseAlgorithm], kind: str
+) -> None:
+    """The same run on the chain's discrete observations and on gymnasium's
+    FlattenObservation of them (one-hot Box, bounds 0 and 1): the same critic, bit for bit."""
+
+    def trained(wrap: bool) -> BaseAlgorithm:
+        def make() -> gym.Env:
+            env = _Chain(kind)
+            return gym.wrappers.FlattenObservation(env) if wrap else env
+
+        model = algo(
+            GPActorCriticPolicy,
+            make_vec_env(make, n_envs=2, seed=0),
+            seed=0,
+            **algo_kwargs(algo, 2),
+        )
+        return model.learn(512, callback=GPValueCallback())
+
+    raw, flat = trained(False), trained(True)
+    assert flat.observation_space != raw.observation_space
+    states = np.arange(5)
+    obs = np.array([_Chain(kind).observe(s) for s in states])
+    values = raw.policy.predict_values(th.as_tensor(obs))
+    assert th.equal(values, flat.policy.predict_values(th.as_tensor(one_hot(kind, states, 6))))
+    assert int(raw.policy.gp.n_seen) == int(flat.policy.gp.n_seen) > 0
 
 
 # ------------------------------------------------------------------------------------------------

@@ -32,6 +32,7 @@ from sb3_geogp import (
 )
 from sb3_geogp.defaults import default_lengthscale
 from sb3_geogp.kernels import make_kernel
+from sb3_geogp.kernels.base import PRODUCT_MIN_DIM
 from sb3_geogp.toolbox.streams import drifting_stream, pendulum_stream
 from tests.test_graph import assert_valid_forest, straight_edges
 
@@ -1603,27 +1604,31 @@ def test_bad_sizes_raise_before_allocating(kwargs: dict[str, Any], match: str) -
         SparseOnlineGP(**options)
 
 
+@pytest.mark.parametrize(("dim", "lengthscale"), [(3, 0.3), (PRODUCT_MIN_DIM + 8, 2.0)])
 @pytest.mark.parametrize("kernel", ["rbf", "geodesic"])
-def test_predictions_do_not_depend_on_the_origin(kernel: str) -> None:
-    """Translating data and queries by 1e7 lengthscales changes nothing beyond rounding."""
+def test_predictions_do_not_depend_on_the_origin(kernel: str, dim: int, lengthscale: float) -> None:
+    """Translating data and queries by 1e7 lengthscales changes nothing beyond rounding, with
+    distances from coordinate differences (3 dimensions) or from the product (40)."""
     rng = np.random.default_rng(1)
-    x = rng.uniform(size=(600, 3))
+    x = rng.uniform(size=(600, dim))
     y = smooth(x[:, :2]) + x[:, 2]
-    probe = rng.uniform(size=(100, 3))
+    probe = rng.uniform(size=(100, dim))
     means = []
     for offset in (0.0, 3e6):
-        gp = SparseOnlineGP(3, kernel=make_kernel(kernel, lengthscale=0.3), max_basis=64)
+        kernel_ = make_kernel(kernel, lengthscale=lengthscale)
+        gp = SparseOnlineGP(dim, kernel=kernel_, max_basis=64)
         gp.update(x + offset, y)
         means.append(gp.predict(probe + offset)[0].numpy())
     assert np.abs(means[0] - means[1]).max() < 1e-6 * np.ptp(y)
 
 
-def test_nearby_points_far_from_the_origin_are_learned() -> None:
+@pytest.mark.parametrize("dim", [3, PRODUCT_MIN_DIM])
+def test_nearby_points_far_from_the_origin_are_learned(dim: int) -> None:
     """The issue's case: a spread of 1e-6 around 30 (3e7 lengthscales from the origin)."""
     rng = np.random.default_rng(2)
-    noise = rng.normal(size=(2048, 3))
+    noise = rng.normal(size=(2048, dim))
     y = np.sin(noise).sum(1)
-    far, near = SparseOnlineGP(3), SparseOnlineGP(3)
+    far, near = SparseOnlineGP(dim), SparseOnlineGP(dim)
     far.update(30 + 1e-6 * noise, y)
     near.update(1e-6 * noise, y)
     assert far.n_basis == near.n_basis
