@@ -354,7 +354,7 @@ class GPCriticMixin(_PolicyBase):
         # The observation bounds bound the GP's inputs only when the features are the
         # flattened observations.
         bounds = (
-            feature_bounds(self.observation_space)
+            _feature_bounds(self.observation_space)
             if isinstance(self.vf_features_extractor, FlattenExtractor)
             else None
         )
@@ -851,7 +851,7 @@ def _fit_before_update(
     return stats
 
 
-def feature_bounds(space: spaces.Space) -> tuple[np.ndarray, np.ndarray]:
+def _feature_bounds(space: spaces.Space) -> tuple[np.ndarray, np.ndarray]:
     """Bounds of the features SB3's ``FlattenExtractor`` makes of ``space``'s observations.
 
     Parameters

@@ -417,7 +417,7 @@ class Kernel(nn.Module):
 #: coordinate differences cost little more (n = 2048 points to m = 256 basis vectors, one
 #: thread: 1.6 against 1.1 ms at 8 dimensions, 3.6 against 1.7 at 32) and every published
 #: result keeps its bits; above, they grow with the dimension (108 against 19 ms at 500, the
-#: one-hot codes of Taxi-v4's states, where they took half of PPO's training time).
+#: one-hot codes of Taxi-v4's states, where they took most of the GP critic's time in PPO).
 PRODUCT_MIN_DIM = 32
 
 
