@@ -19,6 +19,10 @@ explained variance of each batch just absorbed (does the GP follow the stream?),
 summary (worst value of every check per variant, update time, additions and deletions),
 writes JSON and a PNG, and exits with status 1 if any check failed or an update raised.
 
+``--stream drift`` feeds a random walk that keeps moving into new regions; ``--stream onehot``
+one-hot states of a random walk on a ring of 400 (discrete observations as SB3 encodes them,
+more states than the basis holds, distances from the matrix product).
+
 ``--time-budget`` stops the stream after the batch during which the budget ran out; the
 summary then says how many points every variant received.
 
@@ -55,7 +59,7 @@ from sb3_geogp.policies import DEFAULT_ADAPTATION, DEFAULT_FORGETTING, LAGGED_AD
 from sb3_geogp.toolbox.benchmarks import Variant, torch_threads
 from sb3_geogp.toolbox.provenance import provenance
 from sb3_geogp.toolbox.scripts import DefaultsHelpFormatter, count_arg
-from sb3_geogp.toolbox.streams import Rollout, drifting_stream, pendulum_stream
+from sb3_geogp.toolbox.streams import Rollout, drifting_stream, one_hot_stream, pendulum_stream
 from sb3_geogp.toolbox.tables import format_table
 
 #: The policy's PPO default critic with the cheaper adaptation preset (0.7).
@@ -138,8 +142,18 @@ VARIANTS = {
         Variant("laplacian rare n0.1 level", "laplacian", {}, RARE_DEFAULT),
         *SNAPSHOT_VARIANTS,
     ),
+    # Discrete observations one-hot (0.34): states repeat exactly, distances from the matrix
+    # product (400 columns, more states than the basis holds).
+    "onehot": (
+        Variant("rbf", "rbf"),
+        Variant("geo laplace interp adapt", "geodesic", {}, {"adapt": True}),
+        Variant("rbf adapt", "rbf", {}, {"adapt": True}),
+        Variant(
+            "laplacian rare snapshot prior0.1 f0.1/4096 n0.1 level", "laplacian", {}, PRIOR_DEFAULT
+        ),
+    ),
 }
-STREAMS = {"pendulum": pendulum_stream, "drift": drifting_stream}
+STREAMS = {"pendulum": pendulum_stream, "drift": drifting_stream, "onehot": one_hot_stream}
 #: Held-out rollout seed; the stream uses seeds 1, 2, ...
 TEST_SEED = 0
 
@@ -371,8 +385,11 @@ def run(args: argparse.Namespace) -> list[Soak]:
     if args.stream == "pendulum":
         test = Rollout.pendulum(args.batch_size, TEST_SEED)
         probe = probe_states(test, 512, TEST_SEED)
-    else:  # the walk's start: out of sample once the stream has moved on
+    elif args.stream == "drift":  # the walk's start: out of sample once the stream has moved on
         test = next(drifting_stream(args.batch_size, args.batch_size, seed=TEST_SEED + 1))
+        probe = test.x
+    else:  # another walk on the ring (every state, once the stream has visited them)
+        test = next(one_hot_stream(args.batch_size, args.batch_size, seed=TEST_SEED + 1))
         probe = test.x
     dim = test.x.shape[1]
     variants = [v for v in VARIANTS[args.stream] if not args.variants or v.label in args.variants]

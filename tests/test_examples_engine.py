@@ -51,7 +51,7 @@ def test_benchmark_speed_quick_writes_promised_json(tmp_path: Path) -> None:
     assert "skipped" in peer or {"fit_ms", "predict_std_ms", "mse"} <= peer.keys()
 
 
-@pytest.mark.parametrize("stream", ["pendulum", "drift"])
+@pytest.mark.parametrize("stream", ["pendulum", "drift", "onehot"])
 def test_long_run_numerics_quick_passes_all_checks(tmp_path: Path, stream: str) -> None:
     soak = load_script("long_run_numerics")
     argv = ["--points", "1536", "--batch-size", "384", "--max-basis", "24", "--stream", stream]

@@ -3,7 +3,8 @@
 * :func:`pendulum_rollouts`: ``Pendulum-v1`` transitions with discounted returns, under a
   noisy swing-up controller (:func:`swing_up_action`);
 * :class:`Rollout` and :func:`pendulum_stream`: those transitions as tensors, in batches the
-  size of a rollout buffer (the engine benchmarks);
+  size of a rollout buffer (the engine benchmarks); :func:`drifting_stream` and
+  :func:`one_hot_stream`, the soak's stress cases;
 * :func:`episode_batches` and :func:`fit_online`: one on-line pass over recorded episodes,
   a number of whole episodes per update (the studies).
 """
@@ -164,6 +165,33 @@ def drifting_stream(
         yield Rollout(
             torch.as_tensor(x), torch.as_tensor(np.sin(x).sum(1)), torch.as_tensor(starts)
         )
+
+
+def one_hot_stream(
+    n_points: int, batch_size: int, n_states: int = 400, episode: int = 100, seed: int = 0
+) -> Iterator[Rollout]:
+    """A random walk on a ring of ``n_states`` states, observed one-hot (a ``Discrete`` space as
+    SB3 encodes it), target ``cos(2 pi s / n_states)`` plus noise of sd 0.1.
+
+    The stress case of discrete observations: states repeat exactly, so most points lie on a
+    basis vector, and from 32 states on the distances come from the matrix product
+    (:data:`~sb3_geogp.kernels.base.PRODUCT_MIN_DIM`). Episodes of ``episode`` steps, each from
+    a random state; a batch may end inside one.
+    """
+    rng = np.random.default_rng(seed)
+    eye, state, t, remaining = np.eye(n_states), 0, 0, n_points
+    while remaining > 0:
+        n = min(remaining, batch_size)
+        states, starts = np.empty(n, dtype=np.int64), np.zeros(n, dtype=bool)
+        for i in range(n):
+            if t % episode == 0:
+                state, starts[i] = int(rng.integers(n_states)), True
+            else:
+                state = (state + int(rng.choice((-1, 1)))) % n_states
+            states[i], t = state, t + 1
+        y = np.cos(2 * np.pi * states / n_states) + rng.normal(scale=0.1, size=n)
+        remaining -= n
+        yield Rollout(torch.as_tensor(eye[states]), torch.as_tensor(y), torch.as_tensor(starts))
 
 
 def episode_batches(episode_starts: np.ndarray, episodes_per_batch: int | None) -> Iterator[slice]:
