@@ -385,11 +385,8 @@ def run(args: argparse.Namespace) -> list[Soak]:
     if args.stream == "pendulum":
         test = Rollout.pendulum(args.batch_size, TEST_SEED)
         probe = probe_states(test, 512, TEST_SEED)
-    elif args.stream == "drift":  # the walk's start: out of sample once the stream has moved on
-        test = next(drifting_stream(args.batch_size, args.batch_size, seed=TEST_SEED + 1))
-        probe = test.x
-    else:  # another walk on the ring (every state, once the stream has visited them)
-        test = next(one_hot_stream(args.batch_size, args.batch_size, seed=TEST_SEED + 1))
+    else:  # another walk's first batch: out of sample (drift: once the stream has moved on)
+        test = next(STREAMS[args.stream](args.batch_size, args.batch_size, seed=TEST_SEED + 1))
         probe = test.x
     dim = test.x.shape[1]
     variants = [v for v in VARIANTS[args.stream] if not args.variants or v.label in args.variants]

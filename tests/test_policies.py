@@ -673,6 +673,11 @@ class _Chain(gym.Env[Any, int]):
         return self.observe(self.state), float(done), done, False, {}
 
 
+def chain_observations(kind: str, states: np.ndarray, n: int) -> np.ndarray:
+    """What the chain of ``n`` states observes in ``states``, as its environment returns it."""
+    return np.array([_Chain(kind, n).observe(s) for s in states])
+
+
 def one_hot(kind: str, states: np.ndarray, n: int) -> np.ndarray:
     """The chain's observations of ``states`` encoded by hand: one 0/1 column per value."""
     eye = np.eye(n)
@@ -688,7 +693,7 @@ def test_discrete_observations_reach_the_gp_one_hot_with_unit_bounds(kind: str) 
     env, n = _Chain(kind), 6
     policy = GPActorCriticPolicy(env.observation_space, env.action_space, lambda _: 1e-3)
     states = np.arange(n)
-    obs = np.array([env.observe(s) for s in states])
+    obs = chain_observations(kind, states, n)
     expected = one_hot(kind, states, n)
     assert policy.gp.input_dim == expected.shape[1]
     assert np.array_equal(policy.critic_features(obs).cpu().numpy(), expected)
@@ -729,7 +734,7 @@ def test_the_gp_critic_learns_a_chains_values_from_discrete_observations_and_rel
     )
     model.learn(1024, callback=GPValueCallback())
     states = np.arange(n - 1)
-    obs = th.as_tensor(np.array([_Chain(kind, n).observe(s) for s in states]))
+    obs = th.as_tensor(chain_observations(kind, states, n))
     values = model.policy.predict_values(obs)[:, 0].double().numpy()
     assert np.allclose(values, gamma ** (n - 2 - states), atol=0.01)
     model.save(tmp_path / "model.zip")
@@ -761,7 +766,7 @@ def test_discrete_observations_train_as_their_flattened_box_does(
     raw, flat = trained(False), trained(True)
     assert flat.observation_space != raw.observation_space
     states = np.arange(5)
-    obs = np.array([_Chain(kind).observe(s) for s in states])
+    obs = chain_observations(kind, states, 6)
     values = raw.policy.predict_values(th.as_tensor(obs))
     assert th.equal(values, flat.policy.predict_values(th.as_tensor(one_hot(kind, states, 6))))
     assert int(raw.policy.gp.n_seen) == int(flat.policy.gp.n_seen) > 0

@@ -173,8 +173,9 @@ def one_hot_stream(
     """A random walk on a ring of ``n_states`` states, observed one-hot (a ``Discrete`` space as
     SB3 encodes it), target ``cos(2 pi s / n_states)`` plus noise of sd 0.1.
 
-    The stress case of discrete observations: states repeat exactly, so most points lie on a
-    basis vector, and from 32 states on the distances come from the matrix product
+    The stress case of discrete observations: states repeat exactly, so a point lies on a basis
+    vector unless the basis has had to drop its state, and from 32 states on the distances come
+    from the matrix product
     (:data:`~sb3_geogp.kernels.base.PRODUCT_MIN_DIM`). Episodes of ``episode`` steps, each from
     a random state; a batch may end inside one.
     """
