@@ -1,0 +1,171 @@
+"""``PLAN.md``: exact GPs on the raw observations and on PPO's actor features, on the batches
+the drop-in PPO default's GP critic is fed on Acrobot-v1 (one call per core)::
+
+    python results/actor_features/run.py --seeds 0 2 4 6 8 --streams STREAMS \\
+        --check /work/s64/streams_lap --out results/actor_features/a
+    python results/actor_features/run.py --seeds 1 3 5 7 9 --streams STREAMS \\
+        --check /work/s64/streams_lap --out results/actor_features/b
+    python results/actor_features/read.py --plot results/actor_features/read.png \\
+        > results/actor_features/read.md
+"""
+
+from __future__ import annotations
+
+import argparse
+import copy
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch as th
+from stable_baselines3.common.callbacks import CallbackList
+from tqdm.auto import tqdm
+
+from sb3_geogp import GPValueCallback
+from sb3_geogp.comparison.run import build_model, write_json_atomic
+from sb3_geogp.comparison.shadow import gp_critic, ppo_spec
+from sb3_geogp.studies.exact_gp import exact_gp
+from sb3_geogp.toolbox.provenance import provenance
+from sb3_geogp.toolbox.scripts import load_script
+
+HERE = Path(__file__).resolve().parent
+SCHEDULE = load_script(HERE.parents[1] / "examples" / "adaptation_schedule.py", "schedule")
+ENV = "Acrobot-v1"
+STEPS = 30_000
+#: The drop-in PPO default: the Laplacian critic fed as the policy is trained.
+RECORDED = {"kernel": "laplacian", "target": None}
+#: Points of each maximum-likelihood fit (``PLAN.md``).
+FIT_POINTS = 512
+Batch = tuple[th.Tensor, th.Tensor, "th.Tensor | None"]
+
+
+def record(seed: int, streams: Path) -> tuple[list[Batch], list[th.nn.Module]]:
+    """The batches of one run's GP critic and a copy of the actor's network at each feed,
+    taken before the critic learns that batch (from ``streams`` if recorded before)."""
+    path = SCHEDULE.stream_path(streams, ENV, seed, STEPS, RECORDED)
+    actors_path = path.with_name(path.stem + "__actors.pt")
+    if path.exists() and actors_path.exists():
+        return th.load(path, weights_only=False), th.load(actors_path, weights_only=False)
+    th.set_num_threads(1)
+    spec = ppo_spec(ENV, seed, STEPS, RECORDED)
+    model = build_model(spec)
+    gp = gp_critic(model)
+    recorder = SCHEDULE.StreamRecorder(gp)
+    actors: list[th.nn.Module] = []
+    recorded_update = gp.update
+
+    def update(x: Any, y: Any, episode_starts: Any = None) -> None:
+        actors.append(copy.deepcopy(model.policy.mlp_extractor.policy_net).cpu().eval())
+        recorded_update(x, y, episode_starts)
+
+    gp.update = update  # type: ignore[method-assign]
+    feed = GPValueCallback(target=spec.target, horizon=spec.horizon)
+    model.learn(STEPS, callback=CallbackList([feed, recorder]))
+    env = model.get_env()
+    assert env is not None
+    env.close()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    for obj, target in ((recorder.batches, path), (actors, actors_path)):
+        partial = target.with_suffix(".partial")
+        th.save(obj, partial)
+        partial.replace(target)
+    return recorder.batches, actors
+
+
+def same_batches(batches: list[Batch], other: list[Batch]) -> bool:
+    """Whether two recordings hold the same batches bit for bit."""
+    if len(batches) != len(other):
+        return False
+    for one, two in zip(batches, other, strict=True):
+        for a, b in zip(one, two, strict=True):
+            if (a is None) != (b is None) or (a is not None and not th.equal(a, b)):
+                return False
+    return True
+
+
+def replay_mapped(
+    batches: list[Batch], inputs: Callable[[int, th.Tensor], np.ndarray]
+) -> dict[str, Any]:
+    """An exact Laplacian GP on the newest batch, its inputs ``inputs(k, x)`` for batch ``k``'s
+    actor (the batch learnt last); hyperparameters by maximum likelihood on
+    :data:`FIT_POINTS` of its points. Scored as ``adaptation_schedule.py`` scores."""
+    kept: list[tuple[th.Tensor, np.ndarray]] = []
+    learnt = [0]  # batches learnt so far: the newest is batch learnt - 1
+    noise: list[float] = []
+
+    def predict(x: th.Tensor) -> th.Tensor:
+        newest = learnt[0] - 1
+        fit = exact_gp(
+            inputs(newest, kept[-1][0]), kept[-1][1], "laplacian", FIT_POINTS, seed=newest
+        )
+        noise.append(fit.noise_var)
+        return th.as_tensor(fit.predict(inputs(newest, x)))
+
+    def learn(x: th.Tensor, y: th.Tensor, starts: th.Tensor | None) -> None:
+        kept.append((x, y.double().numpy()))
+        del kept[:-1]
+        learnt[0] += 1
+
+    return dict(noise_var=noise, **SCHEDULE._scored(batches, predict, learn))
+
+
+def actor_inputs(actors: list[th.nn.Module]) -> Callable[[int, th.Tensor], np.ndarray]:
+    """The features of actor ``k`` (the one copied when batch ``k`` was fed)."""
+
+    def inputs(k: int, x: th.Tensor) -> np.ndarray:
+        with th.no_grad():
+            return actors[k](x.float()).double().numpy()
+
+    return inputs
+
+
+def raw_inputs(k: int, x: th.Tensor) -> np.ndarray:
+    return x.double().numpy()
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--seeds", nargs="+", type=int, required=True)
+    parser.add_argument("--streams", type=Path, required=True)
+    parser.add_argument("--out", type=Path, required=True)
+    parser.add_argument("--check", type=Path, default=None, help="session 64's streams")
+    args = parser.parse_args()
+    th.set_num_threads(1)
+    results: dict[int, Any] = {}
+    same: dict[int, bool | None] = {}
+    bar = tqdm(total=len(args.seeds) * 4, unit="step")
+    for seed in args.seeds:
+        batches, actors = record(seed, args.streams)
+        bar.update()
+        old = (
+            None
+            if args.check is None
+            else SCHEDULE.stream_path(args.check, ENV, seed, STEPS, RECORDED)
+        )
+        same[seed] = (
+            None
+            if old is None or not old.exists()
+            else same_batches(batches, th.load(old, weights_only=False))
+        )
+        results[seed] = {"default": SCHEDULE.replay(ENV, seed, batches, RECORDED)}
+        bar.update()
+        results[seed]["raw"] = replay_mapped(batches, raw_inputs)
+        bar.update()
+        results[seed]["actor"] = replay_mapped(batches, actor_inputs(actors))
+        bar.update()
+    args.out.mkdir(parents=True, exist_ok=True)
+    write_json_atomic(
+        args.out / "results.json",
+        {
+            "recorded": RECORDED,
+            "fit_points": FIT_POINTS,
+            "same_as_check": same,
+            "results": {ENV: results},
+            "provenance": provenance(),
+        },
+    )
+
+
+if __name__ == "__main__":
+    main()
