@@ -1,12 +1,15 @@
 """``PLAN.md``: exact GPs on the raw observations and on PPO's actor features, on the batches
-the drop-in PPO default's GP critic is fed on Acrobot-v1 (one call per core)::
+the drop-in PPO default's GP critic is fed on Acrobot-v1 (one call per core; ``S64_STREAMS``
+is where ``results/model_ceiling/laplacian.py`` recorded session 64's, optional)::
 
     python results/actor_features/run.py --seeds 0 2 4 6 8 --streams STREAMS \\
-        --check /work/s64/streams_lap --out results/actor_features/a
+        --check S64_STREAMS --out results/actor_features/a
     python results/actor_features/run.py --seeds 1 3 5 7 9 --streams STREAMS \\
-        --check /work/s64/streams_lap --out results/actor_features/b
+        --check S64_STREAMS --out results/actor_features/b
+    python results/actor_features/run.py --extra --seeds 0 2 4 6 8 --streams STREAMS \\
+        --out results/actor_features/c        # and seeds 1 3 5 7 9 into d
     python results/actor_features/read.py --plot results/actor_features/read.png \\
-        > results/actor_features/read.md
+        --streams STREAMS > results/actor_features/read.md
 """
 
 from __future__ import annotations
@@ -120,6 +123,12 @@ def actor_inputs(actors: list[th.nn.Module]) -> Callable[[int, th.Tensor], np.nd
     return inputs
 
 
+def initial_inputs(actors: list[th.nn.Module]) -> Callable[[int, th.Tensor], np.ndarray]:
+    """The features of the actor copied at the first feed, for every batch (``PLAN.md``'s
+    addendum)."""
+    return actor_inputs(actors[:1] * len(actors))
+
+
 def raw_inputs(k: int, x: th.Tensor) -> np.ndarray:
     return x.double().numpy()
 
@@ -130,14 +139,19 @@ def main() -> None:
     parser.add_argument("--streams", type=Path, required=True)
     parser.add_argument("--out", type=Path, required=True)
     parser.add_argument("--check", type=Path, default=None, help="session 64's streams")
+    parser.add_argument("--extra", action="store_true", help="score the addendum's row only")
     args = parser.parse_args()
     th.set_num_threads(1)
     results: dict[int, Any] = {}
     same: dict[int, bool | None] = {}
-    bar = tqdm(total=len(args.seeds) * 4, unit="step")
+    bar = tqdm(total=len(args.seeds) * (2 if args.extra else 4), unit="step")
     for seed in args.seeds:
         batches, actors = record(seed, args.streams)
         bar.update()
+        if args.extra:
+            results[seed] = {"initial": replay_mapped(batches, initial_inputs(actors))}
+            bar.update()
+            continue
         old = (
             None
             if args.check is None

@@ -1,0 +1,172 @@
+"""The reading of ``PLAN.md``: an exact GP on PPO's actor features against the same GP on
+the raw observations, on the drop-in PPO default's Acrobot batches (``run.py``'s docstring
+has the commands)::
+
+    python results/actor_features/read.py --plot results/actor_features/read.png \\
+        --streams STREAMS > results/actor_features/read.md
+
+With ``--streams`` (``run.py``'s recordings) it also reports how far the actor moved.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from sb3_geogp.toolbox.stats import mean_ci
+
+HERE = Path(__file__).resolve().parent
+ENV = "Acrobot-v1"
+FOLDERS = ("a", "b")
+ROWS = {
+    "default": "on-line GP critic, replayed",
+    "raw": "exact Laplacian GP, newest batch, raw observations",
+    "actor": "exact Laplacian GP, newest batch, the actor's features",
+}
+READINGS = (("actor", "raw"), ("actor", "default"), ("raw", "default"))
+BySeed = dict[str, dict[str, Any]]
+
+
+def load() -> tuple[BySeed, dict[str, Any]]:
+    """Per seed, every row's result, and per seed whether the batches equal session 64's."""
+    out: BySeed = {}
+    same: dict[str, Any] = {}
+    for folder in FOLDERS:
+        data = json.loads((HERE / folder / "results.json").read_text())
+        out.update(data["results"][ENV])
+        same.update(data["same_as_check"])
+    return dict(sorted(out.items(), key=lambda kv: int(kv[0]))), same
+
+
+def paired(by_seed: BySeed, first: str, second: str) -> tuple[float, float, float]:
+    """Mean paired difference of the tail scores and its 95 % t interval (mean, low, high)."""
+    diff = np.array([r[first]["tail"] - r[second]["tail"] for r in by_seed.values()])
+    mean, half = (float(v) for v in mean_ci(diff, nan_policy="propagate"))
+    return mean, mean - half, mean + half
+
+
+def verdict(interval: tuple[float, float, float]) -> str:
+    """``PLAN.md``'s rule for ``actor - raw``."""
+    _, low, high = interval
+    if low > 0.05:
+        return "the actor's features let the GP predict the next batch better"
+    if high < -0.05:
+        return "the actor's features make the GP predict the next batch worse"
+    if low >= -0.05 and high <= 0.05:
+        return "the actor's features do not let the GP predict the next batch better"
+    return "inconclusive"
+
+
+def report(by_seed: BySeed, same: dict[str, Any]) -> str:
+    lines = [
+        "# An exact GP on PPO's actor features against the raw observations, Acrobot-v1",
+        "",
+        f"Seeds {list(map(int, by_seed))}; batches equal to session 64's streams bit for bit:",
+        f"{sum(v is True for v in same.values())} of {len(same)} seeds.",
+        "Explained variance of the fed targets by each predictor before it learns the batch,",
+        "mean over the last 20 % of scored batches, then over seeds (lowest, highest).",
+        "",
+        "| row | predictor | score | lowest | highest | median noise variance (standardised) |",
+        "|---|---|---:|---:|---:|---:|",
+    ]
+    for name, title in ROWS.items():
+        tails = [r[name]["tail"] for r in by_seed.values()]
+        noise = [v for r in by_seed.values() for v in r[name].get("noise_var", [])]
+        shown_noise = f"{np.median(noise):.3g}" if noise else "–"
+        lines.append(
+            f"| {name} | {title} | {np.mean(tails):.3f} | {min(tails):.3f} | {max(tails):.3f} "
+            f"| {shown_noise} |"
+        )
+    lines += ["", "| reading | paired by seed [95 % t] |", "|---|---|"]
+    for first, second in READINGS:
+        mean, low, high = paired(by_seed, first, second)
+        lines.append(f"| {first} − {second} | {mean:+.3f} [{low:+.3f}, {high:+.3f}] |")
+    lines += [
+        "",
+        "| seed | batches | " + " | ".join(ROWS) + " |",
+        "|---|---:|" + "---:|" * len(ROWS),
+    ]
+    for seed, row in by_seed.items():
+        cells = " | ".join(f"{row[name]['tail']:.3f}" for name in ROWS)
+        lines.append(f"| {seed} | {row['raw']['n_batches']} | {cells} |")
+    rule = verdict(paired(by_seed, "actor", "raw"))
+    lines += ["", f"`PLAN.md`'s rule on actor − raw: {rule}.", ""]
+    return "\n".join(lines) + "\n"
+
+
+def actor_drift(streams: Path, seeds: list[int]) -> str:
+    """Per layer, the relative change of the actor's weights from the first feed to the last,
+    ``|W_last - W_first| / |W_first|`` (Frobenius), over seeds: how far its features moved."""
+    import torch as th
+
+    changes = []
+    for seed in seeds:
+        path = next(streams.glob(f"{ENV}__s{seed}__t*__actors.pt"))
+        actors = th.load(path, weights_only=False)
+        first, last = (
+            [p.detach() for n, p in a.named_parameters() if n.endswith("weight")]
+            for a in (actors[0], actors[-1])
+        )
+        changes.append([float((b - a).norm() / a.norm()) for a, b in zip(first, last, strict=True)])
+    change = np.array(changes)
+    cells = ", ".join(
+        f"layer {k + 1} {col.mean():.3f} [{col.min():.3f}, {col.max():.3f}]"
+        for k, col in enumerate(change.T)
+    )
+    return (
+        "How far the actor moved between the first feed and the last (relative change of its "
+        f"weights, mean [lowest, highest] over seeds): {cells}.\n"
+    )
+
+
+def plot(by_seed: BySeed, path: Path) -> None:
+    """Score per batch, every seed (thin) and the mean (thick), clipped at -1."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(8.0, 5.5))
+    for k, (name, title) in enumerate(ROWS.items()):
+        scores = [r[name]["explained_variance"] for r in by_seed.values()]
+        # Monte Carlo feeds end episodes, not rollouts: runs differ in their batch counts
+        curves = np.full((len(scores), max(map(len, scores))), np.nan)
+        for row, score in zip(curves, scores, strict=True):
+            row[: len(score)] = score
+        batches = np.arange(1, curves.shape[1] + 1)
+        for row in curves:
+            ax.plot(batches, np.clip(row, -1, 1), color=f"C{k}", alpha=0.2, lw=0.8)
+        mean = np.clip(np.nanmean(curves, axis=0), -1, 1)
+        ax.plot(batches, mean, "o-", color=f"C{k}", label=title, lw=2, ms=4)
+    ax.set(
+        xlabel="batch predicted (in feeding order)",
+        ylabel="explained variance of the fed targets",
+        title=f"{ENV}, PPO 30,000 steps: exact GPs on the batch before, by their inputs",
+        ylim=(-1.05, 1.0),
+    )
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8, loc="lower right")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--plot", type=Path, default=None)
+    parser.add_argument("--streams", type=Path, default=None, help="run.py's recordings")
+    args = parser.parse_args()
+    by_seed, same = load()
+    print(report(by_seed, same))
+    if args.streams is not None:
+        print(actor_drift(args.streams, list(map(int, by_seed))))
+    if args.plot is not None:
+        plot(by_seed, args.plot)
+
+
+if __name__ == "__main__":
+    main()
