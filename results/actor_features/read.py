@@ -21,13 +21,14 @@ from sb3_geogp.toolbox.stats import mean_ci
 
 HERE = Path(__file__).resolve().parent
 ENV = "Acrobot-v1"
-FOLDERS = ("a", "b")
+FOLDERS = ("a", "b", "c", "d")
 ROWS = {
     "default": "on-line GP critic, replayed",
     "raw": "exact Laplacian GP, newest batch, raw observations",
     "actor": "exact Laplacian GP, newest batch, the actor's features",
+    "initial": "exact Laplacian GP, newest batch, the first feed's actor's features",
 }
-READINGS = (("actor", "raw"), ("actor", "default"), ("raw", "default"))
+READINGS = (("actor", "raw"), ("actor", "default"), ("raw", "default"), ("actor", "initial"))
 BySeed = dict[str, dict[str, Any]]
 
 
@@ -36,8 +37,11 @@ def load() -> tuple[BySeed, dict[str, Any]]:
     out: BySeed = {}
     same: dict[str, Any] = {}
     for folder in FOLDERS:
+        if not (HERE / folder / "results.json").exists():  # the addendum's row not yet run
+            continue
         data = json.loads((HERE / folder / "results.json").read_text())
-        out.update(data["results"][ENV])
+        for seed, rows in data["results"][ENV].items():
+            out.setdefault(seed, {}).update(rows)
         same.update(data["same_as_check"])
     return dict(sorted(out.items(), key=lambda kv: int(kv[0]))), same
 
@@ -62,6 +66,7 @@ def verdict(interval: tuple[float, float, float]) -> str:
 
 
 def report(by_seed: BySeed, same: dict[str, Any]) -> str:
+    rows = {name: title for name, title in ROWS.items() if name in next(iter(by_seed.values()))}
     lines = [
         "# An exact GP on PPO's actor features against the raw observations, Acrobot-v1",
         "",
@@ -73,7 +78,7 @@ def report(by_seed: BySeed, same: dict[str, Any]) -> str:
         "| row | predictor | score | lowest | highest | median noise variance (standardised) |",
         "|---|---|---:|---:|---:|---:|",
     ]
-    for name, title in ROWS.items():
+    for name, title in rows.items():
         tails = [r[name]["tail"] for r in by_seed.values()]
         noise = [v for r in by_seed.values() for v in r[name].get("noise_var", [])]
         shown_noise = f"{np.median(noise):.3g}" if noise else "–"
@@ -82,16 +87,16 @@ def report(by_seed: BySeed, same: dict[str, Any]) -> str:
             f"| {shown_noise} |"
         )
     lines += ["", "| reading | paired by seed [95 % t] |", "|---|---|"]
-    for first, second in READINGS:
+    for first, second in (r for r in READINGS if set(r) <= set(rows)):
         mean, low, high = paired(by_seed, first, second)
         lines.append(f"| {first} − {second} | {mean:+.3f} [{low:+.3f}, {high:+.3f}] |")
     lines += [
         "",
-        "| seed | batches | " + " | ".join(ROWS) + " |",
-        "|---|---:|" + "---:|" * len(ROWS),
+        "| seed | batches | " + " | ".join(rows) + " |",
+        "|---|---:|" + "---:|" * len(rows),
     ]
     for seed, row in by_seed.items():
-        cells = " | ".join(f"{row[name]['tail']:.3f}" for name in ROWS)
+        cells = " | ".join(f"{row[name]['tail']:.3f}" for name in rows)
         lines.append(f"| {seed} | {row['raw']['n_batches']} | {cells} |")
     rule = verdict(paired(by_seed, "actor", "raw"))
     lines += ["", f"`PLAN.md`'s rule on actor − raw: {rule}.", ""]
@@ -132,6 +137,8 @@ def plot(by_seed: BySeed, path: Path) -> None:
 
     fig, ax = plt.subplots(figsize=(8.0, 5.5))
     for k, (name, title) in enumerate(ROWS.items()):
+        if name not in next(iter(by_seed.values())):
+            continue
         scores = [r[name]["explained_variance"] for r in by_seed.values()]
         # Monte Carlo feeds end episodes, not rollouts: runs differ in their batch counts
         curves = np.full((len(scores), max(map(len, scores))), np.nan)
