@@ -5,7 +5,8 @@ has the commands)::
     python results/actor_features/read.py --plot results/actor_features/read.png \\
         --streams STREAMS > results/actor_features/read.md
 
-With ``--streams`` (``run.py``'s recordings) it also reports how far the actor moved.
+With ``--streams`` (``run.py``'s recordings) it also reports how far the actor moved. The
+tables and the plot serve ``results/return_noise/read.py`` too.
 """
 
 from __future__ import annotations
@@ -21,29 +22,29 @@ from sb3_geogp.toolbox.stats import mean_ci
 
 HERE = Path(__file__).resolve().parent
 ENV = "Acrobot-v1"
-FOLDERS = ("a", "b", "c", "d")
 ROWS = {
     "default": "on-line GP critic, replayed",
     "raw": "exact Laplacian GP, newest batch, raw observations",
     "actor": "exact Laplacian GP, newest batch, the actor's features",
-    "initial": "exact Laplacian GP, newest batch, the first feed's actor's features",
 }
-READINGS = (("actor", "raw"), ("actor", "default"), ("raw", "default"), ("actor", "initial"))
+READINGS = (("actor", "raw"), ("actor", "default"), ("raw", "default"))
+#: ``PLAN.md``'s rule: what an interval of ``actor - raw`` above, inside or below ±0.05 says.
+RULE = (
+    "the actor's features let the GP predict the next batch better",
+    "the actor's features do not let the GP predict the next batch better",
+    "the actor's features make the GP predict the next batch worse",
+)
 BySeed = dict[str, dict[str, Any]]
 
 
-def load() -> tuple[BySeed, dict[str, Any]]:
-    """Per seed, every row's result, and per seed whether the batches equal session 64's."""
+def load(folders: list[Path]) -> BySeed:
+    """Per seed, every row's result, merged over the ``results.json`` of ``folders``."""
     out: BySeed = {}
-    same: dict[str, Any] = {}
-    for folder in FOLDERS:
-        if not (HERE / folder / "results.json").exists():  # the addendum's row not yet run
-            continue
-        data = json.loads((HERE / folder / "results.json").read_text())
+    for folder in folders:
+        data = json.loads((folder / "results.json").read_text())
         for seed, rows in data["results"][ENV].items():
             out.setdefault(seed, {}).update(rows)
-        same.update(data["same_as_check"])
-    return dict(sorted(out.items(), key=lambda kv: int(kv[0]))), same
+    return dict(sorted(out.items(), key=lambda kv: int(kv[0])))
 
 
 def paired(by_seed: BySeed, first: str, second: str) -> tuple[float, float, float]:
@@ -53,41 +54,49 @@ def paired(by_seed: BySeed, first: str, second: str) -> tuple[float, float, floa
     return mean, mean - half, mean + half
 
 
-def verdict(interval: tuple[float, float, float]) -> str:
-    """``PLAN.md``'s rule for ``actor - raw``."""
+def verdict(interval: tuple[float, float, float], rule: tuple[str, str, str]) -> str:
+    """A plan's rule: ``rule``'s first, second or third phrase for an interval wholly above
+    +0.05, inside ±0.05 or wholly below -0.05; otherwise inconclusive."""
     _, low, high = interval
     if low > 0.05:
-        return "the actor's features let the GP predict the next batch better"
-    if high < -0.05:
-        return "the actor's features make the GP predict the next batch worse"
+        return rule[0]
     if low >= -0.05 and high <= 0.05:
-        return "the actor's features do not let the GP predict the next batch better"
+        return rule[1]
+    if high < -0.05:
+        return rule[2]
     return "inconclusive"
 
 
-def report(by_seed: BySeed, same: dict[str, Any]) -> str:
-    rows = {name: title for name, title in ROWS.items() if name in next(iter(by_seed.values()))}
+def report(
+    by_seed: BySeed,
+    rows: dict[str, str],
+    readings: tuple[tuple[str, str], ...],
+    rule: tuple[str, str, str],
+    title: str,
+) -> str:
+    """The rows' scores and fitted noise, the readings paired by seed, the first reading's
+    verdict by ``rule``, and every seed's scores, as markdown."""
     lines = [
-        "# An exact GP on PPO's actor features against the raw observations, Acrobot-v1",
+        f"# {title}",
         "",
-        f"Seeds {list(map(int, by_seed))}; batches equal to session 64's streams bit for bit:",
-        f"{sum(v is True for v in same.values())} of {len(same)} seeds.",
-        "Explained variance of the fed targets by each predictor before it learns the batch,",
-        "mean over the last 20 % of scored batches, then over seeds (lowest, highest).",
+        f"{ENV}, seeds {list(map(int, by_seed))}. Explained variance of the fed targets by each",
+        "predictor before it learns the batch, mean over the last 20 % of scored batches, then",
+        "over seeds (lowest, highest); all batches: mean over every scored batch, then seeds.",
         "",
-        "| row | predictor | score | lowest | highest | median noise variance (standardised) |",
-        "|---|---|---:|---:|---:|---:|",
+        "| row | predictor | score | lowest | highest | all batches | median noise variance |",
+        "|---|---|---:|---:|---:|---:|---:|",
     ]
-    for name, title in rows.items():
+    for name, what in rows.items():
         tails = [r[name]["tail"] for r in by_seed.values()]
+        every = np.mean([np.mean(r[name]["explained_variance"]) for r in by_seed.values()])
         noise = [v for r in by_seed.values() for v in r[name].get("noise_var", [])]
-        shown_noise = f"{np.median(noise):.3g}" if noise else "–"
+        shown = f"{np.median(noise):.3g}" if noise else "–"
         lines.append(
-            f"| {name} | {title} | {np.mean(tails):.3f} | {min(tails):.3f} | {max(tails):.3f} "
-            f"| {shown_noise} |"
+            f"| {name} | {what} | {np.mean(tails):.3f} | {min(tails):.3f} | {max(tails):.3f} "
+            f"| {every:.3f} | {shown} |"
         )
     lines += ["", "| reading | paired by seed [95 % t] |", "|---|---|"]
-    for first, second in (r for r in READINGS if set(r) <= set(rows)):
+    for first, second in readings:
         mean, low, high = paired(by_seed, first, second)
         lines.append(f"| {first} − {second} | {mean:+.3f} [{low:+.3f}, {high:+.3f}] |")
     lines += [
@@ -95,11 +104,12 @@ def report(by_seed: BySeed, same: dict[str, Any]) -> str:
         "| seed | batches | " + " | ".join(rows) + " |",
         "|---|---:|" + "---:|" * len(rows),
     ]
-    for seed, row in by_seed.items():
-        cells = " | ".join(f"{row[name]['tail']:.3f}" for name in rows)
-        lines.append(f"| {seed} | {row['raw']['n_batches']} | {cells} |")
-    rule = verdict(paired(by_seed, "actor", "raw"))
-    lines += ["", f"`PLAN.md`'s rule on actor − raw: {rule}.", ""]
+    for seed, result in by_seed.items():
+        cells = " | ".join(f"{result[name]['tail']:.3f}" for name in rows)
+        lines.append(f"| {seed} | {result[next(iter(rows))]['n_batches']} | {cells} |")
+    first, second = readings[0]
+    found = verdict(paired(by_seed, first, second), rule)
+    lines += ["", f"`PLAN.md`'s rule on {first} − {second}: {found}.", ""]
     return "\n".join(lines) + "\n"
 
 
@@ -128,7 +138,7 @@ def actor_drift(streams: Path, seeds: list[int]) -> str:
     )
 
 
-def plot(by_seed: BySeed, path: Path) -> None:
+def plot(by_seed: BySeed, rows: dict[str, str], title: str, path: Path) -> None:
     """Score per batch, every seed (thin) and the mean (thick), clipped at -1."""
     import matplotlib
 
@@ -136,9 +146,7 @@ def plot(by_seed: BySeed, path: Path) -> None:
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(8.0, 5.5))
-    for k, (name, title) in enumerate(ROWS.items()):
-        if name not in next(iter(by_seed.values())):
-            continue
+    for k, (name, what) in enumerate(rows.items()):
         scores = [r[name]["explained_variance"] for r in by_seed.values()]
         # Monte Carlo feeds end episodes, not rollouts: runs differ in their batch counts
         curves = np.full((len(scores), max(map(len, scores))), np.nan)
@@ -148,11 +156,11 @@ def plot(by_seed: BySeed, path: Path) -> None:
         for row in curves:
             ax.plot(batches, np.clip(row, -1, 1), color=f"C{k}", alpha=0.2, lw=0.8)
         mean = np.clip(np.nanmean(curves, axis=0), -1, 1)
-        ax.plot(batches, mean, "o-", color=f"C{k}", label=title, lw=2, ms=4)
+        ax.plot(batches, mean, "o-", color=f"C{k}", label=what, lw=2, ms=4)
     ax.set(
         xlabel="batch predicted (in feeding order)",
         ylabel="explained variance of the fed targets",
-        title=f"{ENV}, PPO 30,000 steps: exact GPs on the batch before, by their inputs",
+        title=f"{ENV}, PPO 30,000 steps: {title}",
         ylim=(-1.05, 1.0),
     )
     ax.grid(alpha=0.3)
@@ -167,12 +175,18 @@ def main() -> None:
     parser.add_argument("--plot", type=Path, default=None)
     parser.add_argument("--streams", type=Path, default=None, help="run.py's recordings")
     args = parser.parse_args()
-    by_seed, same = load()
-    print(report(by_seed, same))
+    by_seed = load([HERE / "a", HERE / "b"])
+    title = "An exact GP on PPO's actor features against the raw observations"
+    print(report(by_seed, ROWS, READINGS, RULE, title))
+    same = {}
+    for folder in ("a", "b"):
+        same.update(json.loads((HERE / folder / "results.json").read_text())["same_as_check"])
+    equal = sum(v is True for v in same.values())
+    print(f"Batches equal to session 64's streams bit for bit: {equal} of {len(same)} seeds.\n")
     if args.streams is not None:
         print(actor_drift(args.streams, list(map(int, by_seed))))
     if args.plot is not None:
-        plot(by_seed, args.plot)
+        plot(by_seed, ROWS, "exact GPs on the batch before, by their inputs", args.plot)
 
 
 if __name__ == "__main__":
