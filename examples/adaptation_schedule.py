@@ -117,14 +117,17 @@ LAST = 0.2
 
 
 class StreamRecorder(BaseCallback):
-    """Keeps every batch the GP critic is fed: wraps its ``update`` for the run."""
+    """Keeps every batch the GP critic is fed: wraps its ``update`` for the run, calling
+    ``before``, if given, first (before the critic learns the batch)."""
 
-    def __init__(self, gp: SparseOnlineGP) -> None:
+    def __init__(self, gp: SparseOnlineGP, before: Callable[[], None] | None = None) -> None:
         super().__init__()
         self.batches: list[tuple[th.Tensor, th.Tensor, th.Tensor | None]] = []
         original = gp.update
 
         def update(x: Any, y: Any, episode_starts: Any = None) -> None:
+            if before is not None:
+                before()
             starts = None if episode_starts is None else th.as_tensor(episode_starts).clone()
             self.batches.append((th.as_tensor(x).clone(), th.as_tensor(y).clone(), starts))
             original(x, y, episode_starts)
@@ -136,17 +139,23 @@ class StreamRecorder(BaseCallback):
 
 
 def record(
-    env_id: str, seed: int, timesteps: int, path: Path, setting: dict[str, Any] | None = None
+    env_id: str,
+    seed: int,
+    timesteps: int,
+    path: Path,
+    setting: dict[str, Any] | None = None,
+    watch: Callable[[Any], Callable[[], None]] | None = None,
 ) -> list[Any]:
     """The batches of one PPO run's GP critic (from ``path`` if recorded before), the critic of
     ``setting`` (:func:`~sb3_geogp.comparison.shadow.ppo_spec`; the comparison's geodesic
-    critic fed SB3's returns by default)."""
+    critic fed SB3's returns by default). ``watch(model)``, if given, returns what to call
+    before each feed (e.g. to copy the actor); it is not called for a recorded ``path``."""
     if path.exists():
         return th.load(path, weights_only=False)
     th.set_num_threads(1)
     spec = ppo_spec(env_id, seed, timesteps, setting or {})
     model = build_model(spec)
-    recorder = StreamRecorder(gp_critic(model))
+    recorder = StreamRecorder(gp_critic(model), None if watch is None else watch(model))
     feed = GPValueCallback(target=spec.target, horizon=spec.horizon)
     model.learn(timesteps, callback=CallbackList([feed, recorder]))
     env = model.get_env()

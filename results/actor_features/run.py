@@ -22,12 +22,9 @@ from typing import Any
 
 import numpy as np
 import torch as th
-from stable_baselines3.common.callbacks import CallbackList
 from tqdm.auto import tqdm
 
-from sb3_geogp import GPValueCallback
-from sb3_geogp.comparison.run import build_model, write_json_atomic
-from sb3_geogp.comparison.shadow import gp_critic, ppo_spec
+from sb3_geogp.comparison.run import write_json_atomic
 from sb3_geogp.studies.exact_gp import exact_gp
 from sb3_geogp.toolbox.provenance import provenance
 from sb3_geogp.toolbox.scripts import load_script
@@ -50,30 +47,19 @@ def record(seed: int, streams: Path) -> tuple[list[Batch], list[th.nn.Module]]:
     actors_path = path.with_name(path.stem + "__actors.pt")
     if path.exists() and actors_path.exists():
         return th.load(path, weights_only=False), th.load(actors_path, weights_only=False)
-    th.set_num_threads(1)
-    spec = ppo_spec(ENV, seed, STEPS, RECORDED)
-    model = build_model(spec)
-    gp = gp_critic(model)
-    recorder = SCHEDULE.StreamRecorder(gp)
+    if path.exists():
+        raise FileExistsError(f"{path} was recorded without its actors: remove it to re-record")
     actors: list[th.nn.Module] = []
-    recorded_update = gp.update
 
-    def update(x: Any, y: Any, episode_starts: Any = None) -> None:
-        actors.append(copy.deepcopy(model.policy.mlp_extractor.policy_net).cpu().eval())
-        recorded_update(x, y, episode_starts)
+    def watch(model: Any) -> Callable[[], None]:
+        net = model.policy.mlp_extractor.policy_net
+        return lambda: actors.append(copy.deepcopy(net).cpu().eval())
 
-    gp.update = update  # type: ignore[method-assign]
-    feed = GPValueCallback(target=spec.target, horizon=spec.horizon)
-    model.learn(STEPS, callback=CallbackList([feed, recorder]))
-    env = model.get_env()
-    assert env is not None
-    env.close()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    for obj, target in ((recorder.batches, path), (actors, actors_path)):
-        partial = target.with_suffix(".partial")
-        th.save(obj, partial)
-        partial.replace(target)
-    return recorder.batches, actors
+    batches = SCHEDULE.record(ENV, seed, STEPS, path, RECORDED, watch=watch)
+    partial = actors_path.with_suffix(".partial")
+    th.save(actors, partial)
+    partial.replace(actors_path)
+    return batches, actors
 
 
 def same_batches(batches: list[Batch], other: list[Batch]) -> bool:
