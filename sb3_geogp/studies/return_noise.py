@@ -18,8 +18,9 @@ so within an episode of ``T`` steps (none across episodes)
 bracketed correlation structure ``C``; :func:`fit_exact_gp` fits an exact GP with noise
 covariance ``s^2 C``, or ``s^2 I`` (independent noise) without it, on the Laplacian kernel
 ``sigma_f^2 exp(-|(x - x') / l|)`` (one lengthscale per dimension), its hyperparameters at the
-optimum of the exact log marginal likelihood of the standardised targets, as
-:func:`~sb3_geogp.studies.exact_gp.exact_gp` fits independent noise (same start and bounds).
+optimum of the exact log marginal likelihood of the standardised targets (L-BFGS-B from
+lengthscales equal to the inputs' standard deviations, signal variance 1 and noise 0.1, within
+:mod:`~sb3_geogp.studies.exact_gp`'s bounds).
 """
 
 from __future__ import annotations

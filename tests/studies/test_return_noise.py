@@ -86,7 +86,7 @@ def test_fit_is_at_least_as_likely_as_its_start_and_predicts_with_its_posterior(
     shape = trajectory_noise(*episode_steps(starts), GAMMA) if correlated else np.eye(len(y))
     fit = fit_exact_gp(x, y, shape if correlated else None)
     z = (y - y.mean()) / y.std()
-    start = log_evidence(x, z, x.std(axis=0), 1.0, 0.1 * shape)
+    start = log_evidence(x, z, x.std(axis=0, ddof=1), 1.0, 0.1 * shape)  # the fit's start
     found = log_evidence(x, z, fit.lengthscale, fit.signal_var, fit.noise_var * shape)
     assert found == pytest.approx(fit.log_marginal_likelihood, rel=1e-8)
     assert found >= start
