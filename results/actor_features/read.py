@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from sb3_geogp.toolbox.stats import mean_ci
+from sb3_geogp.toolbox.scripts import load_script
 
 HERE = Path(__file__).resolve().parent
 ENV = "Acrobot-v1"
@@ -35,6 +35,8 @@ RULE = (
     "the actor's features make the GP predict the next batch worse",
 )
 BySeed = dict[str, dict[str, Any]]
+#: Session 64's reading: its paired difference of the tail scores serves here too.
+paired = load_script(HERE.parent / "model_ceiling" / "read.py", "model_ceiling_read").paired
 
 
 def load(folders: list[Path]) -> BySeed:
@@ -45,13 +47,6 @@ def load(folders: list[Path]) -> BySeed:
         for seed, rows in data["results"][ENV].items():
             out.setdefault(seed, {}).update(rows)
     return dict(sorted(out.items(), key=lambda kv: int(kv[0])))
-
-
-def paired(by_seed: BySeed, first: str, second: str) -> tuple[float, float, float]:
-    """Mean paired difference of the tail scores and its 95 % t interval (mean, low, high)."""
-    diff = np.array([r[first]["tail"] - r[second]["tail"] for r in by_seed.values()])
-    mean, half = (float(v) for v in mean_ci(diff, nan_policy="propagate"))
-    return mean, mean - half, mean + half
 
 
 def verdict(interval: tuple[float, float, float], rule: tuple[str, str, str]) -> str:
