@@ -7,3 +7,7 @@ echo "window arm: adapt=$ADAPT"
 COMMON=(--envs CartPole-v1 Acrobot-v1 Pendulum-v1 --critics laplacian --seeds 0 1 2 3 4 5 6 7 8 9 --workers 2)
 python examples/critic_fit.py "${COMMON[@]}" --out "$OUT/default"
 python examples/critic_fit.py "${COMMON[@]}" --gp-option "adapt=$ADAPT" --out "$OUT/window16384"
+# PLAN.md's addendum: a window of one Acrobot or Pendulum rollout
+ADAPT4096=$(python -c "import json, sys; d = json.loads(sys.argv[1]); d['window'] = 4096; print(json.dumps(d))" "$ADAPT")
+python examples/critic_fit.py --envs Acrobot-v1 Pendulum-v1 --critics laplacian \
+    --seeds 0 1 2 3 4 5 6 7 8 9 --workers 2 --gp-option "adapt=$ADAPT4096" --out "$OUT/window4096"
