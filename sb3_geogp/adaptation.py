@@ -181,6 +181,15 @@ class Adaptation:
         critic's time; 0.14's PPO default used it, starting from forgetting 0.1 per 4,096
         points, and 0.15's went back to the shrinking score at half the cost, after a
         pre-registered test against it (docs/results.md).
+    whole_batch : bool
+        Whether a refit's rebuild uses every point of the batch that closed the block, also
+        those the window had no room for (a batch larger than ``window``: PPO's Acrobot-v1 and
+        Pendulum-v1 rollouts of 4,096 points against the 2,048 of the policy's default).
+        ``False``: they leave the window before the refit and reach the rebuild only through
+        the summary, projected under the hyperparameters the refit replaces and thinned to
+        ``fold_points``; on Acrobot-v1's recorded PPO streams the critic then predicted the
+        next rollout worse than one whose window held the whole rollout (docs/results.md,
+        "The first batches"). Batches no larger than the room in the window are unaffected.
 
     Raises
     ------
@@ -208,6 +217,7 @@ class Adaptation:
     fit_floor: float | None = None
     summary: str = "fold"
     forgetting_score: str = "shrink"
+    whole_batch: bool = False
 
     def __post_init__(self) -> None:
         optional = ("interval", "score_points", "fold_points")
@@ -225,8 +235,11 @@ class Adaptation:
                 f"Adaptation.prior_sd must be positive and finite (or None: no prior), got "
                 f"{self.prior_sd}"
             )
-        if not isinstance(self.settle, bool):
-            raise ValueError(f"Adaptation.settle must be True or False, got {self.settle!r}")
+        for name in ("settle", "whole_batch"):
+            if not isinstance(getattr(self, name), bool):
+                raise ValueError(
+                    f"Adaptation.{name} must be True or False, got {getattr(self, name)!r}"
+                )
         tol = self.drift_tol
         if tol is not None and not (tol > 1 and math.isfinite(tol)):
             raise ValueError(

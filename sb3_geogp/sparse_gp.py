@@ -1372,18 +1372,29 @@ class SparseOnlineGP(nn.Module):
     # Adaptation (sb3_geogp.adaptation)
     # ------------------------------------------------------------------------------------------
     def _retain(self, x: Tensor, y: Tensor) -> None:
-        """Keep the batch in the window; close the block (and adapt) when it is due."""
-        dropped = self.window.append(x, y, int(self.n_batches) - 1)
+        """Keep the batch in the window; close the block (and adapt) when it is due. The
+        points leaving the window go to the summary, except, with
+        ``Adaptation(whole_batch=True)``, those of this batch when its block refits: the
+        rebuild then takes them as it takes the window's (:meth:`_adapt`)."""
+        newest = int(self.n_batches) - 1
+        dropped = self.window.append(x, y, newest)
         self.block_new += x.shape[0]
         a = self.adaptation
-        if a is not None and self.n_basis > 0:
-            self._summarise(*dropped)
-        if a is not None and int(self.block_new) < a.block:
+        closes = a is None or int(self.block_new) >= a.block
+        if closes:
+            self.n_blocks += 1
+            self.block_new.zero_()
+        if a is None or self.n_basis == 0:
             return
-        self.n_blocks += 1
-        self.block_new.zero_()
-        if a is not None and self.n_basis > 0:
-            self._adapt(a)
+        if not closes:
+            self._summarise(*dropped)
+            return
+        drift, explained = self._block_fit()
+        refit = a.refit_due(int(self.n_blocks), drift, explained)
+        kept = int((dropped[2] == newest).sum()) if refit and a.whole_batch else 0
+        # dropped is oldest first: this batch's points that found no room are its tail
+        self._summarise(*(t[: t.shape[0] - kept] for t in dropped))
+        self._adapt(a, drift, explained, refit, tuple(t[t.shape[0] - kept :] for t in dropped))
 
     def _summarise(self, x: Tensor, y: Tensor, batch: Tensor) -> None:
         """Add what the points leaving the window say to the summary, with their weights;
@@ -1468,19 +1479,32 @@ class SparseOnlineGP(nn.Module):
         lam = self._batch_forgetting(lam, int(self.last_batch_points))
         return age_weights(self._ages(batch), lam)
 
-    def _adapt(self, a: Adaptation) -> None:
-        x, y, batch = self.window.data()
+    def _adapt(
+        self,
+        a: Adaptation,
+        drift: float,
+        explained: float,
+        refit: bool,
+        unretained: tuple[Tensor, ...],
+    ) -> None:
+        """Close the block whose targets drifted by ``drift`` and were predicted with
+        ``explained`` (:meth:`_block_fit`): choose the forgetting and, if ``refit``, refit on
+        the window's points preceded by ``unretained`` (inputs, targets, batches: the newest
+        batch's points the window had no room for, oldest first; none but with
+        ``whole_batch``)."""
         scores = self.forgetting_scores
         # All zero: no batch of this block was scored (the basis was still empty).
         scored = bool((scores != 0).any())
         lam = a.forgetting[int(scores.argmin())] if scored else float(self.block_forgetting)
         scores.zero_()
-        drift, explained = self._block_fit()
         self.block_moments.zero_()
         self.block_errors.zero_()
         self.block_forgetting.fill_(lam)
         self.last_stats.update(forgetting=lam, target_drift=drift, block_fit=explained)
-        if a.refit_due(int(self.n_blocks), drift, explained):
+        if refit:
+            x, y, batch = (
+                torch.cat(parts) for parts in zip(unretained, self.window.data(), strict=True)
+            )
             self._refit(a, x, y, self._age_weights(batch, lam).to(y), batch)
 
     def _block_fit(self) -> tuple[float, float]:

@@ -53,6 +53,7 @@ from tests.test_sparse_gp import assert_same_state, matern, nystrom_posterior, r
         dict(score_points=0),
         dict(fold_points=1.5),
         dict(settle=1),
+        dict(whole_batch="yes"),
         dict(drift_tol=1.0),
         dict(drift_tol=float("nan")),
         dict(fit_floor=1.0),
@@ -769,15 +770,20 @@ def test_lagged_score_of_no_forgetting_is_the_batchs_predictive_density(kernel: 
     assert scores.argmin() == 2
 
 
+@pytest.mark.parametrize("whole", [False, True])
 @pytest.mark.parametrize("fold", [None, 5])
-def test_a_snapshot_folds_only_the_head_of_a_batch_larger_than_the_window(fold: int | None) -> None:
+def test_a_snapshot_folds_only_the_head_of_a_batch_larger_than_the_window(
+    fold: int | None, whole: bool
+) -> None:
     """Batches of 50 into a 30-point window, one block each (as PPO's rollouts of thousands
     into a window of 2,048): the 20 points of a batch that leave the window on arrival are
     folded (through ``fold_points``), the 30 it keeps are rebuilt exactly, and each block's
     snapshot passes both on, weighted ``0.7 ** age``: the posterior is the exact sparse
     posterior of every tail and of each head as folded (``fold_points=5``: points 1, 5, ...,
-    17, the middles of runs of 4, each weighted 4 times). Inputs off the basis, target units
-    fixed, the basis fixed after the first batch."""
+    17, the middles of runs of 4, each weighted 4 times). With ``whole_batch`` every block's
+    rebuild takes its head as it takes its tail: the exact sparse posterior of every point,
+    whatever ``fold_points``. Inputs off the basis, target units fixed, the basis fixed after
+    the first batch."""
     rng = np.random.default_rng(7)
     adapt = Adaptation(
         window=30,
@@ -787,6 +793,7 @@ def test_a_snapshot_folds_only_the_head_of_a_batch_larger_than_the_window(fold: 
         targets=False,
         fold_points=fold,
         summary="snapshot",
+        whole_batch=whole,
     )
     gp = SparseOnlineGP(1, RBFKernel(lengthscale=0.2), max_basis=30, adapt=adapt, forgetting=0.7)
     grid = np.linspace(0.0, 1.0, 11)[:, None]
@@ -803,11 +810,43 @@ def test_a_snapshot_folds_only_the_head_of_a_batch_larger_than_the_window(fold: 
     w = 0.7 ** np.repeat(np.arange(10)[::-1], 50)
     position = np.tile(np.arange(50), 10)
     head = position < 20
-    kept = ~head if fold is not None else np.ones(len(x), dtype=bool)
-    if fold is not None:
+    folded = fold is not None and not whole
+    kept = ~head if folded else np.ones(len(x), dtype=bool)
+    if folded:
         kept |= position % 4 == 1
         w = np.where(head, 4 * w, w)
     assert_weighted_sparse_posterior(gp, x[kept], y[kept], w[kept], rng)
+
+
+@pytest.mark.parametrize("summary", ["fold", "snapshot"])
+def test_whole_batch_changes_nothing_where_no_refit_meets_a_batch_beyond_the_window(
+    summary: str,
+) -> None:
+    """``whole_batch`` acts only on a refit's rebuild: where the refitting first block fits in
+    the window and the blocks of larger batches after it never refit, every state and
+    prediction is the same bit for bit with it as without it."""
+    rng = np.random.default_rng(11)
+    xs = [rng.uniform(size=(n, 2)) for n in (40, 70, 90, 70)]
+    ys = [np.sin(4 * x[:, 0]) + x[:, 1] + 0.1 * rng.normal(size=len(x)) for x in xs]
+    gps = []
+    for whole in (False, True):
+        adapt = Adaptation(
+            window=50, interval=40, steps=2, max_gap=1000, settle=False, fold_points=8,
+            summary=summary, whole_batch=whole,
+        )  # fmt: skip
+        gp = SparseOnlineGP(2, "rbf", max_basis=25, adapt=adapt)
+        for x, y in zip(xs, ys, strict=True):
+            gp.update(x, y)
+        gps.append(gp)
+    assert int(gps[0].n_blocks) == 4 and float(gps[0].summary_prec.abs().sum()) > 0
+    # the stored options differ in whole_batch alone
+    states = [
+        {k: v for k, v in snapshot(gp).items() if not k.endswith("_extra_state")} for gp in gps
+    ]
+    assert_same_state(*states)
+    probe = rng.uniform(size=(7, 2))
+    for a, b in zip(gps[0].predict(probe), gps[1].predict(probe), strict=True):
+        torch.testing.assert_close(a, b, rtol=0, atol=0)
 
 
 @pytest.mark.parametrize("batch", [60, 15])  # one batch per block, and four
