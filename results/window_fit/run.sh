@@ -11,3 +11,7 @@ python examples/critic_fit.py "${COMMON[@]}" --gp-option "adapt=$ADAPT" --out "$
 ADAPT4096=$(python -c "import json, sys; d = json.loads(sys.argv[1]); d['window'] = 4096; print(json.dumps(d))" "$ADAPT")
 python examples/critic_fit.py --envs Acrobot-v1 Pendulum-v1 --critics laplacian \
     --seeds 0 1 2 3 4 5 6 7 8 9 --workers 2 --gp-option "adapt=$ADAPT4096" --out "$OUT/window4096"
+# PLAN.md's addendum 2: the rebuild on the whole batch, the window the default's
+WHOLE=$(python -c "from stable_baselines3 import PPO; from sb3_geogp.policies import default_adaptation; import json; d = default_adaptation(PPO).as_dict(); d['whole_batch'] = True; print(json.dumps(d))")
+python examples/critic_fit.py --envs Acrobot-v1 Pendulum-v1 --critics laplacian \
+    --seeds 0 1 2 3 4 5 6 7 8 9 --workers 2 --gp-option "adapt=$WHOLE" --out "$OUT/whole_batch"
