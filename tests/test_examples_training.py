@@ -149,6 +149,8 @@ def test_benchmark_training_setting_suffixes_build_those_settings() -> None:
     assert snap == Adaptation(fold_points=256, summary="snapshot")
     lagged = as_adaptation(bench.gp_kwargs_of(["adapt", "snapshot", "lagged"])["adapt"])
     assert lagged == Adaptation(summary="snapshot", forgetting_score="lagged")
+    whole = as_adaptation(bench.gp_kwargs_of(["adapt", "snapshot", "whole"])["adapt"])
+    assert whole == Adaptation(summary="snapshot", whole_batch=True)
     # PPO's default since 0.23, spelled out
     spelled = [
         "adapt",
