@@ -8,6 +8,7 @@ touch. A partial run decides nothing.
 
     python results/whole_batch/read.py > results/whole_batch/read.md
     python results/whole_batch/read.py --metric mean_return > results/whole_batch/auc.md
+    python results/whole_batch/read.py --metric critic_rmse > results/whole_batch/rmse.md
 """
 
 from __future__ import annotations
@@ -29,7 +30,7 @@ HERE = Path(__file__).resolve().parent
 RESULTS = HERE.parent
 TABLE50 = load_script(RESULTS / "table50" / "read.py", "table50")
 POOL30 = TABLE50.POOL30
-LABELS = TABLE50.H200.READING.LABELS
+LABELS = {**TABLE50.H200.READING.LABELS, "critic_rmse": "final critic RMSE (lower is better)"}
 FIT_SEEDS = range(713, 743)
 FIT_ENVS = ("Acrobot-v1", "Pendulum-v1")
 BLOCKS = (0, 10, 150, 160, 570)
@@ -141,7 +142,7 @@ def _holds(failures: list[str]) -> str:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--metric", choices=("final_return", "mean_return"), default="final_return")
+    parser.add_argument("--metric", choices=tuple(LABELS), default="final_return")
     args = parser.parse_args()
     published = TABLE50.published_and_fresh()
     rules = [fit(), *table(published, args.metric), check(published)]
