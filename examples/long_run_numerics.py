@@ -66,8 +66,10 @@ from sb3_geogp.toolbox.tables import format_table
 CHEAP_DEFAULT = {"adapt": CHEAP_ADAPTATION, "novelty_tol": 0.1}
 #: The policy's PPO default critic since 0.9: the 0.6 one with a moving level.
 LEVEL_DEFAULT = {"adapt": True, "novelty_tol": 0.1, "trend": "level"}
+#: The policy's PPO adaptation of 0.23-0.34, before 0.35's whole rollouts in the rebuild.
+PRIOR_ADAPTATION = replace(DEFAULT_ADAPTATION, whole_batch=False)
 #: The policy's PPO adaptation of 0.11-0.22, before 0.23's hyperprior.
-WITHOUT_PRIOR = replace(DEFAULT_ADAPTATION, prior_sd=None)
+WITHOUT_PRIOR = replace(PRIOR_ADAPTATION, prior_sd=None)
 #: The policy's PPO default critic of 0.10: 0.9's with its rare refits, the summary folded.
 RARE_DEFAULT = {**LEVEL_DEFAULT, "adapt": replace(WITHOUT_PRIOR, summary="fold")}
 #: The policy's PPO default critic of 0.11-0.13: the summary from snapshots of the posterior.
@@ -77,14 +79,19 @@ SNAPSHOT_ADAPT = {"adapt": Adaptation(summary="snapshot")}
 #: The policy's PPO default critic of 0.15-0.22: 0.13's starting from forgetting 0.1 per 4,096
 #: points (:data:`~sb3_geogp.policies.DEFAULT_FORGETTING`).
 POINTS_DEFAULT = {**SNAPSHOT_DEFAULT, **DEFAULT_FORGETTING}
-#: The policy's PPO default critic since 0.23: 0.15's with the lengthscale hyperprior.
-PRIOR_DEFAULT = {**POINTS_DEFAULT, "adapt": DEFAULT_ADAPTATION}
+#: The policy's PPO default critic of 0.23-0.34: 0.15's with the lengthscale hyperprior.
+PRIOR_DEFAULT = {**POINTS_DEFAULT, "adapt": PRIOR_ADAPTATION}
+#: The policy's PPO default critic since 0.35 (a refit's rebuild takes the whole batch) with a
+#: window of 256 points, so that every batch (2,048 points here, 384 in the quick test) is
+#: larger than the window, as PPO's 4,096-point rollouts are larger than the default's 2,048.
+WHOLE_DEFAULT = {**POINTS_DEFAULT, "adapt": replace(DEFAULT_ADAPTATION, window=256)}
 #: The policy's PPO default critic of 0.14 (:data:`~sb3_geogp.policies.LAGGED_ADAPTATION`, an
 #: option since 0.15): forgetting in the likelihood, chosen one batch ahead, from 0.1 per 4,096
 #: points.
 LAGGED_DEFAULT = {**POINTS_DEFAULT, "adapt": LAGGED_ADAPTATION}
 #: The snapshot summary's variants (0.11), on both streams: 0.11-0.13's PPO default, the 0.15
-#: and 0.23 defaults in float64 and float32, and the A2C default's adaptation with snapshots;
+#: and 0.23 defaults and 0.35's (its batches larger than its window) in float64 and float32, and
+#: the A2C default's adaptation with snapshots;
 #: and 0.14's default, whose lagged forgetting score refuses float32.
 SNAPSHOT_VARIANTS = (
     Variant("laplacian rare snapshot n0.1 level", "laplacian", {}, SNAPSHOT_DEFAULT),
@@ -105,6 +112,18 @@ SNAPSHOT_VARIANTS = (
         "laplacian",
         {},
         {**PRIOR_DEFAULT, "dtype": torch.float32},
+    ),
+    Variant(
+        "laplacian rare snapshot prior0.1 whole window256 f0.1/4096 n0.1 level",
+        "laplacian",
+        {},
+        WHOLE_DEFAULT,
+    ),
+    Variant(
+        "laplacian rare snapshot prior0.1 whole window256 f0.1/4096 n0.1 level float32",
+        "laplacian",
+        {},
+        {**WHOLE_DEFAULT, "dtype": torch.float32},
     ),
 )
 VARIANTS = {

@@ -58,7 +58,7 @@ evenly spaced subsample of a batch (:func:`thinned`). All of these are off by de
 :data:`CHEAP_ADAPTATION` combines the cheaper ones, and since 0.10 the GP critic's policy under
 PPO uses all but ``drift_tol`` and since 0.11 the snapshot summary
 (:data:`sb3_geogp.policies.DEFAULT_ADAPTATION`; 0.14's used the lagged forgetting score below;
-since 0.23 it adds the hyperprior ``prior_sd=0.1``).
+since 0.23 it adds the hyperprior ``prior_sd=0.1``, since 0.35 ``whole_batch``).
 docs/benchmarks.md measures what they save and what fit they cost, docs/results.md what they
 cost in training.
 
@@ -190,6 +190,9 @@ class Adaptation:
         ``fold_points``; on Acrobot-v1's recorded PPO streams the critic then predicted the
         next rollout worse than one whose window held the whole rollout (docs/results.md,
         "The first batches"). Batches no larger than the room in the window are unaffected.
+        Part of the policy's PPO default since 0.35, after two registered tests (the second:
+        issue 13's critic-fit score on Acrobot-v1 +0.127 [+0.060, +0.194] over 40 fresh seeds,
+        no return different; docs/results.md, "The whole rollout in the refit's rebuild").
 
     Raises
     ------

@@ -151,7 +151,7 @@ def test_benchmark_training_setting_suffixes_build_those_settings() -> None:
     assert lagged == Adaptation(summary="snapshot", forgetting_score="lagged")
     whole = as_adaptation(bench.gp_kwargs_of(["adapt", "snapshot", "whole"])["adapt"])
     assert whole == Adaptation(summary="snapshot", whole_batch=True)
-    # PPO's default since 0.23, spelled out
+    # PPO's default since 0.35, spelled out
     spelled = [
         "adapt",
         "gap16",
@@ -161,6 +161,7 @@ def test_benchmark_training_setting_suffixes_build_those_settings() -> None:
         "floor80",
         "snapshot",
         "prior10",
+        "whole",
     ]
     assert as_adaptation(bench.gp_kwargs_of(spelled)["adapt"]) == DEFAULT_ADAPTATION
     assert bench.gp_kwargs_of(["nosettle"]) is None  # a setting needs +adapt or +cheap

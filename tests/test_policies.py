@@ -285,10 +285,11 @@ def test_default_critic_is_the_laplacian_kernel_with_a_dense_basis_except_under_
     assert isinstance(default.gp.kernel, LaplacianKernel) and default.gp.novelty_tol == 0.1
     # Since 0.10 PPO refits on the first block, every 16th and those it predicted badly; since
     # 0.11 from a snapshot of the posterior; since 0.14 its forgetting starts from 0.1 per 4,096
-    # points; since 0.23 a hyperprior holds its lengthscales near their start.
+    # points; since 0.23 a hyperprior holds its lengthscales near their start; since 0.35 its
+    # refits rebuild on the whole rollout.
     rare = Adaptation(
         max_gap=16, settle=False, score_points=256, fold_points=256, fit_floor=0.8,
-        summary="snapshot", prior_sd=0.1,
+        summary="snapshot", prior_sd=0.1, whole_batch=True,
     )  # fmt: skip
     assert default.gp.adaptation == rare and built(adapt=True).gp.adaptation == rare
     assert default.gp.trend == "level"
@@ -388,7 +389,8 @@ def test_model_saved_by_0_10_keeps_its_folded_summary(tmp_path: Path) -> None:
     model loads with the folded summary it was trained with (values and further learning
     included), not 0.11's snapshots."""
     env = make_vec_env("Pendulum-v1", n_envs=2, seed=0)
-    then = dataclasses.replace(DEFAULT_ADAPTATION, prior_sd=None)  # no hyperprior before 0.23
+    # no hyperprior before 0.23, no whole rollouts in the rebuild before 0.35
+    then = dataclasses.replace(DEFAULT_ADAPTATION, prior_sd=None, whole_batch=False)
     saved_by_0_10 = {k: v for k, v in then.as_dict().items() if k != "summary"}
     kwargs = dict(gp_kwargs=dict(max_basis=16, adapt=saved_by_0_10), net_arch=[16])
     model = PPO(GPActorCriticPolicy, env, n_steps=64, batch_size=64, seed=0, policy_kwargs=kwargs)
@@ -404,13 +406,26 @@ def test_model_saved_by_0_10_keeps_its_folded_summary(tmp_path: Path) -> None:
     assert int(loaded.policy.gp.summary_batch) == 0  # never a snapshot
 
 
-def test_ppo_model_saved_before_0_23_loads_without_the_hyperprior(tmp_path: Path) -> None:
-    """Up to 0.22 the PPO critic's default adaptation had no hyperprior, and its saved
-    ``policy_kwargs`` named no adaptation: loaded by 0.23, whose default has ``prior_sd=0.1``,
-    the model keeps the adaptation it was trained with, and its values."""
+@pytest.mark.parametrize(
+    "then",
+    [
+        # up to 0.22: no hyperprior
+        dataclasses.replace(DEFAULT_ADAPTATION, prior_sd=None, whole_batch=False),
+        # 0.23-0.34: the head of a rollout larger than the window through the summary
+        dataclasses.replace(DEFAULT_ADAPTATION, whole_batch=False),
+    ],
+    ids=["0.22", "0.34"],
+)
+def test_ppo_model_saved_by_an_older_default_loads_with_its_adaptation(
+    tmp_path: Path, then: Adaptation
+) -> None:
+    """A PPO critic saved with an older default adaptation, whose saved ``policy_kwargs`` named
+    no adaptation (0.22's without the hyperprior, 0.34's without ``whole_batch``): loaded by
+    today's, whose default differs, the model keeps the adaptation it was trained with, and its
+    values. 0.34 stored its settings without ``whole_batch``, which loads as ``False``."""
     env = make_vec_env("Pendulum-v1", n_envs=2, seed=0)
-    then = dataclasses.replace(DEFAULT_ADAPTATION, prior_sd=None)
-    trained = dict(gp_kwargs=dict(max_basis=16, adapt=then.as_dict()), net_arch=[16])
+    stored = {k: v for k, v in then.as_dict().items() if k != "whole_batch"}
+    trained = dict(gp_kwargs=dict(max_basis=16, adapt=stored), net_arch=[16])
     model = PPO(GPActorCriticPolicy, env, n_steps=64, batch_size=64, seed=0, policy_kwargs=trained)
     model.learn(256, callback=feed())
     model.save(tmp_path / "model.zip")
@@ -426,6 +441,29 @@ def test_ppo_model_saved_before_0_23_loads_without_the_hyperprior(tmp_path: Path
     seen = int(loaded.policy.gp.n_seen)
     loaded.learn(128, callback=feed(), reset_num_timesteps=False)
     assert int(loaded.policy.gp.n_seen) == seen + 128 and loaded.policy.gp.adaptation == then
+
+
+def test_a_ppo_state_saved_by_0_34_loads_without_the_whole_batch() -> None:
+    """0.34 stored its PPO critic's adaptation without ``whole_batch`` (0.35's default is
+    ``True``): a policy with the default critic loading such a state rebuilds its critic with
+    the adaptation the state was saved with, ``whole_batch=False``, and predicts as saved."""
+    env = make_vec_env("Pendulum-v1", n_envs=2, seed=0)
+    then = dataclasses.replace(DEFAULT_ADAPTATION, whole_batch=False)
+    trained = dict(gp_kwargs=dict(max_basis=16, adapt=then), net_arch=[16])
+    model = PPO(GPActorCriticPolicy, env, n_steps=64, batch_size=64, seed=0, policy_kwargs=trained)
+    model.learn(256, callback=feed())
+    state = model.policy.state_dict()
+    extra = state["value_net.gp._extra_state"]
+    adapt = {k: v for k, v in extra["adapt"].items() if k != "whole_batch"}
+    state["value_net.gp._extra_state"] = {**extra, "adapt": adapt}
+    kwargs = dict(gp_kwargs=dict(max_basis=16), net_arch=[16])
+    fresh = PPO(GPActorCriticPolicy, env, n_steps=64, seed=1, policy_kwargs=kwargs)
+    assert isinstance(fresh.policy, GPActorCriticPolicy)
+    assert fresh.policy.gp.adaptation == DEFAULT_ADAPTATION
+    fresh.policy.load_state_dict(state)
+    assert fresh.policy.gp.adaptation == then
+    obs = flat_obs(model)
+    assert th.equal(fresh.policy.predict_values(obs), model.policy.predict_values(obs))
 
 
 @pytest.mark.parametrize(
