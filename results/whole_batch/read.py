@@ -121,8 +121,8 @@ def table(published: list[dict[str, Any]], metric: str) -> list[tuple[str, str]]
     """Rules 2a-c on issue 13's table with the whole arm in the cells it can touch."""
     whole = pool_sweeps([f for f in (HERE / f"table_s{b}" for b in BLOCKS) if f.is_dir()])
     complete = len(whole) == len(TOUCHED) * 10 * len(BLOCKS)
-    default = [r for r in published if _touched(r)]
-    others = [r for r in published if not _touched(r)]
+    default = [r for r in published if touched(r)]
+    others = [r for r in published if not touched(r)]
     whole, same_seeds = TABLE50.VERDICT.H200.READING.TABLE40.on_common_seeds(whole, default)
     label = LABELS[metric]
     print(f"## Issue 13's table, {label}: whole − default in the four cells it can touch "
@@ -157,7 +157,7 @@ def seed0_ppo_default(run: dict[str, Any]) -> bool:
     return (s["algo"], s["critic"], s["seed"]) == ("ppo", "laplacian", 0)
 
 
-def _touched(run: dict[str, Any]) -> bool:
+def touched(run: dict[str, Any]) -> bool:
     """Whether ``run`` is one of the default GP critic's in a cell the option can touch."""
     s = run["spec"]
     return (s["algo"], s["critic"]) == ("ppo", "laplacian") and s["env_id"] in TOUCHED
