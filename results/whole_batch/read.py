@@ -34,7 +34,8 @@ POOL30 = TABLE50.POOL30
 LABELS = {**TABLE50.H200.READING.LABELS, "critic_rmse": "final critic RMSE (lower is better)"}
 FIT_SEEDS = range(713, 743)
 FIT_ENVS = ("Acrobot-v1", "Pendulum-v1")
-ARMS = ("default", "whole")
+#: the two arms' folders: without and with ``whole_batch``
+ARMS = ("fit_default", "fit_whole")
 BLOCKS = (0, 10, 150, 160, 570)
 TOUCHED = ("CartPole-v1", "Acrobot-v1", "Pendulum-v1", "sb3_geogp/PaperPendulum-v0")
 BETTER_TODAY = ("Acrobot-v1", "CartPole-v1", "Pendulum-v1")
@@ -43,19 +44,23 @@ CHECKED = ("MountainCarContinuous-v0", "sb3_geogp/WallMaze-v0", "sb3_geogp/WallM
 
 def fit_scores(folder: Path, arm: str, env: str, key: str, seeds: range) -> np.ndarray | None:
     """Each seed's score ``key`` of ``arm`` on ``env``; None unless every seed finished."""
-    paths = [folder / f"fit_{arm}" / "runs" / f"laplacian__{env}__s{s}.json" for s in seeds]
+    paths = [folder / arm / "runs" / f"laplacian__{env}__s{s}.json" for s in seeds]
     if not all(p.is_file() for p in paths):
         return None
     return np.array([json.loads(p.read_text())[key] for p in paths], dtype=float)
 
 
 def fit_table(
-    folder: Path, seeds: range, envs: tuple[str, ...], primary: str
+    folder: Path,
+    seeds: range,
+    envs: tuple[str, ...],
+    primary: str,
+    arms: tuple[str, str] = ARMS,
 ) -> dict[tuple[str, str], np.ndarray]:
-    """Print the fit of both arms in ``folder`` and their paired differences by the mean's t
-    interval and by ranks (``primary`` says which one its test's rule reads); return the
-    differences whole − default by (env, score key), for the (env, key) whose seeds all
-    finished."""
+    """Print the fit of both arms (``arms``: the folders in ``folder`` without and with
+    ``whole_batch``) and their paired differences by the mean's t interval and by ranks
+    (``primary`` says which one its test's rule reads); return the differences whole − default
+    by (env, score key), for the (env, key) whose seeds all finished."""
     print(f"## Fit: issue 13's critic-fit score, seeds {seeds.start}-{seeds.stop - 1}\n")
     print("| env | reading | default (at 0.9) | whole (at 0.9) | whole − default [95 % t] | "
           "paired median | seeds up / down | Wilcoxon p |")  # fmt: skip
@@ -63,7 +68,7 @@ def fit_table(
     diffs = {}
     for env in envs:
         for reading, key in (("per rollout", "tail_mean"), ("pooled", "tail_pooled")):
-            default, whole = (fit_scores(folder, arm, env, key, seeds) for arm in ARMS)
+            default, whole = (fit_scores(folder, arm, env, key, seeds) for arm in arms)
             if default is None or whole is None:
                 print(f"| {env} | {reading} | not every seed finished | | | | | |")
                 continue
