@@ -1393,8 +1393,9 @@ class SparseOnlineGP(nn.Module):
         refit = a.refit_due(int(self.n_blocks), drift, explained)
         kept = int((dropped[2] == newest).sum()) if refit and a.whole_batch else 0
         # dropped is oldest first: this batch's points that found no room are its tail
-        self._summarise(*(t[: t.shape[0] - kept] for t in dropped))
-        self._adapt(a, drift, explained, refit, tuple(t[t.shape[0] - kept :] for t in dropped))
+        cut = dropped[0].shape[0] - kept
+        self._summarise(*(t[:cut] for t in dropped))
+        self._adapt(a, drift, explained, refit, tuple(t[cut:] for t in dropped))
 
     def _summarise(self, x: Tensor, y: Tensor, batch: Tensor) -> None:
         """Add what the points leaving the window say to the summary, with their weights;

@@ -108,18 +108,35 @@ def check(published: list[dict[str, Any]]) -> tuple[str, str]:
     runs = pool_sweeps([folder]) if folder.is_dir() else []
     if len(runs) < len(CHECKED):
         return ("3. the untouched cells' seed-0 runs equal the default's", PARTIAL)
-    stored = {r["spec"]["env_id"]: r for r in published
-              if seed0_ppo_default(r)}  # fmt: skip
-    differ = [r["spec"]["env_id"] for r in runs
-              if r["eval"] != stored[r["spec"]["env_id"]]["eval"]]  # fmt: skip
-    current = {r["spec"]["env_id"]: r for r in pool_sweeps([HERE / "check_default"])}
-    for env in differ:  # the addendum: against 0.34.1's default run instead of the stored one
-        same = env in current and current[env]["eval"] == next(
-            r["eval"] for r in runs if r["spec"]["env_id"] == env
-        )
+    differ = differing(runs, seed0_defaults(published))
+    current = by_env(pool_sweeps([HERE / "check_default"]))
+    # the addendum: against 0.34.1's default run instead of the stored one
+    still = differing([r for r in runs if r["spec"]["env_id"] in differ], current)
+    for env in differ:
         print(f"Addendum: {env}, seed 0, the whole arm equals 0.34.1's own default run "
-              f"(`check_default/`) bit for bit: {same}\n")  # fmt: skip
+              f"(`check_default/`) bit for bit: {env not in still}\n")  # fmt: skip
     return ("3. the untouched cells' seed-0 runs equal the default's", _holds(differ))
+
+
+def by_env(runs: list[dict[str, Any]]) -> dict[str, dict[str, Any]]:
+    """``runs`` by their env (one run each)."""
+    return {r["spec"]["env_id"]: r for r in runs}
+
+
+def seed0_defaults(published: list[dict[str, Any]]) -> dict[str, dict[str, Any]]:
+    """The stored default PPO GP critic's seed-0 run of every cell, by env."""
+    return by_env([r for r in published if seed0_ppo_default(r)])
+
+
+def differing(runs: list[dict[str, Any]], reference: dict[str, dict[str, Any]]) -> list[str]:
+    """The envs of ``runs`` whose evaluations differ from their env's run in ``reference``
+    (or that have none there)."""
+    return [
+        r["spec"]["env_id"]
+        for r in runs
+        if r["spec"]["env_id"] not in reference
+        or r["eval"] != reference[r["spec"]["env_id"]]["eval"]
+    ]
 
 
 def table(published: list[dict[str, Any]], metric: str) -> list[tuple[str, str]]:

@@ -46,12 +46,9 @@ def untouched() -> str:
     option cannot touch (MountainCarContinuous against ``check_default/``, the WallMazes
     against the stored runs, which 0.34.1 reproduces there)."""
     check, current = (FIRST.pool_sweeps([FIRST.HERE / f]) for f in ("check", "check_default"))
-    stored = {r["spec"]["env_id"]: r for r in FIRST.TABLE50.published_and_fresh()
-              if FIRST.seed0_ppo_default(r)}  # fmt: skip
-    stored.update({r["spec"]["env_id"]: r for r in current})
-    differ = [
-        r["spec"]["env_id"] for r in check if r["eval"] != stored[r["spec"]["env_id"]]["eval"]
-    ]
+    published = FIRST.TABLE50.published_and_fresh()
+    reference = {**FIRST.seed0_defaults(published), **FIRST.by_env(current)}
+    differ = FIRST.differing(check, reference)
     return "holds" if len(check) == len(FIRST.CHECKED) and not differ else f"fails ({differ})"
 
 
