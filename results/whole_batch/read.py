@@ -56,13 +56,16 @@ def fit_table(
     envs: tuple[str, ...],
     primary: str,
     arms: tuple[str, str] = ARMS,
+    names: tuple[str, str] = ("default", "whole"),
 ) -> dict[tuple[str, str], np.ndarray]:
-    """Print the fit of both arms (``arms``: the folders in ``folder`` without and with
-    ``whole_batch``) and their paired differences by the mean's t interval and by ranks
-    (``primary`` says which one its test's rule reads); return the differences whole − default
-    by (env, score key), for the (env, key) whose seeds all finished."""
+    """Print the fit of both arms (``arms``: the folders in ``folder`` of the baseline and the
+    change, by default without and with ``whole_batch``; ``names``: their columns' names) and
+    their paired differences by the mean's t interval and by ranks (``primary`` says which one
+    its test's rule reads); return the differences change − baseline by (env, score key), for
+    the (env, key) whose seeds all finished."""
+    base, change = names
     print(f"## Fit: issue 13's critic-fit score, seeds {seeds.start}-{seeds.stop - 1}\n")
-    print("| env | reading | default (at 0.9) | whole (at 0.9) | whole − default [95 % t] | "
+    print(f"| env | reading | {base} (at 0.9) | {change} (at 0.9) | {change} − {base} [95 % t] | "
           "paired median | seeds up / down | Wilcoxon p |")  # fmt: skip
     print("|---|---|---:|---:|---:|---:|---:|---:|")
     diffs = {}
@@ -79,7 +82,7 @@ def fit_table(
             print(f"| {env} | {reading} | {' | '.join(cells)} | "
                   f"{mean:+.3f} [{mean - half:+.3f}, {mean + half:+.3f}] | "
                   f"{float(np.median(diff)):+.3f} | {signs} | {wilcoxon(diff):.2g} |")  # fmt: skip
-    print(f"\n(The registered rule reads {primary}; the other columns are secondary, "
+    print(f"\n({primary}; the other columns are secondary, "
           "decided on by nothing. Wilcoxon: two-sided signed-rank test of the paired "
           "differences.)\n")  # fmt: skip
     return diffs
@@ -93,7 +96,8 @@ def wilcoxon(diff: np.ndarray) -> float:
 
 def fit() -> tuple[str, str]:
     """The fit table and rule 1."""
-    diffs = fit_table(HERE, FIT_SEEDS, FIT_ENVS, "the per-rollout score's 95 % t interval")
+    rule = "The registered rule reads the per-rollout score's 95 % t interval"
+    diffs = fit_table(HERE, FIT_SEEDS, FIT_ENVS, rule)
     text = "1. Acrobot-v1 fit, whole − default, 95 % t interval above 0"
     diff = diffs.get(("Acrobot-v1", "tail_mean"))
     if diff is None:

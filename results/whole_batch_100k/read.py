@@ -16,7 +16,7 @@ FIRST = load_script(HERE.parent / "whole_batch" / "read.py", "whole_batch")
 
 def main() -> None:
     print("0.35's default (whole) against 0.34's (default), 100,000 steps.\n")
-    reading = "nothing: exploratory (PLAN.md)"
+    reading = "The registered rule reads nothing: exploratory (PLAN.md)"
     FIRST.fit_table(HERE, range(10), ("Acrobot-v1",), reading, ("default034", "default035"))
 
 

@@ -68,7 +68,7 @@ def pooled_seeds(diffs: dict[tuple[str, str], np.ndarray]) -> None:
 
 
 def main() -> None:
-    primary = "the per-rollout score's Wilcoxon signed-rank test"
+    primary = "The registered rule reads the per-rollout score's Wilcoxon signed-rank test"
     diffs = FIRST.fit_table(HERE, SEEDS, ENVS, primary)
     pooled_seeds(diffs)
     published = FIRST.TABLE50.published_and_fresh()

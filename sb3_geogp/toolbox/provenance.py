@@ -120,9 +120,11 @@ def cpu(cpuinfo: str | None = None) -> dict[str, str | None]:
 
     Runs stored in sessions 41-42 did not reproduce bit for bit in session 43 although torch's
     capability (``"AVX512"``), its threads, the versions and the commit all matched
-    (docs/results.md, "Limits of this comparison"); the cause was not found, and the likeliest,
-    another CPU model (numerical libraries such as MKL dispatch on the CPU's own features), is
-    what these two fields can tell apart.
+    (docs/results.md, "Limits of this comparison"). Another CPU model is such a cause: in
+    session 69 a run's own commit, re-run on an AMD EPYC machine, did not give the run its
+    Intel Xeon machine had stored (same capability, threads and versions), and MKL's code path
+    alone changed a run on one machine (docs/results.md, "The table's stored PPO
+    MountainCarContinuous runs"). These two fields tell such machines apart.
 
     Parameters
     ----------
