@@ -1,0 +1,104 @@
+"""``PLAN.md``'s reading of ``run.py``'s results (folders ``a`` and ``b``)::
+
+    python results/additive_kernel/read.py --plot results/additive_kernel/read.png \\
+        > results/additive_kernel/read.md
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+import numpy as np
+
+from sb3_geogp.toolbox.stats import mean_ci
+
+HERE = Path(__file__).resolve().parent
+ENV = "Acrobot-v1"
+MODELS = ("full", "full+additive", "additive")
+PRIMARY = ("full+additive", "full")
+SECONDARY = ("additive", "full")
+
+
+def load() -> dict[int, dict[str, dict[str, list[float] | float]]]:
+    """Every seed's results, by seed and model."""
+    runs: dict[int, dict[str, dict[str, list[float] | float]]] = {}
+    for part in ("a", "b"):
+        path = HERE / part / "results.json"
+        if path.is_file():
+            runs |= {int(s): r for s, r in json.loads(path.read_text())["results"][ENV].items()}
+    return dict(sorted(runs.items()))
+
+
+def interval(diff: np.ndarray) -> str:
+    mean, half = (float(v) for v in mean_ci(diff, nan_policy="propagate"))
+    return f"{mean:+.3f} [{mean - half:+.3f}, {mean + half:+.3f}]"
+
+
+def verdict(diff: np.ndarray) -> str:
+    """``PLAN.md``'s rule on the primary difference."""
+    mean, half = (float(v) for v in mean_ci(diff, nan_policy="propagate"))
+    if mean - half > 0 and mean >= 0.05:
+        return "a gain"
+    if mean - half > -0.05 and mean + half < 0.05:
+        return "no gain"
+    return "inconclusive"
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--plot", type=Path, default=None)
+    args = parser.parse_args()
+    runs = load()
+    seeds = list(runs)
+    tail = {m: np.array([runs[s][m]["tail"] for s in seeds]) for m in MODELS}
+    every = {
+        m: np.array([np.mean(runs[s][m]["explained_variance"]) for s in seeds]) for m in MODELS
+    }
+    print(f"Acrobot-v1, PPO 30,000 steps, seeds {', '.join(map(str, seeds))}: each batch "
+          "predicted by an exact GP on the batch before it (PLAN.md)\n")  # fmt: skip
+    print("| model | last 20 % of scored batches [lowest, highest] | all scored batches |")
+    print("|---|---:|---:|")
+    for m in MODELS:
+        print(f"| {m} | {tail[m].mean():.3f} [{tail[m].min():.2f}, {tail[m].max():.2f}] | "
+              f"{every[m].mean():.3f} |")  # fmt: skip
+    print("\n| difference, paired by seed [95 % t] | last 20 % | all scored batches | up / down |")
+    print("|---|---:|---:|---:|")
+    for a, b in (PRIMARY, SECONDARY):
+        diff = tail[a] - tail[b]
+        print(f"| {a} − {b} | {interval(diff)} | {interval(every[a] - every[b])} | "
+              f"{int((diff > 0).sum())} / {int((diff < 0).sum())} |")  # fmt: skip
+    share = [v for s in seeds for v in runs[s]["full+additive"]["additive_share"]]
+    quartiles = " / ".join(f"{q:.2f}" for q in np.quantile(share, [0.25, 0.5, 0.75]))
+    print(f"\nPrimary ({' − '.join(PRIMARY)}, last 20 %), by PLAN.md's rule: "
+          f"**{verdict(tail[PRIMARY[0]] - tail[PRIMARY[1]])}** ({len(seeds)} seeds). The "
+          f"additive term's share of the fitted signal variance in `full+additive`, quartiles "
+          f"over its fits: {quartiles}.")  # fmt: skip
+    if args.plot:
+        plot(tail, seeds, args.plot)
+
+
+def plot(tail: dict[str, np.ndarray], seeds: list[int], path: Path) -> None:
+    """Each seed's tail score under the three models, joined by seed."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6, 4))
+    x = np.arange(len(MODELS))
+    for i, seed in enumerate(seeds):
+        ax.plot(x, [tail[m][i] for m in MODELS], "-o", color="0.6", lw=0.8, ms=3)
+        ax.annotate(str(seed), (x[-1] + 0.05, tail[MODELS[-1]][i]), fontsize=7, color="0.4")
+    ax.plot(x, [tail[m].mean() for m in MODELS], "-s", color="C3", lw=2, label="mean over seeds")
+    ax.set_xticks(x, MODELS)
+    ax.set_ylabel("explained variance of the next batch (last 20 %)")
+    ax.set_title("Acrobot-v1: exact GPs on the newest batch, by kernel")
+    ax.legend(loc="lower left")
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+
+
+if __name__ == "__main__":
+    main()

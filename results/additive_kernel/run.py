@@ -1,0 +1,159 @@
+"""``PLAN.md``: exact GPs with and without an additive kernel component on the batches the
+drop-in PPO default's GP critic is fed on Acrobot-v1 (one call per core; STREAMS is where
+the batches are kept, recorded there where missing, e.g. session 67's)::
+
+    python results/additive_kernel/run.py --seeds 0 2 4 6 8 --streams STREAMS \\
+        --out results/additive_kernel/a
+    python results/additive_kernel/run.py --seeds 1 3 5 7 9 --streams STREAMS \\
+        --out results/additive_kernel/b
+    python results/additive_kernel/read.py > results/additive_kernel/read.md
+
+Each predictor is an exact GP on the newest batch, inputs scaled by the batch's spreads,
+targets standardised, with the kernel
+
+.. math::  k(x, x') = s_f^2 \\exp(-\\|(x - x') / l\\|)
+           + \\frac{s_a^2}{d} \\sum_i \\exp(-|x_i - x'_i| / a_i) + s_n^2 [x = x']
+
+(``full``: no additive term; ``additive``: no full term), its hyperparameters at the optimum
+of the exact log marginal likelihood of :data:`FIT_POINTS` random points by L-BFGS from fixed
+starts, its posterior on every point of the batch.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from pathlib import Path
+from typing import Any
+
+import torch as th
+from tqdm.auto import tqdm
+
+from sb3_geogp.comparison.run import write_json_atomic
+from sb3_geogp.toolbox.provenance import provenance
+from sb3_geogp.toolbox.scripts import load_script
+
+HERE = Path(__file__).resolve().parent
+SCHEDULE = load_script(HERE.parents[1] / "examples" / "adaptation_schedule.py", "schedule")
+ENV = "Acrobot-v1"
+STEPS = 30_000
+#: The drop-in PPO default: the Laplacian critic fed as the policy is trained.
+RECORDED = {"kernel": "laplacian", "target": None}
+#: Points of each maximum-likelihood fit (``PLAN.md``).
+FIT_POINTS = 512
+#: Each model's kernel terms.
+MODELS = {"full": ("full",), "full+additive": ("full", "additive"), "additive": ("additive",)}
+#: Box of every log hyperparameter: lengthscales (in the inputs' spreads), variances (of the
+#: standardised targets).
+LOG_BOUNDS = {"scale": (math.log(1e-3), math.log(1e3)), "var": (math.log(1e-6), math.log(1e2))}
+JITTER = 1e-8
+
+
+def kernel(a: th.Tensor, b: th.Tensor, p: dict[str, th.Tensor]) -> th.Tensor:
+    """The covariance of ``a`` (n, d) with ``b`` (m, d) without noise, shape (n, m), of the
+    terms present in ``p`` (``full``: ``log_l``, ``log_sf``; ``additive``: ``log_a``,
+    ``log_sa``)."""
+    k = th.zeros(a.shape[0], b.shape[0], dtype=a.dtype)
+    if "log_l" in p:
+        scale = p["log_l"].exp()
+        k = k + p["log_sf"].exp() * th.exp(-th.cdist(a / scale, b / scale))
+    if "log_a" in p:
+        scale = p["log_a"].exp()
+        terms = th.zeros_like(k)
+        for i in range(a.shape[1]):  # one dimension at a time: n x m x d would not fit
+            terms = terms + th.exp(-(a[:, i, None] - b[None, :, i]).abs() / scale[i])
+        k = k + p["log_sa"].exp() * terms / a.shape[1]
+    return k
+
+
+def negative_evidence(x: th.Tensor, y: th.Tensor, p: dict[str, th.Tensor]) -> th.Tensor:
+    """Minus the exact log marginal likelihood of ``y`` (n,) at ``x`` (n, d)."""
+    k = kernel(x, x, p) + (p["log_sn"].exp() + JITTER) * th.eye(x.shape[0], dtype=x.dtype)
+    chol = th.linalg.cholesky(k)
+    alpha = th.cholesky_solve(y[:, None], chol)[:, 0]
+    half_logdet = chol.diagonal().log().sum()
+    return 0.5 * y @ alpha + half_logdet + 0.5 * len(y) * math.log(2 * math.pi)
+
+
+def clamped(p: dict[str, th.Tensor]) -> dict[str, th.Tensor]:
+    """``p`` inside :data:`LOG_BOUNDS` (the optimiser works on the unclamped values)."""
+    return {
+        k: v.clamp(*LOG_BOUNDS["scale" if k in ("log_l", "log_a") else "var"]) for k, v in p.items()
+    }
+
+
+def fit(x: th.Tensor, y: th.Tensor, terms: tuple[str, ...], seed: int) -> dict[str, th.Tensor]:
+    """Maximum-likelihood hyperparameters of the kernel of ``terms`` on :data:`FIT_POINTS` of
+    the points, drawn with ``seed``; starts: lengthscales 1, the variances shared equally."""
+    d = x.shape[1]
+    share = math.log(1.0 / len(terms))
+    p: dict[str, th.Tensor] = {"log_sn": th.tensor(math.log(0.1), dtype=th.float64)}
+    if "full" in terms:
+        p |= {"log_l": th.zeros(d, dtype=th.float64), "log_sf": th.tensor(share).double()}
+    if "additive" in terms:
+        p |= {"log_a": th.zeros(d, dtype=th.float64), "log_sa": th.tensor(share).double()}
+    for v in p.values():
+        v.requires_grad_(True)
+    rows = th.randperm(x.shape[0], generator=th.Generator().manual_seed(seed))[:FIT_POINTS]
+    xs, ys = x[rows], y[rows]
+    opt = th.optim.LBFGS(list(p.values()), max_iter=200, line_search_fn="strong_wolfe")
+
+    def closure() -> th.Tensor:
+        opt.zero_grad()
+        loss = negative_evidence(xs, ys, clamped(p))
+        loss.backward()
+        return loss
+
+    opt.step(closure)
+    return {k: v.detach() for k, v in clamped(p).items()}
+
+
+def replay(batches: list[Any], terms: tuple[str, ...]) -> dict[str, Any]:
+    """Score every batch by the exact GP of ``terms`` on the batch before it (``PLAN.md``)."""
+    newest: list[tuple[th.Tensor, th.Tensor]] = []
+    shares: list[float] = []
+
+    def predict(x_new: th.Tensor) -> th.Tensor:
+        x, y = newest[0]
+        spread = x.std(dim=0).where(x.std(dim=0) > 0, th.ones(()).double())
+        mean, sd = y.mean(), y.std()
+        xs, ys = x / spread, (y - mean) / sd
+        p = fit(xs, ys, terms, seed=len(shares))
+        parts = [p[k].exp().item() for k in ("log_sf", "log_sa") if k in p]
+        shares.append(p["log_sa"].exp().item() / sum(parts) if "log_sa" in p else 0.0)
+        k = kernel(xs, xs, p) + (p["log_sn"].exp() + JITTER) * th.eye(len(ys)).double()
+        alpha = th.cholesky_solve(ys[:, None], th.linalg.cholesky(k))[:, 0]
+        return mean + sd * (kernel(x_new.double() / spread, xs, p) @ alpha)
+
+    def learn(x: th.Tensor, y: th.Tensor, starts: th.Tensor | None) -> None:
+        newest[:] = [(x.double(), y.double())]
+
+    return dict(additive_share=shares, **SCHEDULE._scored(batches, predict, learn))
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--seeds", nargs="+", type=int, required=True)
+    parser.add_argument("--streams", type=Path, required=True)
+    parser.add_argument("--out", type=Path, required=True)
+    args = parser.parse_args()
+    th.set_num_threads(1)
+    results: dict[int, Any] = {}
+    bar = tqdm(total=len(args.seeds) * len(MODELS), unit="model")
+    for seed in args.seeds:
+        path = SCHEDULE.stream_path(args.streams, ENV, seed, STEPS, RECORDED)
+        batches = SCHEDULE.record(ENV, seed, STEPS, path, RECORDED)
+        results[seed] = {}
+        for name, terms in MODELS.items():
+            results[seed][name] = replay(batches, terms)
+            bar.update()
+        args.out.mkdir(parents=True, exist_ok=True)
+        write_json_atomic(  # after every seed: an interrupted call keeps what it finished
+            args.out / "results.json",
+            {"recorded": RECORDED, "fit_points": FIT_POINTS, "results": {ENV: results},
+             "provenance": provenance()},
+        )  # fmt: skip
+
+
+if __name__ == "__main__":
+    main()
