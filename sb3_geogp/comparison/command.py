@@ -32,7 +32,12 @@ from sb3_geogp.comparison.hyperparams import (
     GP_KWARGS,
     HyperparamsFile,
 )
-from sb3_geogp.comparison.results import VERDICT_TESTS
+from sb3_geogp.comparison.results import (
+    VERDICT_TESTS,
+    load_results,
+    load_sweeps,
+    machine_caution,
+)
 from sb3_geogp.comparison.run import build_model
 from sb3_geogp.comparison.specs import RunSpec, SweepConfig
 from sb3_geogp.comparison.sweep import pending_runs, run_sweep
@@ -189,7 +194,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
         default=None,
         metavar="DIR",
         help="also compare each critic with the same critic of the sweep in DIR (several: "
-        "read as one sweep, a cell found in several taken from the last)",
+        "read as one sweep, a cell found in several taken from the last); the report and the "
+        "command name both sweeps' CPU models, with a caution where they differ (the same "
+        "seed gives other runs there)",
     )
     parser.add_argument("--no-plots", action="store_true", help="skip figures and the table")
     parser.add_argument(
@@ -460,7 +467,7 @@ def run_from_args(args: argparse.Namespace) -> int:
     specs = config.specs()
     n_total = len(specs)
     if args.estimate_from is not None:
-        from sb3_geogp.comparison.results import estimate_sweep_seconds, load_results
+        from sb3_geogp.comparison.results import estimate_sweep_seconds
 
         calibration = load_results(args.estimate_from)
         if not calibration:
@@ -497,6 +504,8 @@ def run_from_args(args: argparse.Namespace) -> int:
 
         for path in write_report(args.out, baseline_dir=args.baseline, test=args.verdict_test):
             print(f"wrote {path}")
+        if args.baseline:
+            print(machine_caution(load_results(args.out), load_sweeps(args.baseline)))
         if not matplotlib_available():
             print("figures skipped: matplotlib is not installed (pip install matplotlib)")
     return 0

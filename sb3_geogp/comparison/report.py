@@ -40,6 +40,7 @@ from sb3_geogp.comparison.results import (
     group_runs,
     load_results,
     load_sweeps,
+    machine_caution,
     stack_curves,
     summary_rows,
 )
@@ -511,11 +512,13 @@ def write_report(
     paths = [md, js, cmd, cjs]
     if baseline_dir is not None:
         dirs = [baseline_dir] if isinstance(baseline_dir, str | Path) else list(baseline_dir)
-        vs = comparisons(results, seed=seed, baseline=load_sweeps(dirs), test=test)
+        baseline = load_sweeps(dirs)
+        vs = comparisons(results, seed=seed, baseline=baseline, test=test)
         paths += [report / "vs_baseline.md", report / "vs_baseline.json"]
         named = ", ".join(f"`{d}`" for d in dirs)
         merged = " (a cell in several: the last)" if len(dirs) > 1 else ""
-        paths[-2].write_text(f"Baseline: {named}{merged}\n\n" + comparisons_markdown(vs))
+        header = f"Baseline: {named}{merged}\n\n{machine_caution(results, baseline)}\n\n"
+        paths[-2].write_text(header + comparisons_markdown(vs))
         paths[-1].write_text(json.dumps(vs, indent=1))
     if not matplotlib_available():
         return paths  # the tables; figures need matplotlib

@@ -131,6 +131,42 @@ def pool_sweeps(out_dirs: Sequence[str | Path]) -> list[dict[str, Any]]:
     return list(runs.values())
 
 
+#: What :func:`cpu_models` names a run that does not record its CPU (made before 0.24.1).
+UNRECORDED_CPU = "unrecorded"
+
+
+def cpu_models(results: Sequence[dict[str, Any]]) -> list[str]:
+    """The CPU models the runs were made on (``provenance.machine.cpu_model``), sorted, each
+    once; :data:`UNRECORDED_CPU` for runs that do not record one."""
+    return sorted(
+        {
+            r.get("provenance", {}).get("machine", {}).get("cpu_model") or UNRECORDED_CPU
+            for r in results
+        }
+    )
+
+
+def machine_caution(results: Sequence[dict[str, Any]], baseline: Sequence[dict[str, Any]]) -> str:
+    """One line naming the CPU models of a sweep's runs and of its baseline's, with a caution
+    where they recorded different ones.
+
+    The same code, versions and seed give another run on another CPU model, parting from its
+    first evaluation where actions are continuous (docs/results.md, "The table's stored PPO
+    MountainCarContinuous runs"); a difference against such a baseline mixes the change under
+    test with the machine.
+    """
+    ours, theirs = cpu_models(results), cpu_models(baseline)
+    line = f"CPU models: this sweep {', '.join(ours)}; baseline {', '.join(theirs)}."
+    recorded = [m for m in (*ours, *theirs) if m != UNRECORDED_CPU]
+    if len(set(recorded)) > 1:
+        line += (
+            " Caution: the runs come from different CPU models, on which the same code and seed "
+            "give other runs; a difference here mixes the change with the machine. Re-run the "
+            "baseline on this machine to compare code alone."
+        )
+    return line
+
+
 def group_runs(results: list[dict[str, Any]]) -> dict[Key, list[dict[str, Any]]]:
     """Results by ``(env_id, algo, critic)``, each list sorted by seed."""
     groups: dict[Key, list[dict[str, Any]]] = defaultdict(list)

@@ -26,6 +26,7 @@ from sb3_geogp.comparison.command import (
 from sb3_geogp.comparison.hyperparams import GP_KWARGS
 from sb3_geogp.comparison.report import write_report
 from sb3_geogp.comparison.specs import RunSpec, SweepConfig
+from sb3_geogp.toolbox.provenance import cpu
 
 MODULE = "tests.comparison.toy_env"
 TOY = f"{MODULE}:ToyEnv-v0"  # no reward_threshold
@@ -281,6 +282,11 @@ def test_an_interrupted_sweep_says_so_and_the_same_command_resumes_it(
     assert main(argv) == 0
     assert "ran 1 runs, 1 were already done" in capsys.readouterr().out
     assert sorted(p.stem for p in (out / "runs").glob("*.json")) == sorted(calls)
+    # against a baseline (here itself) the command names both sweeps' CPU models
+    again = [a for a in argv if a != "--no-plots"] + ["--baseline", str(out)]
+    assert main(again) == 0
+    here = cpu()["cpu_model"] or "unrecorded"  # both made here
+    assert f"CPU models: this sweep {here}; baseline {here}.\n" in capsys.readouterr().out
 
 
 def test_mistakes_end_in_one_line_and_status_2_before_any_run(

@@ -29,6 +29,7 @@ from sb3_geogp.comparison.results import (
     group_runs,
     load_results,
     load_sweeps,
+    machine_caution,
     pool_sweeps,
     rerun_comparisons,
     summary_rows,
@@ -183,6 +184,29 @@ def test_comparison_against_a_baseline_sweep() -> None:
     assert final["geodesic"]["fw_level"] == pytest.approx(1 - 0.05 / 3)
     table = comparisons_markdown(diffs)
     assert "geodesic − baseline geodesic" in table and "rbf − mlp" not in table
+
+
+def _on(results: list[dict[str, Any]], cpu: str | None) -> list[dict[str, Any]]:
+    """``results`` as made on a machine of CPU model ``cpu`` (None: before it was recorded)."""
+    if cpu is None:
+        return results
+    return [{**r, "provenance": {"machine": {"cpu_model": cpu}}} for r in results]
+
+
+def test_a_baseline_from_another_cpu_model_is_named_with_a_caution() -> None:
+    base, arm = _results(), _results()
+    same = machine_caution(_on(arm, "AMD EPYC"), _on(base, "AMD EPYC"))
+    assert same == "CPU models: this sweep AMD EPYC; baseline AMD EPYC."
+    other = machine_caution(_on(arm, "AMD EPYC"), _on(base, "Intel(R) Xeon(R) Processor"))
+    assert other.startswith("CPU models: this sweep AMD EPYC; baseline Intel(R) Xeon(R) Processor.")
+    assert "Caution" in other and "Re-run the baseline on this machine" in other
+    # a baseline pooled from both machines is mixed too
+    pooled = _on(base[:9], "AMD EPYC") + _on(base[9:], "Intel(R) Xeon(R) Processor")
+    mixed = machine_caution(_on(arm, "AMD EPYC"), pooled)
+    assert "baseline AMD EPYC, Intel(R) Xeon(R) Processor." in mixed and "Caution" in mixed
+    # runs that do not record their CPU cannot be told apart: named, no caution
+    unknown = machine_caution(_on(arm, "AMD EPYC"), _on(base, None))
+    assert unknown == "CPU models: this sweep AMD EPYC; baseline unrecorded."
 
 
 def _percentile_bootstrap_of_mean(x: np.ndarray, seed: int = 0) -> tuple[float, float]:

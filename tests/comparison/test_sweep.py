@@ -40,6 +40,7 @@ from sb3_geogp.comparison.run import build_model, result_path, run_one
 from sb3_geogp.comparison.specs import SweepConfig
 from sb3_geogp.comparison.sweep import _record_sweep, _sweep_record, pending_runs, run_sweep
 from sb3_geogp.kernels import KERNELS, GeodesicKernel
+from sb3_geogp.toolbox.provenance import cpu
 
 TINY = SweepConfig(
     algos=("a2c",),
@@ -159,6 +160,9 @@ def test_tiny_sweep_end_to_end_and_resume(
         assert {"summary.md", "comparisons.md", "comparisons.json", "critic_accuracy.png"} <= names
         vs = json.loads((out / "report" / "vs_baseline.json").read_text())
         assert vs and all(d["diff"] == 0 and d["a"] == d["b"] for d in vs)
+        here = cpu()["cpu_model"] or "unrecorded"  # these runs' machine: this one
+        header = (out / "report" / "vs_baseline.md").read_text().split("\n\n")[1]
+        assert header == f"CPU models: this sweep {here}; baseline {here}."
         assert "curves_CartPole-v1.png" in names
         assert "| CartPole-v1" in (out / "report" / "summary.md").read_text().replace("`", "")
 
