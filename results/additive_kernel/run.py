@@ -1,6 +1,7 @@
 """``PLAN.md``: exact GPs with and without an additive kernel component on the batches the
 drop-in PPO default's GP critic is fed on Acrobot-v1 (one call per core; STREAMS is where
-the batches are kept, recorded there where missing, e.g. session 67's)::
+the batches are kept, recorded there where missing as ``results/actor_features`` records them;
+a folder of another version's streams replays that version's batches)::
 
     python results/additive_kernel/run.py --seeds 0 2 4 6 8 --streams STREAMS \\
         --out results/additive_kernel/a
@@ -34,13 +35,10 @@ from sb3_geogp.toolbox.provenance import provenance
 from sb3_geogp.toolbox.scripts import load_script
 
 HERE = Path(__file__).resolve().parent
-SCHEDULE = load_script(HERE.parents[1] / "examples" / "adaptation_schedule.py", "schedule")
-ENV = "Acrobot-v1"
-STEPS = 30_000
-#: The drop-in PPO default: the Laplacian critic fed as the policy is trained.
-RECORDED = {"kernel": "laplacian", "target": None}
-#: Points of each maximum-likelihood fit (``PLAN.md``).
-FIT_POINTS = 512
+#: Session 67's study: its streams (the drop-in PPO default's Acrobot batches, with the actor
+#: at each feed), its scoring and its 512 points per maximum-likelihood fit.
+RECORDING = load_script(HERE.parent / "actor_features" / "run.py", "actor_features")
+SCHEDULE, FIT_POINTS = RECORDING.SCHEDULE, RECORDING.FIT_POINTS
 #: Each model's kernel terms.
 MODELS = {"full": ("full",), "full+additive": ("full", "additive"), "additive": ("additive",)}
 #: Box of every log hyperparameter: lengthscales (in the inputs' spreads), variances (of the
@@ -141,8 +139,7 @@ def main() -> None:
     results: dict[int, Any] = {}
     bar = tqdm(total=len(args.seeds) * len(MODELS), unit="model")
     for seed in args.seeds:
-        path = SCHEDULE.stream_path(args.streams, ENV, seed, STEPS, RECORDED)
-        batches = SCHEDULE.record(ENV, seed, STEPS, path, RECORDED)
+        batches, _ = RECORDING.record(seed, args.streams)
         results[seed] = {}
         for name, terms in MODELS.items():
             results[seed][name] = replay(batches, terms)
@@ -150,7 +147,8 @@ def main() -> None:
         args.out.mkdir(parents=True, exist_ok=True)
         write_json_atomic(  # after every seed: an interrupted call keeps what it finished
             args.out / "results.json",
-            {"recorded": RECORDED, "fit_points": FIT_POINTS, "results": {ENV: results},
+            {"recorded": RECORDING.RECORDED, "fit_points": FIT_POINTS,
+             "results": {RECORDING.ENV: results},
              "provenance": provenance()},
         )  # fmt: skip
 
