@@ -119,6 +119,35 @@ def raw_inputs(k: int, x: th.Tensor) -> np.ndarray:
     return x.double().numpy()
 
 
+def run_replays(
+    doc: str, replays: dict[str, Callable[[list[Batch]], dict[str, Any]]], settings: dict[str, Any]
+) -> None:
+    """The command line of a study on these streams (``results/return_noise``,
+    ``results/additive_kernel``): ``--seeds``, ``--streams``, ``--out``; each seed's batches
+    (:func:`record`) replayed by every predictor of ``replays``, and ``OUT/results.json``
+    written after every seed with ``settings``, the results by env, seed and predictor, and the
+    provenance (an interrupted call keeps the seeds it finished)."""
+    parser = argparse.ArgumentParser(description=doc.split("\n\n")[0])
+    parser.add_argument("--seeds", nargs="+", type=int, required=True)
+    parser.add_argument("--streams", type=Path, required=True)
+    parser.add_argument("--out", type=Path, required=True)
+    args = parser.parse_args()
+    th.set_num_threads(1)
+    results: dict[int, Any] = {}
+    bar = tqdm(total=len(args.seeds) * len(replays), unit="replay")
+    for seed in args.seeds:
+        batches, _ = record(seed, args.streams)
+        results[seed] = {}
+        for name, replay in replays.items():
+            results[seed][name] = replay(batches)
+            bar.update()
+        args.out.mkdir(parents=True, exist_ok=True)
+        write_json_atomic(
+            args.out / "results.json",
+            {**settings, "results": {ENV: results}, "provenance": provenance()},
+        )
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--seeds", nargs="+", type=int, required=True)

@@ -22,16 +22,13 @@ starts, its posterior on every point of the batch.
 
 from __future__ import annotations
 
-import argparse
+import functools
 import math
 from pathlib import Path
 from typing import Any
 
 import torch as th
-from tqdm.auto import tqdm
 
-from sb3_geogp.comparison.run import write_json_atomic
-from sb3_geogp.toolbox.provenance import provenance
 from sb3_geogp.toolbox.scripts import load_script
 
 HERE = Path(__file__).resolve().parent
@@ -130,27 +127,9 @@ def replay(batches: list[Any], terms: tuple[str, ...]) -> dict[str, Any]:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--seeds", nargs="+", type=int, required=True)
-    parser.add_argument("--streams", type=Path, required=True)
-    parser.add_argument("--out", type=Path, required=True)
-    args = parser.parse_args()
-    th.set_num_threads(1)
-    results: dict[int, Any] = {}
-    bar = tqdm(total=len(args.seeds) * len(MODELS), unit="model")
-    for seed in args.seeds:
-        batches, _ = RECORDING.record(seed, args.streams)
-        results[seed] = {}
-        for name, terms in MODELS.items():
-            results[seed][name] = replay(batches, terms)
-            bar.update()
-        args.out.mkdir(parents=True, exist_ok=True)
-        write_json_atomic(  # after every seed: an interrupted call keeps what it finished
-            args.out / "results.json",
-            {"recorded": RECORDING.RECORDED, "fit_points": FIT_POINTS,
-             "results": {RECORDING.ENV: results},
-             "provenance": provenance()},
-        )  # fmt: skip
+    replays = {name: functools.partial(replay, terms=terms) for name, terms in MODELS.items()}
+    settings = {"recorded": RECORDING.RECORDED, "fit_points": FIT_POINTS}
+    RECORDING.run_replays(__doc__, replays, settings)
 
 
 if __name__ == "__main__":

@@ -12,17 +12,14 @@ drop-in PPO default's GP critic is fed on Acrobot-v1, recorded by
 
 from __future__ import annotations
 
-import argparse
+import functools
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import torch as th
-from tqdm.auto import tqdm
 
-from sb3_geogp.comparison.run import write_json_atomic
 from sb3_geogp.studies.return_noise import episode_steps, fit_exact_gp, trajectory_noise
-from sb3_geogp.toolbox.provenance import provenance
 from sb3_geogp.toolbox.scripts import load_script
 
 HERE = Path(__file__).resolve().parent
@@ -68,30 +65,8 @@ def replay(batches: list[Any], noise: str) -> dict[str, Any]:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--seeds", nargs="+", type=int, required=True)
-    parser.add_argument("--streams", type=Path, required=True)
-    parser.add_argument("--out", type=Path, required=True)
-    args = parser.parse_args()
-    th.set_num_threads(1)
-    results: dict[int, Any] = {}
-    bar = tqdm(total=len(args.seeds) * len(NOISES), unit="fit series")
-    for seed in args.seeds:
-        batches, _ = RECORDING.record(seed, args.streams)
-        results[seed] = {}
-        for noise in NOISES:
-            results[seed][noise] = replay(batches, noise)
-            bar.update()
-    args.out.mkdir(parents=True, exist_ok=True)
-    write_json_atomic(
-        args.out / "results.json",
-        {
-            "gamma": GAMMA,
-            "max_points": MAX_POINTS,
-            "results": {ENV: results},
-            "provenance": provenance(),
-        },
-    )
+    replays = {noise: functools.partial(replay, noise=noise) for noise in NOISES}
+    RECORDING.run_replays(__doc__, replays, {"gamma": GAMMA, "max_points": MAX_POINTS})
 
 
 if __name__ == "__main__":
