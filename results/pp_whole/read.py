@@ -20,8 +20,8 @@ HERE = Path(__file__).resolve().parent
 WHOLE = load_script(HERE.parent / "whole_batch" / "read.py", "whole_batch")
 SEEDS = range(783, 883)
 ARMS = ("whole", "old", "mlp")
-#: A final return below this is a run still climbing at the end (``results/paper_pendulum_tail``).
-SLOW = 115.0
+#: What a slow run is, and the test of their shares (``results/paper_pendulum_tail``).
+TAIL = load_script(HERE.parent / "paper_pendulum_tail" / "read.py", "paper_pendulum_tail")
 
 
 def arm_runs(arm: str) -> dict[int, dict[str, Any]]:
@@ -72,22 +72,21 @@ def main() -> None:
     print("|---|---:|---:|---:|---:|")
     for arm in ARMS:
         print(f"| {arm} | {final[arm].mean():.1f} | {np.median(final[arm]):.1f} | "
-              f"{int((final[arm] < SLOW).sum())} | {auc[arm].mean():.1f} |")  # fmt: skip
+              f"{int((final[arm] < TAIL.SLOW).sum())} | {auc[arm].mean():.1f} |")  # fmt: skip
     diff = final["whole"] - final["old"]
     mean, half = (float(v) for v in mean_ci(diff, nan_policy="propagate"))
     low, high = mean - half, mean + half
     rule = "costs the cell" if high < 0 else "helps" if low > 0 else "no difference"
     print(f"\n**Rule 1** (primary): final return, whole − old, paired by seed: {mean:+.2f} "
           f"[{low:+.2f}, {high:+.2f}] (95 % t): **{rule}**.\n")  # fmt: skip
-    slow = [int((final[arm] < SLOW).sum()) for arm in ("whole", "old")]
-    fisher = sps.fisher_exact([[slow[0], len(SEEDS) - slow[0]], [slow[1], len(SEEDS) - slow[1]]])
+    slow_whole, slow_old, fisher_p = TAIL.slow_runs(final["whole"], final["old"])
     auc_diff = auc["whole"] - auc["old"]
     a_mean, a_half = (float(v) for v in mean_ci(auc_diff, nan_policy="propagate"))
     print("Secondary, decided on by nothing:\n")
     print(f"- whole − old: Wilcoxon signed-rank p = {WHOLE.wilcoxon(diff):.2g}, "
           f"{int((diff > 0).sum())} seeds up / {int((diff < 0).sum())} down; area under the "
           f"curve {a_mean:+.2f} [{a_mean - a_half:+.2f}, {a_mean + a_half:+.2f}]; runs below "
-          f"115: {slow[0]} against {slow[1]}, Fisher's exact p = {fisher.pvalue:.2f}.")  # fmt: skip
+          f"115: {slow_whole} against {slow_old}, Fisher's exact p = {fisher_p:.2f}.")  # fmt: skip
     for arm in ("whole", "old"):
         pooled = [*runs[arm].values(), *runs["mlp"].values()]
         rows = {r["metric"]: r for r in comparisons(pooled) if r["b"] == "mlp"}
