@@ -51,7 +51,11 @@ def kernel(a: th.Tensor, b: th.Tensor, p: dict[str, th.Tensor]) -> th.Tensor:
     k = th.zeros(a.shape[0], b.shape[0], dtype=a.dtype)
     if "log_l" in p:
         scale = p["log_l"].exp()
-        k = k + p["log_sf"].exp() * th.exp(-th.cdist(a / scale, b / scale))
+        full = th.exp(-th.cdist(a / scale, b / scale))
+        if "mirror" in p:  # results/symmetric_kernel: the term made (partly) invariant
+            weight = th.sigmoid(p["logit_w"]) if "logit_w" in p else 1.0
+            full = full + weight * th.exp(-th.cdist(a / scale, b * p["mirror"] / scale))
+        k = k + p["log_sf"].exp() * full
     if "log_a" in p:
         scale = p["log_a"].exp()
         terms = th.zeros_like(k)
@@ -71,22 +75,34 @@ def negative_evidence(x: th.Tensor, y: th.Tensor, p: dict[str, th.Tensor]) -> th
 
 
 def clamped(p: dict[str, th.Tensor]) -> dict[str, th.Tensor]:
-    """``p`` inside :data:`LOG_BOUNDS` (the optimiser works on the unclamped values)."""
-    return {
-        k: v.clamp(*LOG_BOUNDS["scale" if k in ("log_l", "log_a") else "var"]) for k, v in p.items()
-    }
+    """``p``'s log hyperparameters inside :data:`LOG_BOUNDS` (the optimiser works on the
+    unclamped values)."""
+    bounds = {k: LOG_BOUNDS["scale" if k in ("log_l", "log_a") else "var"] for k in p}
+    return {k: v.clamp(*bounds[k]) if k.startswith("log_") else v for k, v in p.items()}
 
 
-def fit(x: th.Tensor, y: th.Tensor, terms: tuple[str, ...], seed: int) -> dict[str, th.Tensor]:
+def fit(
+    x: th.Tensor,
+    y: th.Tensor,
+    terms: tuple[str, ...],
+    seed: int,
+    mirror: th.Tensor | None = None,
+) -> dict[str, th.Tensor]:
     """Maximum-likelihood hyperparameters of the kernel of ``terms`` on :data:`FIT_POINTS` of
-    the points, drawn with ``seed``; starts: lengthscales 1, the variances shared equally."""
+    the points, drawn with ``seed``; starts: lengthscales 1, the variances shared equally.
+    ``mirror`` (d,), signs: with ``"mirror"`` in ``terms`` the full term is summed over
+    ``x'`` and its mirror image, by a weight of 1, or learned from a start of 1/2 with
+    ``"weight"`` in ``terms`` (``results/symmetric_kernel``)."""
     d = x.shape[1]
-    share = math.log(1.0 / len(terms))
+    share = math.log(1.0 / len({"full", "additive"} & set(terms)))
     p: dict[str, th.Tensor] = {"log_sn": th.tensor(math.log(0.1), dtype=th.float64)}
     if "full" in terms:
         p |= {"log_l": th.zeros(d, dtype=th.float64), "log_sf": th.tensor(share).double()}
     if "additive" in terms:
         p |= {"log_a": th.zeros(d, dtype=th.float64), "log_sa": th.tensor(share).double()}
+    if "weight" in terms:
+        p["logit_w"] = th.zeros((), dtype=th.float64)
+    fixed = {"mirror": mirror} if "mirror" in terms and mirror is not None else {}
     for v in p.values():
         v.requires_grad_(True)
     rows = th.randperm(x.shape[0], generator=th.Generator().manual_seed(seed))[:FIT_POINTS]
@@ -95,25 +111,31 @@ def fit(x: th.Tensor, y: th.Tensor, terms: tuple[str, ...], seed: int) -> dict[s
 
     def closure() -> th.Tensor:
         opt.zero_grad()
-        loss = negative_evidence(xs, ys, clamped(p))
+        loss = negative_evidence(xs, ys, clamped(p) | fixed)
         loss.backward()
         return loss
 
     opt.step(closure)
-    return {k: v.detach() for k, v in clamped(p).items()}
+    return {k: v.detach() for k, v in clamped(p).items()} | fixed
 
 
-def replay(batches: list[Any], terms: tuple[str, ...]) -> dict[str, Any]:
-    """Score every batch by the exact GP of ``terms`` on the batch before it (``PLAN.md``)."""
+def replay(
+    batches: list[Any], terms: tuple[str, ...], mirror: th.Tensor | None = None
+) -> dict[str, Any]:
+    """Score every batch by the exact GP of ``terms`` (``mirror``: :func:`fit`'s) on the batch
+    before it (``PLAN.md``)."""
     newest: list[tuple[th.Tensor, th.Tensor]] = []
     shares: list[float] = []
+    weights: list[float] = []
 
     def predict(x_new: th.Tensor) -> th.Tensor:
         x, y = newest[0]
         spread = x.std(dim=0).where(x.std(dim=0) > 0, th.ones(()).double())
         mean, sd = y.mean(), y.std()
         xs, ys = x / spread, (y - mean) / sd
-        p = fit(xs, ys, terms, seed=len(shares))
+        p = fit(xs, ys, terms, seed=len(shares), mirror=mirror)
+        if "logit_w" in p:
+            weights.append(th.sigmoid(p["logit_w"]).item())
         parts = [p[k].exp().item() for k in ("log_sf", "log_sa") if k in p]
         shares.append(p["log_sa"].exp().item() / sum(parts) if "log_sa" in p else 0.0)
         k = kernel(xs, xs, p) + (p["log_sn"].exp() + JITTER) * th.eye(len(ys)).double()
@@ -123,7 +145,8 @@ def replay(batches: list[Any], terms: tuple[str, ...]) -> dict[str, Any]:
     def learn(x: th.Tensor, y: th.Tensor, starts: th.Tensor | None) -> None:
         newest[:] = [(x.double(), y.double())]
 
-    return dict(additive_share=shares, **SCHEDULE._scored(batches, predict, learn))
+    extra = {"mirror_weight": weights} if "weight" in terms else {}
+    return dict(additive_share=shares, **extra, **SCHEDULE._scored(batches, predict, learn))
 
 
 def main() -> None:
