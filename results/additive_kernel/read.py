@@ -21,11 +21,11 @@ PRIMARY = ("full+additive", "full")
 SECONDARY = ("additive", "full")
 
 
-def load() -> dict[int, dict[str, dict[str, list[float] | float]]]:
-    """Every seed's results, by seed and model."""
+def load(folder: Path = HERE) -> dict[int, dict[str, dict[str, list[float] | float]]]:
+    """Every seed's results in ``folder`` (its parts ``a`` and ``b``), by seed and model."""
     runs: dict[int, dict[str, dict[str, list[float] | float]]] = {}
     for part in ("a", "b"):
-        path = HERE / part / "results.json"
+        path = folder / part / "results.json"
         if path.is_file():
             runs |= {int(s): r for s, r in json.loads(path.read_text())["results"][ENV].items()}
     return dict(sorted(runs.items()))
@@ -79,22 +79,28 @@ def main() -> None:
         plot(tail, seeds, args.plot)
 
 
-def plot(tail: dict[str, np.ndarray], seeds: list[int], path: Path) -> None:
-    """Each seed's tail score under the three models, joined by seed."""
+def plot(
+    tail: dict[str, np.ndarray],
+    seeds: list[int],
+    path: Path,
+    models: tuple[str, ...] = MODELS,
+    title: str = "Acrobot-v1: exact GPs on the newest batch, by kernel",
+) -> None:
+    """Each seed's tail score under ``models``, joined by seed."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(6, 4))
-    x = np.arange(len(MODELS))
+    x = np.arange(len(models))
     for i, seed in enumerate(seeds):
-        ax.plot(x, [tail[m][i] for m in MODELS], "-o", color="0.6", lw=0.8, ms=3)
-        ax.annotate(str(seed), (x[-1] + 0.05, tail[MODELS[-1]][i]), fontsize=7, color="0.4")
-    ax.plot(x, [tail[m].mean() for m in MODELS], "-s", color="C3", lw=2, label="mean over seeds")
-    ax.set_xticks(x, MODELS)
+        ax.plot(x, [tail[m][i] for m in models], "-o", color="0.6", lw=0.8, ms=3)
+        ax.annotate(str(seed), (x[-1] + 0.05, tail[models[-1]][i]), fontsize=7, color="0.4")
+    ax.plot(x, [tail[m].mean() for m in models], "-s", color="C3", lw=2, label="mean over seeds")
+    ax.set_xticks(x, models)
     ax.set_ylabel("explained variance of the next batch (last 20 %)")
-    ax.set_title("Acrobot-v1: exact GPs on the newest batch, by kernel")
+    ax.set_title(title)
     ax.legend(loc="lower left")
     fig.tight_layout()
     fig.savefig(path, dpi=120)
