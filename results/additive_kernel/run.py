@@ -50,11 +50,10 @@ def kernel(a: th.Tensor, b: th.Tensor, p: dict[str, th.Tensor]) -> th.Tensor:
     ``log_sa``)."""
     k = th.zeros(a.shape[0], b.shape[0], dtype=a.dtype)
     if "log_l" in p:
-        scale = p["log_l"].exp()
-        full = th.exp(-th.cdist(a / scale, b / scale))
+        full = th.exp(-th.cdist(metric(a, p), metric(b, p)))
         if "mirror" in p:  # results/symmetric_kernel: the term made (partly) invariant
             weight = th.sigmoid(p["logit_w"]) if "logit_w" in p else 1.0
-            full = full + weight * th.exp(-th.cdist(a / scale, b * p["mirror"] / scale))
+            full = full + weight * th.exp(-th.cdist(metric(a, p), metric(b * p["mirror"], p)))
         k = k + p["log_sf"].exp() * full
     if "log_a" in p:
         scale = p["log_a"].exp()
@@ -63,6 +62,18 @@ def kernel(a: th.Tensor, b: th.Tensor, p: dict[str, th.Tensor]) -> th.Tensor:
             terms = terms + th.exp(-(a[:, i, None] - b[None, :, i]).abs() / scale[i])
         k = k + p["log_sa"].exp() * terms / a.shape[1]
     return k
+
+
+def metric(x: th.Tensor, p: dict[str, th.Tensor]) -> th.Tensor:
+    """``x`` (n, d) in the full term's metric: divided by the lengthscales, then, with
+    ``shear`` in ``p`` (``results/metric_kernel``), mapped by ``I + tril(shear, -1)``, so
+    that the distance is that of any positive-definite metric ``L^T L``, ``L`` lower
+    triangular."""
+    z = x / p["log_l"].exp()
+    if "shear" not in p:
+        return z
+    eye = th.eye(x.shape[1], dtype=x.dtype)
+    return z @ (eye + th.tril(p["shear"], diagonal=-1)).T
 
 
 def negative_evidence(x: th.Tensor, y: th.Tensor, p: dict[str, th.Tensor]) -> th.Tensor:
@@ -92,7 +103,8 @@ def fit(
     the points, drawn with ``seed``; starts: lengthscales 1, the variances shared equally.
     ``mirror`` (d,), signs: with ``"mirror"`` in ``terms`` the full term is summed over
     ``x'`` and its mirror image, by a weight of 1, or learned from a start of 1/2 with
-    ``"weight"`` in ``terms`` (``results/symmetric_kernel``)."""
+    ``"weight"`` in ``terms`` (``results/symmetric_kernel``). With ``"shear"`` in ``terms``
+    the full term's metric is learned whole (:func:`metric`), from the diagonal one."""
     d = x.shape[1]
     share = math.log(1.0 / len({"full", "additive"} & set(terms)))
     p: dict[str, th.Tensor] = {"log_sn": th.tensor(math.log(0.1), dtype=th.float64)}
@@ -102,6 +114,8 @@ def fit(
         p |= {"log_a": th.zeros(d, dtype=th.float64), "log_sa": th.tensor(share).double()}
     if "weight" in terms:
         p["logit_w"] = th.zeros((), dtype=th.float64)
+    if "shear" in terms:
+        p["shear"] = th.zeros(d, d, dtype=th.float64)
     fixed = {"mirror": mirror} if "mirror" in terms and mirror is not None else {}
     for v in p.values():
         v.requires_grad_(True)
