@@ -52,31 +52,49 @@ def main() -> None:
     args = parser.parse_args()
     runs = load()
     seeds = list(runs)
-    tail = {m: np.array([runs[s][m]["tail"] for s in seeds]) for m in MODELS}
+    tail = tables(runs, MODELS, (PRIMARY, SECONDARY))
+    share = [v for s in seeds for v in runs[s]["full+additive"]["additive_share"]]
+    print(f"\nPrimary ({' − '.join(PRIMARY)}, last 20 %), by PLAN.md's rule: "
+          f"**{verdict(tail[PRIMARY[0]] - tail[PRIMARY[1]])}** ({len(seeds)} seeds). The "
+          f"additive term's share of the fitted signal variance in `full+additive`, quartiles "
+          f"over its fits: {quartiles(share)}.")  # fmt: skip
+    if args.plot:
+        plot(tail, seeds, args.plot)
+
+
+def tables(
+    runs: dict[int, dict[str, dict[str, list[float] | float]]],
+    models: tuple[str, ...],
+    pairs: tuple[tuple[str, str], ...],
+    preface: str = "",
+) -> dict[str, np.ndarray]:
+    """Print each model's score and the paired differences of ``pairs`` (``preface`` after
+    the heading); return each model's tail score by seed, in ``runs``' order."""
+    seeds = list(runs)
+    tail = {m: np.array([runs[s][m]["tail"] for s in seeds]) for m in models}
     every = {
-        m: np.array([np.mean(runs[s][m]["explained_variance"]) for s in seeds]) for m in MODELS
+        m: np.array([np.mean(runs[s][m]["explained_variance"]) for s in seeds]) for m in models
     }
     print(f"Acrobot-v1, PPO 30,000 steps, seeds {', '.join(map(str, seeds))}: each batch "
           "predicted by an exact GP on the batch before it (PLAN.md)\n")  # fmt: skip
+    if preface:
+        print(f"{preface}\n")
     print("| model | last 20 % of scored batches [lowest, highest] | all scored batches |")
     print("|---|---:|---:|")
-    for m in MODELS:
+    for m in models:
         print(f"| {m} | {tail[m].mean():.3f} [{tail[m].min():.2f}, {tail[m].max():.2f}] | "
               f"{every[m].mean():.3f} |")  # fmt: skip
     print("\n| difference, paired by seed [95 % t] | last 20 % | all scored batches | up / down |")
     print("|---|---:|---:|---:|")
-    for a, b in (PRIMARY, SECONDARY):
+    for a, b in pairs:
         diff = tail[a] - tail[b]
         print(f"| {a} − {b} | {interval(diff)} | {interval(every[a] - every[b])} | "
               f"{int((diff > 0).sum())} / {int((diff < 0).sum())} |")  # fmt: skip
-    share = [v for s in seeds for v in runs[s]["full+additive"]["additive_share"]]
-    quartiles = " / ".join(f"{q:.2f}" for q in np.quantile(share, [0.25, 0.5, 0.75]))
-    print(f"\nPrimary ({' − '.join(PRIMARY)}, last 20 %), by PLAN.md's rule: "
-          f"**{verdict(tail[PRIMARY[0]] - tail[PRIMARY[1]])}** ({len(seeds)} seeds). The "
-          f"additive term's share of the fitted signal variance in `full+additive`, quartiles "
-          f"over its fits: {quartiles}.")  # fmt: skip
-    if args.plot:
-        plot(tail, seeds, args.plot)
+    return tail
+
+
+def quartiles(values: list[float]) -> str:
+    return " / ".join(f"{q:.2f}" for q in np.quantile(values, [0.25, 0.5, 0.75]))
 
 
 def plot(
