@@ -8,7 +8,9 @@ from __future__ import annotations
 
 import argparse
 import json
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -19,11 +21,13 @@ ENV = "Acrobot-v1"
 MODELS = ("full", "full+additive", "additive")
 PRIMARY = ("full+additive", "full")
 SECONDARY = ("additive", "full")
+#: Each seed's results by seed, model and field.
+Runs = dict[int, dict[str, dict[str, Any]]]
 
 
-def load(folder: Path = HERE) -> dict[int, dict[str, dict[str, list[float] | float]]]:
+def load(folder: Path = HERE) -> Runs:
     """Every seed's results in ``folder`` (its parts ``a`` and ``b``), by seed and model."""
-    runs: dict[int, dict[str, dict[str, list[float] | float]]] = {}
+    runs: Runs = {}
     for part in ("a", "b"):
         path = folder / part / "results.json"
         if path.is_file():
@@ -47,23 +51,44 @@ def verdict(diff: np.ndarray) -> str:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    report(__doc__, HERE, MODELS, (PRIMARY, SECONDARY), share_note)
+
+
+def share_note(runs: Runs) -> str:
+    share = [v for s in runs for v in runs[s]["full+additive"]["additive_share"]]
+    return (
+        " The additive term's share of the fitted signal variance in `full+additive`, "
+        f"quartiles over its fits: {quartiles(share)}."
+    )
+
+
+def report(
+    doc: str,
+    folder: Path,
+    models: tuple[str, ...],
+    pairs: tuple[tuple[str, str], ...],
+    note: Callable[[Runs], str] = lambda runs: "",
+    preface: Callable[[Runs], str] = lambda runs: "",
+    title: str = "Acrobot-v1: exact GPs on the newest batch, by kernel",
+) -> None:
+    """The command line of these exact-GP studies' readings (``--plot PNG``): the results in
+    ``folder`` (:func:`load`) as :func:`tables`, then the verdict of ``pairs``' first
+    difference by :func:`verdict` and what ``note`` says of them."""
+    parser = argparse.ArgumentParser(description=doc.split("\n\n")[0])
     parser.add_argument("--plot", type=Path, default=None)
     args = parser.parse_args()
-    runs = load()
-    seeds = list(runs)
-    tail = tables(runs, MODELS, (PRIMARY, SECONDARY))
-    share = [v for s in seeds for v in runs[s]["full+additive"]["additive_share"]]
-    print(f"\nPrimary ({' − '.join(PRIMARY)}, last 20 %), by PLAN.md's rule: "
-          f"**{verdict(tail[PRIMARY[0]] - tail[PRIMARY[1]])}** ({len(seeds)} seeds). The "
-          f"additive term's share of the fitted signal variance in `full+additive`, quartiles "
-          f"over its fits: {quartiles(share)}.")  # fmt: skip
+    runs = load(folder)
+    tail = tables(runs, models, pairs, preface(runs))
+    primary = pairs[0]
+    print(f"\nPrimary ({' − '.join(primary)}, last 20 %), by PLAN.md's rule: "
+          f"**{verdict(tail[primary[0]] - tail[primary[1]])}** ({len(runs)} seeds)."
+          f"{note(runs)}")  # fmt: skip
     if args.plot:
-        plot(tail, seeds, args.plot)
+        plot(tail, list(runs), args.plot, models, title)
 
 
 def tables(
-    runs: dict[int, dict[str, dict[str, list[float] | float]]],
+    runs: Runs,
     models: tuple[str, ...],
     pairs: tuple[tuple[str, str], ...],
     preface: str = "",

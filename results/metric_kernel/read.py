@@ -7,7 +7,6 @@ its ``full`` predictor equals ``results/additive_kernel``'s::
 
 from __future__ import annotations
 
-import argparse
 from pathlib import Path
 
 from sb3_geogp.toolbox.scripts import load_script
@@ -20,17 +19,9 @@ PRIMARY = ("metric", "full")
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--plot", type=Path, default=None)
-    args = parser.parse_args()
-    runs = ADDITIVE.load(HERE)
-    tail = ADDITIVE.tables(runs, MODELS, (PRIMARY,), SYMMETRIC.same_control(runs))
-    verdict = ADDITIVE.verdict(tail[PRIMARY[0]] - tail[PRIMARY[1]])
-    print(f"\nPrimary ({' − '.join(PRIMARY)}, last 20 %), by PLAN.md's rule: "
-          f"**{verdict}** ({len(runs)} seeds).")  # fmt: skip
-    if args.plot:
-        title = "Acrobot-v1: exact GPs on the newest batch, by metric"
-        ADDITIVE.plot(tail, list(runs), args.plot, MODELS, title)
+    title = "Acrobot-v1: exact GPs on the newest batch, by metric"
+    preface = SYMMETRIC.same_control
+    ADDITIVE.report(__doc__, HERE, MODELS, (PRIMARY,), preface=preface, title=title)
 
 
 if __name__ == "__main__":

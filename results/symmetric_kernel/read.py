@@ -7,7 +7,6 @@ its ``full`` predictor equals ``results/additive_kernel``'s::
 
 from __future__ import annotations
 
-import argparse
 from pathlib import Path
 
 from sb3_geogp.toolbox.scripts import load_script
@@ -20,23 +19,19 @@ SECONDARY = ("mirror_learned", "full")
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--plot", type=Path, default=None)
-    args = parser.parse_args()
-    runs = ADDITIVE.load(HERE)
-    seeds = list(runs)
-    tail = ADDITIVE.tables(runs, MODELS, (PRIMARY, SECONDARY), same_control(runs))
-    weights = [v for s in seeds for v in runs[s]["mirror_learned"]["mirror_weight"]]
-    print(f"\nPrimary ({' − '.join(PRIMARY)}, last 20 %), by PLAN.md's rule: "
-          f"**{ADDITIVE.verdict(tail[PRIMARY[0]] - tail[PRIMARY[1]])}** ({len(seeds)} seeds). "
-          f"The learned mirror weight `w`, quartiles over its fits: "
-          f"{ADDITIVE.quartiles(weights)}.")  # fmt: skip
-    if args.plot:
-        title = "Acrobot-v1: exact GPs on the newest batch, by mirror weight"
-        ADDITIVE.plot(tail, seeds, args.plot, MODELS, title)
+    title = "Acrobot-v1: exact GPs on the newest batch, by mirror weight"
+    pairs = (PRIMARY, SECONDARY)
+    ADDITIVE.report(__doc__, HERE, MODELS, pairs, weight_note, same_control, title)
 
 
-def same_control(runs: dict[int, dict[str, dict[str, list[float] | float]]]) -> str:
+def weight_note(runs: ADDITIVE.Runs) -> str:
+    weights = [v for s in runs for v in runs[s]["mirror_learned"]["mirror_weight"]]
+    return (
+        f" The learned mirror weight `w`, quartiles over its fits: {ADDITIVE.quartiles(weights)}."
+    )
+
+
+def same_control(runs: ADDITIVE.Runs) -> str:
     """Whether the ``full`` predictor of ``runs`` equals ``results/additive_kernel``'s, in
     words."""
     additive = ADDITIVE.load()
