@@ -50,10 +50,12 @@ def kernel(a: th.Tensor, b: th.Tensor, p: dict[str, th.Tensor]) -> th.Tensor:
     ``log_sa``)."""
     k = th.zeros(a.shape[0], b.shape[0], dtype=a.dtype)
     if "log_l" in p:
-        full = th.exp(-th.cdist(metric(a, p), metric(b, p)))
+        scale = p["log_l"].exp()  # one node, so that the gradients sum as they always did
+        full = th.exp(-th.cdist(metric(a, scale, p), metric(b, scale, p)))
         if "mirror" in p:  # results/symmetric_kernel: the term made (partly) invariant
             weight = th.sigmoid(p["logit_w"]) if "logit_w" in p else 1.0
-            full = full + weight * th.exp(-th.cdist(metric(a, p), metric(b * p["mirror"], p)))
+            mirrored = metric(b * p["mirror"], scale, p)
+            full = full + weight * th.exp(-th.cdist(metric(a, scale, p), mirrored))
         k = k + p["log_sf"].exp() * full
     if "log_a" in p:
         scale = p["log_a"].exp()
@@ -64,12 +66,12 @@ def kernel(a: th.Tensor, b: th.Tensor, p: dict[str, th.Tensor]) -> th.Tensor:
     return k
 
 
-def metric(x: th.Tensor, p: dict[str, th.Tensor]) -> th.Tensor:
-    """``x`` (n, d) in the full term's metric: divided by the lengthscales, then, with
-    ``shear`` in ``p`` (``results/metric_kernel``), mapped by ``I + tril(shear, -1)``, so
-    that the distance is that of any positive-definite metric ``L^T L``, ``L`` lower
-    triangular."""
-    z = x / p["log_l"].exp()
+def metric(x: th.Tensor, scale: th.Tensor, p: dict[str, th.Tensor]) -> th.Tensor:
+    """``x`` (n, d) in the full term's metric: divided by the lengthscales ``scale`` (d,),
+    then, with ``shear`` in ``p`` (``results/metric_kernel``), mapped by
+    ``I + tril(shear, -1)``, so that the distance is that of any positive-definite metric
+    ``L^T L``, ``L`` lower triangular."""
+    z = x / scale
     if "shear" not in p:
         return z
     eye = th.eye(x.shape[1], dtype=x.dtype)
