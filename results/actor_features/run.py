@@ -120,11 +120,15 @@ def raw_inputs(k: int, x: th.Tensor) -> np.ndarray:
 
 
 def run_replays(
-    doc: str, replays: dict[str, Callable[[list[Batch]], dict[str, Any]]], settings: dict[str, Any]
+    doc: str,
+    replays: dict[str, Callable[..., dict[str, Any]]],
+    settings: dict[str, Any],
+    seeded: bool = False,
 ) -> None:
     """The command line of a study on these streams (``results/return_noise``,
     ``results/additive_kernel``): ``--seeds``, ``--streams``, ``--out``; each seed's batches
-    (:func:`record`) replayed by every predictor of ``replays``, and ``OUT/results.json``
+    (:func:`record`) replayed by every predictor of ``replays`` (called with the batches, and
+    with the seed too where ``seeded``), and ``OUT/results.json``
     written after every seed with ``settings``, the results by env, seed and predictor, and the
     provenance (an interrupted call keeps the seeds it finished)."""
     parser = argparse.ArgumentParser(description=doc.split("\n\n")[0])
@@ -139,7 +143,7 @@ def run_replays(
         batches, _ = record(seed, args.streams)
         results[seed] = {}
         for name, replay in replays.items():
-            results[seed][name] = replay(batches)
+            results[seed][name] = replay(batches, seed) if seeded else replay(batches)
             bar.update()
         args.out.mkdir(parents=True, exist_ok=True)
         write_json_atomic(
