@@ -70,19 +70,24 @@ def report(
     note: Callable[[Runs], str] = lambda runs: "",
     preface: Callable[[Runs], str] = lambda runs: "",
     title: str = "Acrobot-v1: exact GPs on the newest batch, by kernel",
+    predicted_by: str = "an exact GP on the batch before it",
+    rule: bool = True,
 ) -> None:
     """The command line of these exact-GP studies' readings (``--plot PNG``): the results in
     ``folder`` (:func:`load`) as :func:`tables`, then the verdict of ``pairs``' first
-    difference by :func:`verdict` and what ``note`` says of them."""
+    difference by :func:`verdict` (unless not ``rule``: a descriptive study) and what ``note``
+    says of them."""
     parser = argparse.ArgumentParser(description=doc.split("\n\n")[0])
     parser.add_argument("--plot", type=Path, default=None)
     args = parser.parse_args()
     runs = load(folder)
-    tail = tables(runs, models, pairs, preface(runs))
+    tail = tables(runs, models, pairs, preface(runs), predicted_by)
     primary = pairs[0]
-    print(f"\nPrimary ({' − '.join(primary)}, last 20 %), by PLAN.md's rule: "
-          f"**{verdict(tail[primary[0]] - tail[primary[1]])}** ({len(runs)} seeds)."
-          f"{note(runs)}")  # fmt: skip
+    ruled = (
+        f"Primary ({' − '.join(primary)}, last 20 %), by PLAN.md's rule: "
+        f"**{verdict(tail[primary[0]] - tail[primary[1]])}** ({len(runs)} seeds)."
+    )
+    print(f"\n{ruled if rule else ''}{note(runs)}")
     if args.plot:
         plot(tail, list(runs), args.plot, models, title)
 
@@ -92,16 +97,18 @@ def tables(
     models: tuple[str, ...],
     pairs: tuple[tuple[str, str], ...],
     preface: str = "",
+    predicted_by: str = "an exact GP on the batch before it",
 ) -> dict[str, np.ndarray]:
     """Print each model's score and the paired differences of ``pairs`` (``preface`` after
-    the heading); return each model's tail score by seed, in ``runs``' order."""
+    the heading, which says what each batch is ``predicted_by``); return each model's tail
+    score by seed, in ``runs``' order."""
     seeds = list(runs)
     tail = {m: np.array([runs[s][m]["tail"] for s in seeds]) for m in models}
     every = {
         m: np.array([np.mean(runs[s][m]["explained_variance"]) for s in seeds]) for m in models
     }
     print(f"Acrobot-v1, PPO 30,000 steps, seeds {', '.join(map(str, seeds))}: each batch "
-          "predicted by an exact GP on the batch before it (PLAN.md)\n")  # fmt: skip
+          f"predicted by {predicted_by} (PLAN.md)\n")  # fmt: skip
     if preface:
         print(f"{preface}\n")
     print("| model | last 20 % of scored batches [lowest, highest] | all scored batches |")
@@ -128,6 +135,8 @@ def plot(
     path: Path,
     models: tuple[str, ...] = MODELS,
     title: str = "Acrobot-v1: exact GPs on the newest batch, by kernel",
+    predicted_by: str = "an exact GP on the batch before it",
+    rule: bool = True,
 ) -> None:
     """Each seed's tail score under ``models``, joined by seed."""
     import matplotlib
