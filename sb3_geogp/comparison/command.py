@@ -32,12 +32,7 @@ from sb3_geogp.comparison.hyperparams import (
     GP_KWARGS,
     HyperparamsFile,
 )
-from sb3_geogp.comparison.results import (
-    VERDICT_TESTS,
-    load_results,
-    load_sweeps,
-    machine_caution,
-)
+from sb3_geogp.comparison.results import VERDICT_TESTS, load_results
 from sb3_geogp.comparison.run import build_model
 from sb3_geogp.comparison.specs import RunSpec, SweepConfig
 from sb3_geogp.comparison.sweep import pending_runs, run_sweep
@@ -502,10 +497,11 @@ def run_from_args(args: argparse.Namespace) -> int:
     if not args.no_plots:
         from sb3_geogp.comparison.report import matplotlib_available, write_report
 
-        for path in write_report(args.out, baseline_dir=args.baseline, test=args.verdict_test):
+        paths = write_report(
+            args.out, baseline_dir=args.baseline, test=args.verdict_test, echo=print
+        )
+        for path in paths:
             print(f"wrote {path}")
-        if args.baseline:
-            print(machine_caution(load_results(args.out), load_sweeps(args.baseline)))
         if not matplotlib_available():
             print("figures skipped: matplotlib is not installed (pip install matplotlib)")
     return 0

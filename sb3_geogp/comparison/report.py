@@ -22,7 +22,7 @@ import importlib.util
 import json
 import math
 import textwrap
-from collections.abc import Collection, Mapping, Sequence
+from collections.abc import Callable, Collection, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -479,6 +479,7 @@ def write_report(
     seed: int = 0,
     baseline_dir: str | Path | Sequence[str | Path] | None = None,
     test: VerdictTest = "bootstrap",
+    echo: Callable[[str], object] | None = None,
 ) -> list[Path]:
     """Figures and summary of the sweep in ``out_dir`` into ``out_dir/report``.
 
@@ -487,7 +488,9 @@ def write_report(
 
     With ``baseline_dir`` (another sweep's folder, or several read as one by
     :func:`load_sweeps`) also ``vs_baseline.md`` / ``.json``: each critic against the same
-    critic there (:func:`comparisons` with ``baseline``).
+    critic there (:func:`comparisons` with ``baseline``), headed by the CPU models of both
+    (:func:`~sb3_geogp.comparison.results.machine_caution`), which ``echo`` (``print``, say)
+    is also given.
 
     Returns
     -------
@@ -517,7 +520,10 @@ def write_report(
         paths += [report / "vs_baseline.md", report / "vs_baseline.json"]
         named = ", ".join(f"`{d}`" for d in dirs)
         merged = " (a cell in several: the last)" if len(dirs) > 1 else ""
-        header = f"Baseline: {named}{merged}\n\n{machine_caution(results, baseline)}\n\n"
+        caution = machine_caution(results, baseline)
+        if echo is not None:
+            echo(caution)
+        header = f"Baseline: {named}{merged}\n\n{caution}\n\n"
         paths[-2].write_text(header + comparisons_markdown(vs))
         paths[-1].write_text(json.dumps(vs, indent=1))
     if not matplotlib_available():

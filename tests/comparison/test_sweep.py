@@ -155,7 +155,9 @@ def test_tiny_sweep_end_to_end_and_resume(
     assert main([*argv[:2], str(out / "runs"), *argv[3:]]) == 2
     assert "no run files in its runs/ folder" in capsys.readouterr().err
     if importlib.util.find_spec("matplotlib") is not None:
-        written = write_report(out, baseline_dir=out)  # against itself: every difference 0
+        echoed: list[str] = []
+        # against itself: every difference 0
+        written = write_report(out, baseline_dir=out, echo=echoed.append)
         names = {p.name for p in written}
         assert {"summary.md", "comparisons.md", "comparisons.json", "critic_accuracy.png"} <= names
         vs = json.loads((out / "report" / "vs_baseline.json").read_text())
@@ -163,6 +165,7 @@ def test_tiny_sweep_end_to_end_and_resume(
         here = cpu()["cpu_model"] or "unrecorded"  # these runs' machine: this one
         header = (out / "report" / "vs_baseline.md").read_text().split("\n\n")[1]
         assert header == f"CPU models: this sweep {here}; baseline {here}."
+        assert echoed == [header]  # what the command prints
         assert "curves_CartPole-v1.png" in names
         assert "| CartPole-v1" in (out / "report" / "summary.md").read_text().replace("`", "")
 
