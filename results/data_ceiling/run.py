@@ -9,7 +9,7 @@ STREAMS as ``results/symmetric_kernel``'s)::
     python results/data_ceiling/read.py --plot results/data_ceiling/read.png \\
         > results/data_ceiling/read.md
 
-Needs scikit-learn (``pip install scikit-learn``), for its gradient-boosted trees.
+Needs scikit-learn (the ``bench`` or ``dev`` extra), for its gradient-boosted trees.
 """
 
 from __future__ import annotations
