@@ -40,10 +40,11 @@ FIT_POINTS = 512
 Batch = tuple[th.Tensor, th.Tensor, "th.Tensor | None"]
 
 
-def record(seed: int, streams: Path) -> tuple[list[Batch], list[th.nn.Module]]:
-    """The batches of one run's GP critic and a copy of the actor's network at each feed,
-    taken before the critic learns that batch (from ``streams`` if recorded before)."""
-    path = SCHEDULE.stream_path(streams, ENV, seed, STEPS, RECORDED)
+def record(seed: int, streams: Path, steps: int = STEPS) -> tuple[list[Batch], list[th.nn.Module]]:
+    """The batches of one run's GP critic (PPO, ``steps`` steps) and a copy of the actor's
+    network at each feed, taken before the critic learns that batch (from ``streams`` if
+    recorded before)."""
+    path = SCHEDULE.stream_path(streams, ENV, seed, steps, RECORDED)
     actors_path = path.with_name(path.stem + "__actors.pt")
     if path.exists() and actors_path.exists():
         return th.load(path, weights_only=False), th.load(actors_path, weights_only=False)
@@ -55,7 +56,7 @@ def record(seed: int, streams: Path) -> tuple[list[Batch], list[th.nn.Module]]:
         net = model.policy.mlp_extractor.policy_net
         return lambda: actors.append(copy.deepcopy(net).cpu().eval())
 
-    batches = SCHEDULE.record(ENV, seed, STEPS, path, RECORDED, watch=watch)
+    batches = SCHEDULE.record(ENV, seed, steps, path, RECORDED, watch=watch)
     partial = actors_path.with_suffix(".partial")
     th.save(actors, partial)
     partial.replace(actors_path)
@@ -126,7 +127,8 @@ def run_replays(
     seeded: bool = False,
 ) -> None:
     """The command line of a study on these streams (``results/return_noise``,
-    ``results/additive_kernel``): ``--seeds``, ``--streams``, ``--out``; each seed's batches
+    ``results/additive_kernel``): ``--seeds``, ``--streams``, ``--out``, ``--steps`` (the
+    runs' length, :data:`STEPS` unless given); each seed's batches
     (:func:`record`) replayed by every predictor of ``replays`` (called with the batches, and
     with the seed too where ``seeded``), and ``OUT/results.json``
     written after every seed with ``settings``, the results by env, seed and predictor, and the
@@ -135,12 +137,13 @@ def run_replays(
     parser.add_argument("--seeds", nargs="+", type=int, required=True)
     parser.add_argument("--streams", type=Path, required=True)
     parser.add_argument("--out", type=Path, required=True)
+    parser.add_argument("--steps", type=int, default=STEPS)
     args = parser.parse_args()
     th.set_num_threads(1)
     results: dict[int, Any] = {}
     bar = tqdm(total=len(args.seeds) * len(replays), unit="replay")
     for seed in args.seeds:
-        batches, _ = record(seed, args.streams)
+        batches, _ = record(seed, args.streams, args.steps)
         results[seed] = {}
         for name, replay in replays.items():
             results[seed][name] = replay(batches, seed) if seeded else replay(batches)
@@ -148,7 +151,12 @@ def run_replays(
         args.out.mkdir(parents=True, exist_ok=True)
         write_json_atomic(
             args.out / "results.json",
-            {**settings, "results": {ENV: results}, "provenance": provenance()},
+            {
+                **settings,
+                "steps": args.steps,
+                "results": {ENV: results},
+                "provenance": provenance(),
+            },
         )
 
 

@@ -72,6 +72,7 @@ def report(
     title: str = "Acrobot-v1: exact GPs on the newest batch, by kernel",
     predicted_by: str = "an exact GP on the batch before it",
     rule: bool = True,
+    steps: str = "30,000",
 ) -> None:
     """The command line of these exact-GP studies' readings (``--plot PNG``): the results in
     ``folder`` (:func:`load`) as :func:`tables`, then the verdict of ``pairs``' first
@@ -81,7 +82,7 @@ def report(
     parser.add_argument("--plot", type=Path, default=None)
     args = parser.parse_args()
     runs = load(folder)
-    tail = tables(runs, models, pairs, preface(runs), predicted_by)
+    tail = tables(runs, models, pairs, preface(runs), predicted_by, steps)
     primary = pairs[0]
     ruled = (
         f"Primary ({' − '.join(primary)}, last 20 %), by PLAN.md's rule: "
@@ -98,16 +99,17 @@ def tables(
     pairs: tuple[tuple[str, str], ...],
     preface: str = "",
     predicted_by: str = "an exact GP on the batch before it",
+    steps: str = "30,000",
 ) -> dict[str, np.ndarray]:
     """Print each model's score and the paired differences of ``pairs`` (``preface`` after
-    the heading, which says what each batch is ``predicted_by``); return each model's tail
-    score by seed, in ``runs``' order."""
+    the heading, which says what each batch is ``predicted_by`` in runs of ``steps`` steps);
+    return each model's tail score by seed, in ``runs``' order."""
     seeds = list(runs)
     tail = {m: np.array([runs[s][m]["tail"] for s in seeds]) for m in models}
     every = {
         m: np.array([np.mean(runs[s][m]["explained_variance"]) for s in seeds]) for m in models
     }
-    print(f"Acrobot-v1, PPO 30,000 steps, seeds {', '.join(map(str, seeds))}: each batch "
+    print(f"Acrobot-v1, PPO {steps} steps, seeds {', '.join(map(str, seeds))}: each batch "
           f"predicted by {predicted_by} (PLAN.md)\n")  # fmt: skip
     if preface:
         print(f"{preface}\n")
@@ -135,8 +137,6 @@ def plot(
     path: Path,
     models: tuple[str, ...] = MODELS,
     title: str = "Acrobot-v1: exact GPs on the newest batch, by kernel",
-    predicted_by: str = "an exact GP on the batch before it",
-    rule: bool = True,
 ) -> None:
     """Each seed's tail score under ``models``, joined by seed."""
     import matplotlib

@@ -31,16 +31,18 @@ def best_note(runs: ADDITIVE.Runs) -> str:
     )
 
 
-def main() -> None:
+def main(doc: str = __doc__, folder: Path = HERE, steps: str = "30,000") -> None:
+    """Read the runs in ``folder`` (``doc``: its script's docstring; ``steps``: their length)."""
     ADDITIVE.report(
-        __doc__,
-        HERE,
+        doc,
+        folder,
         MODELS,
         PAIRS,
         best_note,
-        title="Acrobot-v1: predictors of the next batch's returns",
+        title=f"Acrobot-v1, {steps} steps: predictors of the next batch's returns",
         predicted_by="the predictors of PLAN.md, fitted to the batches before it",
         rule=False,
+        steps=steps,
     )
 
 

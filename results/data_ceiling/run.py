@@ -79,13 +79,19 @@ def fit_mlp(x: np.ndarray, y: np.ndarray, seed: int) -> Callable[[np.ndarray], n
     return predict
 
 
-def replay_offline(batches: list[Any], seed: int, fit: Fit, every: bool) -> dict[str, Any]:
+def replay_offline(
+    batches: list[Any], seed: int, fit: Fit, every: bool, tail_only: bool = False
+) -> dict[str, Any]:
     """Score every batch by ``fit`` on the batches before it (``every``) or on the newest,
-    seeded by the run's ``seed`` and the batch."""
+    seeded by the run's ``seed`` and the batch; with ``tail_only``, only the batches of the
+    tail score (:func:`tail_batches`), the others NaN."""
     kept: list[tuple[np.ndarray, np.ndarray]] = []
     learnt = [0]
+    scored = tail_batches(batches) if tail_only else range(len(batches))
 
     def predict(x: th.Tensor) -> th.Tensor:
+        if learnt[0] not in scored:
+            return th.full((x.shape[0],), float("nan"), dtype=th.float64)
         xs, ys = (np.concatenate(parts) for parts in zip(*kept, strict=True))
         return th.as_tensor(fit(xs, ys, 1000 * seed + learnt[0])(x.double().numpy()))
 
@@ -98,16 +104,31 @@ def replay_offline(batches: list[Any], seed: int, fit: Fit, every: bool) -> dict
     return SCHEDULE._scored(batches, predict, learn)
 
 
-def main() -> None:
-    replays = {
+def tail_batches(batches: list[Any]) -> list[int]:
+    """Indices of the batches whose scores make up the tail score (``adaptation_schedule``'s
+    last :data:`LAST` of the scored batches)."""
+    scored = [i for i, (x, _, _) in enumerate(batches) if i > 0 and x.shape[0] > 1]
+    return scored[int(np.floor((1 - SCHEDULE.LAST) * len(scored))) :]
+
+
+def replays(tail_only: bool = False) -> dict[str, Callable[[list[Any], int], dict[str, Any]]]:
+    """``PLAN.md``'s predictors, called with a run's batches and seed; the off-line ones
+    fitted for the tail score's batches alone where ``tail_only``."""
+    offline = functools.partial(replay_offline, tail_only=tail_only)
+    return {
         "online": lambda b, seed: SCHEDULE.replay(ENV, seed, b, RECORDING.RECORDED),
         "mlp_ppo": lambda b, seed: SCHEDULE.replay_mlp(ENV, seed, b),
-        "gbt_newest": functools.partial(replay_offline, fit=fit_gbt, every=False),
-        "gbt_all": functools.partial(replay_offline, fit=fit_gbt, every=True),
-        "mlp_all": functools.partial(replay_offline, fit=fit_mlp, every=True),
+        "gbt_newest": functools.partial(offline, fit=fit_gbt, every=False),
+        "gbt_all": functools.partial(offline, fit=fit_gbt, every=True),
+        "mlp_all": functools.partial(offline, fit=fit_mlp, every=True),
     }
-    settings = {"recorded": RECORDING.RECORDED, "mlp": [EPOCHS, PATIENCE, MINIBATCH, LR, HELD_OUT]}
-    RECORDING.run_replays(__doc__, replays, settings, seeded=True)
+
+
+SETTINGS = {"recorded": RECORDING.RECORDED, "mlp": [EPOCHS, PATIENCE, MINIBATCH, LR, HELD_OUT]}
+
+
+def main() -> None:
+    RECORDING.run_replays(__doc__, replays(), SETTINGS, seeded=True)
 
 
 if __name__ == "__main__":
