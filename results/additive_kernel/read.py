@@ -107,7 +107,10 @@ def tables(
     seeds = list(runs)
     tail = {m: np.array([runs[s][m]["tail"] for s in seeds]) for m in models}
     every = {
-        m: np.array([np.mean(runs[s][m]["explained_variance"]) for s in seeds]) for m in models
+        m: np.array(
+            [np.mean(np.array(runs[s][m]["explained_variance"], dtype=float)) for s in seeds]
+        )
+        for m in models
     }
     print(f"Acrobot-v1, PPO {steps} steps, seeds {', '.join(map(str, seeds))}: each batch "
           f"predicted by {predicted_by} (PLAN.md)\n")  # fmt: skip

@@ -101,7 +101,10 @@ def replay_offline(
         if not every:
             del kept[:-1]
 
-    return SCHEDULE._scored(batches, predict, learn)
+    scores = SCHEDULE._scored(batches, predict, learn)
+    # JSON has no NaN: the batches left unfitted are null
+    explained = [None if np.isnan(v) else v for v in scores["explained_variance"]]
+    return {**scores, "explained_variance": explained}
 
 
 def tail_batches(batches: list[Any]) -> list[int]:
