@@ -102,8 +102,9 @@ def tables(
     steps: str = "30,000",
 ) -> dict[str, np.ndarray]:
     """Print each model's score and the paired differences of ``pairs`` (``preface`` after
-    the heading, which says what each batch is ``predicted_by`` in runs of ``steps`` steps);
-    return each model's tail score by seed, in ``runs``' order."""
+    the heading, which says what each batch is ``predicted_by`` in runs of ``steps`` steps;
+    "not fitted" where a predictor scored the tail alone); return each model's tail score by
+    seed, in ``runs``' order."""
     seeds = list(runs)
     tail = {m: np.array([runs[s][m]["tail"] for s in seeds]) for m in models}
     every = {
@@ -119,13 +120,15 @@ def tables(
     print("| model | last 20 % of scored batches [lowest, highest] | all scored batches |")
     print("|---|---:|---:|")
     for m in models:
+        whole = f"{every[m].mean():.3f}" if np.isfinite(every[m]).all() else "not fitted"
         print(f"| {m} | {tail[m].mean():.3f} [{tail[m].min():.2f}, {tail[m].max():.2f}] | "
-              f"{every[m].mean():.3f} |")  # fmt: skip
+              f"{whole} |")  # fmt: skip
     print("\n| difference, paired by seed [95 % t] | last 20 % | all scored batches | up / down |")
     print("|---|---:|---:|---:|")
     for a, b in pairs:
-        diff = tail[a] - tail[b]
-        print(f"| {a} − {b} | {interval(diff)} | {interval(every[a] - every[b])} | "
+        diff, whole = tail[a] - tail[b], every[a] - every[b]
+        wholes = interval(whole) if np.isfinite(whole).all() else "not fitted"
+        print(f"| {a} − {b} | {interval(diff)} | {wholes} | "
               f"{int((diff > 0).sum())} / {int((diff < 0).sum())} |")  # fmt: skip
     return tail
 
