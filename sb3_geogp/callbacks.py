@@ -416,6 +416,9 @@ class GPValueCallback(BaseCallback):
                 self.model._last_obs, self.model.num_timesteps, self._feed_rule, self._pending
             )
         )
+        # SB3 ends learn() in training mode, in which the policy stands in zeros for the GP's
+        # values (evaluate_actions) and reads a user's forward() as an unfed rollout.
+        policy.set_training_mode(False)
         rollouts, points = self._fed
         if rollouts and not points:
             # Monte Carlo targets wait for an episode's end or their horizon, and a learn() call

@@ -57,6 +57,7 @@ from sb3_geogp.comparison.command import (
     UsageError,
     add_arguments,
     add_target_arguments,
+    check_builds,
     check_env,
     check_not_a_file,
     check_out,
@@ -227,6 +228,10 @@ def check_train_args(args: argparse.Namespace, out: Path) -> None:
     check_gp_options(args)
     check_env_spaces(args.env, args.critic)
     check_device(args.device)
+    check_builds(
+        lambda: _new_model(args, make_vec_env(args.env, n_envs=args.n_envs)),
+        f"{args.algo} with the {args.critic} critic on {args.env}",
+    )
     saved = out / _SETTINGS
     if (out / "model.zip").is_file() and not saved.is_file():
         raise UsageError(

@@ -308,6 +308,7 @@ class GPCriticMixin(_PolicyBase):
         self.require_gp_feed = True
         self.defer_values = False
         self._awaiting_feed = False
+        self._sb3_training = False
         #: Set by GPValueCallback when a learn() call ends: its Monte Carlo episodes still
         #: running, which the next call continues where SB3 does not reset the environment.
         self.unfinished_episodes: Any = None
@@ -511,25 +512,28 @@ class GPCriticMixin(_PolicyBase):
 
         Returns
         -------
-        values : Tensor, shape (N, 1), float32, no gradient; zeros in training mode
+        values : Tensor, shape (N, 1), float32, no gradient; zeros in SB3's training mode
         log_prob : Tensor, shape (N,)
         entropy : Tensor, shape (N,) or None
 
         Notes
         -----
         The GP's values carry no gradient, so in SB3's loss the value term is a constant that
-        changes no parameter: in training mode (``policy.set_training_mode(True)``, as PPO
-        and A2C train) the GP is not asked for them and zeros stand in. SB3's
-        ``train/value_loss`` is then the mean square of the returns, not a critic error; the
-        critic's fit is ``gp/explained_variance`` and ``gp/mse``.
+        changes no parameter: in SB3's training mode (:meth:`set_training_mode`, as the
+        ``train()`` of PPO and A2C sets it) the GP is not asked for them and zeros stand in.
+        SB3's ``train/value_loss`` is then the mean square of the returns, not a critic error;
+        the critic's fit is ``gp/explained_variance`` and ``gp/mse``. ``GPValueCallback`` ends
+        ``learn()`` in evaluation mode, so that the trained policy's methods give the GP's
+        values.
 
         Raises
         ------
         RuntimeError
-            In training mode, if the last rollout was never given to :meth:`update_critic`.
+            In SB3's training mode, if the last rollout was never given to
+            :meth:`update_critic`.
         """
         self._check_fed()
-        with self._placeholder_values(self.training):
+        with self._placeholder_values(self._in_train):
             return super().evaluate_actions(obs, actions, *args, **kwargs)
 
     def get_distribution(self, obs: PyTorchObs, *args: Any, **kwargs: Any) -> Any:
@@ -538,8 +542,8 @@ class GPCriticMixin(_PolicyBase):
         Raises
         ------
         RuntimeError
-            In training mode (TRPO's ``train()`` asks for it), if the last rollout was never
-            given to :meth:`update_critic`.
+            In SB3's training mode (TRPO's ``train()`` asks for it), if the last rollout was
+            never given to :meth:`update_critic`.
         """
         self._check_fed()
         return super().get_distribution(obs, *args, **kwargs)
@@ -571,13 +575,36 @@ class GPCriticMixin(_PolicyBase):
         )
         return super().predict_values(obs)
 
+    def set_training_mode(self, mode: bool) -> None:
+        """SB3's switch between training and evaluation mode.
+
+        SB3's algorithms switch to training mode as their ``train()`` starts and back to
+        evaluation mode as rollout collection or ``predict`` starts. Only a switch made here,
+        not ``nn.Module.train()`` alone, makes :meth:`evaluate_actions` stand in zeros for the
+        GP's values: a policy freshly built or loaded is in torch's training mode, and its
+        methods give the GP's values.
+
+        Parameters
+        ----------
+        mode : bool
+            ``True`` for training mode, ``False`` for evaluation mode.
+        """
+        super().set_training_mode(mode)
+        self._sb3_training = mode
+
+    @property
+    def _in_train(self) -> bool:
+        """Whether SB3's ``train()`` may be running: set to training mode by SB3 and not
+        switched out of it since."""
+        return self.training and self._sb3_training
+
     @property
     def awaiting_feed(self) -> bool:
         """Whether the rollout collected since the last :meth:`update_critic` awaits its feed."""
         return self._awaiting_feed
 
     def _check_fed(self) -> None:
-        if self.training and self.require_gp_feed and self._awaiting_feed:
+        if self._in_train and self.require_gp_feed and self._awaiting_feed:
             raise RuntimeError(
                 f"{type(self).__name__}: the GP critic was not fed the rollout before training, "
                 "so it would never learn. Pass the callback to learn, e.g. "

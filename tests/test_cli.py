@@ -218,6 +218,13 @@ def test_version(capsys: pytest.CaptureFixture[str]) -> None:
         (["--seed", "-1"], "--seed must be in [0, 2**32), got -1"),
         (["--seed", str(2**32)], "--seed must be in [0, 2**32)"),
         (["--n-steps", "1", "--n-envs", "1"], "PPO needs rollouts of at least 2 steps"),
+        # Refused by the policy as the model is built, a check of its own.
+        (
+            ["--env", "FrozenLake-v1", "--normalize-actor-obs"],
+            "ppo with the laplacian critic on FrozenLake-v1 fails to build: ValueError: "
+            "normalize_actor_obs normalises Box observations",
+        ),
+        (["--max-basis", "100000000"], "choose a smaller max_basis"),
         pytest.param(
             ["--device", "cuda"],
             "torch sees no CUDA device here; use --device cpu",

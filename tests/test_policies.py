@@ -213,6 +213,31 @@ def test_values_are_float32_column_on_policy_device(algo: type[BaseAlgorithm]) -
     assert policy.gp.alpha.device.type == "cpu"
 
 
+@pytest.mark.parametrize("algo", ALGOS)
+def test_trained_and_loaded_policies_give_the_gps_values(
+    algo: type[BaseAlgorithm], tmp_path: Path
+) -> None:
+    """SB3 ends ``learn()`` in training mode, where ``evaluate_actions`` stands in zeros for
+    the GP's values; after ``learn()`` with the callback, and after a load, the policy's methods
+    give the values ``predict_values`` gives, and a ``forward()`` call is not taken for a
+    rollout the callback missed. SB3's own switch to training mode still guards ``train()``."""
+    model = make_model(algo)
+    model.learn(128, callback=feed())
+    model.save(tmp_path / "model.zip")
+    loaded = algo.load(tmp_path / "model.zip")
+    obs = flat_obs(model)[:5]
+    for policy in (model.policy, loaded.policy):
+        expected = policy.predict_values(obs)
+        assert expected.abs().min() > 0  # the GP has been fed
+        actions, values, _ = policy(obs)
+        assert th.equal(values, expected)
+        assert th.equal(policy.evaluate_actions(obs, actions)[0], expected)
+        policy.get_distribution(obs)
+        policy.set_training_mode(True)  # as SB3's train() does
+        with pytest.raises(RuntimeError, match="GPValueCallback"):
+            policy.evaluate_actions(obs, actions)
+
+
 @pytest.mark.parametrize("cap", [None, 0.01])
 def test_optimistic_critic_gives_the_upper_confidence_bound_and_survives_save_load(
     tmp_path: Path, cap: float | None

@@ -12,15 +12,18 @@ from __future__ import annotations
 import argparse
 import ast
 import dataclasses
+import functools
 import json
 import math
 import os
 import warnings
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
 from gymnasium.envs.registration import EnvSpec
+from stable_baselines3.common.base_class import BaseAlgorithm
 
 from sb3_geogp.callbacks import GPValueCallback
 from sb3_geogp.comparison.evaluation import env_spec, max_episode_steps
@@ -435,18 +438,38 @@ def _check_models(specs: list[RunSpec]) -> None:
     for spec in specs:
         cells.setdefault((spec.algo, spec.env_id, spec.critic == "mlp"), spec)
     for spec in cells.values():
-        try:
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore")  # the runs show them, once per sweep
-                model = build_model(spec)
-        except Exception as err:  # anything SB3, the policy or the environment reject
-            raise UsageError(
-                f"{spec.hyperparams_source}: {spec.algo} with the {spec.critic} critic on "
-                f"{spec.env_id} fails to build: {type(err).__name__}: {err}"
-            ) from None
-        env = model.get_env()
-        if env is not None:
-            env.close()
+        check_builds(
+            functools.partial(build_model, spec),
+            f"{spec.hyperparams_source}: {spec.algo} with the {spec.critic} critic on "
+            f"{spec.env_id}",
+        )
+
+
+def check_builds(build: Callable[[], BaseAlgorithm], what: str) -> None:
+    """Build a model and close its environment, so that SB3's, the policy's and the
+    environment's own checks run before any work.
+
+    Parameters
+    ----------
+    build : callable
+        Builds the model.
+    what : str
+        How the error names the model, e.g. ``"ppo with the rbf critic on CartPole-v1"``.
+
+    Raises
+    ------
+    UsageError
+        Naming ``what`` and the error, if the model cannot be built.
+    """
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # the run shows them
+            model = build()
+    except Exception as err:  # anything SB3, the policy or the environment reject
+        raise UsageError(f"{what} fails to build: {type(err).__name__}: {err}") from None
+    env = model.get_env()
+    if env is not None:
+        env.close()
 
 
 def run_from_args(args: argparse.Namespace) -> int:
