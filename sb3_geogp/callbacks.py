@@ -12,6 +12,7 @@ per-environment trajectories, takes targets from :mod:`sb3_geogp.targets` and lo
 
 from __future__ import annotations
 
+import math
 from typing import Any, Literal, NamedTuple, cast
 
 import numpy as np
@@ -197,6 +198,12 @@ class GPValueCallback(BaseCallback):
         verbose: int = 0,
     ) -> None:
         super().__init__(verbose)
+        if isinstance(target, dict):
+            # SB3 calls a callable that is not a callback with its locals and globals.
+            raise TypeError(
+                "GPValueCallback was passed to learn() as a class; pass an instance: "
+                "model.learn(total_timesteps, callback=GPValueCallback())"
+            )
         if target not in (None, "returns", "monte_carlo"):
             raise ValueError(f"target must be None, 'returns' or 'monte_carlo', got {target!r}")
         self._requested_target = target
@@ -663,8 +670,10 @@ def _check_targets(targets: np.ndarray) -> None:
     would turn into inf)."""
     largest = float(np.abs(targets).max()) if len(targets) else 0.0
     if not largest <= _FLOAT32_MAX:
+        # inf - inf in SB3's float32 sums leaves NaN, which has no size to quote.
+        reach = f"reach {largest:.3g}" if math.isfinite(largest) else "overflow to inf or NaN"
         raise ValueError(
-            f"GPValueCallback: this rollout's returns reach {largest:.3g}, beyond float32's "
+            f"GPValueCallback: this rollout's returns {reach}, beyond float32's "
             f"{_FLOAT32_MAX:.3g}, in which SB3 keeps returns and values (the rewards are "
             "finite, their discounted sums are not). Scale the rewards down, e.g. "
             "VecNormalize(env, norm_obs=False, norm_reward=True) or a reward wrapper"

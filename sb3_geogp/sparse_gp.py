@@ -27,6 +27,8 @@ from __future__ import annotations
 import contextlib
 import functools
 import math
+import os
+import sys
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from typing import Any, NamedTuple, TypeVar, cast
 
@@ -86,7 +88,8 @@ _PRIOR_MEANS = ("constant", "linear")
 _DEFAULT_WINDOW = Adaptation.window
 #: Weight of the newest batch in the spreads that cap the optimism bonus (session 29's value).
 _SPREAD_WEIGHT = 0.1
-#: Largest state the constructor allocates (bytes); above it, it refuses with the estimate.
+#: Largest state the constructor allocates (bytes), or the machine's memory where smaller;
+#: above it, it refuses with the estimate.
 _MAX_STATE_BYTES = 2**36
 #: Long scalar buffers of the GP.
 _COUNTERS = (
@@ -201,18 +204,39 @@ def _check_dtype(dtype: Any, kernel: Kernel, adaptation: Adaptation | None) -> t
 
 
 def _check_memory(
-    capacity: int, input_dim: int, kernel: Kernel, dtype: torch.dtype, window: int
+    capacity: int,
+    input_dim: int,
+    kernel: Kernel,
+    dtype: torch.dtype,
+    window: int,
+    device: torch.device | str | None,
 ) -> None:
     itemsize = torch.empty((), dtype=dtype).element_size()
     nbytes = itemsize * (3 * capacity * capacity + (input_dim + 6) * capacity)
     nbytes += window * (itemsize * (input_dim + 1) + 8)
     nbytes += kernel.state_nbytes(capacity, input_dim, itemsize)
-    if nbytes > _MAX_STATE_BYTES:
+    limit, what = _MAX_STATE_BYTES, "the engine's limit"
+    if _device_memory(device) < limit:
+        limit, what = _device_memory(device), f"the memory of {torch.device(device or 'cpu')}"
+    if nbytes > limit:
         raise ValueError(
             f"max_basis={capacity - 1} with a {window}-point window needs about "
-            f"{nbytes / 2**30:.3g} GiB of state (more than {_MAX_STATE_BYTES / 2**30:.0f} GiB); "
+            f"{nbytes / 2**30:.3g} GiB of state (more than {what}, {limit / 2**30:.3g} GiB); "
             "choose a smaller max_basis (or Adaptation.window)"
         )
+
+
+def _device_memory(device: torch.device | str | None) -> int:
+    """The memory of ``device`` in bytes: a GPU's, or this machine's where the OS says (else
+    no bound). Beyond it a GPU raises out of memory mid-construction, and the OS kills the
+    process without a word."""
+    where = torch.device(device or "cpu")
+    if where.type == "cuda":
+        return int(torch.cuda.get_device_properties(where).total_memory)
+    try:
+        return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (AttributeError, ValueError, OSError):  # no sysconf (Windows) or no such name
+        return sys.maxsize
 
 
 _Method = TypeVar("_Method", bound=Callable[..., Any])
@@ -479,7 +503,7 @@ class SparseOnlineGP(nn.Module):
         # One spare slot: a new BV is inserted before the least informative one is deleted.
         cap = self.max_basis + 1
         size = self.adaptation.window if self.adaptation is not None else _DEFAULT_WINDOW
-        _check_memory(cap, self.input_dim, self.kernel, dtype, size)
+        _check_memory(cap, self.input_dim, self.kernel, dtype, size, device)
         self.kernel.bind(self.input_dim, cap)
         # Diagnostics, not state: bounds far wider than the data leave the GP nearly flat.
         self._coverage = self._lengthscale_from(input_bounds)
@@ -1319,7 +1343,7 @@ class SparseOnlineGP(nn.Module):
         Parameters
         ----------
         n_iter : int
-            Optimiser steps.
+            Optimiser steps (0: the posterior is only rebuilt under the current values).
         lr : float
             Adam step size on the log-parameters.
 
@@ -1333,12 +1357,20 @@ class SparseOnlineGP(nn.Module):
         Raises
         ------
         ValueError
-            Before the first :meth:`update`; the state is then unchanged.
+            Before the first :meth:`update`, or if ``n_iter`` is not a non-negative integer
+            or ``lr`` not a positive finite number; the state is then unchanged.
         RuntimeError
             If a geodesic kernel's lengthscales were changed in place rather than through
             :meth:`~sb3_geogp.kernels.Kernel.rescale` (its tree would not follow them); the
             state is then unchanged.
         """
+        if isinstance(n_iter, bool) or not isinstance(n_iter, int | np.integer) or n_iter < 0:
+            raise ValueError(
+                f"n_iter must be a non-negative integer (0: rebuild only), got {n_iter!r}"
+            )
+        check_number("lr", lr)
+        if not 0 < lr < math.inf:
+            raise ValueError(f"lr must be a positive finite Adam step size, got {lr}")
         x, y, batch = self.window.data()
         if x.shape[0] == 0 or self.n_basis == 0:
             raise ValueError("fit_hyperparameters needs retained data; call update first")
@@ -1779,10 +1811,16 @@ class SparseOnlineGP(nn.Module):
                 f"{name} has dtype {t.dtype}, which cannot be cast to {self.alpha.dtype}; "
                 "pass real numbers"
             )
-        t = t.to(device=self.alpha.device, dtype=self.alpha.dtype)
         if not bool(torch.isfinite(t).all()):
             raise ValueError(f"{name} contains NaN or inf; remove or impute those entries first")
-        return t
+        cast = t.to(device=self.alpha.device, dtype=self.alpha.dtype)
+        if not bool(torch.isfinite(cast).all()):
+            raise ValueError(
+                f"{name} holds values up to {float(t.abs().max()):.3g}, beyond the range of "
+                f"this GP's {self.alpha.dtype}; scale them down, or build the GP with "
+                "dtype=torch.float64"
+            )
+        return cast
 
     def _as_inputs(self, x: ArrayLike, name: str) -> Tensor:
         t = self._as_tensor(x, name)

@@ -779,6 +779,36 @@ def test_bad_batch_raises_and_leaves_state_unchanged(gp_state, bad: str) -> None
     assert int(gp.n_seen) == int(before["n_seen"]) + 20
 
 
+def test_a_basis_beyond_the_machines_memory_is_refused_before_allocation(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """On a machine of 1 GiB, three float64 m x m matrices of 8,001 slots (1.5 GB) cannot be
+    held, and the OS would kill the process mid-allocation: refused with the estimate; 4,001
+    slots (0.38 GB) are built."""
+    pages = {"SC_PAGE_SIZE": 4096, "SC_PHYS_PAGES": 2**30 // 4096}
+    monkeypatch.setattr(os, "sysconf", pages.__getitem__)
+    with pytest.raises(
+        ValueError, match=r"max_basis=8000 .* \(more than the memory of cpu, 1 GiB\)"
+    ):
+        SparseOnlineGP(2, "laplacian", max_basis=8000)
+    assert SparseOnlineGP(2, "laplacian", max_basis=4000).max_basis == 4000
+
+
+@pytest.mark.parametrize("name", ["x", "y"])
+def test_finite_values_a_float32_gp_cannot_hold_are_named_as_such(name: str) -> None:
+    """1e39 is finite in float64 and inf in float32 (largest 3.4e38): the error says the GP's
+    dtype cannot hold it, not that the caller passed NaN or inf, and the state stays."""
+    rng = np.random.default_rng(5)
+    x, y = rng.uniform(size=(10, 2)), rng.uniform(size=10)
+    gp = SparseOnlineGP(2, "laplacian", dtype="float32")
+    gp.update(x, y)
+    before = snapshot(gp)
+    big = {"x": (_put(x, (3, 1), 1e39), y), "y": (x, _put(y, 3, -1e39))}[name]
+    with pytest.raises(ValueError, match=rf"{name} holds values up to 1e\+39, beyond the range"):
+        gp.update(*big)
+    assert_same_state(before, snapshot(gp))
+
+
 LAYOUTS: dict[str, Callable[[np.ndarray], Any]] = {
     "list": lambda a: a.tolist(),
     "fortran-order": np.asfortranarray,
@@ -1146,6 +1176,19 @@ def test_fit_hyperparameters_needs_data_and_leaves_the_state() -> None:
     with pytest.raises(ValueError, match="call update first"):
         gp.fit_hyperparameters()
     assert_same_state(before, snapshot(gp))
+    gp.update(np.linspace(0, 1, 20).reshape(10, 2), np.arange(10.0))
+    before = snapshot(gp)
+    for bad, message in [
+        (dict(n_iter=-1), "n_iter must be a non-negative integer"),
+        (dict(n_iter=2.5), "n_iter must be a non-negative integer"),
+        (dict(n_iter=True), "n_iter must be a non-negative integer"),
+        (dict(lr=math.inf), "lr must be a positive finite"),
+        (dict(lr=0.0), "lr must be a positive finite"),
+        (dict(lr=math.nan), "lr must be a positive finite"),
+    ]:
+        with pytest.raises(ValueError, match=message):
+            gp.fit_hyperparameters(**bad)
+        assert_same_state(before, snapshot(gp))
 
 
 def nearest_attachment_cross(gp: SparseOnlineGP) -> Callable[[np.ndarray], np.ndarray]:
