@@ -70,6 +70,7 @@ from stable_baselines3.common.env_util import make_vec_env
 
 from sb3_geogp import CHEAP_ADAPTATION, GPActorCriticPolicy, GPValueCallback
 from sb3_geogp.comparison.hyperparams import ALL_CRITICS, CRITICS, algo_kwargs, hyperparams
+from sb3_geogp.kernels import kernel_names, kernels_taking
 from sb3_geogp.toolbox.benchmarks import GPClock
 from sb3_geogp.toolbox.provenance import provenance
 from sb3_geogp.toolbox.scripts import DefaultsHelpFormatter, count_arg
@@ -191,6 +192,13 @@ def critic_name(text: str) -> str:
             f"+{counted} (e.g. "
             "geodesic+adapt+shared, geodesic+adapt+thin512+gap4)"
         )
+    for option in (gp_kwargs_of(suffixes) or {}).get("kernel_kwargs", {}):
+        takers = kernels_taking(option)  # +shared: the geodesic kernel's ard
+        if kernel not in takers:
+            raise argparse.ArgumentTypeError(
+                f"critic {text!r}: {option!r} is an option of {kernel_names(takers)}, not of "
+                f"the {kernel} kernel"
+            )
     return text
 
 

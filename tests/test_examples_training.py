@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import copy
 import dataclasses
+import functools
 import json
 import math
 from pathlib import Path
@@ -52,6 +53,7 @@ def test_benchmark_training_critics_option(tmp_path: Path, monkeypatch: pytest.M
     built: list[bool] = []
     init = GeodesicKernel.__init__
 
+    @functools.wraps(init)  # the kernel's options are read from its signature
     def recording_init(self: GeodesicKernel, *args: object, **kwargs: object) -> None:
         init(self, *args, **kwargs)  # type: ignore[arg-type]
         built.append(self.ard)
@@ -113,6 +115,16 @@ def test_benchmark_training_adapting_a2c_critic_is_the_drop_ins() -> None:
     assert bench.critic_gp_kwargs(workload, "rbf", 256)["forgetting"] == 0.9
     assert bench.critic_gp_kwargs(workload, "rbf+adapt+f1", 256)["forgetting"] == 1.0
     env.close()
+
+
+@pytest.mark.parametrize("kernel", ["laplacian", "rbf", "matern"])
+def test_benchmark_training_refuses_a_suffix_the_kernel_cannot_take(kernel: str) -> None:
+    """``+shared`` is the geodesic kernel's option: on another kernel it is refused as the
+    arguments are read, not by a traceback once the critics before it have run."""
+    bench = load_script("benchmark_training")
+    assert bench.critic_name("geodesic+adapt+shared") == "geodesic+adapt+shared"
+    with pytest.raises(argparse.ArgumentTypeError, match="'ard' is an option of the geodesic k"):
+        bench.critic_name(f"{kernel}+adapt+shared")
 
 
 def test_benchmark_training_setting_suffixes_build_those_settings() -> None:
