@@ -22,11 +22,12 @@ without its evaluations.
 runs with other options belong in another ``--out``. The score is the same for every target:
 the rollout's values against SB3's GAE returns, which are computed from those values.
 
-``--ceiling N`` also scores, on every scored rollout of CartPole-v1, Acrobot-v1, the paper's
-pendulum or a WallMaze variant, the policy's own value function ``V^pi`` (Monte Carlo, ``N``
-rollouts from every state; :mod:`sb3_geogp.studies.value_ceiling`): what the exact critic would
-score, by the goal's reading and on targets no critic shapes, and how far the critic's values
-are from it. The run itself is unchanged.
+``--ceiling N`` also scores, on every scored rollout of CartPole-v1, Acrobot-v1, Pendulum-v1
+(since 0.35.3), the paper's pendulum or a WallMaze variant, the policy's own value function
+``V^pi`` (Monte Carlo, ``N`` rollouts from every state;
+:mod:`sb3_geogp.studies.value_ceiling`): what the exact critic would score, by the goal's
+reading and on targets no critic shapes, and how far the critic's values are from it. The
+run itself is unchanged.
 
     python examples/critic_fit.py --envs CartPole-v1 Acrobot-v1 --critics mlp laplacian \
         --seeds 0 1 2 3 4 5 6 7 8 9 --workers 2 --ceiling 32 --out docs/critic_fit_ceiling
@@ -137,7 +138,8 @@ class ExplainedVariance(RolloutRecorder):
 class WithCeiling(ExplainedVariance):
     """:class:`ExplainedVariance` plus, from the ``first``-th rollout (counted from 0) on, the
     rollout's ceiling: the score of the policy's ``V^pi``, by Monte Carlo with ``n_rollouts``
-    rollouts per state cut where at most ``tail`` of a return is left
+    rollouts per state cut where at most ``tail`` of a return is left (in units of the task's
+    largest reward)
     (:mod:`sb3_geogp.studies.value_ceiling`), and how far the critic's values are from it.
 
     The Monte Carlo rollouts draw the policy's actions inside a forked torch random stream
@@ -203,7 +205,8 @@ class WithCeiling(ExplainedVariance):
         """The rollout that just ended and the policy's (or ``policy``'s) Monte Carlo returns
         from each of its states (:meth:`Rollout.states`), shape (m, ``n_rollouts``); every
         policy scored on a rollout draws from the same seeded random stream."""
-        rollout, steps = self.rollout(), horizon(float(self.model.gamma), self.tail)
+        steps = horizon(float(self.model.gamma), self.tail / self.task.reward_bound)
+        rollout = self.rollout()
         seed = self.seed * 1000 + len(self.rows)
         states = rollout.states()
         mc = model_returns(
@@ -857,7 +860,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         "--ceiling-tail",
         type=float,
         default=0.1,
-        help="the Monte Carlo rollouts stop where at most this much of a return is left",
+        help="the Monte Carlo rollouts stop where at most this much of a return is left, in "
+        "units of the task's largest reward",
     )
     parser.add_argument(
         "--gp-option",

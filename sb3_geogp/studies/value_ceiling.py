@@ -20,14 +20,15 @@ Carlo noise.
 
 ``V^pi`` is estimated at every state of the rollout by Monte Carlo (:func:`policy_returns`;
 :func:`model_returns` for an SB3 model's policy, its training left as it was):
-CartPole-v1, Acrobot-v1, the paper's pendulum and the WallMaze variants (:data:`TASKS`) have
-deterministic dynamics and observations that are their states (Acrobot's angles through their
-cosines and sines, a maze's position), so every state is restarted exactly, up to the float32
-rounding of the observation; only the policy's draws are sampled. The rollouts run without a
-time limit, as the bootstrapped targets assume, and are cut after :func:`horizon`'s steps,
-which leaves out at most ``tail`` of the return (rewards are at most 1 in size). The batch
-dynamics are the gymnasium equations in vectorised numpy (:func:`acrobot_step`; CartPole's
-:func:`~sb3_geogp.studies.action_gap.cartpole_step`; the pendulum's
+CartPole-v1, Acrobot-v1, Pendulum-v1, the paper's pendulum and the WallMaze variants
+(:data:`TASKS`) have deterministic dynamics and observations that are their states (Acrobot's
+and Pendulum-v1's angles through their cosines and sines, a maze's position), so every state
+is restarted exactly, up to the float32 rounding of the observation; only the policy's draws
+are sampled. The rollouts run without a time limit, as the bootstrapped targets assume, and are
+cut after :func:`horizon`'s steps, which leaves out at most ``tail`` of the return in units of
+the task's largest reward (:attr:`RestartableTask.reward_bound`). The batch dynamics are the
+gymnasium equations in vectorised numpy (:func:`acrobot_step`; :func:`pendulum_v1_step`;
+CartPole's :func:`~sb3_geogp.studies.action_gap.cartpole_step`; the paper pendulum's
 :func:`~sb3_geogp.envs.pendulum.dynamics_step`; the mazes'
 :meth:`~sb3_geogp.envs.wall_maze.WallMaze.transitions`).
 Monte Carlo noise in ``V^pi`` lowers the estimated ceiling; :func:`ceiling` also scores each
@@ -176,14 +177,17 @@ class RestartableTask:
     step : callable
         ``(states, actions) -> (next states, terminated)``.
     reward : callable
-        ``(states, terminated) -> rewards`` of the steps from ``states : (n, state_dim)``,
-        shape (n,).
+        ``(states, actions, terminated) -> rewards`` of the steps from ``states : (n,
+        state_dim)`` by ``actions``, shape (n,).
+    reward_bound : float
+        The largest size of a reward, which :func:`horizon`'s ``tail`` is counted in.
     """
 
     state: Callable[[np.ndarray], np.ndarray]
     observe: Callable[[np.ndarray], np.ndarray]
     step: Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]
-    reward: Callable[[np.ndarray, np.ndarray], np.ndarray]
+    reward: Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray]
+    reward_bound: float = 1.0
 
 
 def _acrobot_state(obs: np.ndarray) -> np.ndarray:
@@ -209,7 +213,7 @@ def _maze_task(env: WallMaze) -> RestartableTask:
     that reaches the goal included."""
     reward = env.layout.step_reward
     return RestartableTask(
-        _identity, env.observe, env.transitions, lambda _, done: np.full(done.shape, reward)
+        _identity, env.observe, env.transitions, lambda _s, _a, done: np.full(done.shape, reward)
     )
 
 
@@ -222,18 +226,76 @@ def _pendulum_task(params: PendulumParams) -> RestartableTask:
         theta, omega = dynamics_step(s[:, 0], s[:, 1], torque[:, 0], params)
         return np.stack([theta, omega], axis=1), np.zeros(len(s), dtype=bool)
 
-    return RestartableTask(_identity, _identity, step, lambda s, _: pendulum_reward(s[:, 0]))
+    return RestartableTask(_identity, _identity, step, lambda s, _a, _d: pendulum_reward(s[:, 0]))
+
+
+#: gymnasium's Pendulum-v1: gravity, mass, length, time step, torque and speed limits.
+PENDULUM_V1 = {"g": 10.0, "m": 1.0, "l": 1.0, "dt": 0.05, "max_torque": 2.0, "max_speed": 8.0}
+
+
+def pendulum_v1_step(states: np.ndarray, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """gymnasium's Pendulum-v1 ``step`` for a batch: the torque clipped, one explicit Euler
+    step of the angular velocity (clipped to ``max_speed``), then of the angle (not wrapped);
+    it never terminates.
+
+    Parameters
+    ----------
+    states : ndarray, shape (n, 2)
+        Angle ``theta`` (0 upright) and angular velocity.
+    actions : ndarray, shape (n, 1)
+        Torques.
+
+    Returns
+    -------
+    next_states : ndarray, shape (n, 2)
+    terminated : ndarray, shape (n,), all False
+    """
+    p = PENDULUM_V1
+    th, thdot = states[:, 0], states[:, 1]
+    u = np.clip(actions[:, 0], -p["max_torque"], p["max_torque"])
+    accel = 3 * p["g"] / (2 * p["l"]) * np.sin(th) + 3.0 / (p["m"] * p["l"] ** 2) * u
+    new_thdot = np.clip(thdot + accel * p["dt"], -p["max_speed"], p["max_speed"])
+    return np.stack([th + new_thdot * p["dt"], new_thdot], 1), np.zeros(len(states), dtype=bool)
+
+
+def pendulum_v1_reward(states: np.ndarray, actions: np.ndarray, _: np.ndarray) -> np.ndarray:
+    """gymnasium's Pendulum-v1 reward of a step from ``states`` by ``actions``: minus the
+    squared angle from upright (wrapped to ``[-pi, pi)``), 0.1 times the squared angular
+    velocity and 0.001 times the squared (clipped) torque."""
+    u = np.clip(actions[:, 0], -PENDULUM_V1["max_torque"], PENDULUM_V1["max_torque"])
+    angle = (states[:, 0] + math.pi) % (2 * math.pi) - math.pi
+    return -(angle**2 + 0.1 * states[:, 1] ** 2 + 0.001 * u**2)
+
+
+def _pendulum_v1_state(obs: np.ndarray) -> np.ndarray:
+    o = np.asarray(obs, dtype=np.float64)
+    return np.stack([np.arctan2(o[:, 1], o[:, 0]), o[:, 2]], 1)
+
+
+def _pendulum_v1_observe(s: np.ndarray) -> np.ndarray:
+    return np.stack([np.cos(s[:, 0]), np.sin(s[:, 0]), s[:, 1]], 1)
 
 
 #: The tasks :func:`policy_returns` can restart, by gymnasium id.
 TASKS: dict[str, RestartableTask] = {
     # reward 1 for every step, the one that ends the episode included
     "CartPole-v1": RestartableTask(
-        _identity, _identity, cartpole_step, lambda _, done: np.ones(done.shape)
+        _identity, _identity, cartpole_step, lambda _s, _a, done: np.ones(done.shape)
     ),
     # reward -1 for every step but the one that reaches the goal
     "Acrobot-v1": RestartableTask(
-        _acrobot_state, _acrobot_observe, acrobot_step, lambda _, done: np.where(done, 0.0, -1.0)
+        _acrobot_state,
+        _acrobot_observe,
+        acrobot_step,
+        lambda _s, _a, done: np.where(done, 0.0, -1.0),
+    ),
+    # a reward of at most pi^2 + 0.1 * 8^2 + 0.001 * 2^2 in size
+    "Pendulum-v1": RestartableTask(
+        _pendulum_v1_state,
+        _pendulum_v1_observe,
+        pendulum_v1_step,
+        pendulum_v1_reward,
+        reward_bound=math.pi**2 + 6.4 + 0.004,
     ),
     PAPER_PENDULUM_ID: _pendulum_task(PendulumParams()),
     WALL_MAZE_ID: _maze_task(WallMaze()),
@@ -292,8 +354,9 @@ def policy_returns(
     for step in range(steps):
         if not len(running):
             break
-        after, done = task.step(state, act(task.observe(state), step))
-        total[running] += discount * task.reward(state, done)
+        actions = act(task.observe(state), step)
+        after, done = task.step(state, actions)
+        total[running] += discount * task.reward(state, actions, done)
         discount *= gamma
         state, running = after[~done], running[~done]
     return total.reshape(-1, n_rollouts)

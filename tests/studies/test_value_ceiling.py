@@ -57,9 +57,37 @@ def test_acrobot_step_is_gymnasiums() -> None:
         obs, reward, gym_done, _, _ = env.step(int(a))
         np.testing.assert_allclose(env.state, want, rtol=0, atol=1e-12)
         assert gym_done == done
-        assert reward == TASKS["Acrobot-v1"].reward(s[None], np.array([done]))[0]
+        assert reward == TASKS["Acrobot-v1"].reward(s[None], a[None, None], np.array([done]))[0]
         np.testing.assert_allclose(TASKS["Acrobot-v1"].observe(want[None])[0], obs, atol=1e-6)
     assert 0 < terminated.sum() < len(terminated)
+
+
+def test_pendulum_v1_step_and_reward_are_gymnasiums() -> None:
+    """Reference: gymnasium's ``PendulumEnv.step`` from the same state, one at a time; the
+    states include fast ones the speed limit clips, the torques ones the torque limit clips,
+    and angles many turns away from upright (the reward wraps them, the state does not)."""
+    rng = np.random.default_rng(2)
+    states = np.stack([rng.uniform(-5 * math.pi, 5 * math.pi, 300), rng.uniform(-9, 9, 300)], 1)
+    actions = rng.uniform(-3, 3, (300, 1))
+    task = TASKS["Pendulum-v1"]
+    nxt, terminated = task.step(states, actions)
+    rewards = task.reward(states, actions, terminated)
+    env = gym.make("Pendulum-v1").unwrapped
+    env.reset(seed=0)
+    for s, a, want, r in zip(states, actions, nxt, rewards, strict=True):
+        env.state = s.copy()
+        obs, reward, gym_terminated, _, _ = env.step(a)
+        np.testing.assert_allclose(env.state, want, rtol=0, atol=1e-12)
+        assert not gym_terminated
+        assert reward == pytest.approx(r, rel=1e-12) and abs(r) <= task.reward_bound
+        np.testing.assert_allclose(task.observe(want[None])[0], obs, atol=1e-6)
+    assert not terminated.any()
+    speeds = np.abs(nxt[:, 1])
+    assert (speeds == 8.0).any() and (speeds < 8.0).any()
+    back = task.state(task.observe(states))
+    np.testing.assert_allclose(np.cos(back[:, 0]), np.cos(states[:, 0]), atol=1e-12)
+    np.testing.assert_allclose(np.sin(back[:, 0]), np.sin(states[:, 0]), atol=1e-12)
+    np.testing.assert_allclose(back[:, 1], states[:, 1], atol=0)
 
 
 def test_acrobot_state_is_recovered_from_its_observation() -> None:
