@@ -827,7 +827,7 @@ def plot_ceiling(results: list[dict[str, Any]], path: Path) -> None:
                 )
             ax.plot([-1, 1], [-1, 1], color="k", lw=0.8)
             ax.axhline(GOAL, color="k", ls=":", lw=1)
-            ax.set(title=f"{env_id}: {reading}", xlim=(-1.05, 1.05), ylim=(-1.05, 1.05))
+            ax.set(title=f"{env_id}:\n{reading}", xlim=(-1.05, 1.05), ylim=(-1.05, 1.05))
             ax.set(xlabel="V^pi's score (Monte Carlo)")
             ax.grid(alpha=0.3)
         row[0].set_ylabel(label)
