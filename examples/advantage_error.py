@@ -112,7 +112,8 @@ class AdvantageCheckpoints(BaseCallback):
         they were."""
         env, steps = self.args.env, self.args.horizon
         if steps is None:
-            steps = PENDULUM_HORIZON if env == ENV else horizon(float(self.model.gamma), 1.0)
+            tail = 1.0 / TASKS[env].reward_bound  # at most 1 of a return left
+            steps = PENDULUM_HORIZON if env == ENV else horizon(float(self.model.gamma), tail)
         seed = self.seed * 1000 + len(self.rows)
         return model_returns(self.model, TASKS[env], states, steps, self.args.rollouts, seed)
 
