@@ -35,7 +35,17 @@ Monte Carlo rollouts run until at most 1 of a return is left (``--horizon`` over
 ``--critics`` names the GP shadows (the defaults are the pendulum's); a geodesic shadow with
 ``"walls": true`` in its setting gets the wall study's oracle kernel for the maze's layout
 (:class:`~sb3_geogp.studies.wall.oracle.WallAwareGeodesicKernel`: no attachment across an
-interior wall).
+interior wall). It also runs on issue 13's critic-fit environments, Pendulum-v1, CartPole-v1
+and Acrobot-v1 (there "1 of a return" is in units of the task's largest reward).
+
+``--target defaults`` (since 0.35.3) gives every critic what its own training gives it, so
+that the critics compare as the agent would train them, on the same rollouts: the GP critics
+:class:`~sb3_geogp.GPValueCallback`'s default feed (PPO's Monte Carlo returns; the run's own
+critic must be a GP, built as the drop-in's), and the MLP shadow the GAE returns of its own
+values (:class:`~sb3_geogp.comparison.shadow.OwnReturnsFeed`), as PPO trains SB3's critic::
+
+    python examples/advantage_error.py --env Acrobot-v1 --actors laplacian --critics '{}' \
+        --target defaults --seeds 0 1 2 3 4 --out docs/critic_fit_same_data/Acrobot-v1
 """
 
 from __future__ import annotations
@@ -72,8 +82,9 @@ from sb3_geogp.toolbox.stats import mean_ci
 from sb3_geogp.toolbox.tables import estimate_cell
 
 ENV = "sb3_geogp/PaperPendulum-v0"
-#: ``--env`` choices: the pendulum and the mazes with its budget (30,000 steps).
-ENVS = (ENV, WALL_MAZE_ID, WALL_MAZE_DISCRETE_ID)
+#: ``--env`` choices: the pendulum, the mazes and issue 13's critic-fit environments, all with
+#: the pendulum's budget (30,000 steps).
+ENVS = (ENV, WALL_MAZE_ID, WALL_MAZE_DISCRETE_ID, "Pendulum-v1", "CartPole-v1", "Acrobot-v1")
 #: Steps of a pendulum Monte Carlo rollout unless ``--horizon`` says otherwise.
 PENDULUM_HORIZON = 80
 #: The critics that train the agent by default, one PPO run each per seed.
@@ -172,7 +183,9 @@ def oracle_kernels(env_id: str, critics: dict[str, dict[str, Any]]) -> dict[str,
 def run(actor: str, seed: int, args: argparse.Namespace) -> dict[str, Any]:
     """One PPO run with ``actor``'s critic and the shadow critics; every rollout's scores."""
     th.set_num_threads(1)
-    model = build_model(ppo_spec(args.env, seed, args.timesteps, {"kernel": actor}))
+    # With each critic's own feed the run's GP critic is built as the drop-in's.
+    feed = {"target": None} if args.target == "defaults" else {}
+    model = build_model(ppo_spec(args.env, seed, args.timesteps, {"kernel": actor, **feed}))
     settings = {
         name: {k: v for k, v in setting.items() if k != "walls"}
         for name, setting in args.critics.items()
@@ -290,17 +303,19 @@ def main(argv: Sequence[str] | None = None) -> int:
         "--horizon",
         type=int,
         default=None,
-        help=f"steps per Monte Carlo rollout (default: {PENDULUM_HORIZON} on the pendulum; on a "
-        "maze until at most 1 of a return is left)",
+        help=f"steps per Monte Carlo rollout (default: {PENDULUM_HORIZON} on the pendulum; "
+        "elsewhere until at most 1 of a return is left, in units of the task's largest reward)",
     )
     parser.add_argument("--skip", type=int, default=1, help="first rollouts left out of the table")
     parser.add_argument(
         "--target",
-        choices=("returns", "monte_carlo"),
+        choices=("returns", "monte_carlo", "defaults"),
         default="returns",
         help="what every critic learns: SB3's returns of each rollout (default), or the "
         "returns of completed episodes, as PPO's default feed gives them to a GP critic (the "
-        "run's own critic must be a GP)",
+        "run's own critic must be a GP); defaults: each critic what training gives it, the GP "
+        "critics GPValueCallback's default feed (the run's own must be a GP), the MLP shadow "
+        "the GAE returns of its own values",
     )
     parser.add_argument(
         "--against",
@@ -314,8 +329,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         oracle_kernels(args.env, args.critics)
     except ValueError as error:
         parser.error(str(error))
-    if args.target == "monte_carlo" and "mlp" in args.actors:
-        parser.error("--target monte_carlo feeds what the run's GP critic is fed: no mlp actor")
+    if args.target != "returns" and "mlp" in args.actors:
+        parser.error(f"--target {args.target} feeds what the run's GP critic is fed: no mlp actor")
     run_study(
         args,
         run,

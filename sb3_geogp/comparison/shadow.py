@@ -26,7 +26,7 @@ import dataclasses
 import json
 from collections.abc import Callable, Collection, Mapping, Sequence
 from pathlib import Path
-from typing import Any, cast
+from typing import Any, Literal, cast
 
 import numpy as np
 import torch as th
@@ -36,12 +36,13 @@ from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
 from torch import Tensor
 from tqdm.auto import tqdm
 
-from sb3_geogp.callbacks import GPValueCallback, Target
+from sb3_geogp.callbacks import GPValueCallback, Target, time_limit_truncations
 from sb3_geogp.comparison.run import build_model, write_json_atomic
 from sb3_geogp.comparison.specs import RunSpec, SweepConfig, setting_differences
 from sb3_geogp.kernels import Kernel
 from sb3_geogp.policies import GPActorCriticPolicy
 from sb3_geogp.sparse_gp import SparseOnlineGP
+from sb3_geogp.studies.advantage_error import gae
 from sb3_geogp.targets import per_env
 from sb3_geogp.toolbox.provenance import provenance
 from sb3_geogp.toolbox.scripts import DefaultsHelpFormatter
@@ -195,6 +196,57 @@ class ShadowFeed(BaseCallback):
             learn(th.as_tensor(x), th.as_tensor(y), th.as_tensor(starts))
 
 
+class OwnReturnsFeed(BaseCallback):
+    """Feeds a shadow critic the GAE returns of every rollout computed with its own values, as
+    PPO computes them for the critic it trains: ``A + V``, with ``V`` the shadow's values at the
+    rollout's states and after its last step, and at a time-limit truncation the shadow's
+    ``gamma * V(terminal observation)`` in place of the one SB3 added with the run's critic.
+
+    Parameters
+    ----------
+    learn : callable
+        The shadow's :data:`Learner`, called once per rollout, env by env.
+    value : callable
+        The shadow's values (:data:`NumpyValue`), read at the rollout's end before it learns.
+    """
+
+    def __init__(self, learn: Learner, value: NumpyValue) -> None:
+        super().__init__()
+        self.learn, self.value = learn, value
+        self._bootstraps: list[tuple[int, int, np.ndarray, float]] = []
+
+    def _on_rollout_start(self) -> None:
+        self._bootstraps = []
+
+    def _on_step(self) -> bool:
+        model = cast(OnPolicyAlgorithm, self.model)
+        for step, env, terminal in time_limit_truncations(model, self.locals):
+            # What SB3 adds right after this hook, computed as it computes it.
+            with th.no_grad():
+                added = model.policy.predict_values(
+                    th.as_tensor(terminal[None], device=model.device)
+                )
+            self._bootstraps.append((step, env, terminal, float(added[0, 0])))
+        return True
+
+    def _on_rollout_end(self) -> None:
+        model = cast(OnPolicyAlgorithm, self.model)
+        buffer, gamma = model.rollout_buffer, float(model.gamma)
+        T, n_envs = buffer.rewards.shape
+        rewards = buffer.rewards.astype(np.float64)
+        for step, env, terminal, added in self._bootstraps:
+            own = self.value(terminal[None].astype(np.float64))[0]
+            rewards[step, env] += gamma * (own - added)
+        obs = buffer.observations.reshape(T * n_envs, -1).astype(np.float64)
+        values = self.value(obs).reshape(T, n_envs)
+        last = self.value(np.asarray(model._last_obs, dtype=np.float64).reshape(n_envs, -1))
+        last_dones = np.asarray(model._last_episode_starts, dtype=np.float64)
+        lam = float(model.gae_lambda)
+        advantages = gae(rewards, values, buffer.episode_starts, last, last_dones, gamma, lam)
+        x, y, starts = per_env(buffer.observations, advantages + values, buffer.episode_starts)
+        self.learn(th.as_tensor(x), th.as_tensor(y), th.as_tensor(starts))
+
+
 class TeeFeed(GPValueCallback):
     """:class:`~sb3_geogp.GPValueCallback` that gives every batch it feeds the run's GP critic
     to shadow critics too, right after it: with ``target="monte_carlo"`` (PPO's default feed)
@@ -204,10 +256,11 @@ class TeeFeed(GPValueCallback):
     ----------
     learners : sequence of callables
         Each called with ``(x, y, episode_starts)`` per batch (:data:`Learner`).
-    target : {"returns", "monte_carlo"}
+    target : {"returns", "monte_carlo"} or None
+        As :class:`~sb3_geogp.GPValueCallback`'s (``None``: its default feed).
     """
 
-    def __init__(self, learners: Sequence[Learner], target: Target) -> None:
+    def __init__(self, learners: Sequence[Learner], target: Target | None) -> None:
         super().__init__(target=target)
         self.learners = list(learners)
 
@@ -243,7 +296,7 @@ def learn_with_shadows(
     settings: Mapping[str, dict[str, Any]],
     checkpoints: Callable[[dict[str, NumpyValue]], BaseCallback],
     kernels: Mapping[str, Kernel] | None = None,
-    target: Target = "returns",
+    target: Target | Literal["defaults"] = "returns",
 ) -> BaseCallback:
     """Train ``model`` (a comparison run of ``env_id`` and ``seed``) for ``timesteps`` with
     shadow critics learning from its rollouts: :class:`MLPShadow` and a :func:`gp_shadow` per
@@ -258,25 +311,30 @@ def learn_with_shadows(
 
     ``target``: what every critic learns. ``"returns"``: SB3's returns of each rollout.
     ``"monte_carlo"``: the returns of completed episodes, uncut, as PPO's default feed gives
-    them to a GP critic (the run's must be one); the MLP shadow then learns them too. A run's
-    own GP critic is fed by :class:`TeeFeed`, which hands each batch to the shadows; a run
-    with SB3's MLP critic, by :class:`ShadowFeed`.
+    them to a GP critic (the run's must be one); the MLP shadow then learns them too.
+    ``"defaults"``: what each critic's own training gives it, so that every critic learns as
+    it would train the agent: the GP critics :class:`~sb3_geogp.GPValueCallback`'s default
+    feed (the run's must be one), the MLP shadow the GAE returns of its own values
+    (:class:`OwnReturnsFeed`), as PPO trains SB3's critic. A run's own GP critic is fed by
+    :class:`TeeFeed`, which hands each batch to the GP shadows (and, but with
+    ``"defaults"``, to the MLP shadow); a run with SB3's MLP critic, by :class:`ShadowFeed`.
 
     Raises
     ------
     ValueError
-        ``target="monte_carlo"`` for a model without a GP critic, or another ``target``.
+        ``target="monte_carlo"`` or ``"defaults"`` for a model without a GP critic, or
+        another ``target``.
 
     Returns
     -------
     BaseCallback
         The callback ``checkpoints`` built, after training.
     """
-    if target not in ("returns", "monte_carlo"):
-        raise ValueError(f"target must be 'returns' or 'monte_carlo', got {target!r}")
-    if target == "monte_carlo" and not isinstance(model.policy, GPActorCriticPolicy):
+    if target not in ("returns", "monte_carlo", "defaults"):
+        raise ValueError(f"target must be 'returns', 'monte_carlo' or 'defaults', got {target!r}")
+    if target != "returns" and not isinstance(model.policy, GPActorCriticPolicy):
         raise ValueError(
-            "target='monte_carlo' feeds the shadows what the run's GP critic is fed: train "
+            f"target={target!r} feeds the GP shadows what the run's GP critic is fed: train "
             "the run with a GP critic, or use target='returns'"
         )
     mlp = MLPShadow(env_id, seed)
@@ -294,14 +352,18 @@ def learn_with_shadows(
         progress = 1.0 - model.num_timesteps / model._total_timesteps
         mlp.learn(x, y, model.lr_schedule(progress))
 
-    learners: list[Learner] = [learn_mlp, *(gp.update for gp in gps.values())]
+    gp_learners: list[Learner] = [gp.update for gp in gps.values()]
     scorer = checkpoints(values)
-    feed: BaseCallback = (
-        TeeFeed(learners, target)
-        if isinstance(model.policy, GPActorCriticPolicy)
-        else ShadowFeed(learners)
+    feeds: list[BaseCallback] = (
+        [OwnReturnsFeed(learn_mlp, values[MLP]), TeeFeed(gp_learners, None)]
+        if target == "defaults"
+        else [
+            TeeFeed([learn_mlp, *gp_learners], target)
+            if isinstance(model.policy, GPActorCriticPolicy)
+            else ShadowFeed([learn_mlp, *gp_learners])
+        ]
     )
-    model.learn(timesteps, callback=CallbackList([scorer, feed]))
+    model.learn(timesteps, callback=CallbackList([scorer, *feeds]))
     env = model.get_env()
     assert env is not None
     env.close()

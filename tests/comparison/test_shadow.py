@@ -15,11 +15,14 @@ from stable_baselines3 import PPO
 from stable_baselines3.common.callbacks import BaseCallback, CallbackList
 
 from sb3_geogp import GPValueCallback
-from sb3_geogp.callbacks import Target, default_feed
+from sb3_geogp.callbacks import Target, default_feed, time_limit_truncations
 from sb3_geogp.comparison import shadow
 from sb3_geogp.comparison.run import build_model
 from sb3_geogp.comparison.shadow import (
+    MLP,
+    OWN,
     MLPShadow,
+    OwnReturnsFeed,
     ShadowFeed,
     TeeFeed,
     gp_critic,
@@ -28,7 +31,13 @@ from sb3_geogp.comparison.shadow import (
     ppo_spec,
     study_parser,
 )
-from tests.test_callbacks import FeedRecorder, expected_monte_carlo, make_scripted
+from sb3_geogp.targets import per_env
+from tests.test_callbacks import (
+    FeedRecorder,
+    expected_monte_carlo,
+    make_scripted,
+    scripted_vec_env,
+)
 
 
 def test_ppo_spec_names_the_critic_and_its_options() -> None:
@@ -115,12 +124,91 @@ def test_tee_feed_gives_the_shadows_what_the_runs_critic_learns(
     )
 
 
+@pytest.mark.parametrize("gae_lambda", [1.0, 0.9])
+def test_a_shadows_own_returns_are_its_gae_returns(gae_lambda: float) -> None:
+    """On the scripted env (reward ``1 + t``; env 1 truncated by its time limit), rollout by
+    rollout: a shadow whose values are the run's own MLP critic's gets the returns SB3 computed
+    with that critic; a shadow whose values are 0 gets, at each step, the rewards summed with
+    weights ``(gamma * lambda)^j`` to its episode's end or the rollout's, without SB3's
+    bootstrap of the run's critic at the truncations (its own is 0)."""
+    gamma = 0.9
+    model = PPO(
+        "MlpPolicy", scripted_vec_env(), n_steps=8, batch_size=16, n_epochs=1, seed=0,
+        gamma=gamma, gae_lambda=gae_lambda,
+    )  # fmt: skip
+    got: dict[str, list[np.ndarray]] = {"own": [], "zero": []}
+    expected: dict[str, list[np.ndarray]] = {"own": [], "zero": []}
+    truncated: list[int] = []
+
+    def zero_returns(obs: np.ndarray, starts: np.ndarray) -> np.ndarray:
+        T, n_envs, _ = obs.shape
+        out = np.zeros((T, n_envs))
+        for e, t in np.ndindex(n_envs, T):
+            k, weight = t, 1.0
+            while True:
+                out[t, e] += weight * (1.0 + obs[k, e, 2])
+                if k + 1 == T or starts[k + 1, e]:
+                    break
+                k, weight = k + 1, weight * gamma * gae_lambda
+        return out
+
+    class Expected(BaseCallback):
+        def _on_step(self) -> bool:
+            truncated.extend(env for _, env, _ in time_limit_truncations(model, self.locals))
+            return True
+
+        def _on_rollout_end(self) -> None:
+            buffer = model.rollout_buffer
+            obs, starts = buffer.observations, buffer.episode_starts
+            for name, y in (("own", buffer.returns), ("zero", zero_returns(obs, starts))):
+                expected[name].append(per_env(obs, y, starts)[1])
+
+    feeds = [
+        OwnReturnsFeed(lambda x, y, s, name=name: got[name].append(y.numpy()), value)
+        for name, value in (("own", shadow.own_value(model)), ("zero", lambda s: np.zeros(len(s))))
+    ]
+    model.learn(4 * 16, callback=CallbackList([Expected(), *feeds]))
+    assert truncated and len(got["own"]) == len(expected["own"]) == 4
+    for name in got:
+        for mine, want in zip(got[name], expected[name], strict=True):
+            np.testing.assert_allclose(mine, want, rtol=1e-5, atol=1e-5)
+
+
+def test_with_each_critics_default_feed_the_gp_shadow_follows_the_runs_critic() -> None:
+    """``target="defaults"``: a GP shadow built as the run's default critic learns what that
+    critic learns (the drop-in's feed) and ends bit for bit where it ends; the MLP shadow learns
+    too (from its own returns, tested above)."""
+    setting = {"kernel": "laplacian", "target": None}
+    model = build_model(ppo_spec("CartPole-v1", 0, 512, setting))
+    seen: dict[str, Any] = {}
+
+    class Idle(BaseCallback):
+        def _on_step(self) -> bool:
+            return True
+
+    def checkpoints(values: dict[str, Any]) -> BaseCallback:
+        seen.update(values)
+        return Idle()
+
+    probe = np.random.default_rng(0).uniform(-0.2, 0.2, (64, 4))
+    scorer = learn_with_shadows(
+        model, "CartPole-v1", 0, 512, {"same": setting}, checkpoints, None, "defaults"
+    )
+    assert isinstance(scorer, BaseCallback)
+    own = gp_critic(model)
+    assert own.n_seen > 0
+    np.testing.assert_array_equal(seen["same"](probe), seen[OWN](probe))
+    untrained = MLPShadow("CartPole-v1", 0).predict(th.as_tensor(probe)).numpy()
+    assert not np.allclose(seen[MLP](probe), untrained)
+
+
 def test_monte_carlo_shadows_need_a_gp_critic() -> None:
     model = build_model(dataclasses.replace(ppo_spec("CartPole-v1", 0, 64, {}), critic="mlp"))
-    with pytest.raises(ValueError, match="GP critic"):
-        learn_with_shadows(
-            model, "CartPole-v1", 0, 64, {}, lambda v: BaseCallback(), None, "monte_carlo"
-        )
+    for target in ("monte_carlo", "defaults"):
+        with pytest.raises(ValueError, match="GP critic"):
+            learn_with_shadows(
+                model, "CartPole-v1", 0, 64, {}, lambda v: BaseCallback(), None, target
+            )
     with pytest.raises(ValueError, match="target must be"):
         learn_with_shadows(model, "CartPole-v1", 0, 64, {}, lambda v: BaseCallback(), None, "td")  # type: ignore[arg-type]
 
