@@ -316,8 +316,8 @@ def learn_with_shadows(
     it would train the agent: the GP critics :class:`~sb3_geogp.GPValueCallback`'s default
     feed (the run's must be one), the MLP shadow the GAE returns of its own values
     (:class:`OwnReturnsFeed`), as PPO trains SB3's critic. A run's own GP critic is fed by
-    :class:`TeeFeed`, which hands each batch to the GP shadows (and, but with
-    ``"defaults"``, to the MLP shadow); a run with SB3's MLP critic, by :class:`ShadowFeed`.
+    :class:`TeeFeed`, which hands each batch to the GP shadows (and to the MLP shadow, except
+    with ``"defaults"``); a run with SB3's MLP critic, by :class:`ShadowFeed`.
 
     Raises
     ------
