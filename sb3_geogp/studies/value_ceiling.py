@@ -289,13 +289,15 @@ TASKS: dict[str, RestartableTask] = {
         acrobot_step,
         lambda _s, _a, done: np.where(done, 0.0, -1.0),
     ),
-    # a reward of at most pi^2 + 0.1 * 8^2 + 0.001 * 2^2 in size
+    # the largest cost: upside down at full speed and full torque
     "Pendulum-v1": RestartableTask(
         _pendulum_v1_state,
         _pendulum_v1_observe,
         pendulum_v1_step,
         pendulum_v1_reward,
-        reward_bound=math.pi**2 + 6.4 + 0.004,
+        reward_bound=math.pi**2
+        + 0.1 * PENDULUM_V1["max_speed"] ** 2
+        + 0.001 * PENDULUM_V1["max_torque"] ** 2,
     ),
     PAPER_PENDULUM_ID: _pendulum_task(PendulumParams()),
     WALL_MAZE_ID: _maze_task(WallMaze()),
