@@ -15,12 +15,20 @@ import torch
 def positive_int(name: str, value: Any) -> int:
     """``value`` as an ``int`` if it is an integer (Python's or NumPy's, not a ``bool``) of at
     least 1; else ``ValueError`` naming ``name``."""
+    return _int_at_least(name, value, 1, "a positive integer")
+
+
+def non_negative_int(name: str, value: Any) -> int:
+    """``value`` as an ``int`` if it is an integer (Python's or NumPy's, not a ``bool``) of at
+    least 0; else ``ValueError`` naming ``name``."""
+    return _int_at_least(name, value, 0, "a non-negative integer")
+
+
+def _int_at_least(name: str, value: Any, minimum: int, kind: str) -> int:
     if isinstance(value, bool) or not isinstance(value, int | np.integer):
-        raise ValueError(
-            f"{name} must be a positive integer, got {value!r} ({type(value).__name__})"
-        )
-    if value < 1:
-        raise ValueError(f"{name} must be a positive integer, got {value}")
+        raise ValueError(f"{name} must be {kind}, got {value!r} ({type(value).__name__})")
+    if value < minimum:
+        raise ValueError(f"{name} must be {kind}, got {value}")
     return int(value)
 
 

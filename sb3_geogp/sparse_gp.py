@@ -57,7 +57,7 @@ from sb3_geogp.adaptation import (
 from sb3_geogp.graph import BVGraph
 from sb3_geogp.kernels import Kernel, KernelName, make_kernel
 from sb3_geogp.kernels.base import BasisMatrices, Rows
-from sb3_geogp.options import check_number, check_same_options, positive_int
+from sb3_geogp.options import check_number, check_same_options, non_negative_int, positive_int
 from sb3_geogp.posterior_cache import PosteriorMatrices
 from sb3_geogp.rollback import Rollback
 from sb3_geogp.trends import RISE_THRESHOLD as RISE_THRESHOLD
@@ -216,8 +216,9 @@ def _check_memory(
     nbytes += window * (itemsize * (input_dim + 1) + 8)
     nbytes += kernel.state_nbytes(capacity, input_dim, itemsize)
     limit, what = _MAX_STATE_BYTES, "the engine's limit"
-    if _device_memory(device) < limit:
-        limit, what = _device_memory(device), f"the memory of {torch.device(device or 'cpu')}"
+    memory = _device_memory(device)
+    if memory < limit:
+        limit, what = memory, f"the memory of {torch.device(device or 'cpu')}"
     if nbytes > limit:
         raise ValueError(
             f"max_basis={capacity - 1} with a {window}-point window needs about "
@@ -1364,10 +1365,7 @@ class SparseOnlineGP(nn.Module):
             :meth:`~sb3_geogp.kernels.Kernel.rescale` (its tree would not follow them); the
             state is then unchanged.
         """
-        if isinstance(n_iter, bool) or not isinstance(n_iter, int | np.integer) or n_iter < 0:
-            raise ValueError(
-                f"n_iter must be a non-negative integer (0: rebuild only), got {n_iter!r}"
-            )
+        non_negative_int("n_iter", n_iter)
         check_number("lr", lr)
         if not 0 < lr < math.inf:
             raise ValueError(f"lr must be a positive finite Adam step size, got {lr}")
@@ -1811,16 +1809,18 @@ class SparseOnlineGP(nn.Module):
                 f"{name} has dtype {t.dtype}, which cannot be cast to {self.alpha.dtype}; "
                 "pass real numbers"
             )
+        converted = t.to(device=self.alpha.device, dtype=self.alpha.dtype)
+        if bool(torch.isfinite(converted).all()):
+            return converted
+        # Only a failed check looks at the input: NaN or inf given, or finite values the
+        # GP's dtype cannot hold.
         if not bool(torch.isfinite(t).all()):
             raise ValueError(f"{name} contains NaN or inf; remove or impute those entries first")
-        cast = t.to(device=self.alpha.device, dtype=self.alpha.dtype)
-        if not bool(torch.isfinite(cast).all()):
-            raise ValueError(
-                f"{name} holds values up to {float(t.abs().max()):.3g}, beyond the range of "
-                f"this GP's {self.alpha.dtype}; scale them down, or build the GP with "
-                "dtype=torch.float64"
-            )
-        return cast
+        raise ValueError(
+            f"{name} holds values up to {float(t.abs().max()):.3g}, beyond the range of "
+            f"this GP's {self.alpha.dtype}; scale them down, or build the GP with "
+            "dtype=torch.float64"
+        )
 
     def _as_inputs(self, x: ArrayLike, name: str) -> Tensor:
         t = self._as_tensor(x, name)
