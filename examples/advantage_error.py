@@ -41,11 +41,21 @@ and Acrobot-v1 (there "1 of a return" is in units of the task's largest reward).
 ``--target defaults`` (since 0.35.3) gives every critic what its own training gives it, so
 that the critics compare as the agent would train them, on the same rollouts: the GP critics
 :class:`~sb3_geogp.GPValueCallback`'s default feed (PPO's Monte Carlo returns; the run's own
-critic must be a GP, built as the drop-in's), and the MLP shadow the GAE returns of its own
-values (:class:`~sb3_geogp.comparison.shadow.OwnReturnsFeed`), as PPO trains SB3's critic::
+GP critic is built as the drop-in's, a GP shadow gets the feed with its own bootstraps,
+:class:`~sb3_geogp.comparison.shadow.MonteCarloFeed`), and the MLP shadow the GAE returns of
+its own values (:class:`~sb3_geogp.comparison.shadow.OwnReturnsFeed`), as PPO trains SB3's
+critic. The GP critic trains the agent::
 
     python examples/advantage_error.py --env Acrobot-v1 --actors laplacian --critics '{}' \
         --target defaults --seeds 0 1 2 3 4 --out docs/critic_fit_same_data/Acrobot-v1
+
+or SB3's MLP critic does, and a GP shadow built as the drop-in's critic learns beside it (since
+0.35.4)::
+
+    python examples/advantage_error.py --env Acrobot-v1 --actors mlp \
+        --critics '{"Laplacian GP (PPO default)": {"kernel": "laplacian"}}' --target defaults \
+        --against "run's own critic" --seeds 0 1 2 3 4 \
+        --out docs/critic_fit_same_data_mlp/Acrobot-v1
 """
 
 from __future__ import annotations
@@ -314,8 +324,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         help="what every critic learns: SB3's returns of each rollout (default), or the "
         "returns of completed episodes, as PPO's default feed gives them to a GP critic (the "
         "run's own critic must be a GP); defaults: each critic what training gives it, the GP "
-        "critics GPValueCallback's default feed (the run's own must be a GP), the MLP shadow "
-        "the GAE returns of its own values",
+        "critics GPValueCallback's default feed (a GP shadow with its own bootstraps), the MLP "
+        "shadow the GAE returns of its own values",
     )
     parser.add_argument(
         "--against",
@@ -329,8 +339,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         oracle_kernels(args.env, args.critics)
     except ValueError as error:
         parser.error(str(error))
-    if args.target != "returns" and "mlp" in args.actors:
-        parser.error(f"--target {args.target} feeds what the run's GP critic is fed: no mlp actor")
+    if args.target == "monte_carlo" and "mlp" in args.actors:
+        parser.error("--target monte_carlo feeds what the run's GP critic is fed: no mlp actor")
     run_study(
         args,
         run,

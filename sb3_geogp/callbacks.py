@@ -26,14 +26,7 @@ from stable_baselines3.common.vec_env import VecFrameStack, VecNormalize, unwrap
 
 from sb3_geogp.options import positive_int
 from sb3_geogp.policies import GPCriticMixin, _contrib_algorithms, _for_algorithm, check_algorithm
-from sb3_geogp.targets import (
-    discounted_returns,
-    env_major,
-    horizon_bootstraps,
-    horizon_returns,
-    per_env,
-    split_completed,
-)
+from sb3_geogp.targets import Segment, completed_returns, empty_segment, env_major, per_env
 from sb3_geogp.user_warnings import warn_user
 
 Target = Literal["returns", "monte_carlo"]
@@ -97,7 +90,7 @@ class _Unfinished(NamedTuple):
     last_obs: Any
     num_timesteps: int
     feed_rule: tuple[Target | None, int | None]
-    pending: list[tuple[np.ndarray, np.ndarray, np.ndarray]]
+    pending: list[Segment]
 
 
 class GPValueCallback(BaseCallback):
@@ -222,7 +215,7 @@ class GPValueCallback(BaseCallback):
         #: Wall-clock seconds spent in GP updates so far (all rollouts of this callback).
         self.update_seconds = 0.0
         # Monte-Carlo: steps of each env's unfinished episode (obs, rewards, episode_starts).
-        self._pending: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+        self._pending: list[Segment] = []
         # Truncations of the current rollout: (step, env, terminal observation).
         self._truncations: list[tuple[int, int, np.ndarray]] = []
         # Rollouts not fed yet (feed_every > 1), as _rollout_targets gives them.
@@ -323,7 +316,7 @@ class GPValueCallback(BaseCallback):
         self._fed[0] += 1
         if len(self._held) < self.feed_every:
             # Only marks the rollout handled: the GP, and so the advantages, stay as they are.
-            policy.update_critic(*_empty_segment(buffer.obs_shape))
+            policy.update_critic(*empty_segment(buffer.obs_shape))
         else:
             if self.recompute_advantages:
                 old_bootstrap = self._bootstrap_values(policy)
@@ -451,7 +444,7 @@ class GPValueCallback(BaseCallback):
     def _feed_rule(self) -> tuple[Target | None, int | None]:
         return self.target, self.horizon
 
-    def _continued_episodes(self) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    def _continued_episodes(self) -> list[Segment]:
         """The episodes an earlier ``learn()`` call left running, where they go on: SB3 keeps
         the environment's last observation (the very array) unless it resets it, which a
         ``learn()`` call does unless ``reset_num_timesteps=False``; else none."""
@@ -466,7 +459,7 @@ class GPValueCallback(BaseCallback):
         )
         if continues:
             return list(last.pending)
-        return [_empty_segment(self._algo.rollout_buffer.obs_shape)] * self.model.n_envs
+        return [empty_segment(self._algo.rollout_buffer.obs_shape)] * self.model.n_envs
 
     def _check_bounds_wrappers(self, normalize: VecNormalize | None) -> None:
         """Before the GP's first data: warn where a VecEnv wrapper (``normalize``, the model's
@@ -528,55 +521,16 @@ class GPValueCallback(BaseCallback):
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Monte-Carlo targets of the episodes completed by this rollout, env by env (with a
         ``horizon``: also of the steps whose ``horizon`` successors have arrived)."""
-        gamma = self._discount
-        # Per env with steps to feed: stitched observations, rewards, episode ends, trajectory
-        # starts of the steps fed, and how many are fed (the first ones).
-        parts: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int]] = []
-        for env in range(buffer.n_envs):
-            old_obs, old_rew, old_starts = self._pending[env]
-            obs = np.concatenate([old_obs, buffer.observations[:, env]])
-            rew = np.concatenate([old_rew, buffer.rewards[:, env].astype(np.float64)])
-            starts = np.concatenate([old_starts, buffer.episode_starts[:, env].astype(bool)])
-            ends, n_ready = split_completed(starts, bool(dones[env]))
-            if self.horizon is not None:
-                n_ready = max(n_ready, len(obs) - self.horizon)
-            self._pending[env] = (obs[n_ready:], rew[n_ready:], starts[n_ready:])
-            if n_ready:
-                chunk_starts = starts[:n_ready].copy()
-                chunk_starts[0] = True
-                parts.append((obs, rew, ends, chunk_starts, n_ready))
-        if not parts:
-            return (
-                np.empty((0, *buffer.obs_shape), dtype=buffer.observations.dtype),
-                np.empty(0),
-                np.empty(0, dtype=bool),
-            )
-        obs_all = [obs[:n] for obs, _, _, _, n in parts]
-        return (
-            np.concatenate(obs_all),
-            np.concatenate(self._returns(parts, gamma)),
-            np.concatenate([s for _, _, _, s, _ in parts]),
+        return completed_returns(
+            self._pending,
+            buffer.observations,
+            buffer.rewards,
+            buffer.episode_starts,
+            dones,
+            self._discount,
+            self.horizon,
+            lambda states: _predict(self._policy, states),
         )
-
-    def _returns(
-        self, parts: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int]], gamma: float
-    ) -> list[np.ndarray]:
-        """Targets of the steps fed from each env's stitched trajectory; with a ``horizon``,
-        the values that close the cut returns come from one prediction for all envs."""
-        if self.horizon is None:
-            return [discounted_returns(rew[:n], ends[:n], gamma) for _, rew, ends, _, n in parts]
-        bootstraps = [horizon_bootstraps(ends, self.horizon, n) for _, _, ends, _, n in parts]
-        cut_states = [obs[b[b >= 0]] for (obs, *_), b in zip(parts, bootstraps, strict=True)]
-        values = _predict(self._policy, np.concatenate(cut_states))
-        sections = np.cumsum([len(s) for s in cut_states])[:-1]
-        out = []
-        for (_, rew, ends, _, n), b, v in zip(
-            parts, bootstraps, np.split(values, sections), strict=True
-        ):
-            at_cut = np.zeros(n)
-            at_cut[b >= 0] = v
-            out.append(horizon_returns(rew, ends, gamma, b, at_cut))
-        return out
 
     def _bootstrap_values(self, policy: GPCriticMixin) -> np.ndarray:
         """Critic values of this rollout's truncated terminal observations, shape (k,)."""
@@ -678,11 +632,3 @@ def _check_targets(targets: np.ndarray) -> None:
             "finite, their discounted sums are not). Scale the rewards down, e.g. "
             "VecNormalize(env, norm_obs=False, norm_reward=True) or a reward wrapper"
         )
-
-
-def _empty_segment(obs_shape: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    return (
-        np.empty((0, *obs_shape), dtype=np.float32),
-        np.empty(0, dtype=np.float64),
-        np.empty(0, dtype=bool),
-    )

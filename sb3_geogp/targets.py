@@ -6,7 +6,12 @@ per-environment trajectories and asks this module for their targets.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
+
+#: One environment's steps not fed yet: (observations, rewards, episode starts), time order.
+Segment = tuple[np.ndarray, np.ndarray, np.ndarray]
 
 
 def discounted_returns(rewards: np.ndarray, episode_ends: np.ndarray, gamma: float) -> np.ndarray:
@@ -163,3 +168,109 @@ def per_env(
     starts = np.swapaxes(episode_starts, 0, 1).astype(bool)
     starts[:, 0] = True
     return env_major(observations), env_major(targets), starts.reshape(-1)
+
+
+def empty_segment(obs_shape: tuple[int, ...]) -> Segment:
+    """A :data:`Segment` with no steps, observations of shape ``obs_shape``."""
+    return (
+        np.empty((0, *obs_shape), dtype=np.float32),
+        np.empty(0, dtype=np.float64),
+        np.empty(0, dtype=bool),
+    )
+
+
+def completed_returns(
+    pending: list[Segment],
+    observations: np.ndarray,
+    rewards: np.ndarray,
+    episode_starts: np.ndarray,
+    dones: np.ndarray,
+    gamma: float,
+    horizon: int | None,
+    value: Callable[[np.ndarray], np.ndarray],
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Monte Carlo targets of the steps a rollout completes, env by env.
+
+    Each env's pending steps and the rollout's are stitched in time order; the steps of
+    completed episodes get their discounted returns (:func:`discounted_returns`), and with a
+    ``horizon`` also the steps whose ``horizon`` successors have arrived (their returns cut
+    there with ``value`` of the state reached, :func:`horizon_returns`). The other steps wait:
+    ``pending`` is updated in place.
+
+    Parameters
+    ----------
+    pending : list of Segment, one per env
+        Each env's steps not fed yet; replaced by those still waiting.
+    observations : ndarray, shape (n_steps, n_envs, *obs_shape)
+    rewards : ndarray, shape (n_steps, n_envs)
+        Time-limit bootstraps folded in, as SB3 folds them.
+    episode_starts : ndarray, shape (n_steps, n_envs)
+        SB3's ``episode_starts`` column.
+    dones : ndarray of bool, shape (n_envs,)
+        Whether each env's last step ended an episode.
+    gamma : float
+    horizon : int or None
+        Where returns are cut (``None``: not cut).
+    value : callable
+        The critic's values of states, shape (k, *obs_shape) -> (k,); called once, with the
+        states where returns are cut, and only with a ``horizon``.
+
+    Returns
+    -------
+    observations : ndarray, shape (n, *obs_shape)
+    targets : ndarray, shape (n,), float64
+    starts : ndarray of bool, shape (n,)
+        ``True`` where a trajectory fed starts (each env's first step fed, and episode starts).
+    """
+    # Per env with steps to feed: stitched observations, rewards, episode ends, trajectory
+    # starts of the steps fed, and how many are fed (the first ones).
+    parts: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int]] = []
+    for env in range(observations.shape[1]):
+        old_obs, old_rew, old_starts = pending[env]
+        obs = np.concatenate([old_obs, observations[:, env]])
+        rew = np.concatenate([old_rew, rewards[:, env].astype(np.float64)])
+        starts = np.concatenate([old_starts, episode_starts[:, env].astype(bool)])
+        ends, n_ready = split_completed(starts, bool(dones[env]))
+        if horizon is not None:
+            n_ready = max(n_ready, len(obs) - horizon)
+        pending[env] = (obs[n_ready:], rew[n_ready:], starts[n_ready:])
+        if n_ready:
+            chunk_starts = starts[:n_ready].copy()
+            chunk_starts[0] = True
+            parts.append((obs, rew, ends, chunk_starts, n_ready))
+    if not parts:
+        obs_shape = observations.shape[2:]
+        return (
+            np.empty((0, *obs_shape), dtype=observations.dtype),
+            np.empty(0),
+            np.empty(0, dtype=bool),
+        )
+    return (
+        np.concatenate([obs[:n] for obs, _, _, _, n in parts]),
+        np.concatenate(_part_returns(parts, gamma, horizon, value)),
+        np.concatenate([s for _, _, _, s, _ in parts]),
+    )
+
+
+def _part_returns(
+    parts: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int]],
+    gamma: float,
+    horizon: int | None,
+    value: Callable[[np.ndarray], np.ndarray],
+) -> list[np.ndarray]:
+    """Targets of the steps fed from each env's stitched trajectory; with a ``horizon``, the
+    values that close the cut returns come from one call of ``value`` for all envs."""
+    if horizon is None:
+        return [discounted_returns(rew[:n], ends[:n], gamma) for _, rew, ends, _, n in parts]
+    bootstraps = [horizon_bootstraps(ends, horizon, n) for _, _, ends, _, n in parts]
+    cut_states = [obs[b[b >= 0]] for (obs, *_), b in zip(parts, bootstraps, strict=True)]
+    values = value(np.concatenate(cut_states))
+    sections = np.cumsum([len(s) for s in cut_states])[:-1]
+    out = []
+    for (_, rew, ends, _, n), b, v in zip(
+        parts, bootstraps, np.split(values, sections), strict=True
+    ):
+        at_cut = np.zeros(n)
+        at_cut[b >= 0] = v
+        out.append(horizon_returns(rew, ends, gamma, b, at_cut))
+    return out

@@ -13,6 +13,10 @@ that differs) feeds every batch the run's critic learns from to other critics to
 * :class:`TeeFeed`: a run's GP critic's feed, which hands every batch it feeds to the shadows
   too (SB3's returns, as 0.23's default fed the GP critic, or the PPO family's default since
   0.24, Monte Carlo returns);
+* :class:`OwnReturnsFeed`, :class:`MonteCarloFeed`: the feeds that give a shadow what its own
+  training would give it, beside a run of any critic (the GAE returns of its own values, as
+  PPO trains SB3's critic; Monte Carlo returns with its own bootstraps, as PPO's default feed
+  trains a GP critic);
 * :func:`learn_with_shadows`: a run trained with an MLP shadow and GP shadows beside it, each
   critic's values (the run's own too) given to a callback that scores them at rollout ends;
 * :func:`study_parser`, :func:`run_study`: the command line and the resumable loop over actors
@@ -36,14 +40,14 @@ from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
 from torch import Tensor
 from tqdm.auto import tqdm
 
-from sb3_geogp.callbacks import GPValueCallback, Target, time_limit_truncations
+from sb3_geogp.callbacks import GPValueCallback, Target, default_feed, time_limit_truncations
 from sb3_geogp.comparison.run import build_model, write_json_atomic
 from sb3_geogp.comparison.specs import RunSpec, SweepConfig, setting_differences
 from sb3_geogp.kernels import Kernel
 from sb3_geogp.policies import GPActorCriticPolicy
 from sb3_geogp.sparse_gp import SparseOnlineGP
 from sb3_geogp.studies.advantage_error import gae
-from sb3_geogp.targets import per_env
+from sb3_geogp.targets import Segment, completed_returns, empty_segment, per_env
 from sb3_geogp.toolbox.provenance import provenance
 from sb3_geogp.toolbox.scripts import DefaultsHelpFormatter
 
@@ -196,16 +200,15 @@ class ShadowFeed(BaseCallback):
             learn(th.as_tensor(x), th.as_tensor(y), th.as_tensor(starts))
 
 
-class OwnReturnsFeed(BaseCallback):
-    """Feeds a shadow critic the GAE returns of every rollout computed with its own values, as
-    PPO computes them for the critic it trains: ``A + V``, with ``V`` the shadow's values at the
-    rollout's states and after its last step, and at a time-limit truncation the shadow's
-    ``gamma * V(terminal observation)`` in place of the one SB3 added with the run's critic.
+class OwnBootstraps(BaseCallback):
+    """Base of the feeds that give a shadow critic a rollout's rewards with its own time-limit
+    bootstraps: at a truncation SB3 adds ``gamma * V(terminal observation)`` of the run's
+    critic to the reward; :meth:`own_rewards` puts the shadow's value in its place.
 
     Parameters
     ----------
     learn : callable
-        The shadow's :data:`Learner`, called once per rollout, env by env.
+        The shadow's :data:`Learner`.
     value : callable
         The shadow's values (:data:`NumpyValue`), read at the rollout's end before it learns.
     """
@@ -229,14 +232,36 @@ class OwnReturnsFeed(BaseCallback):
             self._bootstraps.append((step, env, terminal, float(added[0, 0])))
         return True
 
+    def own_rewards(self) -> np.ndarray:
+        """The rollout's rewards, float64, shape (n_steps, n_envs), with the shadow's
+        bootstraps at the truncations."""
+        model = cast(OnPolicyAlgorithm, self.model)
+        rewards = model.rollout_buffer.rewards.astype(np.float64)
+        for step, env, terminal, added in self._bootstraps:
+            own = self.value(terminal[None].astype(np.float64))[0]
+            rewards[step, env] += float(model.gamma) * (own - added)
+        return rewards
+
+
+class OwnReturnsFeed(OwnBootstraps):
+    """Feeds a shadow critic the GAE returns of every rollout computed with its own values, as
+    PPO computes them for the critic it trains: ``A + V``, with ``V`` the shadow's values at the
+    rollout's states and after its last step, and its own time-limit bootstraps
+    (:class:`OwnBootstraps`).
+
+    Parameters
+    ----------
+    learn : callable
+        The shadow's :data:`Learner`, called once per rollout, env by env.
+    value : callable
+        The shadow's values (:data:`NumpyValue`), read at the rollout's end before it learns.
+    """
+
     def _on_rollout_end(self) -> None:
         model = cast(OnPolicyAlgorithm, self.model)
         buffer, gamma = model.rollout_buffer, float(model.gamma)
         T, n_envs = buffer.rewards.shape
-        rewards = buffer.rewards.astype(np.float64)
-        for step, env, terminal, added in self._bootstraps:
-            own = self.value(terminal[None].astype(np.float64))[0]
-            rewards[step, env] += gamma * (own - added)
+        rewards = self.own_rewards()
         obs = buffer.observations.reshape(T * n_envs, -1).astype(np.float64)
         values = self.value(obs).reshape(T, n_envs)
         last = self.value(np.asarray(model._last_obs, dtype=np.float64).reshape(n_envs, -1))
@@ -245,6 +270,48 @@ class OwnReturnsFeed(BaseCallback):
         advantages = gae(rewards, values, buffer.episode_starts, last, last_dones, gamma, lam)
         x, y, starts = per_env(buffer.observations, advantages + values, buffer.episode_starts)
         self.learn(th.as_tensor(x), th.as_tensor(y), th.as_tensor(starts))
+
+
+class MonteCarloFeed(OwnBootstraps):
+    """Feeds a shadow critic the Monte Carlo returns of the episodes each rollout completes, as
+    :class:`~sb3_geogp.GPValueCallback` with ``target="monte_carlo"`` feeds the run's GP critic
+    (:func:`~sb3_geogp.targets.completed_returns`: episodes stitched across rollouts per env),
+    but with the shadow's own values wherever a return bootstraps: at time-limit truncations
+    (:class:`OwnBootstraps`) and at the ``horizon`` cut. Runs beside a critic of any kind.
+
+    Parameters
+    ----------
+    learn : callable
+        The shadow's :data:`Learner`, called at each rollout end that completes an episode.
+    value : callable
+        The shadow's values (:data:`NumpyValue`), read at the rollout's end before it learns.
+    horizon : int or None
+        As :class:`~sb3_geogp.GPValueCallback`'s.
+    """
+
+    def __init__(self, learn: Learner, value: NumpyValue, horizon: int | None) -> None:
+        super().__init__(learn, value)
+        self.horizon = horizon
+        self._pending: list[Segment] = []
+
+    def _init_callback(self) -> None:
+        buffer = cast(OnPolicyAlgorithm, self.model).rollout_buffer
+        self._pending = [empty_segment(buffer.obs_shape)] * buffer.n_envs
+
+    def _on_rollout_end(self) -> None:
+        buffer = cast(OnPolicyAlgorithm, self.model).rollout_buffer
+        x, y, starts = completed_returns(
+            self._pending,
+            buffer.observations,
+            self.own_rewards(),
+            buffer.episode_starts,
+            np.asarray(self.locals["dones"], dtype=bool),
+            float(buffer.gamma),
+            self.horizon,
+            self.value,
+        )
+        if len(y):  # no episode completed: nothing to learn, as for the run's GP critic
+            self.learn(th.as_tensor(x), th.as_tensor(y), th.as_tensor(starts))
 
 
 class TeeFeed(GPValueCallback):
@@ -311,19 +378,19 @@ def learn_with_shadows(
 
     ``target``: what every critic learns. ``"returns"``: SB3's returns of each rollout.
     ``"monte_carlo"``: the returns of completed episodes, uncut, as PPO's default feed gives
-    them to a GP critic (the run's must be one); the MLP shadow then learns them too.
-    ``"defaults"``: what each critic's own training gives it, so that every critic learns as
-    it would train the agent: the GP critics :class:`~sb3_geogp.GPValueCallback`'s default
-    feed (the run's must be one), the MLP shadow the GAE returns of its own values
-    (:class:`OwnReturnsFeed`), as PPO trains SB3's critic. A run's own GP critic is fed by
-    :class:`TeeFeed`, which hands each batch to the GP shadows (and to the MLP shadow, except
-    with ``"defaults"``); a run with SB3's MLP critic, by :class:`ShadowFeed`.
+    them to a GP critic (the run's must be one); the MLP shadow then learns them too. The run's
+    own GP critic is then fed by :class:`TeeFeed`, which hands each batch to the shadows; a run
+    with SB3's MLP critic, by :class:`ShadowFeed`. ``"defaults"``: what each critic's own
+    training gives it, so that every critic learns as it would train the agent: the run's own
+    critic its training's feed (:class:`~sb3_geogp.GPValueCallback`'s default feed for a GP
+    critic), each GP shadow the same feed with its own bootstraps (:class:`MonteCarloFeed`),
+    the MLP shadow the GAE returns of its own values (:class:`OwnReturnsFeed`), as PPO trains
+    SB3's critic.
 
     Raises
     ------
     ValueError
-        ``target="monte_carlo"`` or ``"defaults"`` for a model without a GP critic, or
-        another ``target``.
+        ``target="monte_carlo"`` for a model without a GP critic, or another ``target``.
 
     Returns
     -------
@@ -332,10 +399,11 @@ def learn_with_shadows(
     """
     if target not in ("returns", "monte_carlo", "defaults"):
         raise ValueError(f"target must be 'returns', 'monte_carlo' or 'defaults', got {target!r}")
-    if target != "returns" and not isinstance(model.policy, GPActorCriticPolicy):
+    own_gp = isinstance(model.policy, GPActorCriticPolicy)
+    if target == "monte_carlo" and not own_gp:
         raise ValueError(
-            f"target={target!r} feeds the GP shadows what the run's GP critic is fed: train "
-            "the run with a GP critic, or use target='returns'"
+            "target='monte_carlo' feeds the shadows what the run's GP critic is fed: train the "
+            "run with a GP critic, or use target='returns' or 'defaults'"
         )
     mlp = MLPShadow(env_id, seed)
     kernels = kernels or {}
@@ -352,17 +420,18 @@ def learn_with_shadows(
         progress = 1.0 - model.num_timesteps / model._total_timesteps
         mlp.learn(x, y, model.lr_schedule(progress))
 
-    gp_learners: list[Learner] = [gp.update for gp in gps.values()]
+    learners: list[Learner] = [learn_mlp, *(gp.update for gp in gps.values())]
     scorer = checkpoints(values)
-    feeds: list[BaseCallback] = (
-        [OwnReturnsFeed(learn_mlp, values[MLP]), TeeFeed(gp_learners, None)]
-        if target == "defaults"
-        else [
-            TeeFeed([learn_mlp, *gp_learners], target)
-            if isinstance(model.policy, GPActorCriticPolicy)
-            else ShadowFeed([learn_mlp, *gp_learners])
+    feeds: list[BaseCallback]
+    if target == "defaults":
+        _, horizon = default_feed(type(model), float(model.rollout_buffer.gamma))
+        feeds = [
+            *([GPValueCallback()] if own_gp else []),
+            OwnReturnsFeed(learn_mlp, values[MLP]),
+            *(MonteCarloFeed(gp.update, values[name], horizon) for name, gp in gps.items()),
         ]
-    )
+    else:
+        feeds = [TeeFeed(learners, target) if own_gp else ShadowFeed(learners)]
     model.learn(timesteps, callback=CallbackList([scorer, *feeds]))
     env = model.get_env()
     assert env is not None

@@ -33,6 +33,7 @@ from sb3_geogp.comparison.shadow import (
 )
 from sb3_geogp.targets import per_env
 from tests.test_callbacks import (
+    GAMMA,
     FeedRecorder,
     expected_monte_carlo,
     make_scripted,
@@ -202,13 +203,91 @@ def test_with_each_critics_default_feed_the_gp_shadow_follows_the_runs_critic() 
     assert not np.allclose(seen[MLP](probe), untrained)
 
 
+def scripted_return(env_id: int, t: int, value: float, horizon: int | None) -> float:
+    """Hand sum of step ``t``'s Monte Carlo target on the scripted env (reward ``1 + t``; env 0
+    terminates after 3 steps, env 1 is truncated after 5) for a critic whose value is ``value``
+    everywhere: the discounted rewards to the episode's end, or to the ``horizon`` cut, plus the
+    discounted value there (none after a termination)."""
+    length = 3 if env_id == 0 else 5
+    stop = length if horizon is None else min(length, t + horizon)
+    tail = 0.0 if stop == length and env_id == 0 else value
+    return sum(GAMMA ** (k - t) * (1 + k) for k in range(t, stop)) + GAMMA ** (stop - t) * tail
+
+
+@pytest.mark.parametrize("horizon", [None, 2])
+@pytest.mark.parametrize("value", [0.0, 7.0])
+def test_monte_carlo_feed_gives_a_shadow_its_own_monte_carlo_returns(
+    horizon: int | None, value: float
+) -> None:
+    """Beside a run of SB3's MLP critic on the scripted env (episodes span rollouts), a shadow
+    whose value is a constant gets every step of a completed episode once, with the hand sum of
+    its return: SB3's bootstrap of the run's critic at the truncations is replaced by the
+    shadow's value, and so is the value at the ``horizon`` cut."""
+    model = PPO(
+        "MlpPolicy", scripted_vec_env(), n_steps=4, batch_size=8, n_epochs=1, seed=0, gamma=GAMMA
+    )
+    batches: list[tuple[np.ndarray, ...]] = []
+    feed = shadow.MonteCarloFeed(
+        lambda *batch: batches.append(tuple(b.numpy() for b in batch)),
+        lambda s: np.full(len(s), value),
+        horizon,
+    )
+    model.learn(4 * 8, callback=feed)
+    x = np.concatenate([b[0] for b in batches])
+    y = np.concatenate([b[1] for b in batches])
+    steps = {(int(e), int(ep), int(t)) for e, ep, t in x}
+    assert len(steps) == len(x) == 30  # 5 episodes of 3 steps and 3 of 5, each step once
+    for (env_id, _, t), target in zip(x, y, strict=True):
+        expected = scripted_return(int(env_id), int(t), value, horizon)
+        assert target == pytest.approx(expected, rel=1e-6)
+
+
+def test_monte_carlo_feed_with_the_runs_values_gives_what_the_runs_gp_critic_learns() -> None:
+    """A shadow whose values are the run's own GP critic's gets, batch by batch, what
+    GPValueCallback's Monte Carlo feed gives that critic (the reference), truncation
+    bootstraps included."""
+    model = make_scripted(PPO, n_steps=4)
+    recorder = FeedRecorder(model.policy, keep_empty=False)
+    seen: list[tuple[np.ndarray, ...]] = []
+    feed = shadow.MonteCarloFeed(
+        lambda *batch: seen.append(tuple(b.numpy() for b in batch)), shadow.own_value(model), None
+    )
+    model.learn(4 * 8, callback=CallbackList([feed, GPValueCallback(target="monte_carlo")]))
+    fed = [b for b in recorder.batches if len(b[1])]
+    assert len(fed) == len(seen) > 0
+    for (x, y, starts), (sx, sy, s_starts) in zip(fed, seen, strict=True):
+        np.testing.assert_array_equal(sx, x)
+        np.testing.assert_allclose(sy, y, rtol=1e-6)
+        np.testing.assert_array_equal(s_starts, starts)
+
+
+def test_with_each_critics_default_feed_a_gp_shadow_learns_beside_sb3s_critic() -> None:
+    """``target="defaults"`` on a run of SB3's MLP critic: the GP shadow, built as the drop-in
+    builds its critic, learns the returns of completed episodes (MonteCarloFeed, above)."""
+    model = build_model(dataclasses.replace(ppo_spec("CartPole-v1", 0, 512, {}), critic="mlp"))
+    seen: dict[str, Any] = {}
+
+    class Idle(BaseCallback):
+        def _on_step(self) -> bool:
+            return True
+
+    def checkpoints(values: dict[str, Any]) -> BaseCallback:
+        seen.update(values)
+        return Idle()
+
+    setting = {"kernel": "laplacian"}
+    learn_with_shadows(model, "CartPole-v1", 0, 512, {"gp": setting}, checkpoints, None, "defaults")
+    probe = np.random.default_rng(0).uniform(-0.2, 0.2, (64, 4))
+    fresh = shadow.posterior_mean(gp_shadow(ppo_spec("CartPole-v1", 0, 1, setting)))
+    assert not np.allclose(seen["gp"](probe), fresh(probe))
+
+
 def test_monte_carlo_shadows_need_a_gp_critic() -> None:
     model = build_model(dataclasses.replace(ppo_spec("CartPole-v1", 0, 64, {}), critic="mlp"))
-    for target in ("monte_carlo", "defaults"):
-        with pytest.raises(ValueError, match="GP critic"):
-            learn_with_shadows(
-                model, "CartPole-v1", 0, 64, {}, lambda v: BaseCallback(), None, target
-            )
+    with pytest.raises(ValueError, match="GP critic"):
+        learn_with_shadows(
+            model, "CartPole-v1", 0, 64, {}, lambda v: BaseCallback(), None, "monte_carlo"
+        )
     with pytest.raises(ValueError, match="target must be"):
         learn_with_shadows(model, "CartPole-v1", 0, 64, {}, lambda v: BaseCallback(), None, "td")  # type: ignore[arg-type]
 
