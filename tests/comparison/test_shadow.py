@@ -13,6 +13,7 @@ import pytest
 import torch as th
 from stable_baselines3 import PPO
 from stable_baselines3.common.callbacks import BaseCallback, CallbackList
+from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
 
 from sb3_geogp import GPValueCallback
 from sb3_geogp.callbacks import Target, default_feed, time_limit_truncations
@@ -175,27 +176,36 @@ def test_a_shadows_own_returns_are_its_gae_returns(gae_lambda: float) -> None:
             np.testing.assert_allclose(mine, want, rtol=1e-5, atol=1e-5)
 
 
+def values_after_defaults(
+    model: OnPolicyAlgorithm, settings: dict[str, dict[str, Any]]
+) -> dict[str, shadow.NumpyValue]:
+    """Every critic's values after ``model`` (a CartPole-v1 run of seed 0) has learnt 512
+    steps with GP shadows of ``settings`` and ``target="defaults"``."""
+    seen: dict[str, shadow.NumpyValue] = {}
+
+    class Idle(BaseCallback):
+        def _on_step(self) -> bool:
+            return True
+
+    def checkpoints(values: dict[str, shadow.NumpyValue]) -> BaseCallback:
+        seen.update(values)
+        return Idle()
+
+    scorer = learn_with_shadows(
+        model, "CartPole-v1", 0, 512, settings, checkpoints, None, "defaults"
+    )
+    assert isinstance(scorer, Idle)
+    return seen
+
+
 def test_with_each_critics_default_feed_the_gp_shadow_follows_the_runs_critic() -> None:
     """``target="defaults"``: a GP shadow built as the run's default critic learns what that
     critic learns (the drop-in's feed) and ends bit for bit where it ends; the MLP shadow learns
     too (from its own returns, tested above)."""
     setting = {"kernel": "laplacian", "target": None}
     model = build_model(ppo_spec("CartPole-v1", 0, 512, setting))
-    seen: dict[str, Any] = {}
-
-    class Idle(BaseCallback):
-        def _on_step(self) -> bool:
-            return True
-
-    def checkpoints(values: dict[str, Any]) -> BaseCallback:
-        seen.update(values)
-        return Idle()
-
+    seen = values_after_defaults(model, {"same": setting})
     probe = np.random.default_rng(0).uniform(-0.2, 0.2, (64, 4))
-    scorer = learn_with_shadows(
-        model, "CartPole-v1", 0, 512, {"same": setting}, checkpoints, None, "defaults"
-    )
-    assert isinstance(scorer, BaseCallback)
     own = gp_critic(model)
     assert own.n_seen > 0
     np.testing.assert_array_equal(seen["same"](probe), seen[OWN](probe))
@@ -265,18 +275,8 @@ def test_with_each_critics_default_feed_a_gp_shadow_learns_beside_sb3s_critic() 
     """``target="defaults"`` on a run of SB3's MLP critic: the GP shadow, built as the drop-in
     builds its critic, learns the returns of completed episodes (MonteCarloFeed, above)."""
     model = build_model(dataclasses.replace(ppo_spec("CartPole-v1", 0, 512, {}), critic="mlp"))
-    seen: dict[str, Any] = {}
-
-    class Idle(BaseCallback):
-        def _on_step(self) -> bool:
-            return True
-
-    def checkpoints(values: dict[str, Any]) -> BaseCallback:
-        seen.update(values)
-        return Idle()
-
     setting = {"kernel": "laplacian"}
-    learn_with_shadows(model, "CartPole-v1", 0, 512, {"gp": setting}, checkpoints, None, "defaults")
+    seen = values_after_defaults(model, {"gp": setting})
     probe = np.random.default_rng(0).uniform(-0.2, 0.2, (64, 4))
     fresh = shadow.posterior_mean(gp_shadow(ppo_spec("CartPole-v1", 0, 1, setting)))
     assert not np.allclose(seen["gp"](probe), fresh(probe))
