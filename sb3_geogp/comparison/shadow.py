@@ -337,6 +337,23 @@ class TeeFeed(GPValueCallback):
                 learn(th.as_tensor(obs), th.as_tensor(targets), th.as_tensor(starts))
 
 
+def own_feed(
+    learn: Learner, value: NumpyValue, setting: Mapping[str, Any], model: OnPolicyAlgorithm
+) -> OwnBootstraps:
+    """What :class:`~sb3_geogp.GPValueCallback` would feed a GP shadow of ``setting`` (a
+    :func:`ppo_spec` setting) if it were ``model``'s critic: the setting's ``"target"`` and
+    ``"horizon"``, or where it names no target the algorithm's default feed
+    (:func:`~sb3_geogp.callbacks.default_feed`), every return bootstrapped on the shadow's own
+    values. SB3's returns (``"returns"``) are then the GAE returns of its values
+    (:class:`OwnReturnsFeed`); Monte Carlo returns come from :class:`MonteCarloFeed`."""
+    target, horizon = setting.get("target"), setting.get("horizon")
+    if target is None:
+        target, horizon = default_feed(type(model), float(model.rollout_buffer.gamma))
+    if target == "returns":
+        return OwnReturnsFeed(learn, value)
+    return MonteCarloFeed(learn, value, horizon)
+
+
 def numpy_value(fn: Callable[[Tensor], Tensor]) -> NumpyValue:
     """``fn`` (values of float64 states) as a function of numpy arrays."""
     return lambda s: fn(th.as_tensor(s, dtype=th.float64)).double().cpu().numpy()
@@ -383,9 +400,10 @@ def learn_with_shadows(
     with SB3's MLP critic, by :class:`ShadowFeed`. ``"defaults"``: what each critic's own
     training gives it, so that every critic learns as it would train the agent: the run's own
     critic its training's feed (:class:`~sb3_geogp.GPValueCallback`'s default feed for a GP
-    critic), each GP shadow the same feed with its own bootstraps (:class:`MonteCarloFeed`),
-    the MLP shadow the GAE returns of its own values (:class:`OwnReturnsFeed`), as PPO trains
-    SB3's critic.
+    critic), each GP shadow what that callback would feed it with its setting's ``"target"``
+    (unset: the default feed), bootstrapped on its own values (:func:`own_feed`), the MLP
+    shadow the GAE returns of its own values (:class:`OwnReturnsFeed`), as PPO trains SB3's
+    critic.
 
     Raises
     ------
@@ -424,11 +442,10 @@ def learn_with_shadows(
     scorer = checkpoints(values)
     feeds: list[BaseCallback]
     if target == "defaults":
-        _, horizon = default_feed(type(model), float(model.rollout_buffer.gamma))
         feeds = [
             *([GPValueCallback()] if own_gp else []),
             OwnReturnsFeed(learn_mlp, values[MLP]),
-            *(MonteCarloFeed(gp.update, values[name], horizon) for name, gp in gps.items()),
+            *(own_feed(gp.update, values[name], settings[name], model) for name, gp in gps.items()),
         ]
     else:
         feeds = [TeeFeed(learners, target) if own_gp else ShadowFeed(learners)]

@@ -282,6 +282,22 @@ def test_with_each_critics_default_feed_a_gp_shadow_learns_beside_sb3s_critic() 
     assert not np.allclose(seen["gp"](probe), fresh(probe))
 
 
+def test_a_gp_shadow_fed_sb3s_returns_follows_the_runs_critic_fed_them() -> None:
+    """``own_feed`` with the setting's ``"target": "returns"``: a GP shadow built as a run's GP
+    critic fed SB3's returns gets the GAE returns of its own values, so it follows that
+    critic (to float32 rounding: SB3 computes its returns in float32)."""
+    setting = {"kernel": "laplacian", "target": "returns"}
+    spec = ppo_spec("CartPole-v1", 0, 1024, setting)
+    model = build_model(spec)
+    follower = gp_shadow(spec)
+    feed = shadow.own_feed(follower.update, shadow.posterior_mean(follower), setting, model)
+    model.learn(1024, callback=CallbackList([GPValueCallback(target="returns"), feed]))
+    probe = np.random.default_rng(0).uniform(-0.2, 0.2, (64, 4))
+    own = shadow.posterior_mean(gp_critic(model))(probe)
+    assert follower.n_seen == gp_critic(model).n_seen > 0
+    np.testing.assert_allclose(shadow.posterior_mean(follower)(probe), own, rtol=1e-5)
+
+
 def test_monte_carlo_shadows_need_a_gp_critic() -> None:
     model = build_model(dataclasses.replace(ppo_spec("CartPole-v1", 0, 64, {}), critic="mlp"))
     with pytest.raises(ValueError, match="GP critic"):
