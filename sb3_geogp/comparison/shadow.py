@@ -438,7 +438,6 @@ def learn_with_shadows(
         progress = 1.0 - model.num_timesteps / model._total_timesteps
         mlp.learn(x, y, model.lr_schedule(progress))
 
-    learners: list[Learner] = [learn_mlp, *(gp.update for gp in gps.values())]
     scorer = checkpoints(values)
     feeds: list[BaseCallback]
     if target == "defaults":
@@ -448,6 +447,7 @@ def learn_with_shadows(
             *(own_feed(gp.update, values[name], settings[name], model) for name, gp in gps.items()),
         ]
     else:
+        learners: list[Learner] = [learn_mlp, *(gp.update for gp in gps.values())]
         feeds = [TeeFeed(learners, target) if own_gp else ShadowFeed(learners)]
     model.learn(timesteps, callback=CallbackList([scorer, *feeds]))
     env = model.get_env()
