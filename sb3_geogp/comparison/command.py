@@ -17,7 +17,7 @@ import json
 import math
 import os
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -247,17 +247,23 @@ def check_env(env_id: str) -> EnvSpec:
         ) from None
 
 
-def _check_gp_options(options: list[tuple[str, Any]]) -> tuple[tuple[str, Any], ...]:
-    """``options`` if both GP critics accept them (a bad option would otherwise fail in every
-    worker)."""
+def _check_gp_options(
+    options: list[tuple[str, Any]], critics: Sequence[str]
+) -> tuple[tuple[str, Any], ...]:
+    """``options`` if every GP critic of ``critics`` accepts them (a bad option would
+    otherwise fail in every worker); kernel options, e.g. ``kernel_kwargs={"nu": 1.5}``, are
+    checked against the kernels named only."""
     merged = {**GP_KWARGS, **dict(options)}
     if "kernel" in merged:
         raise UsageError(
             "--gp-option kernel=...: the kernel is the critic, choose it with --critics"
         )
+    kernels = [critic for critic in critics if critic != "mlp"]
+    if not kernels:
+        raise UsageError("--gp-option sets the GP critics' options, and --critics names none")
     try:
         checked = check_gp_kwargs(merged)  # the policy's own checks and construction
-        for kernel in ("rbf", "geodesic"):
+        for kernel in kernels:
             build_gp_critic(resolved_gp_kwargs({**checked, "kernel": kernel}), input_dim=1)
     except (TypeError, ValueError) as e:
         raise UsageError(f"--gp-option: the GP critic rejects {dict(options)}: {e}") from None
@@ -383,7 +389,8 @@ def config_from_args(args: argparse.Namespace) -> SweepConfig:
             )
         changes["thresholds"] = tuple(zip(envs, args.threshold, strict=True))
     if args.gp_option:
-        changes["gp_options"] = _check_gp_options(args.gp_option)
+        critics = changes.get("critics", config.critics)
+        changes["gp_options"] = _check_gp_options(args.gp_option, critics)
     changes["target"] = args.target
     check_target_arguments(args)
     changes["horizon"] = args.horizon

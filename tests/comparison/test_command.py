@@ -72,6 +72,20 @@ def test_cli_arguments() -> None:
     assert config_from_args(_parse("--quick", "--first-seed", "7")).seeds == (7, 8)
 
 
+def test_kernel_options_are_checked_against_the_kernels_named() -> None:
+    """``--gp-option kernel_kwargs=...`` reaches the runs of a kernel that takes it (the Matérn
+    kernel's ``nu``), and is refused, naming the kernel, where another named kernel does not
+    take it, or where no GP critic is named."""
+    argv = ("--envs", "CartPole-v1", "--algos", "ppo", "--gp-option", 'kernel_kwargs={"nu": 1.5}')
+    specs = config_from_args(_parse(*argv, "--critics", "mlp", "matern")).specs()
+    gp = [s for s in specs if s.critic == "matern"]
+    assert gp and all(dict(s.gp_kwargs)["kernel_kwargs"] == {"nu": 1.5} for s in gp)
+    with pytest.raises(UsageError, match="unknown option 'nu' of kernel 'rbf'"):
+        config_from_args(_parse(*argv, "--critics", "matern", "rbf"))
+    with pytest.raises(UsageError, match="--critics names none"):
+        config_from_args(_parse(*argv, "--critics", "mlp"))
+
+
 def test_gp_actor_normalize_reaches_the_gp_runs_of_entries_that_normalise() -> None:
     specs = config_from_args(_parse("--gp-actor-normalize")).specs()
     default = config_from_args(_parse()).specs()
