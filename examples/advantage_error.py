@@ -41,8 +41,9 @@ and Acrobot-v1 (there "1 of a return" is in units of the task's largest reward).
 ``--target defaults`` (since 0.35.3) gives every critic what its own training gives it, so
 that the critics compare as the agent would train them, on the same rollouts: the GP critics
 :class:`~sb3_geogp.GPValueCallback`'s default feed (PPO's Monte Carlo returns; the run's own
-GP critic is built as the drop-in's, a GP shadow gets the feed with its own bootstraps,
-:class:`~sb3_geogp.comparison.shadow.MonteCarloFeed`), and the MLP shadow the GAE returns of
+GP critic is built as the drop-in's; a GP shadow gets the feed with its own bootstraps,
+:class:`~sb3_geogp.comparison.shadow.MonteCarloFeed`, or with ``"target": "returns"`` in its
+setting the GAE returns of its own values), and the MLP shadow the GAE returns of
 its own values (:class:`~sb3_geogp.comparison.shadow.OwnReturnsFeed`), as PPO trains SB3's
 critic. The GP critic trains the agent::
 
@@ -324,8 +325,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         help="what every critic learns: SB3's returns of each rollout (default), or the "
         "returns of completed episodes, as PPO's default feed gives them to a GP critic (the "
         "run's own critic must be a GP); defaults: each critic what training gives it, the GP "
-        "critics GPValueCallback's default feed (a GP shadow with its own bootstraps), the MLP "
-        "shadow the GAE returns of its own values",
+        "critics what GPValueCallback feeds them (its default feed, or a shadow setting's "
+        "\"target\"; a shadow's returns bootstrapped on its own values), the MLP shadow the "
+        "GAE returns of its own values",
     )
     parser.add_argument(
         "--against",

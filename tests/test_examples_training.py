@@ -703,6 +703,24 @@ def test_advantage_error_runs_on_a_maze_and_pairs_against_the_critic_asked_for(
         study.oracle_kernels("sb3_geogp/WallMaze-v0", {"x": {"kernel": "rbf", "walls": True}})
 
 
+def test_advantage_error_runs_gp_shadows_beside_sb3s_critic_with_each_critics_feed(
+    tmp_path: Path,
+) -> None:
+    """``--actors mlp --target defaults``: SB3's MLP critic trains the agent and a GP shadow
+    learns beside it; the MLP shadow starts as the run's own critic (same scores at the first
+    rollout end, before either learns) and the GP shadow learns (other scores later)."""
+    study = load_script("advantage_error")
+    argv = ["--env", "CartPole-v1", "--actors", "mlp", "--target", "defaults", "--seeds", "0"]
+    argv += ["--critics", json.dumps({"Laplacian GP": {"kernel": "laplacian"}})]
+    argv += ["--timesteps", "768", "--rollouts", "2", "--horizon", "20", "--skip", "0"]
+    argv += ["--against", study.OWN, "--out", str(tmp_path)]
+    assert study.main(argv) == 0
+    rows = json.loads((tmp_path / "results.json").read_text())["results"]["mlp"]["0"]["rows"]
+    assert len(rows) == 3 and rows[0][study.MLP] == rows[0][study.OWN]
+    assert rows[-1]["Laplacian GP"] != rows[0]["Laplacian GP"]
+    assert "| − run's own critic [95 % CI] |" in (tmp_path / "table.md").read_text()
+
+
 def test_same_policy_separates_a_changed_function_from_a_fixed_one() -> None:
     """On batches of one fixed function, fitting other environments of the same batch first
     predicts the held-out half no better than the past batches did; when the function flips
