@@ -326,7 +326,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         "returns of completed episodes, as PPO's default feed gives them to a GP critic (the "
         "run's own critic must be a GP); defaults: each critic what training gives it, the GP "
         "critics what GPValueCallback feeds them (its default feed, or a shadow setting's "
-        "\"target\"; a shadow's returns bootstrapped on its own values), the MLP shadow the "
+        "target; a shadow's returns bootstrapped on its own values), the MLP shadow the "
         "GAE returns of its own values",
     )
     parser.add_argument(
