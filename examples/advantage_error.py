@@ -109,6 +109,9 @@ CRITICS: dict[str, dict[str, Any]] = {
     },
 }
 METRICS = ("correlation", "value_rmse")
+#: The parts of the scores (:func:`~sb3_geogp.studies.advantage_error.advantage_scores`), which
+#: ``--metrics`` can put in the table too; rows written before 0.35.5 lack them.
+PARTS = ("value_bias", "value_spread", "advantage_slope", "advantage_residual", "error_gain")
 
 
 class AdvantageCheckpoints(BaseCallback):
@@ -234,20 +237,31 @@ def correlation_ceiling(rows: list[dict[str, Any]]) -> np.ndarray:
     return np.sqrt(np.clip(reliability, 0.0, None))
 
 
-def table(results: dict[str, dict[int, Any]], skip: int, against: str = MLP) -> str:
-    """Markdown: per actor and critic, each metric's mean over seeds and its paired difference
-    from the critic ``against`` (the MLP shadow by default) [95 % t interval]."""
-    head = " | ".join(f"{m} | − {against} [95 % CI]" for m in METRICS)
+def table(
+    results: dict[str, dict[int, Any]],
+    skip: int,
+    against: str = MLP,
+    metrics: Sequence[str] = METRICS,
+) -> str:
+    """Markdown: per actor and critic, each of ``metrics``' mean over seeds and its paired
+    difference from the critic ``against`` (the MLP shadow by default) [95 % t interval]."""
+    head = " | ".join(f"{m} | − {against} [95 % CI]" for m in metrics)
     lines = [
         f"| actor's critic | critic | {head} | seeds |",
-        "|---|---|" + "---:|---|" * len(METRICS) + "---:|",
+        "|---|---|" + "---:|---|" * len(metrics) + "---:|",
     ]
     for actor, by_seed in results.items():
         runs = list(by_seed.values())
-        scores = {m: per_seed(runs, m, skip) for m in METRICS}
-        for name in scores[METRICS[0]]:
+        scored = set.intersection(*(set(row[OWN]) for run in runs for row in run["rows"]))
+        if missing := [m for m in metrics if m not in scored]:
+            raise ValueError(
+                f"{actor}'s runs have no {missing}: they were run before the parts were "
+                "scored (0.35.5); run them again in a new --out"
+            )
+        scores = {m: per_seed(runs, m, skip) for m in metrics}
+        for name in scores[metrics[0]]:
             cells = []
-            for m in METRICS:
+            for m in metrics:
                 values, diff = scores[m][name], scores[m][name] - scores[m][against]
                 mean, half = (float(v) for v in mean_ci(diff, nan_policy="omit"))
                 interval = f"[{mean - half:+.3f}, {mean + half:+.3f}]"
@@ -257,7 +271,8 @@ def table(results: dict[str, dict[int, Any]], skip: int, against: str = MLP) -> 
             lines.append(f"| {actor} | {name} | {' | '.join(cells)} | {len(runs)} |")
         ceiling = np.nanmean(np.concatenate([correlation_ceiling(r["rows"][skip:]) for r in runs]))
         lines.append(
-            f"| {actor} | ceiling of the correlation (Monte Carlo noise) | {ceiling:.3f} | | | | |"
+            f"| {actor} | ceiling of the correlation (Monte Carlo noise) | {ceiling:.3f} |"
+            + " |" * (2 * len(metrics))
         )
     return "\n".join(lines) + "\n"
 
@@ -319,6 +334,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     parser.add_argument("--skip", type=int, default=1, help="first rollouts left out of the table")
     parser.add_argument(
+        "--metrics",
+        nargs="+",
+        choices=(*METRICS, *PARTS),
+        default=list(METRICS),
+        help="the table's scores (default: %(default)s); the parts of the advantages' and "
+        "values' errors are in sb3_geogp.studies.advantage_error's docstring",
+    )
+    parser.add_argument(
         "--target",
         choices=("returns", "monte_carlo", "defaults"),
         default="returns",
@@ -346,10 +369,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     run_study(
         args,
         run,
-        lambda results: table(results, args.skip, args.against),
+        lambda results: table(results, args.skip, args.against, args.metrics),
         lambda results, path: plot(results, path, args.env),
         "advantage_error.png",
-        reading=("skip", "against"),
+        reading=("skip", "against", "metrics"),
     )
     return 0
 

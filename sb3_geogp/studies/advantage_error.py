@@ -17,7 +17,21 @@ policy's noise is sampled.
 
 :func:`advantage_scores` compares a critic's advantages with the reference on one rollout:
 the correlation (PPO standardises advantages per minibatch, so their scale does not reach the
-actor), and the root-mean-square error of the critic's values at the rollout's states.
+actor), and the root-mean-square error of the critic's values at the rollout's states. It also
+takes both apart (since 0.35.5), to say why two critics whose values are equally near ``V^pi``
+can give advantages that are not:
+
+- the value error ``e = V - V^pi`` splits into its mean over the rollout (a constant shift,
+  which moves every advantage alike) and its spread, ``rmse^2 = bias^2 + spread^2``;
+- regressed on the reference, ``A = b A^pi + eta`` with ``eta`` uncorrelated with ``A^pi``, the
+  critic's advantages keep a share ``b`` (the slope) of the reference and add a residual of
+  relative size ``rho = sd(eta) / sd(A^pi)``; their correlation is ``b / sqrt(b^2 + rho^2)``;
+- GAE is linear in ``V``, so ``A - A^pi`` is the advantage of the error ``e`` alone; its size
+  over the error's spread, the *gain*, says how much of ``e`` reaches the advantages. For
+  ``gamma = 0.9`` and ``lambda = 0.95`` it is ``(1 - gamma) / (1 - gamma lambda) = 0.69`` for an
+  error that changes only from trajectory to trajectory (far from their ends) and
+  ``sqrt(1 + gamma^2 (1 - lambda)^2 / (1 - gamma^2 lambda^2)) = 1.004`` for one drawn
+  independently at every step.
 """
 
 from __future__ import annotations
@@ -71,7 +85,8 @@ def gae(
 def advantage_scores(
     reference: np.ndarray, advantages: np.ndarray, true_values: np.ndarray, values: np.ndarray
 ) -> dict[str, float]:
-    """How close a critic's advantages and values are to the reference ones on one rollout.
+    """How close a critic's advantages and values are to the reference ones on one rollout,
+    and the parts of the difference (the module's docstring).
 
     Parameters
     ----------
@@ -83,12 +98,31 @@ def advantage_scores(
     Returns
     -------
     dict
-        ``correlation`` of the advantages (Pearson's; NaN if either is constant: after PPO's
-        standardisation the two differ by ``sqrt(2 (1 - correlation))`` in root mean square)
-        and ``value_rmse``.
+        - ``correlation`` of the advantages (Pearson's; NaN if either is constant: after PPO's
+          standardisation the two differ by ``sqrt(2 (1 - correlation))`` in root mean square);
+        - ``value_rmse``, ``value_bias`` (the error's mean) and ``value_spread`` (its standard
+          deviation);
+        - ``advantage_slope`` ``b`` and ``advantage_residual`` ``rho`` (NaN where the
+          reference is constant), so that ``correlation = b / sqrt(b^2 + rho^2)``;
+        - ``error_gain``: ``sd(A - A^pi) / value_spread`` (NaN where the error is constant).
     """
+    reference, advantages = np.asarray(reference, float), np.asarray(advantages, float)
     error = np.asarray(values, float) - np.asarray(true_values, float)
+    miss = advantages - reference
+    spread, signal = float(error.std()), float(reference.std())
+    slope = residual = gain = float("nan")
+    if signal > 0:
+        centred = reference - reference.mean()
+        slope = float(np.mean(centred * (advantages - advantages.mean()))) / signal**2
+        residual = float(np.std(advantages - slope * reference)) / signal
+    if spread > 0:
+        gain = float(miss.std()) / spread
     return dict(
         correlation=correlation(reference, advantages),
         value_rmse=float(np.sqrt(np.mean(error**2))),
+        value_bias=float(error.mean()),
+        value_spread=spread,
+        advantage_slope=slope,
+        advantage_residual=residual,
+        error_gain=gain,
     )
