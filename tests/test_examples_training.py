@@ -648,8 +648,22 @@ def test_advantage_error_scores_every_critic_against_the_same_reference(tmp_path
         assert 0 < row["reliability"] <= 1
         for name in (study.MLP, *study.CRITICS):
             assert -1 <= row[name]["correlation"] <= 1 and row[name]["value_rmse"] > 0
+            # the parts recorded with the scores make them up again
+            s = row[name]
+            b, rho = s["advantage_slope"], s["advantage_residual"]
+            assert s["correlation"] == pytest.approx(b / math.hypot(b, rho), rel=1e-9)
+            assert s["value_rmse"] == pytest.approx(math.hypot(s["value_bias"], s["value_spread"]))
     assert set(results["mlp"]["0"]["rows"][0]) == set(rows[0])
     assert_study_resumes(study, argv, tmp_path, "laplacian", "advantage_error.png")
+    # the table with the parts, read from the same runs; rows without a part are refused
+    assert study.main([*argv, "--metrics", "correlation", "error_gain"]) == 0
+    text = (tmp_path / "table.md").read_text()
+    assert "| correlation | − SB3 MLP critic (shadow) [95 % CI] | error_gain |" in text
+    stripped = {a: {int(k): v for k, v in by_seed.items()} for a, by_seed in results.items()}
+    for row in stripped["mlp"][0]["rows"]:
+        del row[study.OWN]["error_gain"]
+    with pytest.raises(ValueError, match=r"mlp's runs have no \['error_gain'\]"):
+        study.table(stripped, 0, metrics=["error_gain"])
 
 
 def test_advantage_error_ceiling_of_the_correlation_is_zero_where_halves_disagree() -> None:
