@@ -27,7 +27,11 @@ HARM_METRICS = ("critic_rmse", "final_return", "mean_return")
 
 
 def registered(rows: list[dict[str, Any]]) -> None:
-    """Print every family-wise verdict the rule reads, then the rule's outcome."""
+    """Print every family-wise verdict the rule reads, then the rule's outcome; refuse a sweep
+    that has not finished (the rule reads 20 seeds per arm in each of the seven cells)."""
+    cells = {(r["env"], r["metric"]) for r in rows}
+    if len(cells) != 7 * len(HARM_METRICS) or any({r["n_a"], r["n_b"]} != {20} for r in rows):
+        raise SystemExit("the registered sweep has not finished: run results/forgetting_ppo/run.sh")
     print("## The registered rule (PREREGISTRATION.md), forget05 − default, seeds 893-912\n")
     print("| env | metric | difference [95 %] | at 95 % | family-wise |")
     print("|---|---|---:|---|---|")
@@ -52,9 +56,9 @@ def registered(rows: list[dict[str, Any]]) -> None:
     print(f"2. No harm (no cell worse family-wise in {list(HARM_METRICS)}): "
           f"{'holds' if no_harm else 'fails'} ({harm or 'none worse'})")  # fmt: skip
     if benefit_holds and no_harm:
-        print("\n**Decision: adopt, in a later session that re-runs the table's PPO rows.**\n")
+        print("\n**The rule's decision: adopt** (PREREGISTRATION.md's result: not carried out).\n")
     else:
-        print("\n**Decision: not adopted; the default is unchanged.**\n")
+        print("\n**The rule's decision: not adopted; the default is unchanged.**\n")
 
 
 def main(sweep: str = "reg_forget05") -> None:
