@@ -799,12 +799,14 @@ def lagged_forgetting_scores(
 WEIGHT_FLOOR = math.sqrt(torch.finfo(torch.float64).tiny)
 
 
-def age_weights(age: Tensor, forgetting: float) -> Tensor:
-    """Weights ``forgetting ** age`` of points ``age : (n,)`` batches old, at least
-    :data:`WEIGHT_FLOOR`."""
-    return (
-        torch.as_tensor(forgetting, dtype=torch.float64).pow(age.double()).clamp_min(WEIGHT_FLOOR)
-    )
+def age_weights(age: Tensor, forgetting: float, decay: Tensor | None = None) -> Tensor:
+    """Weights ``forgetting ** age * exp(-decay)`` of points ``age : (n,)`` batches old that
+    have lost ``decay : (n,)`` to drift since they arrived (:class:`RetainedWindow`; ``None``:
+    none), at least :data:`WEIGHT_FLOOR`."""
+    w = torch.as_tensor(forgetting, dtype=torch.float64).pow(age.double())
+    if decay is not None:
+        w = w * torch.exp(-decay.double())
+    return w.clamp_min(WEIGHT_FLOOR)
 
 
 def gaussian_nll(y: Tensor, mean: Tensor, var: Tensor) -> Tensor:
@@ -852,7 +854,8 @@ def linear_moments(x: Tensor, y: Tensor, w: Tensor) -> tuple[float, Tensor, floa
 
 
 class RetainedWindow(nn.Module):
-    """The last ``size`` points fed to a GP, oldest first, with the batch each arrived in.
+    """The last ``size`` points fed to a GP, oldest first, with the batch each arrived in and
+    the log-weight each has lost to drift since (:meth:`age`; the GP's ``drift_forgetting``).
 
     Parameters
     ----------
@@ -864,6 +867,7 @@ class RetainedWindow(nn.Module):
     x: Tensor
     y: Tensor
     batch: Tensor
+    decay: Tensor
     count: Tensor
 
     def __init__(self, size: int, input_dim: int) -> None:
@@ -872,14 +876,16 @@ class RetainedWindow(nn.Module):
         self.register_buffer("x", torch.zeros(self.size, input_dim, dtype=torch.float64))
         self.register_buffer("y", torch.zeros(self.size, dtype=torch.float64))
         self.register_buffer("batch", torch.zeros(self.size, dtype=torch.long))
+        self.register_buffer("decay", torch.zeros(self.size, dtype=torch.float64))
         self.register_buffer("count", torch.zeros((), dtype=torch.long))
 
-    def append(self, x: Tensor, y: Tensor, batch: int) -> tuple[Tensor, Tensor, Tensor]:
-        """Keep ``x : (n, d)``, ``y : (n,)`` as arrivals of ``batch``, dropping the oldest.
+    def append(self, x: Tensor, y: Tensor, batch: int) -> tuple[Tensor, Tensor, Tensor, Tensor]:
+        """Keep ``x : (n, d)``, ``y : (n,)`` as arrivals of ``batch`` (no decay yet), dropping
+        the oldest.
 
         Returns
         -------
-        x, y, batch : Tensor, shapes (k, d), (k,), (k,)
+        x, y, batch, decay : Tensor, shapes (k, d), (k,), (k,), (k,)
             The ``k`` points that no longer fit (copies), oldest first.
         """
         n, kept = min(x.shape[0], self.size), int(self.count)
@@ -889,19 +895,27 @@ class RetainedWindow(nn.Module):
             torch.cat([self.x[: kept - keep], x[: x.shape[0] - n]]),
             torch.cat([self.y[: kept - keep], y[: y.shape[0] - n]]),
             torch.cat([self.batch[: kept - keep], arrived]),
+            torch.cat([self.decay[: kept - keep], self.decay.new_zeros(x.shape[0] - n)]),
         )
         # Copies first: x and y may be views of this window (its own data fed back).
         x, y = x[-n:].clone(), y[-n:].clone()
-        self.x[:keep] = self.x[kept - keep : kept].clone()
-        self.y[:keep] = self.y[kept - keep : kept].clone()
-        self.batch[:keep] = self.batch[kept - keep : kept].clone()
+        for buf in (self.x, self.y, self.batch, self.decay):
+            buf[:keep] = buf[kept - keep : kept].clone()
         self.x[keep : keep + n] = x[-n:]
         self.y[keep : keep + n] = y[-n:]
         self.batch[keep : keep + n] = batch
+        self.decay[keep : keep + n] = 0
         self.count.fill_(keep + n)
         return dropped
 
-    def data(self) -> tuple[Tensor, Tensor, Tensor]:
-        """Retained ``x (n, d)``, ``y (n,)`` and ``batch (n,)``, oldest first (views)."""
+    def age(self, decay: float) -> None:
+        """Add ``decay`` to the log-weight every retained point has lost: what came before a
+        batch that the data's source drifted by ``decay`` before (each point then weighs
+        ``exp(-decay)`` times as much)."""
+        self.decay[: int(self.count)] += decay
+
+    def data(self) -> tuple[Tensor, Tensor, Tensor, Tensor]:
+        """Retained ``x (n, d)``, ``y (n,)``, ``batch (n,)`` and ``decay (n,)``, oldest first
+        (views)."""
         n = int(self.count)
-        return self.x[:n], self.y[:n], self.batch[:n]
+        return self.x[:n], self.y[:n], self.batch[:n], self.decay[:n]

@@ -178,7 +178,11 @@ class GPValueCallback(BaseCallback):
     * with ``gp_kwargs=dict(adapt=...)``: ``gp/nlpd``, ``gp/lengthscale`` (and per dimension),
       ``gp/signal_var``, ``gp/noise_var``, ``gp/target_mean``, ``gp/target_scale``,
       ``gp/target_drift`` and ``gp/block_fit`` (docs/usage.md, "Logged metrics"), and with
-      ``optimism_cap`` ``gp/bonus_scale``.
+      ``optimism_cap`` ``gp/bonus_scale``;
+    * with ``gp_kwargs=dict(drift_forgetting=...)``: ``gp/policy_kl``, how far the actor moved
+      since the last feed (:meth:`~sb3_geogp.GPActorCriticPolicy.measure_drift`, summed over
+      the rollouts fed), and ``gp/drift_factor``, the weight that left what the GP had
+      absorbed before.
     """
 
     def __init__(
@@ -218,8 +222,10 @@ class GPValueCallback(BaseCallback):
         self._pending: list[Segment] = []
         # Truncations of the current rollout: (step, env, terminal observation).
         self._truncations: list[tuple[int, int, np.ndarray]] = []
-        # Rollouts not fed yet (feed_every > 1), as _rollout_targets gives them.
+        # Rollouts not fed yet (feed_every > 1), as _rollout_targets gives them, and how far
+        # the policy moved over them.
         self._held: list[tuple[np.ndarray, ...]] = []
+        self._held_drift = 0.0
 
     # ------------------------------------------------------------------------------------------
     # SB3 hooks
@@ -272,6 +278,7 @@ class GPValueCallback(BaseCallback):
         self._fed = [0, 0]
         self._warned_still = False
         self._held = []
+        self._held_drift = 0.0
 
     def _on_rollout_start(self) -> None:
         self._truncations = []
@@ -313,6 +320,7 @@ class GPValueCallback(BaseCallback):
         targets = self._rollout_targets(buffer, dones)
         _check_targets(targets[1])
         self._held.append(targets)
+        self._held_drift += policy.measure_drift(*rollout_states(buffer))
         self._fed[0] += 1
         if len(self._held) < self.feed_every:
             # Only marks the rollout handled: the GP, and so the advantages, stay as they are.
@@ -344,15 +352,18 @@ class GPValueCallback(BaseCallback):
     def _feed_held(self, policy: GPCriticMixin) -> dict[str, float]:
         """Feed the held rollouts in one update; returns ``update_critic``'s statistics."""
         held, self._held = self._held, []
+        drift, self._held_drift = self._held_drift, 0.0
         joined = [np.concatenate(arrays) for arrays in zip(*held, strict=True)]
+        # Passed only where the policy moved: wrappers of update_critic older than drift work.
+        moved: dict[str, Any] = {"drift": drift} if drift else {}
         if self.target == "returns":
             # Stacked in time, each env's steps of consecutive rollouts form one trajectory.
             obs, returns, starts, values = joined
             obs, returns, starts = per_env(obs, returns, starts)
-            stats = policy.update_critic(obs, returns, starts, env_major(values))
+            stats = policy.update_critic(obs, returns, starts, env_major(values), **moved)
         else:
             obs, returns, starts = joined
-            stats = policy.update_critic(obs, returns, starts)
+            stats = policy.update_critic(obs, returns, starts, **moved)
         self._fed[1] += len(returns)
         self.update_seconds += 1e-3 * stats["update_ms"]
         self.on_fed(obs, returns, starts)
@@ -572,6 +583,15 @@ class GPValueCallback(BaseCallback):
         buffer.values[:] = _predict(policy, flat_obs).reshape(n_steps, n_envs)
         last_values = th.as_tensor(_predict(policy, last_obs))
         buffer.compute_returns_and_advantage(last_values=last_values, dones=dones)
+
+
+def rollout_states(buffer: RolloutBuffer) -> tuple[np.ndarray, np.ndarray | None]:
+    """The rollout's observations, ``(n_steps * n_envs, *obs_shape)``, and MaskablePPO's
+    action masks of them, ``(n_steps * n_envs, mask_dims)`` (``None`` for other buffers)."""
+    n = buffer.buffer_size * buffer.n_envs
+    masks = getattr(buffer, "action_masks", None)
+    obs = buffer.observations.reshape(n, *buffer.obs_shape)
+    return obs, None if masks is None else masks.reshape(n, -1)
 
 
 def time_limit_truncations(

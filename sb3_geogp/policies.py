@@ -21,6 +21,7 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import inspect
+import math
 import sys
 import time
 from collections.abc import Iterator, Mapping
@@ -39,6 +40,7 @@ from stable_baselines3.common.utils import explained_variance
 from torch import nn
 
 from sb3_geogp.adaptation import Adaptation, as_adaptation
+from sb3_geogp.drift import PolicyDrift
 from sb3_geogp.kernels import KERNELS, kernel_names, kernels_taking, make_kernel
 from sb3_geogp.normalization import ActorObservationNormalizer
 from sb3_geogp.options import unknown_option
@@ -312,6 +314,7 @@ class GPCriticMixin(_PolicyBase):
         #: Set by GPValueCallback when a learn() call ends: its Monte Carlo episodes still
         #: running, which the next call continues where SB3 does not reset the environment.
         self.unfinished_episodes: Any = None
+        self._drift = PolicyDrift()
         self._fed_since_std = _STD_EVERY  # the first rollout gets the diagnostic
 
     @classmethod
@@ -675,12 +678,40 @@ class GPCriticMixin(_PolicyBase):
         features = BaseModel.extract_features(self, obs_t, self.vf_features_extractor)
         return self.mlp_extractor.forward_critic(features)
 
+    def measure_drift(
+        self, observations: np.ndarray, action_masks: np.ndarray | None = None
+    ) -> float:
+        """How far the actor moved since the previous rollout, where the GP forgets by it
+        (``gp_kwargs=dict(drift_forgetting=r)``, ``r > 0``), else 0 without measuring.
+
+        :class:`~sb3_geogp.GPValueCallback` calls it at the end of every rollout and passes
+        the sum since the last feed to :meth:`update_critic` as ``drift``.
+
+        Parameters
+        ----------
+        observations : ndarray, shape (n, *obs_shape)
+            The rollout's observations, where the next call measures.
+        action_masks : ndarray, shape (n, mask_dims), optional
+            Their action masks (MaskablePPO).
+
+        Returns
+        -------
+        float
+            The mean KL divergence from the actor at the previous rollout's end to the actor
+            now, on that rollout's states (:class:`~sb3_geogp.drift.PolicyDrift`; 0 at the
+            first rollout of the policy).
+        """
+        if self.gp.drift_forgetting == 0:
+            return 0.0
+        return self._drift.measure(self, observations, action_masks)
+
     def update_critic(
         self,
         obs: th.Tensor | np.ndarray,
         targets: th.Tensor | np.ndarray,
         episode_starts: th.Tensor | np.ndarray,
         values: th.Tensor | np.ndarray | None = None,
+        drift: float = 0.0,
     ) -> dict[str, float]:
         """Feed the GP a batch of observations and value targets, in trajectory order.
 
@@ -698,6 +729,10 @@ class GPCriticMixin(_PolicyBase):
         values : Tensor or ndarray, shape (n,), optional
             The critic's current values of ``obs`` where the caller has them already (a
             rollout's batched values): the diagnostics then need no prediction of the means.
+        drift : float
+            How far the policy moved since the last feed (:meth:`measure_drift`): with
+            ``gp_kwargs=dict(drift_forgetting=r)`` the GP weighs what it absorbed before by
+            ``exp(-r * drift)`` (:meth:`~sb3_geogp.SparseOnlineGP.update`).
 
         Raises
         ------
@@ -719,7 +754,9 @@ class GPCriticMixin(_PolicyBase):
             :attr:`~sb3_geogp.SparseOnlineGP.last_stats` (``nlpd`` of the batch before it was
             absorbed, and after each adaptation the forgetting in effect, ``lengthscale`` (the
             geometric mean) and ``lengthscale_<i>``, ``signal_var``, ``noise_var``,
-            ``target_mean``, ``target_scale``, ``target_drift``, ``block_fit``).
+            ``target_mean``, ``target_scale``, ``target_drift``, ``block_fit``); with
+            ``drift_forgetting`` ``policy_kl`` (``drift``) and ``drift_factor``, the weight it
+            left what came before.
         """
         _check_batch_shapes(len(obs), targets=targets, episode_starts=episode_starts, values=values)
         stats: dict[str, float] = {}
@@ -731,10 +768,13 @@ class GPCriticMixin(_PolicyBase):
             # The points of this rollout are fed after the value was computed.
             self._fed_since_std = len(targets) + (0 if with_std else self._fed_since_std)
             start = time.perf_counter()
-            self.gp.update(features, targets, episode_starts)
+            self.gp.update(features, targets, episode_starts, drift=drift)
         stats["update_ms"] = 1e3 * (time.perf_counter() - start)
         self._awaiting_feed = False
         stats.update(n_fed=len(targets), n_basis=self.gp.n_basis, forgetting=self.gp.forgetting)
+        if self.gp.drift_forgetting > 0:
+            factor = math.exp(-self.gp.drift_forgetting * drift) if len(targets) else 1.0
+            stats.update(policy_kl=drift, drift_factor=factor)
         # The explained variance above is the same out-of-sample measure on the same points.
         stats.update({k: v for k, v in self.gp.last_stats.items() if k != "explained_variance"})
         if self.gp.graph is not None:
@@ -769,7 +809,9 @@ class GPActorCriticPolicy(GPCriticMixin, ActorCriticPolicy):
         Options of :class:`~sb3_geogp.SparseOnlineGP` (``max_basis``, ``noise_var``,
         ``novelty_tol``, ``forgetting``, ``forgetting_points``, ``target_mean``,
         ``target_scale``, ``prior_mean``, ``optimism``, ``optimism_cap``, ``dtype``,
-        ``num_threads``, ``condition_guard``, and ``trend`` and ``adapt`` below; a misspelt one
+        ``num_threads``, ``condition_guard``, ``drift_forgetting`` (the policy passes the
+        actor's movement since the last feed as the drift, :meth:`measure_drift`), and
+        ``trend`` and ``adapt`` below; a misspelt one
         raises ``TypeError`` naming the closest) plus ``kernel`` (``"laplacian"``, ``"geodesic"``,
         ``"rbf"``, ``"matern"`` or a :class:`~sb3_geogp.Kernel`, which is copied; by default
         since 0.6 ``"laplacian"`` under PPO, TRPO and MaskablePPO and under A2C ``"rbf"`` since 0.22

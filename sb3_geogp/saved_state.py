@@ -28,15 +28,18 @@ UPDATE_RULES = (
     "adapt",
     "optimism",
     "optimism_cap",
+    "drift_forgetting",
 )
 #: Options added to the state after 0.2, as the versions before them behaved: 0.8
-#: (prior_mean, trend), 0.13 (forgetting_points), 0.18 (optimism), 0.19 (optimism_cap).
+#: (prior_mean, trend), 0.13 (forgetting_points), 0.18 (optimism), 0.19 (optimism_cap),
+#: 0.36 (drift_forgetting).
 _OPTIONS_BEFORE = {
     "prior_mean": "constant",
     "trend": "none",
     "forgetting_points": None,
     "optimism": 0.0,
     "optimism_cap": None,
+    "drift_forgetting": 0.0,
 }
 
 
@@ -50,6 +53,7 @@ _ZERO_BEFORE = {
     "summary_input": "0.8, the linear prior mean: no input shifts in the summary",
     "trend_coef": "0.8, trends: none",
     "bonus_spreads": "0.19, the bonus cap: no spreads yet",
+    "window.decay": "0.36, drift forgetting: no retained point has lost weight to drift",
 }
 
 
@@ -92,7 +96,7 @@ def upgrade(state: dict[str, Any], prefix: str, gp: SparseOnlineGP) -> None:
     ):
         state[prefix + "forgetting_scores"] = torch.zeros_like(gp.forgetting_scores)
     for name in _ZERO_BEFORE:
-        state.setdefault(prefix + name, torch.zeros_like(getattr(gp, name)))
+        state.setdefault(prefix + name, torch.zeros_like(gp.get_buffer(name)))
 
 
 #: What a prediction reads of a state: none of it may be NaN or inf (over the BVs in use).

@@ -345,6 +345,15 @@ class SparseOnlineGP(nn.Module):
         newest (:attr:`bonus_spreads`; ``s = 1`` until the second batch). Needs
         ``optimism > 0`` and ``adapt``, whose out-of-sample statistics it reads. ``None``
         (the default): no cap.
+    drift_forgetting : float
+        Forgetting by how far the source of the targets moved: a batch fed with
+        ``update(..., drift=delta)`` weighs everything absorbed before it by
+        ``exp(-drift_forgetting * delta)``, on top of ``forgetting``, on-line and in a refit's
+        rebuild (each retained point keeps the log-weight it has lost,
+        :class:`~sb3_geogp.adaptation.RetainedWindow`). Under a policy that does not move
+        (``delta = 0``) nothing is forgotten. :class:`~sb3_geogp.GPActorCriticPolicy` passes
+        the policy's mean KL divergence between consecutive feeds (docs/method.md, section
+        2.3). 0 (the default): ``drift`` is ignored.
     input_bounds : (low, high) of array-likes with ``input_dim`` entries each, optional
         Bounds of the inputs where known: unset lengthscales of bounded dimensions then come
         from the bounds rather than from the first batch (:mod:`sb3_geogp.defaults`). Bounds
@@ -472,6 +481,7 @@ class SparseOnlineGP(nn.Module):
         trend: str = "none",
         optimism: float = 0.0,
         optimism_cap: float | None = None,
+        drift_forgetting: float = 0.0,
     ) -> None:
         super().__init__()
         input_dim = positive_int("input_dim", input_dim)
@@ -484,6 +494,13 @@ class SparseOnlineGP(nn.Module):
         self.trend = trend
         self.optimism = float(optimism)
         self.optimism_cap = None if optimism_cap is None else float(optimism_cap)
+        check_number("drift_forgetting", drift_forgetting)
+        if not (drift_forgetting >= 0 and math.isfinite(drift_forgetting)):
+            raise ValueError(
+                f"drift_forgetting must be a non-negative finite rate, got {drift_forgetting}; "
+                "pass 0 for no forgetting from drift"
+            )
+        self.drift_forgetting = float(drift_forgetting)
         if num_threads is not None:
             num_threads = positive_int("num_threads", num_threads)
         self.input_dim = int(input_dim)
@@ -789,6 +806,7 @@ class SparseOnlineGP(nn.Module):
             "trend": self.trend,
             "optimism": self.optimism,
             "optimism_cap": self.optimism_cap,
+            "drift_forgetting": self.drift_forgetting,
         }
 
     def get_extra_state(self) -> dict[str, Any]:
@@ -866,7 +884,13 @@ class SparseOnlineGP(nn.Module):
     # ------------------------------------------------------------------------------------------
     @torch.no_grad()
     @_engine_threads
-    def update(self, x: ArrayLike, y: ArrayLike, episode_starts: ArrayLike | None = None) -> None:
+    def update(
+        self,
+        x: ArrayLike,
+        y: ArrayLike,
+        episode_starts: ArrayLike | None = None,
+        drift: float = 0.0,
+    ) -> None:
         """Absorb a batch of points in order, as Csató–Opper on-line updates.
 
         Parameters
@@ -880,19 +904,29 @@ class SparseOnlineGP(nn.Module):
             own trajectory (geodesic kernel with ``edges="trajectory"``); ``False`` at index 0
             continues the trajectory of the previous call. ``None`` means no trajectory
             information: every new BV joins its nearest BV.
+        drift : float
+            How far the source of the targets moved since the previous batch, in any
+            non-negative measure (:class:`~sb3_geogp.GPActorCriticPolicy` passes the policy's
+            mean KL divergence). With ``drift_forgetting=r`` everything absorbed before this
+            batch then weighs ``exp(-r * drift)`` times as much, on top of ``forgetting``; in
+            a refit's rebuild too. 0 (default): no drift.
 
         Raises
         ------
         ValueError
-            On wrong shapes, non-finite values or non-numeric input; the state is left
+            On wrong shapes, non-finite values or non-numeric input, or a negative or
+            non-finite ``drift``; the state is left
             exactly as it was (as it is on any error raised inside the update).
         RuntimeError
             As :meth:`predict`, before anything changes.
         """
         x, y, starts = self._validate(x, y, episode_starts)
+        check_number("drift", drift)
+        if not (drift >= 0 and math.isfinite(drift)):
+            raise ValueError(f"drift must be a non-negative finite number, got {drift}")
         self._check_hyperparameters()
         with self._transaction():
-            self._update(x, y, starts)
+            self._update(x, y, starts, self.drift_forgetting * float(drift))
         self._settle()
         if self._coverage is not None and not self._coverage.checked:
             self._coverage.add(x)
@@ -914,7 +948,7 @@ class SparseOnlineGP(nn.Module):
         finally:
             self._rollback = None
 
-    def _update(self, x: Tensor, y: Tensor, starts: Tensor) -> None:
+    def _update(self, x: Tensor, y: Tensor, starts: Tensor, decay: float) -> None:
         if self.trend != "none":
             y = self._fit_trend(x, y)
         if not bool(self.initialized):
@@ -932,6 +966,11 @@ class SparseOnlineGP(nn.Module):
         screen, scored = self._score(x, xs, y)
         lam = self.forgetting if self.adaptation is None else float(self.block_forgetting)
         lam = self._batch_forgetting(lam, x.shape[0])
+        if decay > 0:
+            # The retained points age with what the posterior forgets, so that a rebuild
+            # weighs them as the on-line updates did.
+            self.window.age(decay)
+            lam *= math.exp(-decay)
         if lam < 1 and self.n_basis > 0:
             self._forget(lam)
         added_before = int(self.n_added)
@@ -1369,7 +1408,7 @@ class SparseOnlineGP(nn.Module):
         check_number("lr", lr)
         if not 0 < lr < math.inf:
             raise ValueError(f"lr must be a positive finite Adam step size, got {lr}")
-        x, y, batch = self.window.data()
+        x, y, batch, decay = self.window.data()
         if x.shape[0] == 0 or self.n_basis == 0:
             raise ValueError("fit_hyperparameters needs retained data; call update first")
         if not self.kernel.follows_lengthscale(self.bv_x[: self.n_basis]):
@@ -1380,7 +1419,7 @@ class SparseOnlineGP(nn.Module):
                 "kernel.rescale(factor), which moves the tree with them"
             )
         forgetting = float(self.block_forgetting) if self.adaptation else self.forgetting
-        w = self._age_weights(batch, forgetting).to(y)
+        w = self._age_weights(batch, decay, forgetting).to(y)
         yn = self._standardised(x, y)
         with self._transaction(), torch.no_grad():
             self._fit(x, yn, w, n_iter, lr, self.adaptation or Adaptation())
@@ -1427,7 +1466,7 @@ class SparseOnlineGP(nn.Module):
         self._summarise(*(t[:cut] for t in dropped))
         self._adapt(a, drift, explained, refit, tuple(t[cut:] for t in dropped))
 
-    def _summarise(self, x: Tensor, y: Tensor, batch: Tensor) -> None:
+    def _summarise(self, x: Tensor, y: Tensor, batch: Tensor, decay: Tensor) -> None:
         """Add what the points leaving the window say to the summary, with their weights;
         those of batches the summary already holds (:meth:`_snapshot`) are skipped.
 
@@ -1437,13 +1476,13 @@ class SparseOnlineGP(nn.Module):
         """
         assert self.adaptation is not None
         first = self._first_unsummarised(batch)
-        x, y, batch = x[first:], y[first:], batch[first:]
+        x, y, batch, decay = x[first:], y[first:], batch[first:], decay[first:]
         if x.shape[0] == 0:
             return
         m = self.n_basis
-        (x, y, batch), count, _ = _thin(self.adaptation.fold_points, x, y, batch)
+        (x, y, batch, decay), count, _ = _thin(self.adaptation.fold_points, x, y, batch, decay)
         Kzz, Kxz = self._basis_covariances(x)
-        w = self._age_weights(batch, float(self.block_forgetting)).to(y) * count.to(y)
+        w = self._age_weights(batch, decay, float(self.block_forgetting)).to(y) * count.to(y)
         yn = self._standardised(x, y)
         variance = float(self.kernel.variance)
         part = Summary.of_data(Kzz, Kxz, x, yn, 1 / w, variance, inverse=self.Q[:m, :m])
@@ -1504,11 +1543,12 @@ class SparseOnlineGP(nn.Module):
         points: ``lam``, or ``lam ** (n / forgetting_points)``."""
         return lam if self.forgetting_points is None else lam ** (n / self.forgetting_points)
 
-    def _age_weights(self, batch: Tensor, lam: float) -> Tensor:
+    def _age_weights(self, batch: Tensor, decay: Tensor, lam: float) -> Tensor:
         """Weights of points that arrived in ``batch : (n,)`` under forgetting ``lam``, each
-        batch counted as the newest batch's size (:meth:`_batch_forgetting`)."""
+        batch counted as the newest batch's size (:meth:`_batch_forgetting`), that lost
+        ``decay : (n,)`` to drift since (:meth:`RetainedWindow.age`)."""
         lam = self._batch_forgetting(lam, int(self.last_batch_points))
-        return age_weights(self._ages(batch), lam)
+        return age_weights(self._ages(batch), lam, decay)
 
     def _adapt(
         self,
@@ -1520,7 +1560,7 @@ class SparseOnlineGP(nn.Module):
     ) -> None:
         """Close the block whose targets drifted by ``drift`` and were predicted with
         ``explained`` (:meth:`_block_fit`): choose the forgetting and, if ``refit``, refit on
-        the window's points preceded by ``unretained`` (inputs, targets, batches: the newest
+        the window's points preceded by ``unretained`` (inputs, targets, batches, decays: the newest
         batch's points the window had no room for, oldest first; none but with
         ``whole_batch``)."""
         scores = self.forgetting_scores
@@ -1533,10 +1573,10 @@ class SparseOnlineGP(nn.Module):
         self.block_forgetting.fill_(lam)
         self.last_stats.update(forgetting=lam, target_drift=drift, block_fit=explained)
         if refit:
-            x, y, batch = (
+            x, y, batch, decay = (
                 torch.cat(parts) for parts in zip(unretained, self.window.data(), strict=True)
             )
-            self._refit(a, x, y, self._age_weights(batch, lam).to(y), batch)
+            self._refit(a, x, y, self._age_weights(batch, decay, lam).to(y), batch)
 
     def _block_fit(self) -> tuple[float, float]:
         """The open block's drift (mean square of its scored standardised targets; 1 if none
@@ -1653,7 +1693,7 @@ class SparseOnlineGP(nn.Module):
         previous_points = int(self.last_batch_points)
         factors = [self._batch_forgetting(c, previous_points) for c in a.forgetting]
         candidates = torch.tensor(factors, dtype=torch.float64, device=yn.device)
-        wx, wy, batch = self.window.data()
+        wx, wy, batch, _ = self.window.data()
         last = batch == int(self.n_batches) - 1
         kept = int(last.sum())
         if kept == 0:  # nothing of the previous batch retained: every candidate scores alike

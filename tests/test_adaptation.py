@@ -341,7 +341,7 @@ def test_adaptation_recovers_the_marginal_likelihood_optimum(
     gp = SparseOnlineGP(2, kernel, max_basis=150, novelty_tol=1e-3, adapt=adapt)
     for i in range(0, len(x), 200):
         gp.update(x[i : i + 200], y[i : i + 200])
-    wx, wy, _ = (t.numpy() for t in gp.window.data())
+    wx, wy, _, _ = (t.numpy() for t in gp.window.data())
     ref = exact_ml_optimum(wx, (wy - wy.mean()), cov)
     scale2 = float(gp.y_scale) ** 2
     np.testing.assert_allclose(gp.lengthscale.numpy(), ref[:2], rtol=0.25)
@@ -475,7 +475,7 @@ def test_a_drifted_block_refits() -> None:
         refitted.append(not all(torch.equal(a, b) for a, b in zip(hyper, after, strict=True)))
         retargeted.append((float(gp.y_mean), float(gp.y_scale)) != units)
         if i + 1 == 5:
-            wx, wy, batch = (t.numpy() for t in gp.window.data())
+            wx, wy, batch, _ = (t.numpy() for t in gp.window.data())
             w = 0.5 ** (batch.max() - batch)
             mean = np.sum(w * wy) / np.sum(w)
             scale = np.sqrt(np.sum(w * (wy - mean) ** 2) / np.sum(w))
@@ -516,15 +516,17 @@ def test_rebuilt_posterior_is_the_sparse_posterior_of_the_weighted_window(prior_
     for _ in range(4):
         x = rng.uniform(size=(100, 2))
         gp.update(x, np.sin(3 * x[:, 0]) + x[:, 1] + 0.1 * rng.normal(size=100))
-    x, y, block = (t.numpy() for t in gp.window.data())
+    x, y, block, decay = (t.numpy() for t in gp.window.data())
     w = 0.5 ** (block.max() - block)
     assert_weighted_sparse_posterior(gp, x, y, w, rng)
+    assert not decay.any()
     if prior_mean == "linear":  # the weighted least-squares line of the window
         H = np.column_stack([np.ones(len(x)), x]) * np.sqrt(w)[:, None]
         coef = np.linalg.lstsq(H, y * np.sqrt(w), rcond=None)[0]
         np.testing.assert_allclose([float(gp.y_mean), *gp.y_slope.numpy()], coef, rtol=1e-9)
 
 
+@pytest.mark.parametrize("drift_rate", [0.0, 3.0])
 @pytest.mark.parametrize("summary", ["fold", "snapshot"])
 @pytest.mark.parametrize(
     ("forgetting", "drift", "fit_noise", "fold", "prior_mean"),
@@ -546,10 +548,12 @@ def test_summary_keeps_what_the_dropped_points_said(
     fold: int | None,
     prior_mean: str,
     summary: str,
+    drift_rate: float,
 ) -> None:
     """With the kernel and the basis fixed, a 150-point window on a 1200-point stream, fed in
     50-point batches and adapting every 100 points, gives the exact sparse posterior of all
-    1200 points, weighted ``forgetting ** age`` with ``age`` in batches; also when the target
+    1200 points, weighted ``forgetting ** age`` with ``age`` in batches, times ``exp(-r D)``
+    with ``drift_forgetting=r`` and ``D`` the drift fed with the batches after; also when the target
     mean and scale, re-estimated each block, follow a drift, and when the noise is re-fitted
     each block (the summarised points then count with the final noise, as in the window),
     and when the prior mean is a line re-fitted each block to targets whose trend drifts.
@@ -574,7 +578,12 @@ def test_summary_keeps_what_the_dropped_points_said(
         summary=summary,
     )
     gp = SparseOnlineGP(
-        1, RBFKernel(lengthscale=0.2), max_basis=30, adapt=adapt, prior_mean=prior_mean
+        1,
+        RBFKernel(lengthscale=0.2),
+        max_basis=30,
+        adapt=adapt,
+        prior_mean=prior_mean,
+        drift_forgetting=drift_rate,
     )
     grid = np.linspace(0.0, 1.0, 11)[:, None]  # half a lengthscale apart: later points project
     if summary == "snapshot":
@@ -591,10 +600,11 @@ def test_summary_keeps_what_the_dropped_points_said(
         + 0.1 * rng.normal(size=50)
         for i, x in enumerate(xs)
     ]
-    gp.update(xs[0], ys[0])
+    drifts = 0.05 * (np.arange(len(xs)) % 3)  # the first one precedes nothing
+    gp.update(xs[0], ys[0], drift=drifts[0])
     basis = gp.basis_inputs.clone()
-    for x, y in zip(xs[1:], ys[1:], strict=True):
-        gp.update(x, y)
+    for x, y, d in zip(xs[1:], ys[1:], drifts[1:], strict=True):
+        gp.update(x, y, drift=d)
     torch.testing.assert_close(gp.basis_inputs, basis, rtol=0, atol=0)  # the basis stayed
     if summary == "snapshot":
         np.testing.assert_array_equal(basis.numpy(), grid)
@@ -605,7 +615,8 @@ def test_summary_keeps_what_the_dropped_points_said(
     assert int(gp.summary_batch) == (22 if summary == "snapshot" else 0)
     x, y = np.concatenate(xs), np.concatenate(ys)
     age = np.repeat(np.arange(len(xs))[::-1], 50)
-    w = forgetting**age
+    drift_after = np.repeat(np.cumsum(drifts[::-1])[::-1] - drifts, 50)
+    w = forgetting**age * np.exp(-drift_rate * drift_after)
     if fold is not None and summary == "fold":
         dropped = np.arange(len(x)) < len(x) - 150
         kept = ~dropped | (np.arange(len(x)) % 5 == 2)
@@ -1118,7 +1129,7 @@ def test_the_gps_own_window_fed_back_is_kept_as_fed() -> None:
     x = rng.normal(size=(2048, 2))
     for gp in (views, copies):
         gp.update(x, np.sin(x[:, 0]))
-    wx, wy, _ = views.window.data()
+    wx, wy, _, _ = views.window.data()
     copies.update(wx[:500].clone(), wy[:500].clone())
     views.update(wx[:500], wy[:500])
     assert_same_state(views.state_dict(), copies.state_dict())

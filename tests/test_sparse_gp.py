@@ -1011,6 +1011,64 @@ def test_forgetting_is_applied_once_before_the_batch(pendulum, kernel: str) -> N
 
 
 @pytest.mark.parametrize("kernel", ["rbf", "geodesic"])
+@pytest.mark.parametrize(("rate", "drift"), [(2.0, 0.15), (2.0, 0.0), (0.0, 0.15)])
+def test_drift_forgets_what_the_same_forgetting_would(
+    pendulum, kernel: str, rate: float, drift: float
+) -> None:
+    """A batch fed with ``drift=d`` by a GP with ``drift_forgetting=r`` and ``forgetting=0.9``
+    is absorbed bit for bit as by a GP with ``forgetting=0.9 * exp(-r d)``; ``d = 0`` or
+    ``r = 0`` forget nothing beyond ``forgetting``."""
+    obs, returns, starts = pendulum(1200, 6)
+    drifting = SparseOnlineGP(3, kernel, max_basis=100, forgetting=0.9, drift_forgetting=rate)
+    plain = SparseOnlineGP(3, kernel, max_basis=100, forgetting=0.9 * math.exp(-rate * drift))
+    for gp in (drifting, plain):
+        gp.update(obs[:600], returns[:600], starts[:600])
+    drifting.update(obs[600:], returns[600:], starts[600:], drift=drift)
+    plain.update(obs[600:], returns[600:], starts[600:])
+    for a, b in zip(drifting.predict(obs[::7]), plain.predict(obs[::7]), strict=True):
+        torch.testing.assert_close(a, b, rtol=0, atol=0)
+    decay = drifting.window.decay[: int(drifting.window.count)]
+    np.testing.assert_array_equal(decay.numpy(), np.r_[np.full(600, rate * drift), np.zeros(600)])
+
+
+@pytest.mark.parametrize("bad", [-0.1, math.nan, math.inf])
+def test_bad_drift_raises_and_leaves_state_unchanged(pendulum, bad: float) -> None:
+    obs, returns, starts = pendulum(400, 6)
+    gp = SparseOnlineGP(3, "rbf", max_basis=50, drift_forgetting=1.0, adapt=True)
+    gp.update(obs[:200], returns[:200], starts[:200])
+    before = snapshot(gp)
+    with pytest.raises(ValueError, match="drift must be a non-negative finite number"):
+        gp.update(obs[200:], returns[200:], starts[200:], drift=bad)
+    with pytest.raises(TypeError, match="drift must be a number"):
+        gp.update(obs[200:], returns[200:], starts[200:], drift=True)  # type: ignore[arg-type]
+    assert_same_state(before, snapshot(gp))
+
+
+@pytest.mark.parametrize("bad", [-1.0, math.nan, math.inf])
+def test_bad_drift_forgetting_is_refused(bad: float) -> None:
+    with pytest.raises(ValueError, match="drift_forgetting must be a non-negative finite rate"):
+        SparseOnlineGP(2, "rbf", drift_forgetting=bad)
+
+
+def test_a_state_saved_before_drift_forgetting_loads_as_it_predicted(pendulum) -> None:
+    """A 0.35 state lacks the window's decay and the option: it loads with no retained point
+    having lost weight to drift, and predicts as saved."""
+    obs, returns, starts = pendulum(600, 6)
+    gp = SparseOnlineGP(3, "rbf", max_basis=50, adapt=True)
+    gp.update(obs, returns, starts)
+    state = gp.state_dict()
+    del state["window.decay"]
+    options = dict(state["_extra_state"])
+    del options["drift_forgetting"]
+    state["_extra_state"] = options
+    loaded = SparseOnlineGP(3, "rbf", max_basis=50, adapt=True, drift_forgetting=3.0)
+    loaded.load_state_dict(state)
+    assert not loaded.window.decay.any()
+    for a, b in zip(gp.predict(obs[::9]), loaded.predict(obs[::9]), strict=True):
+        torch.testing.assert_close(a, b, rtol=0, atol=0)
+
+
+@pytest.mark.parametrize("kernel", ["rbf", "geodesic"])
 def test_forgetting_tracks_a_jumping_target(kernel: str) -> None:
     rng = np.random.default_rng(9)
     probe = rng.uniform(size=(200, 2))
@@ -1065,7 +1123,7 @@ def check_fit(gp: SparseOnlineGP, cross: Callable[[np.ndarray], np.ndarray]) -> 
 def assert_window_posterior(gp: SparseOnlineGP, cross: Callable[[np.ndarray], np.ndarray]) -> None:
     """The GP predicts the sparse posterior of its retained data under its hyperparameters
     (``cross`` as in :func:`check_fit`)."""
-    x, y, _ = (t.numpy().copy() for t in gp.window.data())
+    x, y, _, _ = (t.numpy().copy() for t in gp.window.data())
     yn = (y - float(gp.y_mean)) / float(gp.y_scale)
     z = gp.basis_inputs.numpy()  # after any fit, which may prune redundant BVs
     Kzz = cross(z) + np.diag(gp.nugget[: gp.n_basis].numpy())

@@ -1,0 +1,154 @@
+"""The policy's drift between feeds (sb3_geogp.drift) and the GP critic's forgetting by it."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+import pytest
+import torch as th
+from stable_baselines3 import A2C, PPO
+from stable_baselines3.common.callbacks import BaseCallback
+
+from sb3_geogp import GPActorCriticPolicy, GPValueCallback
+from sb3_geogp.drift import PolicyDrift, kl_per_state
+from tests.test_sparse_gp import assert_same_state, snapshot
+
+
+def test_kl_per_state_is_the_closed_form_for_gaussians_and_categoricals() -> None:
+    rng = np.random.default_rng(0)
+    m1, m2 = rng.normal(size=(2, 5, 3))
+    s1, s2 = np.exp(rng.normal(size=(2, 5, 3)))
+    gauss = kl_per_state(
+        th.distributions.Normal(th.tensor(m1), th.tensor(s1)),
+        th.distributions.Normal(th.tensor(m2), th.tensor(s2)),
+    )
+    expected = np.sum(np.log(s2 / s1) + (s1**2 + (m1 - m2) ** 2) / (2 * s2**2) - 0.5, axis=1)
+    np.testing.assert_allclose(gauss.numpy(), expected, rtol=1e-12)
+    p, q = (rng.dirichlet(np.ones(4), size=5) for _ in range(2))
+    cat = kl_per_state(
+        th.distributions.Categorical(probs=th.tensor(p)),
+        th.distributions.Categorical(probs=th.tensor(q)),
+    )
+    np.testing.assert_allclose(cat.numpy(), np.sum(p * np.log(p / q), axis=1), rtol=1e-12)
+    # MultiDiscrete: one categorical per action dimension, the divergences add up.
+    both = kl_per_state(
+        [th.distributions.Categorical(probs=th.tensor(p))] * 2,
+        [th.distributions.Categorical(probs=th.tensor(q))] * 2,
+    )
+    np.testing.assert_allclose(both.numpy(), 2 * cat.numpy(), rtol=1e-12)
+
+
+def _ppo(env_id: str, **kwargs: Any) -> PPO:
+    return PPO(
+        GPActorCriticPolicy,
+        env_id,
+        n_steps=64,
+        batch_size=64,
+        seed=0,
+        device="cpu",
+        policy_kwargs=dict(gp_kwargs=dict(max_basis=32, drift_forgetting=5.0)),
+        **kwargs,
+    )
+
+
+def test_a_widened_gaussian_actor_drifts_by_the_closed_form() -> None:
+    """Raising a Gaussian actor's log standard deviations by ``u`` moves it, at every state, by
+    ``KL(N(m, s) || N(m, s e^u)) = u + e^(-2u) / 2 - 1 / 2`` per action dimension; an actor
+    left as it was moves by exactly 0."""
+    model = _ppo("Pendulum-v1")
+    obs = np.random.default_rng(1).uniform(-1, 1, size=(500, 3)).astype(np.float32)
+    drift = PolicyDrift(max_states=100)
+    assert drift.measure(model.policy, obs) == 0.0  # nothing to compare with yet
+    assert drift.measure(model.policy, obs) == 0.0
+    u = 0.3
+    with th.no_grad():
+        model.policy.log_std += u
+    assert drift.measure(model.policy, obs) == pytest.approx(u + math.exp(-2 * u) / 2 - 0.5)
+
+
+def test_a_discrete_actor_drifts_by_the_mean_kl_on_the_previous_states() -> None:
+    model = _ppo("CartPole-v1")
+    rng = np.random.default_rng(2)
+    first, second = rng.uniform(-0.2, 0.2, size=(2, 40, 4)).astype(np.float32)
+    drift = PolicyDrift(max_states=256)
+
+    def probs(states: np.ndarray) -> np.ndarray:
+        with th.no_grad():
+            return model.policy.get_distribution(th.tensor(states)).distribution.probs.numpy()
+
+    drift.measure(model.policy, first)
+    before = probs(first)
+    with th.no_grad():
+        model.policy.action_net.bias += th.tensor([1.0, -1.0])
+    after = probs(first)
+    expected = np.mean(np.sum(before * np.log(before / after), axis=1))
+    assert expected > 0.1
+    assert drift.measure(model.policy, second) == pytest.approx(expected, rel=1e-5)
+
+
+class _Logged(BaseCallback):
+    """The GP callback's logged values at every rollout end (run it after the GP callback)."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.rows: list[dict[str, Any]] = []
+
+    def _on_step(self) -> bool:
+        return True
+
+    def _on_rollout_end(self) -> None:
+        self.rows.append(dict(self.logger.name_to_value))
+
+
+@pytest.mark.parametrize("algo", [PPO, A2C])
+def test_an_actor_that_does_not_learn_forgets_nothing(algo: type) -> None:
+    """With a learning rate of 0 the actor never moves: every drift measured is 0 and the
+    critic ends bit for bit as one without drift forgetting; with learning the drift is
+    positive and the factor logged is ``exp(-r drift)``."""
+    kwargs = dict(n_steps=64, batch_size=64) if algo is PPO else dict(n_steps=8)
+
+    def trained(rate: float, lr: float) -> tuple[Any, list[dict[str, Any]]]:
+        model = algo(
+            GPActorCriticPolicy,
+            "Pendulum-v1",
+            learning_rate=lr,
+            seed=3,
+            device="cpu",
+            policy_kwargs=dict(gp_kwargs=dict(max_basis=32, drift_forgetting=rate)),
+            **kwargs,
+        )
+        logged = _Logged()
+        model.learn(640, callback=[GPValueCallback(target="returns"), logged])
+        return model, logged.rows
+
+    still, rows = trained(5.0, 0.0)
+    assert [r["gp/policy_kl"] for r in rows] == [0.0] * len(rows)
+    unforgetting, _ = trained(0.0, 0.0)
+    states = [snapshot(m.policy.gp) for m in (still, unforgetting)]
+    for state in states:
+        del state["_extra_state"]  # the options: drift_forgetting 5 against 0
+    assert_same_state(*states)
+    _, rows = trained(5.0, 3e-3)
+    kl = np.array([r["gp/policy_kl"] for r in rows])
+    assert kl[0] == 0.0 and (kl[1:] > 0).all()
+    factor = np.array([r["gp/drift_factor"] for r in rows])
+    np.testing.assert_allclose(factor, np.exp(-5.0 * kl), rtol=1e-12)
+
+
+def test_drift_forgetting_survives_save_and_load(tmp_path) -> None:
+    model = _ppo("Pendulum-v1", learning_rate=3e-3)
+    model.learn(256, callback=GPValueCallback(target="returns"))
+    model.save(tmp_path / "model.zip")
+    loaded = PPO.load(tmp_path / "model.zip", device="cpu")
+    assert loaded.policy.gp.drift_forgetting == 5.0
+    obs = th.tensor(np.random.default_rng(4).uniform(-1, 1, size=(20, 3)))
+    with th.no_grad():
+        for a, b in zip(model.policy.gp.predict(obs), loaded.policy.gp.predict(obs), strict=True):
+            th.testing.assert_close(a, b, rtol=0, atol=0)
+    assert_same_state(snapshot(model.policy.gp), snapshot(loaded.policy.gp))
+    loaded.set_env(gym.make("Pendulum-v1"))
+    loaded.learn(128, callback=GPValueCallback(target="returns"), reset_num_timesteps=False)
+    assert loaded.policy.gp.n_batches == model.policy.gp.n_batches + 2
