@@ -305,3 +305,36 @@ def test_sb3_geogp_imports_without_sb3_contrib() -> None:
     )
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr
+
+
+def test_maskable_drift_is_the_kl_of_the_masked_distributions() -> None:
+    """Under MaskablePPO the actor's drift compares the masked action distributions: masked
+    actions carry no probability, and the rest renormalise (numpy's KL of those)."""
+    env = InvalidActionEnvDiscrete(dim=6, n_invalid_actions=3)
+    model = MaskablePPO(
+        MaskableGPActorCriticPolicy,
+        env,
+        n_steps=32,
+        seed=0,
+        device="cpu",
+        policy_kwargs=dict(gp_kwargs=dict(drift_forgetting=1.0)),
+    )
+    rng = np.random.default_rng(0)
+    obs = rng.integers(6, size=(20, 1)).astype(np.float32)
+    masks = rng.uniform(size=(20, 6)) < 0.6
+    masks[:, 0] = True  # at least one allowed action per state
+
+    def probs() -> np.ndarray:
+        logits = model.policy.get_distribution(th.as_tensor(obs)).distribution.logits
+        p = np.exp(logits.detach().numpy().astype(np.float64)) * masks
+        return p / p.sum(axis=1, keepdims=True)
+
+    model.policy.measure_drift(obs, masks)
+    before = probs()
+    with th.no_grad():
+        model.policy.action_net.bias += th.linspace(-1.0, 1.0, 6)
+    after = probs()
+    allowed = before > 0
+    expected = np.mean(np.sum(np.where(allowed, before * np.log(before / after), 0.0), axis=1))
+    assert expected > 0.05
+    assert model.policy.measure_drift(obs, masks) == pytest.approx(expected, rel=1e-4)
