@@ -26,13 +26,19 @@ BENEFIT_CELLS = ("CartPole-v1", "Pendulum-v1", "sb3_geogp/PaperPendulum-v0")
 HARM_METRICS = ("critic_rmse", "final_return", "mean_return")
 
 
-def registered(rows: list[dict[str, Any]]) -> None:
-    """Print every family-wise verdict the rule reads, then the rule's outcome; refuse a sweep
-    that has not finished (the rule reads 20 seeds per arm in each of the seven cells)."""
+def registered(
+    rows: list[dict[str, Any]],
+    label: str = "forget05 − default, seeds 893-912",
+    script: str = "results/forgetting_ppo/run.sh",
+    outcome: str = "PREREGISTRATION.md's result: not carried out",
+) -> None:
+    """Print every family-wise verdict the rule reads (the arm ``label`` against the default),
+    then the rule's outcome (``outcome`` beside an adoption); refuse a sweep that has not
+    finished (the rule reads 20 seeds per arm in each of the seven cells; ``script`` runs it)."""
     cells = {(r["env"], r["metric"]) for r in rows}
     if len(cells) != 7 * len(HARM_METRICS) or any({r["n_a"], r["n_b"]} != {20} for r in rows):
-        raise SystemExit("the registered sweep has not finished: run results/forgetting_ppo/run.sh")
-    print("## The registered rule (PREREGISTRATION.md), forget05 − default, seeds 893-912\n")
+        raise SystemExit(f"the registered sweep has not finished: run {script}")
+    print(f"## The registered rule (PREREGISTRATION.md), {label}\n")
     print("| env | metric | difference [95 %] | at 95 % | family-wise |")
     print("|---|---|---:|---|---|")
     for r in rows:
@@ -56,7 +62,7 @@ def registered(rows: list[dict[str, Any]]) -> None:
     print(f"2. No harm (no cell worse family-wise in {list(HARM_METRICS)}): "
           f"{'holds' if no_harm else 'fails'} ({harm or 'none worse'})")  # fmt: skip
     if benefit_holds and no_harm:
-        print("\n**The rule's decision: adopt** (PREREGISTRATION.md's result: not carried out).\n")
+        print(f"\n**The rule's decision: adopt** ({outcome}).\n")
     else:
         print("\n**The rule's decision: not adopted; the default is unchanged.**\n")
 
