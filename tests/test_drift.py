@@ -152,3 +152,29 @@ def test_drift_forgetting_survives_save_and_load(tmp_path) -> None:
     loaded.set_env(gym.make("Pendulum-v1"))
     loaded.learn(128, callback=GPValueCallback(target="returns"), reset_num_timesteps=False)
     assert loaded.policy.gp.n_batches == model.policy.gp.n_batches + 2
+
+
+def test_a_feed_of_several_rollouts_forgets_their_drifts_summed() -> None:
+    """With ``feed_every=3`` the drift passed at each feed is the sum of the three rollouts'
+    measured drifts (KL divergences along a path of policy steps add up)."""
+    model = _ppo("Pendulum-v1", learning_rate=3e-3)
+    policy = model.policy
+    measured: list[float] = []
+    passed: list[float] = []
+    measure, update = policy.measure_drift, policy.update_critic
+
+    def measuring(*args: Any) -> float:
+        measured.append(measure(*args))
+        return measured[-1]
+
+    def updating(*args: Any, drift: float = 0.0) -> dict[str, float]:
+        if len(args[1]):
+            passed.append(drift)
+        return update(*args, drift=drift)
+
+    policy.measure_drift = measuring  # type: ignore[method-assign]
+    policy.update_critic = updating  # type: ignore[method-assign]
+    model.learn(64 * 9, callback=GPValueCallback(target="returns", feed_every=3))
+    assert len(measured) == 9 and len(passed) == 3
+    np.testing.assert_allclose(passed, np.add.reduceat(measured, [0, 3, 6]), rtol=1e-12)
+    assert passed[1] > 0

@@ -1,0 +1,83 @@
+"""The reading of this folder's studies (session 74)::
+
+    python results/drift_forgetting/read.py > results/drift_forgetting/read.md
+
+1. ``PLAN.md``'s screen (exploratory): ``drift_forgetting=12.6`` against the default critic's
+   stored runs on seeds 883-892 (``s74_screen/report/vs_baseline.json``), and on the critic
+   RMSE against session 73's fixed forgetting 0.5 on the same seeds.
+2. ``PREREGISTRATION.md``'s rule, read mechanically by ``results/forgetting_ppo/read.py``'s
+   reader (the same rule), once the registered sweep has finished; then, decided on by
+   nothing, the GP critic's share of the training time in both arms.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from sb3_geogp.comparison.results import comparisons, group_runs, load_results
+from sb3_geogp.toolbox.scripts import load_script
+
+HERE = Path(__file__).resolve().parent
+ROOT = HERE.parents[1]
+FORGETTING = load_script(ROOT / "results" / "forgetting_ppo" / "read.py", "forgetting_ppo")
+
+
+def verdict_table(rows: list[dict[str, Any]], metrics: tuple[str, ...], title: str) -> None:
+    print(f"## {title}\n")
+    print("| env | metric | difference [95 %] | at 95 % | family-wise |")
+    print("|---|---|---:|---|---|")
+    for r in rows:
+        if r["metric"] in metrics:
+            interval = f"{r['diff']:+.3g} [{r['low']:+.3g}, {r['high']:+.3g}]"
+            print(
+                f"| {r['env']} | {r['metric']} | {interval} | {r['verdict']} | {r['fw_verdict']} |"
+            )
+    print()
+
+
+def screen() -> None:
+    rows = json.loads((HERE / "s74_screen" / "report" / "vs_baseline.json").read_text())
+    verdict_table(
+        rows,
+        FORGETTING.HARM_METRICS,
+        "The screen (PLAN.md, exploratory): drift forgetting − default, seeds 883-892",
+    )
+    fixed = load_results(ROOT / "results" / "forgetting_ppo" / "s73_forget05")
+    against = comparisons(load_results(HERE / "s74_screen"), baseline=fixed)
+    verdict_table(
+        against,
+        ("critic_rmse",),
+        "The screen beside session 73's fixed forgetting 0.5: drift − fixed, seeds 883-892",
+    )
+
+
+def critic_share() -> None:
+    """Mean share of the training time spent in the GP critic, per cell and arm."""
+    arms = {arm: group_runs(load_results(HERE / arm)) for arm in ("reg_default", "reg_drift")}
+    print("## The GP critic's share of the training time (secondary; sequential sweeps)\n")
+    print("| env | default | drift |")
+    print("|---|---:|---:|")
+    for key in sorted(arms["reg_default"]):
+        shares = [np.mean([r["critic_share"] for r in arms[arm][key]]) for arm in arms]
+        print(f"| {key[0]} | {shares[0]:.3f} | {shares[1]:.3f} |")
+    print()
+
+
+def main() -> None:
+    screen()
+    rows = json.loads((HERE / "reg_drift" / "report" / "vs_baseline.json").read_text())
+    FORGETTING.registered(
+        rows,
+        label="drift forgetting 12.6 − default, seeds 913-932",
+        script="results/drift_forgetting/run.sh",
+        outcome="PREREGISTRATION.md: in a later session that re-runs issue 13's table's PPO rows",
+    )
+    critic_share()
+
+
+if __name__ == "__main__":
+    main()
