@@ -315,6 +315,9 @@ class GPCriticMixin(_PolicyBase):
         #: running, which the next call continues where SB3 does not reset the environment.
         self.unfinished_episodes: Any = None
         self._drift = PolicyDrift()
+        # Drift passed with feeds that had no targets (no episode ended): the next batch
+        # absorbed forgets what came before by it too.
+        self._drift_waiting = 0.0
         self._fed_since_std = _STD_EVERY  # the first rollout gets the diagnostic
 
     @classmethod
@@ -699,7 +702,8 @@ class GPCriticMixin(_PolicyBase):
         float
             The mean KL divergence from the actor at the previous rollout's end to the actor
             now, on that rollout's states (:class:`~sb3_geogp.drift.PolicyDrift`; 0 at the
-            first rollout of the policy).
+            first rollout of this policy object: the states measured on are not saved with
+            the model).
         """
         if self.gp.drift_forgetting == 0:
             return 0.0
@@ -732,7 +736,9 @@ class GPCriticMixin(_PolicyBase):
         drift : float
             How far the policy moved since the last feed (:meth:`measure_drift`): with
             ``gp_kwargs=dict(drift_forgetting=r)`` the GP weighs what it absorbed before by
-            ``exp(-r * drift)`` (:meth:`~sb3_geogp.SparseOnlineGP.update`).
+            ``exp(-r * drift)`` (:meth:`~sb3_geogp.SparseOnlineGP.update`). A feed without
+            targets absorbs nothing, and its drift is added to the next feed's: what the GP
+            holds is forgotten by all the drift since it was absorbed.
 
         Raises
         ------
@@ -755,12 +761,15 @@ class GPCriticMixin(_PolicyBase):
             absorbed, and after each adaptation the forgetting in effect, ``lengthscale`` (the
             geometric mean) and ``lengthscale_<i>``, ``signal_var``, ``noise_var``,
             ``target_mean``, ``target_scale``, ``target_drift``, ``block_fit``); with
-            ``drift_forgetting`` ``policy_kl`` (``drift``) and ``drift_factor``, the weight it
-            left what came before.
+            ``drift_forgetting``, for a non-empty batch, ``policy_kl`` (the drift forgotten by:
+            ``drift`` and that of the empty feeds since the last batch) and ``drift_factor``,
+            the weight it left what came before.
         """
         _check_batch_shapes(len(obs), targets=targets, episode_starts=episode_starts, values=values)
         stats: dict[str, float] = {}
         start = time.perf_counter()
+        drift += self._drift_waiting
+        self._drift_waiting = 0.0 if len(targets) > 0 else drift
         if len(targets) > 0:
             features = self.critic_features(obs)
             with_std = self._fed_since_std >= _STD_EVERY
@@ -772,8 +781,8 @@ class GPCriticMixin(_PolicyBase):
         stats["update_ms"] = 1e3 * (time.perf_counter() - start)
         self._awaiting_feed = False
         stats.update(n_fed=len(targets), n_basis=self.gp.n_basis, forgetting=self.gp.forgetting)
-        if self.gp.drift_forgetting > 0:
-            factor = math.exp(-self.gp.drift_forgetting * drift) if len(targets) else 1.0
+        if self.gp.drift_forgetting > 0 and len(targets) > 0:
+            factor = math.exp(-self.gp.drift_forgetting * drift)
             stats.update(policy_kl=drift, drift_factor=factor)
         # The explained variance above is the same out-of-sample measure on the same points.
         stats.update({k: v for k, v in self.gp.last_stats.items() if k != "explained_variance"})

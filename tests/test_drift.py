@@ -178,3 +178,30 @@ def test_a_feed_of_several_rollouts_forgets_their_drifts_summed() -> None:
     assert len(measured) == 9 and len(passed) == 3
     np.testing.assert_allclose(passed, np.add.reduceat(measured, [0, 3, 6]), rtol=1e-12)
     assert passed[1] > 0
+
+
+def test_the_drift_of_feeds_without_targets_waits_for_the_next_batch() -> None:
+    """Monte Carlo targets on 200-step episodes, 64-step rollouts: most feeds have no target
+    (no episode ended). The GP absorbs every drift measured, each with the next batch it
+    absorbs: the drifts it was given sum to those measured up to its last batch."""
+    model = _ppo("Pendulum-v1", learning_rate=3e-3)
+    policy, gp = model.policy, model.policy.gp
+    measured: list[float] = []
+    absorbed: list[tuple[int, float]] = []  # (rollouts measured by then, drift)
+    measure, update = policy.measure_drift, gp.update
+
+    def measuring(*args: Any) -> float:
+        measured.append(measure(*args))
+        return measured[-1]
+
+    def updating(*args: Any, drift: float = 0.0) -> None:
+        absorbed.append((len(measured), drift))
+        update(*args, drift=drift)
+
+    policy.measure_drift = measuring  # type: ignore[method-assign]
+    gp.update = updating  # type: ignore[method-assign]
+    model.learn(64 * 16, callback=GPValueCallback(target="monte_carlo"))
+    assert 2 <= len(absorbed) < len(measured) == 16  # feeds without targets happened
+    last = absorbed[-1][0]
+    np.testing.assert_allclose(sum(d for _, d in absorbed), sum(measured[:last]), rtol=1e-12)
+    assert absorbed[-1][1] > measured[last - 1] > 0  # the last batch took earlier drifts too
