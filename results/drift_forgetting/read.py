@@ -8,6 +8,9 @@
 2. ``PREREGISTRATION.md``'s rule, read mechanically by ``results/forgetting_ppo/read.py``'s
    reader (the same rule), once the registered sweep has finished; then, decided on by
    nothing, the GP critic's share of the training time in both arms.
+3. Figures: drift − default per cell, the screen's and the registered test's intervals side by
+   side, for the final return and the final critic RMSE (``final_return.png``,
+   ``critic_rmse.png`` here).
 """
 
 from __future__ import annotations
@@ -18,6 +21,7 @@ from typing import Any
 
 import numpy as np
 
+from sb3_geogp.comparison.report import plot_difference_panels
 from sb3_geogp.comparison.results import comparisons, group_runs, load_results
 from sb3_geogp.toolbox.scripts import load_script
 
@@ -67,6 +71,26 @@ def critic_share() -> None:
     print()
 
 
+def figures() -> None:
+    sweeps = {"screen": "s74_screen", "registered": "reg_drift"}
+    rows = {
+        arm: json.loads((HERE / sweep / "report" / "vs_baseline.json").read_text())
+        for arm, sweep in sweeps.items()
+    }
+    for metric, label in (("final_return", "final return"), ("critic_rmse", "final critic RMSE")):
+        panels = [
+            {"env": r["env"], "algo": r["algo"]}
+            | {
+                arm: next(x for x in rows[arm] if x["env"] == r["env"] and x["metric"] == metric)
+                for arm in sweeps
+            }
+            for r in rows["registered"]
+            if r["metric"] == metric
+        ]
+        title = f"drift_forgetting=12.6 − default, {label} (screen: seeds 883-892; registered: 913-932)"
+        plot_difference_panels(panels, list(sweeps), HERE / f"{metric}.png", title, 4, (3.2, 2.4))
+
+
 def main() -> None:
     screen()
     rows = json.loads((HERE / "reg_drift" / "report" / "vs_baseline.json").read_text())
@@ -77,6 +101,7 @@ def main() -> None:
         outcome="PREREGISTRATION.md: in a later session that re-runs issue 13's table's PPO rows",
     )
     critic_share()
+    figures()
 
 
 if __name__ == "__main__":
