@@ -41,6 +41,15 @@ def check_number(name: str, value: Any) -> None:
         raise TypeError(f"{name} must be a number, got {value!r} ({type(value).__name__})")
 
 
+def non_negative_number(name: str, value: Any) -> float:
+    """``value`` as a ``float`` if it is a finite real number of at least 0 (:func:`check_number`
+    says what counts); else ``TypeError`` or ``ValueError`` naming ``name``."""
+    check_number(name, value)
+    if not (value >= 0 and np.isfinite(float(value))):
+        raise ValueError(f"{name} must be a non-negative finite number, got {value}")
+    return float(value)
+
+
 def check_same_options(
     what: str,
     saved: Any,

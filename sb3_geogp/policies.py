@@ -43,7 +43,7 @@ from sb3_geogp.adaptation import Adaptation, as_adaptation
 from sb3_geogp.drift import PolicyDrift
 from sb3_geogp.kernels import KERNELS, kernel_names, kernels_taking, make_kernel
 from sb3_geogp.normalization import ActorObservationNormalizer
-from sb3_geogp.options import unknown_option
+from sb3_geogp.options import non_negative_number, unknown_option
 from sb3_geogp.saved_state import state_to_restore
 from sb3_geogp.sparse_gp import SparseOnlineGP
 
@@ -743,8 +743,9 @@ class GPCriticMixin(_PolicyBase):
         Raises
         ------
         ValueError
-            If ``targets``, ``episode_starts`` or ``values`` is not of shape (n,), before
-            anything changes; the GP's own checks (non-finite values) likewise.
+            If ``targets``, ``episode_starts`` or ``values`` is not of shape (n,), or ``drift``
+            is negative or not finite, before anything changes; the GP's own checks
+            (non-finite values) likewise.
 
         Returns
         -------
@@ -766,11 +767,12 @@ class GPCriticMixin(_PolicyBase):
             the weight it left what came before.
         """
         _check_batch_shapes(len(obs), targets=targets, episode_starts=episode_starts, values=values)
+        drift = non_negative_number("drift", drift) + self._drift_waiting
         stats: dict[str, float] = {}
         start = time.perf_counter()
-        drift += self._drift_waiting
-        self._drift_waiting = 0.0 if len(targets) > 0 else drift
-        if len(targets) > 0:
+        if len(targets) == 0:
+            self._drift_waiting = drift
+        else:
             features = self.critic_features(obs)
             with_std = self._fed_since_std >= _STD_EVERY
             stats.update(_fit_before_update(self.gp, features, targets, values, with_std))
@@ -778,6 +780,7 @@ class GPCriticMixin(_PolicyBase):
             self._fed_since_std = len(targets) + (0 if with_std else self._fed_since_std)
             start = time.perf_counter()
             self.gp.update(features, targets, episode_starts, drift=drift)
+            self._drift_waiting = 0.0
         stats["update_ms"] = 1e3 * (time.perf_counter() - start)
         self._awaiting_feed = False
         stats.update(n_fed=len(targets), n_basis=self.gp.n_basis, forgetting=self.gp.forgetting)

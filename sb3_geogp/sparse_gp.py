@@ -57,7 +57,13 @@ from sb3_geogp.adaptation import (
 from sb3_geogp.graph import BVGraph
 from sb3_geogp.kernels import Kernel, KernelName, make_kernel
 from sb3_geogp.kernels.base import BasisMatrices, Rows
-from sb3_geogp.options import check_number, check_same_options, non_negative_int, positive_int
+from sb3_geogp.options import (
+    check_number,
+    check_same_options,
+    non_negative_int,
+    non_negative_number,
+    positive_int,
+)
 from sb3_geogp.posterior_cache import PosteriorMatrices
 from sb3_geogp.rollback import Rollback
 from sb3_geogp.trends import RISE_THRESHOLD as RISE_THRESHOLD
@@ -494,13 +500,7 @@ class SparseOnlineGP(nn.Module):
         self.trend = trend
         self.optimism = float(optimism)
         self.optimism_cap = None if optimism_cap is None else float(optimism_cap)
-        check_number("drift_forgetting", drift_forgetting)
-        if not (drift_forgetting >= 0 and math.isfinite(drift_forgetting)):
-            raise ValueError(
-                f"drift_forgetting must be a non-negative finite rate, got {drift_forgetting}; "
-                "pass 0 for no forgetting from drift"
-            )
-        self.drift_forgetting = float(drift_forgetting)
+        self.drift_forgetting = non_negative_number("drift_forgetting", drift_forgetting)
         if num_threads is not None:
             num_threads = positive_int("num_threads", num_threads)
         self.input_dim = int(input_dim)
@@ -921,12 +921,10 @@ class SparseOnlineGP(nn.Module):
             As :meth:`predict`, before anything changes.
         """
         x, y, starts = self._validate(x, y, episode_starts)
-        check_number("drift", drift)
-        if not (drift >= 0 and math.isfinite(drift)):
-            raise ValueError(f"drift must be a non-negative finite number, got {drift}")
+        decay = self.drift_forgetting * non_negative_number("drift", drift)
         self._check_hyperparameters()
         with self._transaction():
-            self._update(x, y, starts, self.drift_forgetting * float(drift))
+            self._update(x, y, starts, decay)
         self._settle()
         if self._coverage is not None and not self._coverage.checked:
             self._coverage.add(x)

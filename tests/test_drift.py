@@ -205,3 +205,17 @@ def test_the_drift_of_feeds_without_targets_waits_for_the_next_batch() -> None:
     last = absorbed[-1][0]
     np.testing.assert_allclose(sum(d for _, d in absorbed), sum(measured[:last]), rtol=1e-12)
     assert absorbed[-1][1] > measured[last - 1] > 0  # the last batch took earlier drifts too
+
+
+@pytest.mark.parametrize("empty", [True, False])
+def test_a_bad_drift_is_refused_before_anything_changes(empty: bool) -> None:
+    model = _ppo("Pendulum-v1")
+    policy = model.policy
+    obs = np.random.default_rng(5).uniform(-1, 1, size=(30, 3)).astype(np.float32)
+    n = 0 if empty else 30
+    policy.update_critic(obs[:n], np.ones(n), np.ones(n, dtype=bool), drift=0.2)
+    before = (snapshot(policy.gp), policy._drift_waiting)
+    with pytest.raises(ValueError, match="drift must be a non-negative finite number"):
+        policy.update_critic(obs[:n], np.ones(n), np.ones(n, dtype=bool), drift=-0.1)
+    assert_same_state(before[0], snapshot(policy.gp))
+    assert policy._drift_waiting == before[1] == (0.2 if empty else 0.0)

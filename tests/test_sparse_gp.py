@@ -1046,7 +1046,7 @@ def test_bad_drift_raises_and_leaves_state_unchanged(pendulum, bad: float) -> No
 
 @pytest.mark.parametrize("bad", [-1.0, math.nan, math.inf])
 def test_bad_drift_forgetting_is_refused(bad: float) -> None:
-    with pytest.raises(ValueError, match="drift_forgetting must be a non-negative finite rate"):
+    with pytest.raises(ValueError, match="drift_forgetting must be a non-negative finite number"):
         SparseOnlineGP(2, "rbf", drift_forgetting=bad)
 
 
