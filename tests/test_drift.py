@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 import torch as th
 from stable_baselines3 import A2C, PPO
-from stable_baselines3.common.callbacks import BaseCallback
 
 from sb3_geogp import GPActorCriticPolicy, GPValueCallback
+from sb3_geogp.comparison.measurement import RolloutRecorder
 from sb3_geogp.drift import PolicyDrift, kl_per_state
 from tests.test_sparse_gp import assert_same_state, snapshot
 
@@ -89,18 +89,11 @@ def test_a_discrete_actor_drifts_by_the_mean_kl_on_the_previous_states() -> None
     assert drift.measure(model.policy, second) == pytest.approx(expected, rel=1e-5)
 
 
-class _Logged(BaseCallback):
+class _Logged(RolloutRecorder):
     """The GP callback's logged values at every rollout end (run it after the GP callback)."""
 
-    def __init__(self) -> None:
-        super().__init__()
-        self.rows: list[dict[str, Any]] = []
-
-    def _on_step(self) -> bool:
-        return True
-
-    def _on_rollout_end(self) -> None:
-        self.rows.append(dict(self.logger.name_to_value))
+    def row(self) -> dict[str, Any]:
+        return dict(self.model.logger.name_to_value)
 
 
 @pytest.mark.parametrize("algo", [PPO, A2C])
