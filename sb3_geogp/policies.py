@@ -779,7 +779,10 @@ class GPCriticMixin(_PolicyBase):
             # The points of this rollout are fed after the value was computed.
             self._fed_since_std = len(targets) + (0 if with_std else self._fed_since_std)
             start = time.perf_counter()
-            self.gp.update(features, targets, episode_starts, drift=drift)
+            # Passed only where the policy moved: wrappers of the GP's update older than
+            # drift (recorders of its batches) keep working.
+            moved: dict[str, Any] = {"drift": drift} if drift else {}
+            self.gp.update(features, targets, episode_starts, **moved)
             self._drift_waiting = 0.0
         stats["update_ms"] = 1e3 * (time.perf_counter() - start)
         self._awaiting_feed = False
