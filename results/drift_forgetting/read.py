@@ -11,6 +11,9 @@
 3. Figures: drift − default per cell, the screen's and the registered test's intervals side by
    side, for the final return and the final critic RMSE (``final_return.png``,
    ``critic_rmse.png`` here).
+4. ``PLAN.md``'s addendum (exploratory): issue 13's critic-fit score with the option against
+   the published default's ``docs/critic_fit_0_35``, paired by seed
+   (``results/whole_batch/read.py``'s ``fit_table``, as ``results/forgetting_ppo/read.py``).
 """
 
 from __future__ import annotations
@@ -102,6 +105,11 @@ def main() -> None:
     )
     critic_share()
     figures()
+    print("## Critic fit (PLAN.md's addendum, exploratory)\n")
+    arms = ("docs/critic_fit_0_35", "results/drift_forgetting/critic_fit")
+    envs = ("Pendulum-v1", "CartPole-v1", "Acrobot-v1")
+    reading = "PLAN.md's addendum (exploratory), 95 % t interval"
+    FORGETTING.WHOLE.fit_table(ROOT, range(10), envs, reading, arms, ("default", "drift 12.6"))
 
 
 if __name__ == "__main__":
