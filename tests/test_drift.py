@@ -149,7 +149,7 @@ def test_drift_forgetting_survives_save_and_load(tmp_path) -> None:
 
 def test_a_feed_of_several_rollouts_forgets_their_drifts_summed() -> None:
     """With ``feed_every=3`` the drift passed at each feed is the sum of the three rollouts'
-    measured drifts (KL divergences along a path of policy steps add up)."""
+    measured drifts."""
     model = _ppo("Pendulum-v1", learning_rate=3e-3)
     policy = model.policy
     measured: list[float] = []
