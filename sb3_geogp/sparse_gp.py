@@ -144,8 +144,7 @@ def _check_scalars(
         raise ValueError(f"target_scale must be positive and finite, got {target_scale}")
     if target_mean is not None and not math.isfinite(target_mean):
         raise ValueError(f"target_mean must be finite, got {target_mean}")
-    if not (optimism >= 0 and math.isfinite(optimism)):
-        raise ValueError(f"optimism must be a non-negative finite number, got {optimism}")
+    non_negative_number("optimism", optimism)
 
 
 def _check_mean_and_trend(prior_mean: str, trend: str, target_mean: float | None) -> None:
