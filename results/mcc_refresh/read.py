@@ -37,7 +37,7 @@ def main() -> None:
     args = parser.parse_args()
     label = WHOLE.LABELS[args.metric]
     published = WHOLE.TABLE50.published_and_fresh()
-    fresh = pool_sweeps([f for f in (HERE / f"s{b}" for b in BLOCKS) if f.is_dir()])
+    fresh = fresh_runs()
     stored = [r for r in published if is_default_mcc(r)]
     fresh, stored = WHOLE.TABLE50.VERDICT.H200.READING.TABLE40.on_common_seeds(fresh, stored)
     print(f"## PPO {MCC}: 0.35.0's re-run − the stored 0.25 runs, {label} "
@@ -45,13 +45,29 @@ def main() -> None:
     WHOLE.POOL30.print_table(
         WHOLE.POOL30.against_baseline(fresh, stored, args.metric, 1), label, "re-run − stored"
     )
-    whole = pool_sweeps([WHOLE.HERE / f"table_s{b}" for b in WHOLE.BLOCKS])
-    others = [r for r in published if not (WHOLE.touched(r) or is_default_mcc(r))]
     print(f"\n## Issue 13's table, every PPO cell 0.35.0's default where it was re-run, {label}\n")
     if len(fresh) < 10 * len(BLOCKS):
         print("Not every seed of the re-run finished: the table keeps the stored runs.\n")
         return
-    WHOLE.POOL30.print_table(WHOLE.POOL30.mlp_rows(others + whole + fresh, args.metric), label)
+    WHOLE.POOL30.print_table(
+        WHOLE.POOL30.mlp_rows(table_runs(published, fresh), args.metric), label
+    )
+
+
+def table_runs(
+    published: list[dict[str, Any]], fresh: list[dict[str, Any]]
+) -> list[dict[str, Any]]:
+    """Issue 13's table's runs (``published``: the 50 seeds' stored runs) with 0.35.0's default
+    where it was re-run: the four cells of ``results/whole_batch`` and MountainCarContinuous-v0
+    (``fresh``, this folder's runs)."""
+    whole = pool_sweeps([WHOLE.HERE / f"table_s{b}" for b in WHOLE.BLOCKS])
+    others = [r for r in published if not (WHOLE.touched(r) or is_default_mcc(r))]
+    return others + whole + fresh
+
+
+def fresh_runs() -> list[dict[str, Any]]:
+    """This folder's re-run of PPO MountainCarContinuous-v0."""
+    return pool_sweeps([f for f in (HERE / f"s{b}" for b in BLOCKS) if f.is_dir()])
 
 
 if __name__ == "__main__":
