@@ -7,7 +7,8 @@ arm's runs in place of 0.35.0's default in every PPO cell (the table's rule, fam
 42). Secondary: drift − 0.35.0's default by cell, paired by seed. A partial sweep decides
 nothing and replaces nothing.
 
-    python results/drift_table/read.py > results/drift_table/read.md
+    python results/drift_table/read.py --plot results/drift_table/table.png \
+        > results/drift_table/read.md
     python results/drift_table/read.py --metric mean_return > results/drift_table/auc.md
     python results/drift_table/read.py --metric critic_rmse > results/drift_table/rmse.md
 """
@@ -19,6 +20,7 @@ from collections import Counter
 from pathlib import Path
 from typing import Any
 
+from sb3_geogp.comparison.report import plot_difference_panels
 from sb3_geogp.comparison.results import pool_sweeps
 from sb3_geogp.toolbox.scripts import load_script
 from sb3_geogp.toolbox.tables import PARTIAL, registered_decision
@@ -50,16 +52,28 @@ def drift_runs() -> list[dict[str, Any]]:
 
 def paired(
     drift: list[dict[str, Any]], today: list[dict[str, Any]], metric: str, label: str
-) -> None:
-    """Print drift − 0.35.0's default by cell on ``metric``, family-wise over the seven."""
+) -> dict[tuple[str, str], dict[str, Any]]:
+    """Print and return drift − 0.35.0's default by cell on ``metric``, family-wise over the
+    seven."""
     drift, default = WHOLE.TABLE50.VERDICT.H200.READING.TABLE40.on_common_seeds(
         drift, [r for r in today if is_ppo_default(r)]
     )
     print(f"## drift − 0.35.0's default, {label}, paired by seed (family-wise over 7)\n")
-    POOL30.print_table(
-        POOL30.against_baseline(drift, default, metric, PPO_CELLS), label, "drift − default"
-    )
+    rows = POOL30.against_baseline(drift, default, metric, PPO_CELLS)
+    POOL30.print_table(rows, label, "drift − default")
     print()
+    return rows
+
+
+def plot(sets: dict[str, dict[tuple[str, str], dict[str, Any]]], label: str, path: str) -> None:
+    """Each PPO cell's differences: 0.35.0's default and the drift arm against SB3's MLP
+    critic, and the drift arm against 0.35.0's default."""
+    cells = sorted(k for k in sets["drift − default"] if k[1] == "ppo")
+    panels = [{"env": env, "algo": algo, **{k: t.get((env, algo)) for k, t in sets.items()}}
+              for env, algo in cells]  # fmt: skip
+    title = f"PPO's GP critic with drift_forgetting=12.6, {label}, issue 13's table's seeds"
+    ticks = [name.replace(" − ", "\n− ") for name in sets]
+    plot_difference_panels(panels, list(sets), path, title, 4, (2.6, 2.8), ticks)
 
 
 def rules(table: dict[tuple[str, str], dict[str, Any]], complete: bool) -> list[tuple[str, str]]:
@@ -81,6 +95,7 @@ def rules(table: dict[tuple[str, str], dict[str, Any]], complete: bool) -> list[
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--metric", choices=tuple(WHOLE.LABELS), default="final_return")
+    parser.add_argument("--plot", metavar="PNG", help="draw each PPO cell's three differences")
     args = parser.parse_args()
     label = WHOLE.LABELS[args.metric]
     published = WHOLE.TABLE50.published_and_fresh()
@@ -91,7 +106,7 @@ def main() -> None:
           f"({', '.join(cells) or 'none'}).\n")  # fmt: skip
     if not drift:
         return
-    paired(drift, today, args.metric, label)
+    against_default = paired(drift, today, args.metric, label)
     done = set(cells)
     kept = [r for r in today if not (is_ppo_default(r) and r["spec"]["env_id"] in done)]
     table = POOL30.mlp_rows(kept + drift, args.metric)
@@ -99,7 +114,11 @@ def main() -> None:
           f"family-wise at 42), {label}\n")  # fmt: skip
     POOL30.print_table(table, label)
     print(f"\n## Issue 13's table with 0.35.0's default (`results/mcc_refresh`), {label}\n")
-    POOL30.print_table(POOL30.mlp_rows(today, args.metric), label)
+    before = POOL30.mlp_rows(today, args.metric)
+    POOL30.print_table(before, label)
+    if args.plot:
+        sets = {"0.35 − MLP": before, "drift − MLP": table, "drift − default": against_default}
+        plot(sets, label, args.plot)
     if args.metric == "final_return":
         print("\n## The registered rule\n")
         adopted = "adopt `drift_forgetting=12.6` as PPO's default"
