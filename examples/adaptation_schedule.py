@@ -117,20 +117,22 @@ LAST = 0.2
 
 
 class StreamRecorder(BaseCallback):
-    """Keeps every batch the GP critic is fed: wraps its ``update`` for the run, calling
-    ``before``, if given, first (before the critic learns the batch)."""
+    """Keeps every batch the GP critic is fed, with the drift it was fed with
+    (``drift_forgetting``): wraps its ``update`` for the run, calling ``before``, if given,
+    first (before the critic learns the batch)."""
 
     def __init__(self, gp: SparseOnlineGP, before: Callable[[], None] | None = None) -> None:
         super().__init__()
-        self.batches: list[tuple[th.Tensor, th.Tensor, th.Tensor | None]] = []
+        self.batches: list[tuple[th.Tensor, th.Tensor, th.Tensor | None, float]] = []
         original = gp.update
 
-        def update(x: Any, y: Any, episode_starts: Any = None) -> None:
+        def update(x: Any, y: Any, episode_starts: Any = None, drift: float = 0.0) -> None:
             if before is not None:
                 before()
             starts = None if episode_starts is None else th.as_tensor(episode_starts).clone()
-            self.batches.append((th.as_tensor(x).clone(), th.as_tensor(y).clone(), starts))
-            original(x, y, episode_starts)
+            batch = (th.as_tensor(x).clone(), th.as_tensor(y).clone(), starts, float(drift))
+            self.batches.append(batch)
+            original(x, y, episode_starts, drift)
 
         gp.update = update  # type: ignore[method-assign]
 
@@ -169,18 +171,29 @@ def record(
     return recorder.batches
 
 
+#: A learner's step: ``learn(x, y, episode_starts, drift)`` (the drift the GP critic was fed
+#: with the batch, :meth:`~sb3_geogp.SparseOnlineGP.update`'s; other critics ignore it).
+Learn = Callable[[th.Tensor, th.Tensor, th.Tensor | None, float], None]
+
+
+def batch_parts(batch: tuple[Any, ...]) -> tuple[Any, Any, Any, float]:
+    """A recorded batch as ``(x, y, episode_starts, drift)``: older streams hold no drift, and
+    their critics were fed none (the recorder refused the keyword)."""
+    x, y, starts, *drift = batch
+    return x, y, starts, float(drift[0]) if drift else 0.0
+
+
 def _scored(
-    batches: list[Any],
-    predict: Callable[[th.Tensor], th.Tensor],
-    learn: Callable[[th.Tensor, th.Tensor, th.Tensor | None], None],
+    batches: list[Any], predict: Callable[[th.Tensor], th.Tensor], learn: Learn
 ) -> dict[str, Any]:
     """Feed ``batches`` to ``learn`` in order, each first scored by the explained variance of
     ``predict``'s values for it; the scores and their mean over the last :data:`LAST` of them."""
     explained = []
-    for i, (x, y, starts) in enumerate(batches):
+    for i, batch in enumerate(batches):
+        x, y, starts, drift = batch_parts(batch)
         if i > 0 and x.shape[0] > 1:
             explained.append(_explained(y, predict(x)))
-        learn(x, y, starts)
+        learn(x, y, starts, drift)
     return dict(explained_variance=explained, tail=_tail(explained), n_batches=len(batches))
 
 
@@ -204,15 +217,17 @@ class _GPLearner:
     def predict(self, x: th.Tensor) -> th.Tensor:
         return self.gp.predict(x, return_var=False)[0]
 
-    def learn(self, x: th.Tensor, y: th.Tensor, starts: th.Tensor | None) -> None:
-        self.gp.update(x, y, starts)
+    def learn(
+        self, x: th.Tensor, y: th.Tensor, starts: th.Tensor | None, drift: float = 0.0
+    ) -> None:
+        self.gp.update(x, y, starts, drift)
 
 
 class _MLPLearner(MLPShadow):
     """:class:`~sb3_geogp.comparison.shadow.MLPShadow` with the learners' signature."""
 
     def learn(  # type: ignore[override]
-        self, x: th.Tensor, y: th.Tensor, starts: th.Tensor | None = None
+        self, x: th.Tensor, y: th.Tensor, starts: th.Tensor | None = None, drift: float = 0.0
     ) -> None:
         super().learn(x, y)
 
@@ -236,11 +251,12 @@ class _MLPLearner(MLPShadow):
 def same_policy(batches: list[Any], learner: Any) -> dict[str, Any]:
     """Fit to the next rollout against fit to other environments of the same rollout.
 
-    ``learner`` (``predict(x)``, ``learn(x, y, starts)``, deep-copyable) is fed ``batches`` in
-    order. Each batch after the first is split at the environment boundary in its middle;
-    its second half is scored by the explained variance of ``learner``'s values before it
-    learns from the batch (``next``), and of a copy's after the copy has learnt the first half
-    (``same``). Their difference is what the change of policy between rollouts costs the fit.
+    ``learner`` (``predict(x)``, ``learn(x, y, starts, drift)``, deep-copyable) is fed
+    ``batches`` in order. Each batch after the first is split at the environment boundary in
+    its middle; its second half is scored by the explained variance of ``learner``'s values
+    before it learns from the batch (``next``), and of a copy's after the copy has learnt the
+    first half (``same``). Their difference is what the change of policy between rollouts
+    costs the fit.
 
     Raises
     ------
@@ -248,7 +264,8 @@ def same_policy(batches: list[Any], learner: Any) -> dict[str, Any]:
         If a batch's middle is not an environment boundary (``episode_starts`` there False).
     """
     scores: dict[str, list[float]] = {"next": [], "same": []}
-    for i, (x, y, starts) in enumerate(batches):
+    for i, batch in enumerate(batches):
+        x, y, starts, drift = batch_parts(batch)
         half = x.shape[0] // 2
         if starts is None or not bool(starts[half]):
             raise ValueError(
@@ -258,9 +275,9 @@ def same_policy(batches: list[Any], learner: Any) -> dict[str, Any]:
         if i > 0:
             scores["next"].append(_explained(y[half:], learner.predict(x[half:])))
             fork = copy.deepcopy(learner)
-            fork.learn(x[:half], y[:half], starts[:half])
+            fork.learn(x[:half], y[:half], starts[:half], drift)
             scores["same"].append(_explained(y[half:], fork.predict(x[half:])))
-        learner.learn(x, y, starts)
+        learner.learn(x, y, starts, drift)
     return {**scores, "tail_next": _tail(scores["next"]), "tail_same": _tail(scores["same"])}
 
 
@@ -315,7 +332,7 @@ def replay_mlp(env_id: str, seed: int, batches: list[Any]) -> dict[str, Any]:
         adaptation=None,
         share=None,
         n_basis=0,
-        **_scored(batches, mlp.predict, lambda x, y, _starts: mlp.learn(x, y)),
+        **_scored(batches, mlp.predict, lambda x, y, _starts, _drift: mlp.learn(x, y)),
     )
 
 
@@ -358,8 +375,8 @@ def replay_batch(
         )
         return th.as_tensor(fit.mean)
 
-    def learn(x: th.Tensor, y: th.Tensor, starts: th.Tensor | None) -> None:
-        gp.update(x, y, starts)
+    def learn(x: th.Tensor, y: th.Tensor, starts: th.Tensor | None, drift: float) -> None:
+        gp.update(x, y, starts, drift)
         newest.update(x=x.double().numpy(), y=y.double().numpy())
 
     return dict(
@@ -404,9 +421,9 @@ def replay_exact(
         fit = exact_gp(inputs, targets, kernel, EXACT_FIT_POINTS, seed=learnt[0], fixed=fixed)
         return th.as_tensor(fit.predict(x.double().numpy()))
 
-    def learn(x: th.Tensor, y: th.Tensor, starts: th.Tensor | None) -> None:
+    def learn(x: th.Tensor, y: th.Tensor, starts: th.Tensor | None, drift: float) -> None:
         if gp is not None:
-            gp.update(x, y, starts)
+            gp.update(x, y, starts, drift)
         kept.append((x.double().numpy(), y.double().numpy()))
         del kept[:-history]
         learnt[0] += 1

@@ -113,12 +113,17 @@ class FeedRecorder:
         policy.update_critic = self  # type: ignore[method-assign]
 
     def __call__(
-        self, obs: np.ndarray, targets: np.ndarray, starts: np.ndarray, values: Any = None
+        self,
+        obs: np.ndarray,
+        targets: np.ndarray,
+        starts: np.ndarray,
+        values: Any = None,
+        drift: float = 0.0,
     ) -> dict[str, float]:
         self.batches.append((np.array(obs), np.array(targets), np.array(starts)))
         n = 0 if self.keep_empty else len(targets)
         return self.original(
-            obs[:n], targets[:n], starts[:n], None if values is None else values[:n]
+            obs[:n], targets[:n], starts[:n], None if values is None else values[:n], drift
         )
 
 

@@ -514,6 +514,25 @@ def test_adaptation_schedule_replays_the_recorded_stream(tmp_path: Path) -> None
     assert not (tmp_path / "short").exists()
 
 
+def test_adaptation_schedule_replays_a_drifting_critic_as_it_learnt() -> None:
+    """A critic that forgets by the actor's drift (``drift_forgetting``): the recorder keeps
+    each batch's drift, and a fresh critic of the same setting fed the stream ends bit for bit
+    where the run's own critic ended; fed the batches without their drifts it does not."""
+    schedule = load_script("adaptation_schedule")
+    spec = schedule.ppo_spec("CartPole-v1", 0, 768, {"gp_options": {"drift_forgetting": 12.6}})
+    model = schedule.build_model(spec)
+    own = schedule.gp_critic(model)
+    recorder = schedule.StreamRecorder(own)
+    model.learn(768, callback=[schedule.GPValueCallback(target=spec.target), recorder])
+    drifts = [schedule.batch_parts(b)[3] for b in recorder.batches]
+    assert drifts[0] == 0.0 and all(d > 0 for d in drifts[1:])
+    probe = th.as_tensor(model.rollout_buffer.observations.reshape(-1, 4), dtype=th.float64)
+    for batches, same in ((recorder.batches, True), ([b[:3] for b in recorder.batches], False)):
+        learner = schedule._GPLearner(schedule.gp_shadow(spec))
+        schedule._scored(batches, learner.predict, learner.learn)
+        assert th.equal(learner.predict(probe), own.predict(probe, return_var=False)[0]) == same
+
+
 def test_adaptation_schedule_names_another_critics_stream_apart(tmp_path: Path) -> None:
     """The default recording keeps its name (earlier streams stay valid); another --record
     gets its own, the same for the same setting whatever its key order."""

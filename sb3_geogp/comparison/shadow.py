@@ -10,6 +10,10 @@ that differs) feeds every batch the run's critic learns from to other critics to
   batches as PPO trains its critic;
 * :class:`ShadowFeed`: the callback that gives them every rollout of a run of SB3's MLP
   critic (SB3's returns, which SB3's MLP critic learns);
+* :class:`ActorDrift`: the callback that measures how far the run's actor moved at every
+  rollout end and gives each GP shadow's learner (:meth:`ActorDrift.learner`) the drift since
+  the batch it last learnt, as :class:`~sb3_geogp.GPValueCallback` gives the run's own GP
+  critic its, for shadows that forget by it (``drift_forgetting``);
 * :class:`TeeFeed`: a run's GP critic's feed, which hands every batch it feeds to the shadows
   too (SB3's returns, as 0.23's default fed the GP critic, or the PPO family's default since
   0.24, Monte Carlo returns);
@@ -40,9 +44,16 @@ from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
 from torch import Tensor
 from tqdm.auto import tqdm
 
-from sb3_geogp.callbacks import GPValueCallback, Target, default_feed, time_limit_truncations
+from sb3_geogp.callbacks import (
+    GPValueCallback,
+    Target,
+    default_feed,
+    rollout_states,
+    time_limit_truncations,
+)
 from sb3_geogp.comparison.run import build_model, write_json_atomic
 from sb3_geogp.comparison.specs import RunSpec, SweepConfig, setting_differences
+from sb3_geogp.drift import PolicyDrift
 from sb3_geogp.kernels import Kernel
 from sb3_geogp.policies import GPActorCriticPolicy
 from sb3_geogp.sparse_gp import SparseOnlineGP
@@ -120,7 +131,8 @@ def gp_critic(model: OnPolicyAlgorithm) -> SparseOnlineGP:
 def gp_shadow(spec: RunSpec, kernel: Kernel | None = None) -> SparseOnlineGP:
     """A fresh GP critic of ``spec`` (``spec.critic`` a kernel name, which ``kernel``, an
     instance, may replace), built as its policy builds it: same observation bounds and options.
-    Feed it with ``update(x, y, episode_starts)``."""
+    Feed it with ``update(x, y, episode_starts)``, or through :meth:`ActorDrift.learner`
+    where it forgets by the actor's drift (``drift_forgetting``) as the run's critic does."""
     return gp_critic(built_model(spec, kernel))
 
 
@@ -178,7 +190,7 @@ class ShadowFeed(BaseCallback):
     :class:`~sb3_geogp.GPValueCallback` feeds them, to shadow critics.
 
     Pass it after the run's :class:`~sb3_geogp.GPValueCallback`, whose deferred values complete
-    the returns.
+    the returns, and GP shadows' learners from an :class:`ActorDrift` before it.
 
     Parameters
     ----------
@@ -198,6 +210,53 @@ class ShadowFeed(BaseCallback):
         x, y, starts = per_env(buffer.observations, buffer.returns, buffer.episode_starts)
         for learn in self.learners:
             learn(th.as_tensor(x), th.as_tensor(y), th.as_tensor(starts))
+
+
+class ActorDrift(BaseCallback):
+    """Measures how far the run's actor moved at every rollout end, on the rollout's states
+    (:class:`~sb3_geogp.drift.PolicyDrift`, as :class:`~sb3_geogp.GPValueCallback` measures it
+    for the run's own GP critic), and passes it to GP shadows that forget by it.
+
+    :meth:`learner` gives a shadow's :data:`Learner`: its ``update`` with ``drift`` the sum of
+    the drifts since the batch it last learnt, as the run's own critic gets it (the drift of a
+    rollout that feeds it nothing waits for the next batch). Put this callback before the feeds
+    in the callback list. It measures only where a shadow has ``drift_forgetting > 0``.
+    """
+
+    def __init__(self) -> None:
+        super().__init__()
+        self._drift = PolicyDrift()
+        self._learners: list[_DriftingUpdate] = []
+
+    def learner(self, gp: SparseOnlineGP) -> Learner:
+        """``gp``'s learner, fed the drift of the run's actor since its last batch."""
+        learn = _DriftingUpdate(gp)
+        self._learners.append(learn)
+        return learn
+
+    def _on_step(self) -> bool:
+        return True
+
+    def _on_rollout_end(self) -> None:
+        if not any(learn.gp.drift_forgetting > 0 for learn in self._learners):
+            return
+        model = cast(OnPolicyAlgorithm, self.model)
+        drift = self._drift.measure(model.policy, *rollout_states(model.rollout_buffer))
+        for learn in self._learners:
+            learn.pending = drift + learn.pending
+
+
+class _DriftingUpdate:
+    """A GP shadow's :data:`Learner` that passes the drift held for it (:class:`ActorDrift`)."""
+
+    def __init__(self, gp: SparseOnlineGP) -> None:
+        self.gp = gp
+        self.pending = 0.0
+
+    def __call__(self, x: Tensor, y: Tensor, episode_starts: Tensor) -> None:
+        drift, self.pending = self.pending, 0.0
+        # As the policy passes it: only where the actor moved.
+        self.gp.update(x, y, episode_starts, **({"drift": drift} if drift else {}))
 
 
 class OwnBootstraps(BaseCallback):
@@ -439,17 +498,19 @@ def learn_with_shadows(
         mlp.learn(x, y, model.lr_schedule(progress))
 
     scorer = checkpoints(values)
+    drift = ActorDrift()
+    updates = {name: drift.learner(gp) for name, gp in gps.items()}
     feeds: list[BaseCallback]
     if target == "defaults":
         feeds = [
             *([GPValueCallback()] if own_gp else []),
             OwnReturnsFeed(learn_mlp, values[MLP]),
-            *(own_feed(gp.update, values[name], settings[name], model) for name, gp in gps.items()),
+            *(own_feed(updates[name], values[name], settings[name], model) for name in gps),
         ]
     else:
-        learners: list[Learner] = [learn_mlp, *(gp.update for gp in gps.values())]
+        learners: list[Learner] = [learn_mlp, *updates.values()]
         feeds = [TeeFeed(learners, target) if own_gp else ShadowFeed(learners)]
-    model.learn(timesteps, callback=CallbackList([scorer, *feeds]))
+    model.learn(timesteps, callback=CallbackList([scorer, drift, *feeds]))
     env = model.get_env()
     assert env is not None
     env.close()

@@ -22,6 +22,7 @@ from sb3_geogp.comparison.run import build_model
 from sb3_geogp.comparison.shadow import (
     MLP,
     OWN,
+    ActorDrift,
     MLPShadow,
     OwnReturnsFeed,
     ShadowFeed,
@@ -68,21 +69,28 @@ def test_ppo_spec_feeds_sb3_returns_unless_asked(env_id: str) -> None:
     assert (asked.target, asked.horizon) == ("monte_carlo", 50)
 
 
-def test_a_shadow_with_the_runs_settings_reproduces_the_runs_critic() -> None:
-    """Fed every rollout by ShadowFeed, a GP shadow built from the run's spec ends bit for bit
-    where the run's own GP critic ends; a shadow with other settings does not."""
-    spec = ppo_spec("CartPole-v1", 0, 768, {})
+@pytest.mark.parametrize("options", [{}, {"drift_forgetting": 12.6}], ids=["default", "drift"])
+def test_a_shadow_with_the_runs_settings_reproduces_the_runs_critic(
+    options: dict[str, Any],
+) -> None:
+    """Fed every rollout by ShadowFeed through ActorDrift's learners, a GP shadow built from
+    the run's spec ends bit for bit where the run's own GP critic ends, forgetting by the
+    actor's drift where the run's critic does (a shadow fed without the drift then does not
+    end there); a shadow with other settings does not."""
+    spec = ppo_spec("CartPole-v1", 0, 768, {"gp_options": options})
     model = build_model(spec)
-    same = gp_shadow(spec)
-    other = gp_shadow(ppo_spec("CartPole-v1", 0, 1, {"gp_options": {"max_basis": 8}}))
-    feed = ShadowFeed([same.update, other.update])
-    model.learn(768, callback=CallbackList([GPValueCallback(target="returns"), feed]))
+    same, undrifted = gp_shadow(spec), gp_shadow(spec)
+    other = gp_shadow(ppo_spec("CartPole-v1", 0, 1, {"gp_options": {**options, "max_basis": 8}}))
+    drift = ActorDrift()
+    feed = ShadowFeed([drift.learner(same), drift.learner(other), undrifted.update])
+    callbacks = CallbackList([GPValueCallback(target="returns"), drift, feed])
+    model.learn(768, callback=callbacks)
     own = gp_critic(model)
     probe = th.as_tensor(model.rollout_buffer.observations.reshape(-1, 4), dtype=th.float64)
     assert same.n_basis == own.n_basis
-    th.testing.assert_close(
-        same.predict(probe, return_var=False)[0], own.predict(probe, return_var=False)[0]
-    )
+    values = [gp.predict(probe, return_var=False)[0] for gp in (same, own, undrifted)]
+    assert th.equal(values[0], values[1])
+    assert th.equal(values[2], values[1]) == (not options)
     assert other.n_basis <= 8 < own.n_basis
 
 
