@@ -108,9 +108,10 @@ def test_tee_feed_gives_the_shadows_what_the_runs_critic_learns(
     recorder = FeedRecorder(model.policy, keep_empty=False)
     seen: list[tuple[np.ndarray, ...]] = []
     shadow = gp_critic(make_scripted(PPO, n_steps=n_steps))
-    tee = TeeFeed([lambda *batch: seen.append(tuple(b.numpy() for b in batch)), shadow.update],
-                  target)  # fmt: skip
-    model.learn(4 * 8, callback=tee)
+    drift = ActorDrift()
+    tee = TeeFeed([lambda *batch: seen.append(tuple(b.numpy() for b in batch)),
+                   drift.learner(shadow)], target)  # fmt: skip
+    model.learn(4 * 8, callback=[drift, tee])
     fed = [b for b in recorder.batches if len(b[1])]
     assert len(fed) == len(seen) > 0
     if n_steps == 2:  # rollouts in which no episode ended came, and were not passed on
@@ -297,8 +298,10 @@ def test_a_gp_shadow_fed_sb3s_returns_follows_the_runs_critic_fed_them() -> None
     spec = ppo_spec("CartPole-v1", 0, 1024, setting)
     model = build_model(spec)
     follower = gp_shadow(spec)
-    feed = shadow.own_feed(follower.update, shadow.posterior_mean(follower), setting, model)
-    model.learn(1024, callback=CallbackList([GPValueCallback(target="returns"), feed]))
+    drift = ActorDrift()
+    learn = drift.learner(follower)
+    feed = shadow.own_feed(learn, shadow.posterior_mean(follower), setting, model)
+    model.learn(1024, callback=CallbackList([GPValueCallback(target="returns"), drift, feed]))
     probe = np.random.default_rng(0).uniform(-0.2, 0.2, (64, 4))
     own = shadow.posterior_mean(gp_critic(model))(probe)
     assert follower.n_seen == gp_critic(model).n_seen > 0
