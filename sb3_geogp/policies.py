@@ -44,7 +44,7 @@ from sb3_geogp.drift import PolicyDrift
 from sb3_geogp.kernels import KERNELS, kernel_names, kernels_taking, make_kernel
 from sb3_geogp.normalization import ActorObservationNormalizer
 from sb3_geogp.options import non_negative_number, unknown_option
-from sb3_geogp.saved_state import state_to_restore
+from sb3_geogp.saved_state import state_to_restore, upgrade_options
 from sb3_geogp.sparse_gp import SparseOnlineGP
 
 if TYPE_CHECKING:
@@ -189,6 +189,21 @@ DEFAULT_FORGETTING: dict[str, Any] = {"forgetting": 0.1, "forgetting_points": 40
 #: Algorithms whose GP critic starts with another forgetting: A2C with the engine's (1 per
 #: batch), not measured with the above.
 DEFAULT_FORGETTINGS: dict[type[BaseAlgorithm], dict[str, Any]] = {A2C: {}}
+#: The GP critic's ``drift_forgetting`` (of :class:`~sb3_geogp.SparseOnlineGP`) where
+#: ``gp_kwargs`` sets none, unless the algorithm training the policy is in
+#: :data:`DEFAULT_DRIFT_FORGETTINGS`: none (0), as before 0.37 for every algorithm.
+DEFAULT_DRIFT_FORGETTING = 0.0
+#: Algorithms (and their subclasses) whose GP critic forgets by the policy's drift where
+#: ``gp_kwargs`` sets no ``drift_forgetting``. PPO since 0.37: what the critic absorbed before a
+#: rollout weighs ``exp(-12.6 KL)``, ``KL`` the actor's mean KL divergence since the rollout
+#: before (half per median PPO Pendulum-v1 rollout), so that the critic forgets as fast as the
+#: policy moves. Adopted by two registered tests: on fresh seeds a lower critic error against
+#: the Monte Carlo returns on Pendulum-v1 and PaperPendulum-v0 family-wise, no cell worse
+#: family-wise; on issue 13's table's 50 seeds no lead over SB3's MLP critic lost
+#: (docs/results.md, "Forgetting by how far the policy moved"). Measured under PPO alone: A2C's
+#: many small steps sum to less KL divergence than PPO's few large ones, TRPO bounds each
+#: step's, and MaskablePPO (not a PPO subclass) was not run.
+DEFAULT_DRIFT_FORGETTINGS: dict[type[BaseAlgorithm], float] = {PPO: 12.6}
 #: The options of :data:`DEFAULT_FORGETTING`, set together or not at all.
 _FORGETTING_OPTIONS = ("forgetting", "forgetting_points")
 #: Options the policy gives the GP critic of a kernel named in ``gp_kwargs`` (or of the
@@ -304,6 +319,7 @@ class GPCriticMixin(_PolicyBase):
         self._default_trend = default_trend(algorithm_class)
         self._default_adaptation = default_adaptation(algorithm_class)
         self._default_forgetting = default_forgetting(algorithm_class)
+        self._default_drift_forgetting = default_drift_forgetting(algorithm_class)
         self._gp_options = check_gp_kwargs(gp_kwargs)
         super().__init__(observation_space, action_space, lr_schedule, net_arch=net_arch, **kwargs)
         self.gp_kwargs = dict(gp_kwargs or {})
@@ -393,11 +409,12 @@ class GPCriticMixin(_PolicyBase):
         return data
 
     @property
-    def _defaults(self) -> tuple[str, str, Adaptation, dict[str, Any]]:
-        """The kernel, trend, adaptation and initial forgetting the policy gives its critic
-        where ``gp_kwargs`` does not set them."""
+    def _defaults(self) -> tuple[str, str, Adaptation, dict[str, Any], float]:
+        """The kernel, trend, adaptation, initial forgetting and drift forgetting the policy
+        gives its critic where ``gp_kwargs`` does not set them."""
         kernel, trend = self._default_kernel, self._default_trend
-        return kernel, trend, self._default_adaptation, self._default_forgetting
+        forgetting, drift = self._default_forgetting, self._default_drift_forgetting
+        return kernel, trend, self._default_adaptation, forgetting, drift
 
     def load_state_dict(
         self, state_dict: Mapping[str, Any], strict: bool = True, assign: bool = False
@@ -461,6 +478,11 @@ class GPCriticMixin(_PolicyBase):
             }
             if forgetting != {k: getattr(self.gp, k) for k in _FORGETTING_OPTIONS}:
                 saved.update(forgetting)
+        # States saved before 0.36 had no drift forgetting: upgrade_options gives them 0.
+        if isinstance(gp_state, dict) and "drift_forgetting" not in self.gp_kwargs:
+            drift = upgrade_options(gp_state)["drift_forgetting"]
+            if drift != self.gp.drift_forgetting:
+                saved["drift_forgetting"] = drift
         if saved:
             self.gp_kwargs = {**self.gp_kwargs, **saved}
             self._gp_options = check_gp_kwargs(self.gp_kwargs)
@@ -855,6 +877,9 @@ class GPActorCriticPolicy(GPCriticMixin, ActorCriticPolicy):
         critic adapts and ``gp_kwargs`` sets neither ``forgetting`` nor ``forgetting_points``,
         they are :func:`default_forgetting`'s (since 0.14 under PPO, TRPO and MaskablePPO 0.1
         per 4,096 points, :data:`DEFAULT_FORGETTING`; A2C none);
+        ``drift_forgetting`` is :func:`default_drift_forgetting`'s unless given (since 0.37
+        12.6 under PPO, :data:`DEFAULT_DRIFT_FORGETTINGS`; none, 0, under the other
+        algorithms and before 0.37);
         ``adapt=sb3_geogp.CHEAP_ADAPTATION`` is 0.7's cheaper preset, with the losses
         docs/results.md reports ("Cheaper adaptation, 0.7").
     normalize_actor_obs : bool
@@ -1035,6 +1060,13 @@ def default_forgetting(algorithm: type[BaseAlgorithm] | None) -> dict[str, Any]:
     return dict(found)
 
 
+def default_drift_forgetting(algorithm: type[BaseAlgorithm] | None) -> float:
+    """The GP critic's ``drift_forgetting`` where ``gp_kwargs`` sets none, for policies trained
+    by ``algorithm`` (``None``: a policy built outside an algorithm):
+    :data:`DEFAULT_DRIFT_FORGETTINGS`, else :data:`DEFAULT_DRIFT_FORGETTING`."""
+    return _for_algorithm(DEFAULT_DRIFT_FORGETTINGS, DEFAULT_DRIFT_FORGETTING, algorithm)
+
+
 def _takes_default_forgetting(adapt: Any, gp_kwargs: Mapping[str, Any]) -> bool:
     """Whether a critic with ``adapt`` and ``gp_kwargs`` starts from the policy's forgetting
     defaults: it adapts and ``gp_kwargs`` sets neither of :data:`_FORGETTING_OPTIONS`."""
@@ -1069,17 +1101,18 @@ def resolved_gp_kwargs(
     trend: str = DEFAULT_TREND,
     adapt: Adaptation = DEFAULT_ADAPTATION,
     forgetting: Mapping[str, Any] = DEFAULT_FORGETTING,
+    drift_forgetting: float = DEFAULT_DRIFT_FORGETTING,
 ) -> dict[str, Any]:
     """``gp_kwargs`` with the policy's defaults written out.
 
-    ``kernel``, ``trend`` and ``adapt`` (the defaults, see :func:`default_kernel`,
-    :func:`default_trend` and :func:`default_adaptation`; the adaptation as its settings, also
-    where ``gp_kwargs`` has ``adapt=True``) and, for a kernel given by name, its
-    :data:`KERNEL_DEFAULTS`, each where ``gp_kwargs`` does not set it; ``forgetting``'s options
-    (:func:`default_forgetting`) where ``gp_kwargs`` sets neither ``forgetting`` nor
-    ``forgetting_points`` and the critic adapts.
+    ``kernel``, ``trend``, ``adapt`` and ``drift_forgetting`` (the defaults, see
+    :func:`default_kernel`, :func:`default_trend`, :func:`default_adaptation` and
+    :func:`default_drift_forgetting`; the adaptation as its settings, also where ``gp_kwargs``
+    has ``adapt=True``) and, for a kernel given by name, its :data:`KERNEL_DEFAULTS`, each where
+    ``gp_kwargs`` does not set it; ``forgetting``'s options (:func:`default_forgetting`) where
+    ``gp_kwargs`` sets neither ``forgetting`` nor ``forgetting_points`` and the critic adapts.
     """
-    options = {"kernel": kernel, "trend": trend, **gp_kwargs}
+    options = {"kernel": kernel, "trend": trend, "drift_forgetting": drift_forgetting, **gp_kwargs}
     if options.get("adapt", True) is True:
         options["adapt"] = adapt.as_dict()
     if _takes_default_forgetting(options["adapt"], gp_kwargs):

@@ -147,6 +147,64 @@ def test_drift_forgetting_survives_save_and_load(tmp_path) -> None:
     assert loaded.policy.gp.n_batches == model.policy.gp.n_batches + 2
 
 
+@pytest.mark.parametrize(
+    ("algo", "gp_kwargs", "rate"),
+    [(PPO, {}, 12.6), (PPO, dict(drift_forgetting=0.0), 0.0), (A2C, {}, 0.0)],
+    ids=["ppo-default", "ppo-off", "a2c-default"],
+)
+def test_the_default_critic_forgets_by_drift_under_ppo_alone(
+    algo: type, gp_kwargs: dict[str, Any], rate: float
+) -> None:
+    """Since 0.37 PPO's default critic forgets by ``exp(-12.6 KL)`` (the factor logged is that
+    of the KL logged); A2C's forgets nothing by drift, nor does PPO's with
+    ``drift_forgetting=0``."""
+    kwargs = dict(n_steps=64, batch_size=64) if algo is PPO else dict(n_steps=8)
+    model = algo(
+        GPActorCriticPolicy,
+        "Pendulum-v1",
+        learning_rate=3e-3,
+        seed=3,
+        device="cpu",
+        policy_kwargs=dict(gp_kwargs=dict(max_basis=32, **gp_kwargs)),
+        **kwargs,
+    )
+    assert model.policy.gp.drift_forgetting == rate
+    logged = _Logged()
+    model.learn(320, callback=[GPValueCallback(target="returns"), logged])
+    kl = np.array([r.get("gp/policy_kl", 0.0) for r in logged.rows])
+    factor = np.array([r.get("gp/drift_factor", 1.0) for r in logged.rows])
+    assert (kl[1:] > 0).all() if rate > 0 else (kl == 0).all()
+    np.testing.assert_allclose(factor, np.exp(-rate * kl), rtol=1e-12)
+
+
+def test_a_ppo_critic_saved_without_drift_forgetting_loads_without_it() -> None:
+    """A state saved by 0.36's default PPO critic (``drift_forgetting`` 0) or before 0.36
+    (no such option): a policy with today's default critic (12.6) loading it rebuilds its
+    critic with the saved 0, and predicts as saved."""
+    trained = _ppo("Pendulum-v1", learning_rate=3e-3)
+    trained.policy.gp.drift_forgetting = 0.0  # as 0.36's default critic was built
+    trained.learn(256, callback=GPValueCallback(target="returns"))
+    state = trained.policy.state_dict()
+    obs = th.tensor(np.random.default_rng(4).uniform(-1, 1, size=(20, 3)))
+    options = state["value_net.gp._extra_state"]
+    before_0_36 = {k: v for k, v in options.items() if k != "drift_forgetting"}
+    for saved in (options, before_0_36):
+        fresh = PPO(
+            GPActorCriticPolicy,
+            "Pendulum-v1",
+            seed=1,
+            device="cpu",
+            policy_kwargs=dict(gp_kwargs=dict(max_basis=32)),
+        )
+        assert fresh.policy.gp.drift_forgetting == 12.6
+        fresh.policy.load_state_dict({**state, "value_net.gp._extra_state": saved})
+        assert fresh.policy.gp.drift_forgetting == 0.0
+        with th.no_grad():
+            th.testing.assert_close(
+                fresh.policy.gp.predict(obs)[0], trained.policy.gp.predict(obs)[0], rtol=0, atol=0
+            )
+
+
 def test_a_feed_of_several_rollouts_forgets_their_drifts_summed() -> None:
     """With ``feed_every=3`` the drift passed at each feed is the sum of the three rollouts'
     measured drifts."""

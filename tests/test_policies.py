@@ -290,7 +290,8 @@ def test_policy_kwargs_options_reach_the_gp_and_constructor_parameters() -> None
     # Saved with the policy's defaults written out (adapt), so that a later version's defaults
     # do not change a saved model.
     saved = model.policy._get_constructor_parameters()["gp_kwargs"]
-    assert saved == {"adapt": DEFAULT_ADAPTATION.as_dict(), "trend": "level", **gp_kwargs}
+    written = {"adapt": DEFAULT_ADAPTATION.as_dict(), "trend": "level", "drift_forgetting": 12.6}
+    assert saved == {**written, **gp_kwargs}
     assert gp.forgetting_points is None  # forgetting given: no default pair
 
 
@@ -311,7 +312,7 @@ def test_default_critic_is_the_laplacian_kernel_with_a_dense_basis_except_under_
     # Since 0.10 PPO refits on the first block, every 16th and those it predicted badly; since
     # 0.11 from a snapshot of the posterior; since 0.14 its forgetting starts from 0.1 per 4,096
     # points; since 0.23 a hyperprior holds its lengthscales near their start; since 0.35 its
-    # refits rebuild on the whole rollout.
+    # refits rebuild on the whole rollout; since 0.37 it forgets by the actor's drift.
     rare = Adaptation(
         max_gap=16, settle=False, score_points=256, fold_points=256, fit_floor=0.8,
         summary="snapshot", prior_sd=0.1, whole_batch=True,
@@ -321,6 +322,7 @@ def test_default_critic_is_the_laplacian_kernel_with_a_dense_basis_except_under_
     assert (default.gp.forgetting, default.gp.forgetting_points) == (0.1, 4096)
     saved = default._get_constructor_parameters()["gp_kwargs"]
     written = {"adapt": rare.as_dict(), "kernel": "laplacian", "trend": "level"}
+    written["drift_forgetting"] = 12.6
     initial = {"forgetting": 0.1, "forgetting_points": 4096}
     assert saved == {**written, "novelty_tol": 0.1, **initial}
     # The pair is set together or not at all, and only where the critic adapts.
@@ -344,6 +346,7 @@ def test_default_critic_is_the_laplacian_kernel_with_a_dense_basis_except_under_
         "adapt": a2c_adaptation.as_dict(),
         "kernel": "rbf",
         "trend": "none",
+        "drift_forgetting": 0.0,
     }
     assert built(type("MyA2C", (A2C,), {})).gp.trend == "none"
     assert built(A2C, trend="level").gp.trend == "level"
@@ -357,6 +360,9 @@ def test_default_critic_is_the_laplacian_kernel_with_a_dense_basis_except_under_
     alone = GPActorCriticPolicy(env.observation_space, env.action_space, lambda _: 3e-4)
     assert isinstance(alone.gp.kernel, LaplacianKernel)  # built outside an algorithm
     assert alone.gp.trend == "level" and alone.gp.adaptation == rare
+    # Forgetting by the actor's drift is PPO's alone (the drift was measured there only).
+    assert alone.gp.drift_forgetting == 0.0 == built(type("MyA2C", (A2C,), {})).gp.drift_forgetting
+    assert built(type("MyPPO", (PPO,), {})).gp.drift_forgetting == 12.6
 
 
 @pytest.mark.parametrize("adapt_then", [{}, {"adapt": True}])
