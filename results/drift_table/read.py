@@ -11,6 +11,10 @@ nothing and replaces nothing.
         > results/drift_table/read.md
     python results/drift_table/read.py --metric mean_return > results/drift_table/auc.md
     python results/drift_table/read.py --metric critic_rmse > results/drift_table/rmse.md
+    python results/drift_table/read.py --steps > results/drift_table/steps.md
+
+``--steps`` (a secondary reading defined after the runs): steps to the threshold as
+``results/table50/read.py --steps`` reads them, with the drift arm in the PPO cells.
 """
 
 from __future__ import annotations
@@ -96,12 +100,17 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--metric", choices=tuple(WHOLE.LABELS), default="final_return")
     parser.add_argument("--plot", metavar="PNG", help="draw each PPO cell's three differences")
+    parser.add_argument("--steps", action="store_true", help="steps to the threshold")
     args = parser.parse_args()
     label = WHOLE.LABELS[args.metric]
     published = WHOLE.TABLE50.published_and_fresh()
     today = REFRESH.table_runs(published, REFRESH.fresh_runs())
     drift = drift_runs()
     cells = sorted({r["spec"]["env_id"] for r in drift})
+    if args.steps:
+        kept = [r for r in today if not (is_ppo_default(r) and r["spec"]["env_id"] in cells)]
+        WHOLE.TABLE50.VERDICT.print_steps(kept + drift, "50 seeds, the drift arm where it finished")
+        return
     print(f"Cells with all {SEEDS_PER_CELL} seeds of the drift arm: {len(cells)} of {PPO_CELLS} "
           f"({', '.join(cells) or 'none'}).\n")  # fmt: skip
     if not drift:
