@@ -24,6 +24,7 @@ from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
 from stable_baselines3.common.vec_env import VecFrameStack, VecNormalize, unwrap_vec_wrapper
 
+from sb3_geogp.drift import drift_keyword
 from sb3_geogp.options import positive_int
 from sb3_geogp.policies import GPCriticMixin, _contrib_algorithms, _for_algorithm, check_algorithm
 from sb3_geogp.targets import Segment, completed_returns, empty_segment, env_major, per_env
@@ -354,8 +355,7 @@ class GPValueCallback(BaseCallback):
         held, self._held = self._held, []
         drift, self._held_drift = self._held_drift, 0.0
         joined = [np.concatenate(arrays) for arrays in zip(*held, strict=True)]
-        # Passed only where the policy moved: wrappers of update_critic older than drift work.
-        moved: dict[str, Any] = {"drift": drift} if drift else {}
+        moved = drift_keyword(drift)
         if self.target == "returns":
             # Stacked in time, each env's steps of consecutive rollouts form one trajectory.
             obs, returns, starts, values = joined

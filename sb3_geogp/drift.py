@@ -94,6 +94,14 @@ class PolicyDrift:
         return policy.get_distribution(states, **extra).distribution
 
 
+def drift_keyword(drift: float) -> dict[str, Any]:
+    """The keyword argument that passes ``drift`` to an update (``update_critic`` or the GP's
+    ``update``): ``{"drift": drift}`` where the policy moved, else none, so that wrappers of
+    those updates written before drift (recorders of their batches) keep working wherever the
+    policy stands still."""
+    return {"drift": drift} if drift else {}
+
+
 def kl_per_state(before: Any, after: Any) -> th.Tensor:
     """``KL(before || after)`` per state, summed over action dimensions.
 

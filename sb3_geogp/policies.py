@@ -40,7 +40,7 @@ from stable_baselines3.common.utils import explained_variance
 from torch import nn
 
 from sb3_geogp.adaptation import Adaptation, as_adaptation
-from sb3_geogp.drift import PolicyDrift
+from sb3_geogp.drift import PolicyDrift, drift_keyword
 from sb3_geogp.kernels import KERNELS, kernel_names, kernels_taking, make_kernel
 from sb3_geogp.normalization import ActorObservationNormalizer
 from sb3_geogp.options import non_negative_number, unknown_option
@@ -803,10 +803,7 @@ class GPCriticMixin(_PolicyBase):
             # The points of this rollout are fed after the value was computed.
             self._fed_since_std = len(targets) + (0 if with_std else self._fed_since_std)
             start = time.perf_counter()
-            # Passed only where the policy moved: wrappers of the GP's update older than
-            # drift (recorders of its batches) keep working.
-            moved: dict[str, Any] = {"drift": drift} if drift else {}
-            self.gp.update(features, targets, episode_starts, **moved)
+            self.gp.update(features, targets, episode_starts, **drift_keyword(drift))
             self._drift_waiting = 0.0
         stats["update_ms"] = 1e3 * (time.perf_counter() - start)
         self._awaiting_feed = False

@@ -53,7 +53,7 @@ from sb3_geogp.callbacks import (
 )
 from sb3_geogp.comparison.run import build_model, write_json_atomic
 from sb3_geogp.comparison.specs import RunSpec, SweepConfig, setting_differences
-from sb3_geogp.drift import PolicyDrift
+from sb3_geogp.drift import PolicyDrift, drift_keyword
 from sb3_geogp.kernels import Kernel
 from sb3_geogp.policies import GPActorCriticPolicy
 from sb3_geogp.sparse_gp import SparseOnlineGP
@@ -255,8 +255,7 @@ class _DriftingUpdate:
 
     def __call__(self, x: Tensor, y: Tensor, episode_starts: Tensor) -> None:
         drift, self.pending = self.pending, 0.0
-        # As the policy passes it: only where the actor moved.
-        self.gp.update(x, y, episode_starts, **({"drift": drift} if drift else {}))
+        self.gp.update(x, y, episode_starts, **drift_keyword(drift))
 
 
 class OwnBootstraps(BaseCallback):
