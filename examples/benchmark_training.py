@@ -4,14 +4,19 @@ Two workloads with rl-baselines3-zoo's hyperparameters (as recorded for the crit
 comparison): PPO on Pendulum-v1 and A2C on CartPole-v1 (a GP critic that does not adapt with
 ``forgetting=0.9``, as ``sb3-geogp train --no-adapt`` gives it; an adapting one starts from the
 policy's default, as the drop-in's does: up to session 50 this benchmark started A2C's adapting
-critics from 0.9 too). A third runs when named, ``--workloads "PPO Taxi-v4"``: discrete
-observations, 500 one-hot columns for the GP, with SB3's PPO defaults in 4 envs. For every
+critics from 0.9 too). Two more run when named: ``--workloads "PPO Taxi-v4"``,
+discrete observations, 500 one-hot columns for the GP, with SB3's PPO defaults in 4 envs; and
+``"PPO CartPole-v1"`` (the zoo's 32-step rollouts in 8 envs, 30,000 steps as in the critic
+comparison), where PPO feeds its critic most often. For every
 seed the runs are interleaved (workload by workload, critic by critic), so a change in the
 machine's load hits all critics alike; the table shows the median over seeds of the wall
 clock, its ratio to the MLP critic's, and for the GP critics the seconds spent in GP updates,
-in GP predictions, and in everything else; with ``--adapt``
+in GP predictions, in measuring how far the actor moved (the policy's ``measure_drift``, which
+a critic with ``drift_forgetting``, PPO's default since 0.37, runs at every rollout's end) and
+in everything else; with ``--adapt``
 also the GP critics with adaptation, and the seconds their updates spent on it (out-of-sample
-statistics, summary of dropped points, adaptation proper) with its share of the GP's time.
+statistics, summary of dropped points, adaptation proper) with its share of the GP critic's
+time, the drift measurement counted in both.
 ``--critics`` picks the critics instead: a kernel, optionally followed by ``+adapt`` (the
 policy's default adaptation for the workload's algorithm,
 :func:`~sb3_geogp.policies.default_adaptation`: the default critic under PPO is
@@ -19,7 +24,8 @@ policy's default adaptation for the workload's algorithm,
 kernel, ``+shared`` (0.3's one lengthscale factor, ``kernel_kwargs=dict(ard=False)``),
 ``+notrend`` (no trend: the critic before 0.9, whose PPO default moves a level), ``+f1``
 (``forgetting=1.0``, per batch: the start before 0.14, whose PPO critic starts from 0.1 per
-4,096 points, :data:`~sb3_geogp.policies.DEFAULT_FORGETTING`, wherever it adapts), and
+4,096 points, :data:`~sb3_geogp.policies.DEFAULT_FORGETTING`, wherever it adapts),
+``+nodrift`` (``drift_forgetting=0``: PPO's critic before 0.37), and
 after ``+adapt`` or ``+cheap`` by other adaptation settings (``+gapN``: ``max_gap=N``;
 ``+thinN``: ``score_points`` and ``fold_points`` N; ``+scoreN``, ``+foldN``: one of them;
 ``+stepsN``; ``+floorN``: ``fit_floor=N/100``; ``+priorN``: ``prior_sd=N/100``; ``+nosettle``:
@@ -81,6 +87,7 @@ WORKLOADS = {
     "PPO Pendulum-v1": (PPO, "ppo", "Pendulum-v1", 102_400, {}),
     "A2C CartPole-v1": (A2C, "a2c", "CartPole-v1", 30_000, {"forgetting": 0.9}),
     "PPO Taxi-v4": (PPO, "ppo", "Taxi-v4", 20_480, {}),
+    "PPO CartPole-v1": (PPO, "ppo", "CartPole-v1", 30_000, {}),
 }
 #: The workloads run without ``--workloads`` (those of every published run of the benchmark).
 DEFAULT_WORKLOADS = ("PPO Pendulum-v1", "A2C CartPole-v1")
@@ -98,6 +105,7 @@ SUFFIXES: dict[str, dict[str, Any]] = {
     "shared": {"kernel_kwargs": {"ard": False}},
     "notrend": {"trend": "none"},
     "f1": {"forgetting": 1.0},
+    "nodrift": {"drift_forgetting": 0.0},
 }
 #: Suffixes with a count (after ``+adapt``): the :class:`~sb3_geogp.adaptation.Adaptation`
 #: settings they give it and what the count is divided by, e.g. ``+gap4`` (``max_gap=4``),
@@ -218,7 +226,7 @@ def run(workload: str, critic: str, seed: int, max_basis: int, scale: float) -> 
     entry = OWN_ENTRIES.get(env_id) or hyperparams(algo, env_id).values
     n_envs, kwargs, policy_kwargs = algo_kwargs(algo, entry)
     env = make_vec_env(env_id, n_envs=n_envs, seed=seed)
-    seconds = {"update": 0.0, "predict": 0.0, "adaptation": 0.0}
+    seconds = {"update": 0.0, "predict": 0.0, "adaptation": 0.0, "drift": 0.0}
     if critic == "mlp":
         model = algo_cls("MlpPolicy", env, seed=seed, policy_kwargs=policy_kwargs, **kwargs)
         callback = None
@@ -229,7 +237,9 @@ def run(workload: str, critic: str, seed: int, max_basis: int, scale: float) -> 
         for suffix in suffixes:
             policy_kwargs.update(POLICY_SUFFIXES.get(suffix, {}))
         model = algo_cls(GPActorCriticPolicy, env, seed=seed, policy_kwargs=policy_kwargs, **kwargs)
-        seconds = GPClock(model.policy.gp).seconds
+        clock = GPClock(model.policy.gp)
+        clock.time(model.policy, "measure_drift", "drift")
+        seconds = clock.seconds
         callback = GPValueCallback(**callback_kwargs_of(suffixes))
     start = time.perf_counter()
     model.learn(int(steps * scale), callback=callback)
@@ -257,15 +267,22 @@ def background_load(n: int) -> Iterator[None]:
             p.join()
 
 
+def adaptation_share(run: dict[str, float]) -> float:
+    """The share of one run's GP critic time (updates, predictions, drift measurement) spent
+    on adaptation, the drift measurement included (runs recorded before 0.37 have none)."""
+    drift = run.get("drift", 0.0)
+    return (run.get("adaptation", 0.0) + drift) / (run["update"] + run["predict"] + drift)
+
+
 def table(results: dict[str, dict[str, list[dict[str, Any]]]]) -> str:
     """Medians per workload and critic; wall clocks relative to the MLP critic's, or to the
     first critic's where the MLP was not run."""
     critics = list(next(iter(results.values())))
     reference = "mlp" if "mlp" in critics else critics[0]
     lines = [
-        f"| workload | critic | wall s | x {reference} | GP update s | GP predict s | rest s "
-        "| adaptation s | adaptation / GP |",
-        "|---|---|---|---|---|---|---|---|---|",
+        f"| workload | critic | wall s | x {reference} | GP update s | GP predict s | drift s "
+        "| rest s | adaptation s | adaptation / GP |",
+        "|---|---|---|---|---|---|---|---|---|---|",
     ]
     for workload, by_critic in results.items():
         ref = statistics.median(r["wall"] for r in by_critic[reference])
@@ -273,15 +290,15 @@ def table(results: dict[str, dict[str, list[dict[str, Any]]]]) -> str:
             wall = statistics.median(r["wall"] for r in runs)
             cells = [f"{wall:.1f}", f"{wall / ref:.2f}"]
             if critic == "mlp":
-                cells += ["–"] * 5
+                cells += ["–"] * 6
             else:
                 upd = statistics.median(r["update"] for r in runs)
                 pred = statistics.median(r["predict"] for r in runs)
+                drift = statistics.median(r.get("drift", 0.0) for r in runs)
                 adapt = statistics.median(r.get("adaptation", 0.0) for r in runs)
-                share = statistics.median(
-                    r.get("adaptation", 0.0) / (r["update"] + r["predict"]) for r in runs
-                )
-                cells += [f"{upd:.2f}", f"{pred:.2f}", f"{wall - upd - pred:.1f}"]
+                share = statistics.median(adaptation_share(r) for r in runs)
+                cells += [f"{upd:.2f}", f"{pred:.2f}", f"{drift:.2f}"]
+                cells += [f"{wall - upd - pred - drift:.1f}"]
                 adaptive = "adapt" in (gp_kwargs_of(critic.split("+")[1:]) or {})
                 cells += [f"{adapt:.2f}", f"{share:.0%}"] if adaptive else ["–", "–"]
             lines.append(f"| {workload} | {critic} | " + " | ".join(cells) + " |")
@@ -330,7 +347,7 @@ def main(argv: Sequence[str] | None = None) -> None:
                     print(
                         f"seed {seed} {workload} {critic:9s} {r['wall']:7.1f} s "
                         f"(update {r['update']:.2f} s, predict {r['predict']:.2f} s, "
-                        f"of which adaptation {r['adaptation']:.2f} s)",
+                        f"of which adaptation {r['adaptation']:.2f} s; drift {r['drift']:.2f} s)",
                         flush=True,
                     )
     header = (

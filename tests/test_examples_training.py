@@ -117,6 +117,34 @@ def test_benchmark_training_adapting_a2c_critic_is_the_drop_ins() -> None:
     env.close()
 
 
+def test_benchmark_training_times_the_drift_measurement_of_ppos_default_only(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """PPO's default critic measures the actor's drift at every rollout's end and the benchmark
+    times it; ``+nodrift`` is 0.36's critic, which measures nothing (and counts no time)."""
+    from sb3_geogp import GPActorCriticPolicy
+
+    bench = load_script("benchmark_training")
+    calls: list[float] = []
+    measure = GPActorCriticPolicy.measure_drift
+
+    def counting(self: GPActorCriticPolicy, *args: Any, **kwargs: Any) -> float:
+        calls.append(self.gp.drift_forgetting)
+        return measure(self, *args, **kwargs)
+
+    monkeypatch.setattr(GPActorCriticPolicy, "measure_drift", counting)
+    # 600 steps: three of the zoo's 256-step CartPole rollouts.
+    default = bench.run("PPO CartPole-v1", "laplacian+adapt", 0, 16, 0.02)
+    assert calls == [12.6] * 3
+    assert default["drift"] > 0.0
+    calls.clear()
+    nodrift = bench.run("PPO CartPole-v1", "laplacian+adapt+nodrift", 0, 16, 0.02)
+    assert calls == [0.0] * 3
+    assert nodrift["drift"] < default["drift"]
+    run = {"update": 2.0, "predict": 1.0, "adaptation": 0.5, "drift": 1.0}
+    assert bench.adaptation_share(run) == (0.5 + 1.0) / (2.0 + 1.0 + 1.0)
+
+
 @pytest.mark.parametrize("kernel", ["laplacian", "rbf", "matern"])
 def test_benchmark_training_refuses_a_suffix_the_kernel_cannot_take(kernel: str) -> None:
     """``+shared`` is the geodesic kernel's option: on another kernel it is refused as the

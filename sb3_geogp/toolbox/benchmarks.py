@@ -80,7 +80,7 @@ ADAPTATION_STEPS = ("_adapt", "_summarise", "_snapshot", "_out_of_sample", "_for
 
 class GPClock:
     """Seconds one GP spends in ``update``, in ``predict`` and, inside its updates, in
-    :data:`ADAPTATION_STEPS`.
+    :data:`ADAPTATION_STEPS`; :meth:`time` adds other methods (a policy's drift measurement).
 
     The methods are wrapped on the instance (instance attributes shadow the class's), so every
     call is timed, also those SB3 makes inside ``learn()``.
@@ -89,10 +89,15 @@ class GPClock:
     def __init__(self, gp: SparseOnlineGP) -> None:
         self.seconds = {"update": 0.0, "predict": 0.0, "adaptation": 0.0}
         for name in ("update", "predict"):
-            setattr(gp, name, self._timed(getattr(SparseOnlineGP, name).__get__(gp), name))
+            self.time(gp, name, name)
         for name in ADAPTATION_STEPS:
-            method = getattr(SparseOnlineGP, name).__get__(gp)
-            setattr(gp, name, self._timed(method, "adaptation"))
+            self.time(gp, name, "adaptation")
+
+    def time(self, owner: object, name: str, clock: str) -> None:
+        """Time every later call of ``owner``'s method ``name`` on ``seconds[clock]``."""
+        method = getattr(type(owner), name).__get__(owner)
+        self.seconds.setdefault(clock, 0.0)
+        setattr(owner, name, self._timed(method, clock))
 
     def _timed(self, method: Callable[..., Any], clock: str) -> Callable[..., Any]:
         @functools.wraps(method)
