@@ -1,0 +1,66 @@
+"""The reading of ``PLAN.md``'s screen (session 76, exploratory)::
+
+    python results/drift_floor/read.py > results/drift_floor/read.md
+
+Floor − 0.37's default per cell, paired by seed (95 % bootstrap of the mean per-seed
+difference), on the final return, the area under the curve (mean evaluation return) and the
+final critic RMSE; beside it the comparison's own interval (the two groups resampled
+separately, as ``report/vs_baseline.json``).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from sb3_geogp.comparison.results import METRICS, comparisons, load_results
+from sb3_geogp.toolbox.stats import bootstrap_ci
+
+HERE = Path(__file__).resolve().parent
+SCREEN_CELLS = ("CartPole-v1", "Pendulum-v1", "MountainCarContinuous-v0")
+READ = ("final_return", "mean_return", "critic_rmse")
+LABELS = {
+    "final_return": "final return",
+    "mean_return": "area under the curve",
+    "critic_rmse": "final critic RMSE",
+}
+
+
+def paired(floor: list[dict[str, Any]], default: list[dict[str, Any]], metric: str) -> str:
+    """Mean per-seed difference floor − default with its 95 % bootstrap interval."""
+    of_run = METRICS[metric].of_run
+    by_seed = {r["spec"]["seed"]: of_run(r) for r in default}
+    diffs = np.array([of_run(r) - by_seed[r["spec"]["seed"]] for r in floor])
+    d, low, high = (float(x) for x in bootstrap_ci(diffs))
+    better = (low > 0) == METRICS[metric].higher_is_better
+    verdict = "" if low <= 0 <= high else (" better" if better else " worse")
+    return f"{d:+.3g} [{low:+.3g}, {high:+.3g}]{verdict}"
+
+
+def unpaired(row: dict[str, Any]) -> str:
+    verdict = "" if row["verdict"] == "no difference" else f" {row['verdict']}"
+    return f"{row['diff']:+.3g} [{row['low']:+.3g}, {row['high']:+.3g}]{verdict}"
+
+
+def screen() -> None:
+    print("## The screen (PLAN.md, exploratory): drift_floor=0.5 − 0.37's default\n")
+    print("Paired by seed; in brackets below each, the comparison's interval (groups resampled")
+    print("separately, `report/vs_baseline.json`).\n")
+    print("| env | seeds | " + " | ".join(LABELS.values()) + " |")
+    print("|---|---:|" + "---:|" * len(READ))
+    for env in SCREEN_CELLS:
+        floor, default = (load_results(HERE / f"{arm}_{env}") for arm in ("floor", "default"))
+        rows = {r["metric"]: r for r in comparisons(floor, baseline=default)}
+        cells = [f"{paired(floor, default, m)}<br>({unpaired(rows[m])})" for m in READ]
+        print(f"| {env} | {len(floor)} | " + " | ".join(cells) + " |")
+    print()
+
+
+def main() -> None:
+    screen()
+
+
+if __name__ == "__main__":
+    main()
