@@ -15,11 +15,11 @@ import json
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
-from sb3_geogp.comparison.results import group_runs, load_results
+from sb3_geogp.toolbox.scripts import load_script
 
 HERE = Path(__file__).resolve().parent
+ROOT = HERE.parents[1]
+DRIFT = load_script(ROOT / "results" / "drift_forgetting" / "read.py", "drift_forgetting")
 METRICS = {
     "final_return": "final return",
     "mean_return": "area under the curve",
@@ -65,17 +65,6 @@ def registered(rows: list[dict[str, Any]]) -> None:
     print(f"**Decision: {adopt if benefit and not harm else 'A2C keeps no drift forgetting'}.**\n")
 
 
-def critic_share() -> None:
-    arms = {arm: group_runs(load_results(HERE / arm)) for arm in ("reg_default", "reg_drift")}
-    print("## The GP critic's share of the training time (secondary; sequential sweeps)\n")
-    print("| env | default | drift |")
-    print("|---|---:|---:|")
-    for key in sorted(arms["reg_default"]):
-        shares = [np.mean([r["critic_share"] for r in arms[arm][key]]) for arm in arms]
-        print(f"| {key[0]} | {shares[0]:.3f} | {shares[1]:.3f} |")
-    print()
-
-
 def main() -> None:
     screen = json.loads((HERE / "drift" / "report" / "vs_baseline.json").read_text())
     table(screen, "The screen (PLAN.md, exploratory): drift − default, A2C seeds 186-195")
@@ -86,7 +75,7 @@ def main() -> None:
     rows = json.loads(report.read_text())
     table(rows, "The registered test (PREREGISTRATION.md): drift − default, A2C seeds 196-215")
     registered(rows)
-    critic_share()
+    DRIFT.critic_share(HERE)
 
 
 if __name__ == "__main__":

@@ -62,9 +62,10 @@ def screen() -> None:
     )
 
 
-def critic_share() -> None:
-    """Mean share of the training time spent in the GP critic, per cell and arm."""
-    arms = {arm: group_runs(load_results(HERE / arm)) for arm in ("reg_default", "reg_drift")}
+def critic_share(folder: Path = HERE) -> None:
+    """Mean share of the training time spent in the GP critic, per cell and arm, of the
+    registered sweeps ``reg_default`` and ``reg_drift`` in ``folder``."""
+    arms = {arm: group_runs(load_results(folder / arm)) for arm in ("reg_default", "reg_drift")}
     print("## The GP critic's share of the training time (secondary; sequential sweeps)\n")
     print("| env | default | drift |")
     print("|---|---:|---:|")
