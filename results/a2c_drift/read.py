@@ -15,6 +15,7 @@ import json
 from pathlib import Path
 from typing import Any
 
+from sb3_geogp.comparison.report import comparison_cell
 from sb3_geogp.toolbox.scripts import load_script
 
 HERE = Path(__file__).resolve().parent
@@ -33,13 +34,6 @@ SIGNALS = (
 )
 
 
-def cell(row: dict[str, Any]) -> str:
-    text = f"{row['diff']:+.3g} [{row['low']:+.3g}, {row['high']:+.3g}]"
-    if row["fw_verdict"] != "no difference":
-        return f"{text} **{row['fw_verdict']}**"
-    return text if row["verdict"] == "no difference" else f"{text} {row['verdict']} at 95 %"
-
-
 def table(rows: list[dict[str, Any]], title: str) -> None:
     print(f"## {title}\n")
     print("| env | " + " | ".join(METRICS.values()) + " |")
@@ -48,8 +42,8 @@ def table(rows: list[dict[str, Any]], title: str) -> None:
     for r in rows:
         by_env.setdefault(r["env"], {})[r["metric"]] = r
     for env, metrics in sorted(by_env.items()):
-        print(f"| {env} | " + " | ".join(cell(metrics[m]) for m in METRICS) + " |")
-    print("\n(bold: family-wise over the 7 cells)\n")
+        print(f"| {env} | " + " | ".join(comparison_cell(metrics[m]) for m in METRICS) + " |")
+    print("\n(verdicts at 95 %; bold: also family-wise over the 7 cells)\n")
 
 
 def registered(rows: list[dict[str, Any]]) -> None:

@@ -15,7 +15,8 @@ from typing import Any
 
 import numpy as np
 
-from sb3_geogp.comparison.results import METRICS, comparisons, load_results
+from sb3_geogp.comparison.report import comparison_cell
+from sb3_geogp.comparison.results import METRICS, comparisons, load_results, verdict
 from sb3_geogp.toolbox.stats import bootstrap_ci
 
 HERE = Path(__file__).resolve().parent
@@ -34,26 +35,21 @@ def paired(floor: list[dict[str, Any]], default: list[dict[str, Any]], metric: s
     by_seed = {r["spec"]["seed"]: of_run(r) for r in default}
     diffs = np.array([of_run(r) - by_seed[r["spec"]["seed"]] for r in floor])
     d, low, high = (float(x) for x in bootstrap_ci(diffs))
-    better = (low > 0) == METRICS[metric].higher_is_better
-    verdict = "" if low <= 0 <= high else (" better" if better else " worse")
-    return f"{d:+.3g} [{low:+.3g}, {high:+.3g}]{verdict}"
-
-
-def unpaired(row: dict[str, Any]) -> str:
-    verdict = "" if row["verdict"] == "no difference" else f" {row['verdict']}"
-    return f"{row['diff']:+.3g} [{row['low']:+.3g}, {row['high']:+.3g}]{verdict}"
+    word = verdict(low, high, METRICS[metric].higher_is_better)
+    return f"{d:+.3g} [{low:+.3g}, {high:+.3g}] {word}"
 
 
 def screen() -> None:
     print("## The screen (PLAN.md, exploratory): drift_floor=0.5 − 0.37's default\n")
     print("Paired by seed; in brackets below each, the comparison's interval (groups resampled")
-    print("separately, `report/vs_baseline.json`).\n")
+    print("separately, `report/vs_baseline.json`; one cell per sweep, so its bold verdicts are at")
+    print("95 %).\n")
     print("| env | seeds | " + " | ".join(LABELS.values()) + " |")
     print("|---|---:|" + "---:|" * len(READ))
     for env in SCREEN_CELLS:
         floor, default = (load_results(HERE / f"{arm}_{env}") for arm in ("floor", "default"))
         rows = {r["metric"]: r for r in comparisons(floor, baseline=default)}
-        cells = [f"{paired(floor, default, m)}<br>({unpaired(rows[m])})" for m in READ]
+        cells = [f"{paired(floor, default, m)}<br>({comparison_cell(rows[m])})" for m in READ]
         print(f"| {env} | {len(floor)} | " + " | ".join(cells) + " |")
     print()
 
