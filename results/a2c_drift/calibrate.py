@@ -8,39 +8,26 @@
 from __future__ import annotations
 
 import sys
-from typing import Any
+from pathlib import Path
 
 import numpy as np
 import torch as th
-from stable_baselines3 import A2C
-from stable_baselines3.common.env_util import make_vec_env
 
-from sb3_geogp import GPActorCriticPolicy, GPValueCallback
-from sb3_geogp.comparison.hyperparams import algo_kwargs, hyperparams
+from sb3_geogp.toolbox.scripts import load_script
 
+ROOT = Path(__file__).resolve().parents[2]
+DRIFT_LOG = load_script(ROOT / "results" / "drift_floor" / "drift_log.py", "drift_log")
 WINDOW = 4096
 
 
 def feeds(env_id: str, seed: int, steps: int = 30_000) -> list[tuple[int, float]]:
     """``(points, drift)`` of every feed that absorbed points."""
-    n_envs, kwargs, policy_kwargs = algo_kwargs("a2c", hyperparams("a2c", env_id).values)
-    env = make_vec_env(env_id, n_envs=n_envs, seed=seed)
     gp_kwargs = {"kernel": "rbf", "drift_forgetting": 1e-300}
-    policy_kwargs = {**policy_kwargs, "gp_kwargs": gp_kwargs}
-    model = A2C(GPActorCriticPolicy, env, seed=seed, policy_kwargs=policy_kwargs, **kwargs)
-    fed: list[tuple[int, float]] = []
-    update = model.policy.update_critic
-
-    def recording(*args: Any, **kw: Any) -> dict[str, float]:
-        stats = update(*args, **kw)
-        if stats.get("n_fed", 0) > 0:
-            fed.append((int(stats["n_fed"]), float(stats.get("policy_kl", 0.0))))
-        return stats
-
-    model.policy.update_critic = recording  # type: ignore[method-assign]
-    model.learn(steps, callback=GPValueCallback())
-    env.close()
-    return fed
+    return [
+        (int(s["n_fed"]), float(s.get("policy_kl", 0.0)))
+        for s in DRIFT_LOG.feed_stats("a2c", env_id, seed, steps, gp_kwargs)
+        if s.get("n_fed", 0) > 0
+    ]
 
 
 def window_sums(fed: list[tuple[int, float]]) -> list[float]:

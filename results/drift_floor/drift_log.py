@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 import torch as th
-from stable_baselines3 import PPO
+from stable_baselines3 import A2C, PPO
 from stable_baselines3.common.env_util import make_vec_env
 
 from sb3_geogp import GPActorCriticPolicy, GPValueCallback
@@ -27,24 +27,38 @@ RUNS = (("CartPole-v1", 933, 30_000), ("CartPole-v1", 934, 30_000))
 RUNS += (("MountainCarContinuous-v0", 933, 20_000),)
 
 
-def batches(env_id: str, seed: int, steps: int) -> list[tuple[int, float]]:
-    """``(points, drift factor)`` of every batch absorbed with drift."""
-    n_envs, kwargs, policy_kwargs = algo_kwargs("ppo", hyperparams("ppo", env_id).values)
+def feed_stats(
+    algo: str, env_id: str, seed: int, steps: int, gp_kwargs: dict[str, Any] | None = None
+) -> list[dict[str, float]]:
+    """``update_critic``'s statistics of every feed of a run of ``algo`` ("ppo" or "a2c") with
+    the zoo's hyperparameters and the drop-in critic (``gp_kwargs`` added to its options)."""
+    n_envs, kwargs, policy_kwargs = algo_kwargs(algo, hyperparams(algo, env_id).values)
+    if gp_kwargs is not None:
+        policy_kwargs = {**policy_kwargs, "gp_kwargs": gp_kwargs}
     env = make_vec_env(env_id, n_envs=n_envs, seed=seed)
-    model = PPO(GPActorCriticPolicy, env, seed=seed, policy_kwargs=policy_kwargs, **kwargs)
-    fed: list[tuple[int, float]] = []
+    algo_cls = {"ppo": PPO, "a2c": A2C}[algo]
+    model = algo_cls(GPActorCriticPolicy, env, seed=seed, policy_kwargs=policy_kwargs, **kwargs)
+    fed: list[dict[str, float]] = []
     update = model.policy.update_critic
 
     def recording(*args: Any, **kw: Any) -> dict[str, float]:
         stats = update(*args, **kw)
-        if "drift_factor" in stats and stats["drift_factor"] < 1:
-            fed.append((int(stats["n_fed"]), float(stats["drift_factor"])))
+        fed.append(stats)
         return stats
 
     model.policy.update_critic = recording  # type: ignore[method-assign]
     model.learn(steps, callback=GPValueCallback())
     env.close()
     return fed
+
+
+def batches(env_id: str, seed: int, steps: int) -> list[tuple[int, float]]:
+    """``(points, drift factor)`` of every PPO batch absorbed with drift."""
+    return [
+        (int(s["n_fed"]), float(s["drift_factor"]))
+        for s in feed_stats("ppo", env_id, seed, steps)
+        if "drift_factor" in s and s["drift_factor"] < 1
+    ]
 
 
 def main() -> None:
