@@ -63,9 +63,11 @@ def batches(env_id: str, seed: int, steps: int) -> list[tuple[int, float]]:
 
 def main() -> None:
     th.set_num_threads(1)
-    print("| env | seed | batches with drift | points per batch, median | factor per batch, "
-          "median / least | log-weight lost per 4,096 points, median / 90th pct / most | "
-          "log-weight lost, whole run |")
+    print(
+        "| env | seed | batches with drift | points per batch, median | factor per batch, "
+        "median / least | log-weight lost per 4,096 points, median / 90th pct / most | "
+        "log-weight lost, whole run |"
+    )
     print("|---|---:|---:|---:|---:|---:|---:|")
     for env_id, seed, steps in RUNS:
         fed = batches(env_id, seed, steps)
