@@ -53,7 +53,8 @@ get their new scale, and hyperparameters fitted on the first returns (often near
 their refit, when the data say so rather than on a fixed schedule. With ``fit_floor=f``, a
 block whose targets the posterior predicted (step 1's out-of-sample predictions, over the
 points it scored) with an explained variance below ``f`` refits too: the refits go where the
-model is wrong. ``score_points`` and ``fold_points`` make step 1 and the summary below use an
+model is wrong; with ``fit_spacing=s`` only once ``s`` points have arrived since the last
+refit, so that a stream of small blocks does not refit each one. ``score_points`` and ``fold_points`` make step 1 and the summary below use an
 evenly spaced subsample of a batch (:func:`thinned`). All of these are off by default;
 :data:`CHEAP_ADAPTATION` combines the cheaper ones, and since 0.10 the GP critic's policy under
 PPO uses all but ``drift_tol`` and since 0.11 the snapshot summary
@@ -151,6 +152,12 @@ class Adaptation:
         with an explained variance below this (over the points scored in step 1; a block of
         targets that do not vary never counts); ``< 1``. ``None``: only on the schedule of
         ``max_gap`` (and ``drift_tol``).
+    fit_spacing : int or None
+        A block refits for its fit (``fit_floor``) only once at least this many points have
+        arrived since the last refit, the block's own included. Blocks of at least this many
+        points are unaffected; smaller ones (PPO's CartPole-v1 rollouts of 256 points, four
+        to a block of 1,024) refit for their fit at most once per ``fit_spacing`` points.
+        ``None``: any block below the floor refits.
     summary : {"fold", "snapshot"}
         How the summary comes to hold the points a rebuild does not use (module docstring).
         ``"fold"``: each point leaving the window is folded in (through ``fold_points``).
@@ -218,12 +225,13 @@ class Adaptation:
     settle: bool = True
     drift_tol: float | None = None
     fit_floor: float | None = None
+    fit_spacing: int | None = None
     summary: str = "fold"
     forgetting_score: str = "shrink"
     whole_batch: bool = False
 
     def __post_init__(self) -> None:
-        optional = ("interval", "score_points", "fold_points")
+        optional = ("interval", "score_points", "fold_points", "fit_spacing")
         for name in ("window", "fit_points", "max_gap", *optional):
             value = getattr(self, name)
             if value is not None or name not in optional:
@@ -296,15 +304,18 @@ class Adaptation:
         tol = self.drift_tol
         return tol is not None and not (1 / tol <= mean_square <= tol)
 
-    def misfitted(self, explained: float) -> bool:
+    def misfitted(self, explained: float, since: int) -> bool:
         """Whether a block whose targets were predicted with explained variance ``explained``
-        (NaN: targets that do not vary) falls below ``fit_floor`` (never without one)."""
-        return self.fit_floor is not None and explained < self.fit_floor
+        (NaN: targets that do not vary) falls below ``fit_floor`` (never without one), ``since``
+        points after the last refit (the block's included): at least ``fit_spacing``."""
+        spaced = self.fit_spacing is None or since >= self.fit_spacing
+        return self.fit_floor is not None and explained < self.fit_floor and spaced
 
-    def refit_due(self, block: int, drift: float, explained: float) -> bool:
-        """Whether the ``block``-th block refits: on its schedule (:meth:`refits`), or for the
-        drift (:meth:`drifted`) or the fit (:meth:`misfitted`) of its scored targets."""
-        return self.refits(block) or self.drifted(drift) or self.misfitted(explained)
+    def refit_due(self, block: int, drift: float, explained: float, since: int) -> bool:
+        """Whether the ``block``-th block, closing ``since`` points after the last refit,
+        refits: on its schedule (:meth:`refits`), or for the drift (:meth:`drifted`) or the
+        fit (:meth:`misfitted`) of its scored targets."""
+        return self.refits(block) or self.drifted(drift) or self.misfitted(explained, since)
 
     def as_dict(self) -> dict[str, Any]:
         """JSON-compatible settings (stored in the GP's state)."""

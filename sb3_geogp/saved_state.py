@@ -54,6 +54,7 @@ _ZERO_BEFORE = {
     "trend_coef": "0.8, trends: none",
     "bonus_spreads": "0.19, the bonus cap: no spreads yet",
     "window.decay": "0.36, drift forgetting: no retained point has lost weight to drift",
+    "refit_seen": "0.38, fit spacing: no refit since the first point",
 }
 
 

@@ -110,6 +110,7 @@ _COUNTERS = (
     "n_pruned",
     "summary_batch",
     "last_batch_points",
+    "refit_seen",
 )
 
 
@@ -459,6 +460,7 @@ class SparseOnlineGP(nn.Module):
     n_pruned: Tensor
     summary_batch: Tensor
     last_batch_points: Tensor
+    refit_seen: Tensor
     novelty_floor: Tensor
     block_forgetting: Tensor
     ls_start: Tensor
@@ -1456,7 +1458,7 @@ class SparseOnlineGP(nn.Module):
             self._summarise(*dropped)
             return
         drift, explained = self._block_fit()
-        refit = a.refit_due(int(self.n_blocks), drift, explained)
+        refit = a.refit_due(int(self.n_blocks), drift, explained, self._since_refit(0))
         kept = int((dropped[2] == newest).sum()) if refit and a.whole_batch else 0
         # dropped is oldest first: this batch's points that found no room are its tail
         cut = dropped[0].shape[0] - kept
@@ -1499,7 +1501,13 @@ class SparseOnlineGP(nn.Module):
         """
         if a.summary != "snapshot" or int(self.block_new) > 0:
             return False
-        return n < a.block or a.refit_due(int(self.n_blocks) + 1, *self._block_fit())
+        closing = (int(self.n_blocks) + 1, *self._block_fit(), self._since_refit(n))
+        return n < a.block or a.refit_due(*closing)
+
+    def _since_refit(self, pending: int) -> int:
+        """Points that arrived since the last refit, ``pending`` points not yet counted
+        included (``Adaptation.fit_spacing``)."""
+        return int(self.n_seen) + pending - int(self.refit_seen)
 
     def _snapshot(self) -> None:
         """Make the summary the likelihood the posterior implies
@@ -1574,6 +1582,7 @@ class SparseOnlineGP(nn.Module):
                 torch.cat(parts) for parts in zip(unretained, self.window.data(), strict=True)
             )
             self._refit(a, x, y, self._age_weights(batch, decay, lam).to(y), batch)
+            self.refit_seen.copy_(self.n_seen)
 
     def _block_fit(self) -> tuple[float, float]:
         """The open block's drift (mean square of its scored standardised targets; 1 if none

@@ -1,0 +1,26 @@
+#!/usr/bin/env bash
+# PLAN.md's screen, in its order; a finished run is not run again (re-run to resume). Run from
+# a worktree of the plan's commit with sb3_geogp importable; OUT is this folder by default.
+set -euo pipefail
+OUT=${OUT:-$(cd "$(dirname "$0")" && pwd)}
+A=$(python -c "from stable_baselines3 import PPO; from sb3_geogp.policies import default_adaptation; import json; d = default_adaptation(PPO).as_dict(); d['fit_spacing'] = 4096; print(json.dumps(d))")
+echo "spaced arm: adapt=$A"
+run() {  # cell, seeds, first seed
+    local name=${1#sb3_geogp/}
+    sb3-geogp compare --algos ppo --critics laplacian --envs "$1" --seeds "$2" --first-seed "$3" \
+        --workers 2 --no-progress --out "$OUT/default_$name"
+    sb3-geogp compare --algos ppo --critics laplacian --envs "$1" --seeds "$2" --first-seed "$3" \
+        --gp-option "adapt=$A" --workers 2 --no-progress --baseline "$OUT/default_$name" \
+        --out "$OUT/spaced_$name"
+}
+run CartPole-v1 20 983
+run MountainCarContinuous-v0 10 983
+run sb3_geogp/WallMaze-v0 10 983
+run sb3_geogp/WallMazeDiscrete-v0 10 983
+# The cells whose blocks are whole 4,096-point rollouts: the same runs bit for bit (one seed).
+sb3-geogp compare --algos ppo --critics laplacian --envs Pendulum-v1 Acrobot-v1 --seeds 1 \
+    --first-seed 983 --workers 2 --no-progress --no-plots --out "$OUT/check_default"
+sb3-geogp compare --algos ppo --critics laplacian --envs Pendulum-v1 Acrobot-v1 --seeds 1 \
+    --first-seed 983 --workers 2 --no-progress --no-plots --gp-option "adapt=$A" \
+    --out "$OUT/check_spaced"
+echo "all runs done $(date -u)"
