@@ -110,7 +110,7 @@ SUFFIXES: dict[str, dict[str, Any]] = {
 #: Suffixes with a count (after ``+adapt``): the :class:`~sb3_geogp.adaptation.Adaptation`
 #: settings they give it and what the count is divided by, e.g. ``+gap4`` (``max_gap=4``),
 #: ``+thin512`` (``score_points`` and ``fold_points`` 512), ``+fold1024``, ``+steps2``, ``+floor80``
-#: (``fit_floor=0.8``), ``+prior10`` (``prior_sd=0.1``).
+#: (``fit_floor=0.8``), ``+prior10`` (``prior_sd=0.1``), ``+spacing4096`` (``fit_spacing=4096``).
 SETTING_SUFFIXES: dict[str, tuple[tuple[str, ...], int]] = {
     "gap": (("max_gap",), 1),
     "thin": (("score_points", "fold_points"), 1),
@@ -119,6 +119,7 @@ SETTING_SUFFIXES: dict[str, tuple[tuple[str, ...], int]] = {
     "steps": (("steps",), 1),
     "floor": (("fit_floor",), 100),
     "prior": (("prior_sd",), 100),
+    "spacing": (("fit_spacing",), 1),
 }
 #: Suffixes with a count anywhere after the kernel, and the GP option the count sets:
 #: ``+basis128`` (``max_basis=128``, for this critic instead of ``--max-basis``).

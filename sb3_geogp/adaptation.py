@@ -54,10 +54,11 @@ their refit, when the data say so rather than on a fixed schedule. With ``fit_fl
 block whose targets the posterior predicted (step 1's out-of-sample predictions, over the
 points it scored) with an explained variance below ``f`` refits too: the refits go where the
 model is wrong; with ``fit_spacing=s`` only once ``s`` points have arrived since the last
-refit, so that a stream of small blocks does not refit each one. ``score_points`` and ``fold_points`` make step 1 and the summary below use an
-evenly spaced subsample of a batch (:func:`thinned`). All of these are off by default;
+refit, so that a stream of small blocks does not refit each one. ``score_points`` and
+``fold_points`` make step 1 and the summary below use an evenly spaced subsample of a batch
+(:func:`thinned`). All of these are off by default;
 :data:`CHEAP_ADAPTATION` combines the cheaper ones, and since 0.10 the GP critic's policy under
-PPO uses all but ``drift_tol`` and since 0.11 the snapshot summary
+PPO uses all but ``drift_tol`` and ``fit_spacing`` and since 0.11 the snapshot summary
 (:data:`sb3_geogp.policies.DEFAULT_ADAPTATION`; 0.14's used the lagged forgetting score below;
 since 0.23 it adds the hyperprior ``prior_sd=0.1``, since 0.35 ``whole_batch``).
 docs/benchmarks.md measures what they save and what fit they cost, docs/results.md what they

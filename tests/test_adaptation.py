@@ -58,6 +58,8 @@ from tests.test_sparse_gp import assert_same_state, matern, nystrom_posterior, r
         dict(drift_tol=float("nan")),
         dict(fit_floor=1.0),
         dict(fit_floor=float("-inf")),
+        dict(fit_spacing=0),
+        dict(fit_spacing=2.5),
         dict(summary="snapshots"),
         dict(forgetting_score="lag"),
     ],
@@ -981,6 +983,60 @@ def test_a_block_predicted_below_the_fit_floor_refits(floor: float | None) -> No
             truth, predicted = [], []
     assert all(0.5 < f < 0.99 for f in fits)  # the noise leaves about 0.8 explained
     assert refitted == [floor == 0.99] * 3
+
+
+def _misfit_stream(adapt: Adaptation, batches: int, size: int) -> tuple[SparseOnlineGP, list]:
+    """A GP fed ``batches`` batches of ``size`` noisy points of a sine, and whether each batch
+    moved its lengthscale (a refit)."""
+    rng = np.random.default_rng(11)
+    gp = SparseOnlineGP(1, RBFKernel(lengthscale=0.3), max_basis=20, adapt=adapt)
+    moved = []
+    for _ in range(batches):
+        x = rng.uniform(size=(size, 1))
+        hyper = gp.lengthscale.clone()
+        gp.update(x, np.sin(4 * x[:, 0]) + 0.3 * rng.normal(size=size))
+        moved.append(not torch.equal(hyper, gp.lengthscale))
+    return gp, moved
+
+
+def test_fit_spacing_lets_a_misfitted_block_refit_only_that_many_points_after_the_last() -> None:
+    """Every block is below the floor (0.99; the noise leaves about 0.8 explained) and only
+    block 1 refits on the schedule. Blocks of 50 points, spacing 120: the refits fall where
+    the points since the previous one first reach 120, counted by hand: blocks 1 (schedule),
+    4, 7, 10 (points 200, 350, 500); without spacing every block refits."""
+    base = dict(window=1000, interval=50, steps=3, max_gap=100, settle=False, fit_floor=0.99)
+    _, spaced = _misfit_stream(Adaptation(**base, fit_spacing=120), 10, 50)
+    assert spaced == [i in (0, 3, 6, 9) for i in range(10)]
+    _, unspaced = _misfit_stream(Adaptation(**base), 10, 50)
+    assert unspaced == [True] * 10
+
+
+def test_fit_spacing_no_larger_than_a_block_changes_nothing() -> None:
+    """Blocks of 100 points with spacing 100 (PPO's 4,096-point rollouts with the screen's
+    4,096): the GP is the one without spacing, bit for bit, its refit count aside."""
+    base = dict(window=300, interval=100, steps=2, max_gap=100, settle=False, fit_floor=0.99)
+    spaced, moved = _misfit_stream(Adaptation(**base, fit_spacing=100), 6, 100)
+    unspaced, _ = _misfit_stream(Adaptation(**base), 6, 100)
+    assert all(moved)
+    assert int(spaced.refit_seen) == int(spaced.n_seen) == 600
+    state, reference = spaced.state_dict(), unspaced.state_dict()
+    for name, value in reference.items():
+        if isinstance(value, torch.Tensor):
+            torch.testing.assert_close(state[name], value, rtol=0, atol=0)
+
+
+def test_a_state_saved_before_fit_spacing_loads_as_refitted_at_its_first_point() -> None:
+    """0.37 stored no ``refit_seen``: the state loads and predicts as saved, and a spaced GP
+    loading it counts every point seen since the first as arrived since a refit (zero)."""
+    adapt = Adaptation(window=300, interval=100, steps=1, fit_floor=0.99, fit_spacing=100)
+    gp, _ = _misfit_stream(adapt, 3, 100)
+    state = {k: v for k, v in gp.state_dict().items() if k != "refit_seen"}
+    copy = SparseOnlineGP(1, RBFKernel(lengthscale=0.3), max_basis=20, adapt=adapt)
+    copy.load_state_dict(state)
+    probe = np.linspace(0, 1, 9)[:, None]
+    for a, b in zip(gp.predict(probe), copy.predict(probe), strict=True):
+        torch.testing.assert_close(a, b, rtol=0, atol=0)
+    assert int(copy.refit_seen) == 0 and int(gp.refit_seen) == 300
 
 
 def test_a_state_saved_by_0_6_loads_without_drift_moments() -> None:

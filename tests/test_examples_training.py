@@ -209,6 +209,8 @@ def test_benchmark_training_setting_suffixes_build_those_settings() -> None:
         "whole",
     ]
     assert as_adaptation(bench.gp_kwargs_of(spelled)["adapt"]) == DEFAULT_ADAPTATION
+    spaced = as_adaptation(bench.gp_kwargs_of([*spelled, "spacing4096"])["adapt"])
+    assert spaced == dataclasses.replace(DEFAULT_ADAPTATION, fit_spacing=4096)
     assert bench.gp_kwargs_of(["nosettle"]) is None  # a setting needs +adapt or +cheap
 
 

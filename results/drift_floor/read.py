@@ -29,14 +29,28 @@ LABELS = {
 }
 
 
-def paired(floor: list[dict[str, Any]], default: list[dict[str, Any]], metric: str) -> str:
-    """Mean per-seed difference floor − default with its 95 % bootstrap interval."""
+def paired(runs: list[dict[str, Any]], default: list[dict[str, Any]], metric: str) -> str:
+    """Mean per-seed difference runs − default with its 95 % bootstrap interval."""
     of_run = METRICS[metric].of_run
     by_seed = {r["spec"]["seed"]: of_run(r) for r in default}
-    diffs = np.array([of_run(r) - by_seed[r["spec"]["seed"]] for r in floor])
+    diffs = np.array([of_run(r) - by_seed[r["spec"]["seed"]] for r in runs])
     d, low, high = (float(x) for x in bootstrap_ci(diffs))
     word = verdict(low, high, METRICS[metric].higher_is_better)
     return f"{d:+.3g} [{low:+.3g}, {high:+.3g}] {word}"
+
+
+def screen_table(folder: Path, cells: tuple[str, ...], arm: str) -> None:
+    """One row per cell: ``folder/<arm>_<env>`` − ``folder/default_<env>`` (``env`` without
+    its ``sb3_geogp/`` prefix), paired by seed and as the comparison reads it."""
+    print("| env | seeds | " + " | ".join(LABELS.values()) + " |")
+    print("|---|---:|" + "---:|" * len(READ))
+    for env in cells:
+        name = env.removeprefix("sb3_geogp/")
+        runs, default = (load_results(folder / f"{a}_{name}") for a in (arm, "default"))
+        rows = {r["metric"]: r for r in comparisons(runs, baseline=default)}
+        entries = [f"{paired(runs, default, m)}<br>({comparison_cell(rows[m])})" for m in READ]
+        print(f"| {env} | {len(runs)} | " + " | ".join(entries) + " |")
+    print()
 
 
 def screen() -> None:
@@ -44,14 +58,7 @@ def screen() -> None:
     print("Paired by seed; in brackets below each, the comparison's interval (groups resampled")
     print("separately, `report/vs_baseline.json`; one cell per sweep, so its bold verdicts are at")
     print("95 %).\n")
-    print("| env | seeds | " + " | ".join(LABELS.values()) + " |")
-    print("|---|---:|" + "---:|" * len(READ))
-    for env in SCREEN_CELLS:
-        floor, default = (load_results(HERE / f"{arm}_{env}") for arm in ("floor", "default"))
-        rows = {r["metric"]: r for r in comparisons(floor, baseline=default)}
-        cells = [f"{paired(floor, default, m)}<br>({comparison_cell(rows[m])})" for m in READ]
-        print(f"| {env} | {len(floor)} | " + " | ".join(cells) + " |")
-    print()
+    screen_table(HERE, SCREEN_CELLS, "floor")
 
 
 def main() -> None:

@@ -62,16 +62,24 @@ def screen() -> None:
     )
 
 
-def critic_share(folder: Path = HERE) -> None:
-    """Mean share of the training time spent in the GP critic, per cell and arm, of the
-    registered sweeps ``reg_default`` and ``reg_drift`` in ``folder``."""
-    arms = {arm: group_runs(load_results(folder / arm)) for arm in ("reg_default", "reg_drift")}
-    print("## The GP critic's share of the training time (secondary; sequential sweeps)\n")
-    print("| env | default | drift |")
-    print("|---|---:|---:|")
-    for key in sorted(arms["reg_default"]):
-        shares = [np.mean([r["critic_share"] for r in arms[arm][key]]) for arm in arms]
-        print(f"| {key[0]} | {shares[0]:.3f} | {shares[1]:.3f} |")
+def critic_share(
+    folder: Path = HERE, arms: dict[str, list[str]] | None = None, title: str = "sequential sweeps"
+) -> None:
+    """Mean share of the training time spent in the GP critic, per cell and arm: each arm
+    (a column) pools the sweeps named for it in ``folder``; by default the registered sweeps
+    ``reg_default`` and ``reg_drift``."""
+    arms = arms or {"default": ["reg_default"], "drift": ["reg_drift"]}
+    grouped = {
+        label: group_runs([r for sweep in sweeps for r in load_results(folder / sweep)])
+        for label, sweeps in arms.items()
+    }
+    print(f"## The GP critic's share of the training time (secondary; {title})\n")
+    print("| env | " + " | ".join(grouped) + " |")
+    print("|---|" + "---:|" * len(grouped))
+    first = next(iter(grouped.values()))
+    for key in sorted(first):
+        shares = [np.mean([r["critic_share"] for r in runs[key]]) for runs in grouped.values()]
+        print(f"| {key[0]} | " + " | ".join(f"{x:.3f}" for x in shares) + " |")
     print()
 
 
