@@ -1,23 +1,38 @@
-"""The reading of ``PLAN.md``'s screen (session 77, exploratory)::
+"""The readings of this folder's studies (session 77)::
 
     python results/fit_spacing/read.py > results/fit_spacing/read.md
+    python results/fit_spacing/read.py --registered > results/fit_spacing/registered.md
 
-Spaced − 0.37's default per cell, paired by seed and as the comparison reads it
-(``results/drift_floor/read.py``'s table), then the bit-for-bit check of the cells whose blocks
-are whole 4,096-point rollouts, then the GP critic's share of the training time.
+1. ``PLAN.md``'s screen (exploratory): spaced − 0.37's default per cell, paired by seed and as
+   the comparison reads it (``results/drift_floor/read.py``'s table), the bit-for-bit check of
+   the cells whose blocks are whole 4,096-point rollouts, the GP critic's share of the
+   training time.
+2. ``PREREGISTRATION.md``'s rule (``--registered``): issue 13's table with the spaced arm's
+   runs (``table/``) in place of 0.37's default in the four touched cells, spaced − 0.37's
+   default paired by seed, then the critic-fit score on CartPole-v1 (secondary). A cell whose
+   50 seeds have not all finished stays out, and a rule it decides stays partial.
 """
 
 from __future__ import annotations
 
+import argparse
+from collections import Counter
 from pathlib import Path
+from typing import Any
 
-from sb3_geogp.comparison.results import load_results
+from sb3_geogp.comparison.results import load_results, pool_sweeps
 from sb3_geogp.toolbox.scripts import load_script
+from sb3_geogp.toolbox.tables import PARTIAL, registered_decision
 
 HERE = Path(__file__).resolve().parent
 RESULTS = HERE.parent
 FLOOR = load_script(RESULTS / "drift_floor" / "read.py", "drift_floor")
 DRIFT = load_script(RESULTS / "drift_forgetting" / "read.py", "drift_forgetting")
+TABLE = load_script(RESULTS / "drift_table" / "read.py", "drift_table")
+POOL30 = TABLE.POOL30
+LABELS = TABLE.WHOLE.LABELS
+#: 0.37's table's count of cells better than SB3's MLP critic family-wise (rule 2)
+FW_BETTER_TODAY = 10
 CELLS = (
     "CartPole-v1",
     "MountainCarContinuous-v0",
@@ -38,7 +53,7 @@ def check() -> None:
     print()
 
 
-def main() -> None:
+def screen() -> None:
     print("## The screen (PLAN.md, exploratory): fit_spacing=4096 − 0.37's default\n")
     print("Paired by seed; in brackets below each, the comparison's interval (groups resampled")
     print("separately, `report/vs_baseline.json`; one cell per sweep, so its bold verdicts are")
@@ -50,6 +65,92 @@ def main() -> None:
         for arm in ("default", "spaced")
     }
     DRIFT.critic_share(HERE, arms, "each arm's sweeps one after the other, same seeds")
+
+
+def table_today() -> list[dict[str, Any]]:
+    """Issue 13's table with 0.37's default: ``results/drift_table``'s runs in every PPO cell."""
+    published = TABLE.WHOLE.TABLE50.published_and_fresh()
+    today = TABLE.REFRESH.table_runs(published, TABLE.REFRESH.fresh_runs())
+    return [r for r in today if not TABLE.is_ppo_default(r)] + TABLE.drift_runs()
+
+
+def spaced_runs() -> list[dict[str, Any]]:
+    """The spaced arm's runs of the cells where all 50 seeds finished."""
+    folders = sorted(f for f in (HERE / "table").glob("*_s*") if f.is_dir())
+    runs = pool_sweeps(folders) if folders else []
+    per_cell = Counter(r["spec"]["env_id"] for r in runs)
+    return [r for r in runs if per_cell[r["spec"]["env_id"]] == TABLE.SEEDS_PER_CELL]
+
+
+def against_default(
+    spaced: list[dict[str, Any]], today: list[dict[str, Any]], metric: str
+) -> dict[tuple[str, str], dict[str, Any]]:
+    """Print and return spaced − 0.37's default by cell on ``metric``, paired by seed,
+    family-wise over the four touched cells."""
+    default = [r for r in today if TABLE.is_ppo_default(r)]
+    spaced, default = TABLE.WHOLE.TABLE50.VERDICT.H200.READING.TABLE40.on_common_seeds(
+        spaced, default
+    )
+    rows = POOL30.against_baseline(spaced, default, metric, len(CELLS))
+    print(f"## spaced − 0.37's default, {LABELS[metric]}, paired by seed (family-wise over 4)\n")
+    POOL30.print_table(rows, LABELS[metric], "spaced − default")
+    print()
+    return rows
+
+
+def rules(
+    table: dict[tuple[str, str], dict[str, Any]],
+    harms: dict[str, dict[tuple[str, str], dict[str, Any]]],
+    complete: bool,
+) -> list[tuple[str, str]]:
+    """PREREGISTRATION.md's three rules on the table with the spaced arm and its differences
+    to 0.37's default (``harms``, by metric)."""
+    fw_worse = [env for (env, _), c in table.items() if c["fw_verdict"] == "worse"]
+    fw_better = sum(c["fw_verdict"] == "better" for c in table.values())
+    harmed = [f"{env} {LABELS[m]}" for m, rows in harms.items()
+              for (env, _), c in rows.items() if c["fw_verdict"] == "worse"]  # fmt: skip
+    states = [
+        ("1. no cell worse than SB3's MLP critic family-wise", TABLE.WHOLE._holds(fw_worse)),
+        (
+            f"2. at least {FW_BETTER_TODAY} cells better family-wise",
+            "holds" if fw_better >= FW_BETTER_TODAY else f"fails ({fw_better})",
+        ),
+        ("3. spaced no worse than 0.37's default family-wise", TABLE.WHOLE._holds(harmed)),
+    ]
+    # A rule that fails on the finished cells fails; one that holds waits for the rest.
+    return [(t, st if complete or st != "holds" else PARTIAL) for t, st in states]
+
+
+def registered() -> None:
+    today, spaced = table_today(), spaced_runs()
+    cells = sorted({r["spec"]["env_id"] for r in spaced})
+    print(f"Cells with all {TABLE.SEEDS_PER_CELL} seeds of the spaced arm: {len(cells)} of "
+          f"{len(CELLS)} ({', '.join(cells) or 'none'}).\n")  # fmt: skip
+    if not spaced:
+        return
+    harms = {m: against_default(spaced, today, m) for m in LABELS}
+    kept = [r for r in today if not (TABLE.is_ppo_default(r) and r["spec"]["env_id"] in cells)]
+    table = POOL30.mlp_rows(kept + spaced)
+    print("## Issue 13's table with the spaced arm where it finished (the table's rule, "
+          "family-wise at 42), final return\n")  # fmt: skip
+    POOL30.print_table(table)
+    print("\n## The registered rule\n")
+    adopted = "adopt `fit_spacing=4096` in PPO's default adaptation"
+    kept_text = "the option stays an option; PPO's default is unchanged"
+    print(registered_decision(rules(table, harms, len(cells) == len(CELLS)), kept_text, adopted))
+    print()
+    arms = ("fit_default", "fit_spaced")
+    note = "no rule reads this table"
+    TABLE.WHOLE.fit_table(HERE, range(10), ("CartPole-v1",), note, arms, ("default", "spaced"))
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--registered", action="store_true", help="PREREGISTRATION.md's rule")
+    if parser.parse_args().registered:
+        registered()
+    else:
+        screen()
 
 
 if __name__ == "__main__":

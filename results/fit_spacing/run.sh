@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# PLAN.md's screen, in its order; a finished run is not run again (re-run to resume). Run from
-# a worktree of the plan's commit with sb3_geogp importable; OUT is this folder by default.
+# PLAN.md's screen, in its order, or with `registered` PREREGISTRATION.md's runs; a finished run
+# is not run again (re-run to resume). Run from a worktree of the plan's (or the registration's)
+# commit, in its root, with sb3_geogp importable; OUT is this folder by default.
 set -euo pipefail
 OUT=${OUT:-$(cd "$(dirname "$0")" && pwd)}
 A=$(python -c "from stable_baselines3 import PPO; from sb3_geogp.policies import default_adaptation; import json; d = default_adaptation(PPO).as_dict(); d['fit_spacing'] = 4096; print(json.dumps(d))")
@@ -13,6 +14,33 @@ run() {  # cell, seeds, first seed
         --gp-option "adapt=$A" --workers 2 --no-progress --baseline "$OUT/default_$name" \
         --out "$OUT/spaced_$name"
 }
+registered() {  # PREREGISTRATION.md's runs, in its order
+    local env block
+    for env in CartPole-v1 sb3_geogp/WallMazeDiscrete-v0 sb3_geogp/WallMaze-v0 \
+        MountainCarContinuous-v0; do
+      for block in 0:20 150:20 570:10; do
+        sb3-geogp compare --algos ppo --critics laplacian --envs "$env" --gp-option "adapt=$A" \
+            --seeds "${block#*:}" --first-seed "${block%%:*}" --workers 2 --no-progress \
+            --no-plots --out "$OUT/table/${env#sb3_geogp/}_s${block%%:*}"
+      done
+    done
+    python examples/critic_fit.py --envs CartPole-v1 --critics laplacian --seeds $(seq 0 9) \
+        --workers 2 --out "$OUT/fit_default"
+    python examples/critic_fit.py --envs CartPole-v1 --critics laplacian --seeds $(seq 0 9) \
+        --workers 2 --gp-option "adapt=$A" --out "$OUT/fit_spaced"
+}
+if [ "${1:-}" = extend ]; then  # PLAN.md's addendum
+    run Acrobot-v1 10 983
+    run Pendulum-v1 10 983
+    run sb3_geogp/PaperPendulum-v0 10 983
+    echo "all runs done $(date -u)"
+    exit 0
+fi
+if [ "${1:-}" = registered ]; then
+    registered
+    echo "all runs done $(date -u)"
+    exit 0
+fi
 run CartPole-v1 20 983
 run MountainCarContinuous-v0 10 983
 run sb3_geogp/WallMaze-v0 10 983
