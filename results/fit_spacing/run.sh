@@ -16,18 +16,18 @@ run() {  # cell, seeds, first seed
 }
 registered() {  # PREREGISTRATION.md's runs, in its order
     local env block
-    for env in CartPole-v1 sb3_geogp/WallMazeDiscrete-v0 sb3_geogp/WallMaze-v0 \
-        MountainCarContinuous-v0; do
+    for env in CartPole-v1 Acrobot-v1 Pendulum-v1 sb3_geogp/PaperPendulum-v0 \
+        sb3_geogp/WallMazeDiscrete-v0 sb3_geogp/WallMaze-v0 MountainCarContinuous-v0; do
       for block in 0:20 150:20 570:10; do
         sb3-geogp compare --algos ppo --critics laplacian --envs "$env" --gp-option "adapt=$A" \
             --seeds "${block#*:}" --first-seed "${block%%:*}" --workers 2 --no-progress \
             --no-plots --out "$OUT/table/${env#sb3_geogp/}_s${block%%:*}"
       done
     done
-    python examples/critic_fit.py --envs CartPole-v1 --critics laplacian --seeds $(seq 0 9) \
-        --workers 2 --out "$OUT/fit_default"
-    python examples/critic_fit.py --envs CartPole-v1 --critics laplacian --seeds $(seq 0 9) \
-        --workers 2 --gp-option "adapt=$A" --out "$OUT/fit_spaced"
+    python examples/critic_fit.py --envs CartPole-v1 Acrobot-v1 --critics laplacian \
+        --seeds $(seq 0 9) --workers 2 --out "$OUT/fit_default"
+    python examples/critic_fit.py --envs CartPole-v1 Acrobot-v1 --critics laplacian \
+        --seeds $(seq 0 9) --workers 2 --gp-option "adapt=$A" --out "$OUT/fit_spaced"
 }
 if [ "${1:-}" = extend ]; then  # PLAN.md's addendum
     run Acrobot-v1 10 983
