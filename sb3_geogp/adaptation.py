@@ -156,8 +156,8 @@ class Adaptation:
     fit_spacing : int or None
         A block refits for its fit (``fit_floor``) only once at least this many points have
         arrived since the last refit, the block's own included. Blocks of at least this many
-        points are unaffected; smaller ones (PPO's CartPole-v1 rollouts of 256 points, four
-        to a block of 1,024) refit for their fit at most once per ``fit_spacing`` points.
+        points are unaffected; smaller ones (PPO's CartPole-v1 blocks of 1,024 points, its zoo
+        rollouts being 256) refit for their fit at most once per ``fit_spacing`` points.
         ``None``: any block below the floor refits.
     summary : {"fold", "snapshot"}
         How the summary comes to hold the points a rebuild does not use (module docstring).
