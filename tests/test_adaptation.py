@@ -985,18 +985,21 @@ def test_a_block_predicted_below_the_fit_floor_refits(floor: float | None) -> No
     assert refitted == [floor == 0.99] * 3
 
 
-def _misfit_stream(adapt: Adaptation, batches: int, size: int) -> tuple[SparseOnlineGP, list]:
-    """A GP fed ``batches`` batches of ``size`` noisy points of a sine, and whether each batch
-    moved its lengthscale (a refit)."""
+def _misfit_stream(
+    adapt: Adaptation, batches: int, size: int
+) -> tuple[SparseOnlineGP, list[bool], list[bool]]:
+    """A GP fed ``batches`` batches of ``size`` noisy points of a sine; whether each batch
+    moved its lengthscale (a refit) and whether it took a snapshot of the posterior."""
     rng = np.random.default_rng(11)
     gp = SparseOnlineGP(1, RBFKernel(lengthscale=0.3), max_basis=20, adapt=adapt)
-    moved = []
+    moved, snapshots = [], []
     for _ in range(batches):
         x = rng.uniform(size=(size, 1))
-        hyper = gp.lengthscale.clone()
+        hyper, summarised = gp.lengthscale.clone(), int(gp.summary_batch)
         gp.update(x, np.sin(4 * x[:, 0]) + 0.3 * rng.normal(size=size))
         moved.append(not torch.equal(hyper, gp.lengthscale))
-    return gp, moved
+        snapshots.append(int(gp.summary_batch) != summarised)
+    return gp, moved, snapshots
 
 
 def test_fit_spacing_lets_a_misfitted_block_refit_only_that_many_points_after_the_last() -> None:
@@ -1005,18 +1008,33 @@ def test_fit_spacing_lets_a_misfitted_block_refit_only_that_many_points_after_th
     the points since the previous one first reach 120, counted by hand: blocks 1 (schedule),
     4, 7, 10 (points 200, 350, 500); without spacing every block refits."""
     base = dict(window=1000, interval=50, steps=3, max_gap=100, settle=False, fit_floor=0.99)
-    _, spaced = _misfit_stream(Adaptation(**base, fit_spacing=120), 10, 50)
+    _, spaced, _ = _misfit_stream(Adaptation(**base, fit_spacing=120), 10, 50)
     assert spaced == [i in (0, 3, 6, 9) for i in range(10)]
-    _, unspaced = _misfit_stream(Adaptation(**base), 10, 50)
+    _, unspaced, _ = _misfit_stream(Adaptation(**base), 10, 50)
     assert unspaced == [True] * 10
+
+
+def test_fit_spacing_snapshots_exactly_the_blocks_it_refits() -> None:
+    """With the snapshot summary a block of one batch takes its snapshot before absorbing,
+    from its scores, and refits after: both must agree on the spacing. Batches of 50 points,
+    one per block, spacing 120: the snapshots fall on the batches that refit for their fit
+    (blocks 4, 7, 10, as counted in the test above), and only there."""
+    adapt = Adaptation(
+        window=1000, interval=50, steps=3, max_gap=100, settle=False, fit_floor=0.99,
+        fit_spacing=120, summary="snapshot",
+    )  # fmt: skip
+    _, refits, snapshots = _misfit_stream(adapt, 10, 50)
+    assert refits == [i in (0, 3, 6, 9) for i in range(10)]
+    # block 1 refits on the schedule with an empty basis: nothing to score, no snapshot
+    assert snapshots == [i in (3, 6, 9) for i in range(10)]
 
 
 def test_fit_spacing_no_larger_than_a_block_changes_nothing() -> None:
     """Blocks of 100 points with spacing 100 (PPO's 4,096-point rollouts with the screen's
     4,096): the GP is the one without spacing, bit for bit, its refit count aside."""
     base = dict(window=300, interval=100, steps=2, max_gap=100, settle=False, fit_floor=0.99)
-    spaced, moved = _misfit_stream(Adaptation(**base, fit_spacing=100), 6, 100)
-    unspaced, _ = _misfit_stream(Adaptation(**base), 6, 100)
+    spaced, moved, _ = _misfit_stream(Adaptation(**base, fit_spacing=100), 6, 100)
+    unspaced, _, _ = _misfit_stream(Adaptation(**base), 6, 100)
     assert all(moved)
     assert int(spaced.refit_seen) == int(spaced.n_seen) == 600
     state, reference = spaced.state_dict(), unspaced.state_dict()
@@ -1029,7 +1047,7 @@ def test_a_state_saved_before_fit_spacing_loads_as_refitted_at_its_first_point()
     """0.37 stored no ``refit_seen``: the state loads and predicts as saved, and a spaced GP
     loading it counts every point seen since the first as arrived since a refit (zero)."""
     adapt = Adaptation(window=300, interval=100, steps=1, fit_floor=0.99, fit_spacing=100)
-    gp, _ = _misfit_stream(adapt, 3, 100)
+    gp, _, _ = _misfit_stream(adapt, 3, 100)
     state = {k: v for k, v in gp.state_dict().items() if k != "refit_seen"}
     copy = SparseOnlineGP(1, RBFKernel(lengthscale=0.3), max_basis=20, adapt=adapt)
     copy.load_state_dict(state)
