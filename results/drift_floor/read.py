@@ -29,13 +29,21 @@ LABELS = {
 }
 
 
-def paired(runs: list[dict[str, Any]], default: list[dict[str, Any]], metric: str) -> str:
-    """Mean per-seed difference runs − default with its 95 % bootstrap interval."""
+def paired_difference(
+    runs: list[dict[str, Any]], default: list[dict[str, Any]], metric: str, level: float = 0.95
+) -> tuple[float, float, float, str]:
+    """Mean per-seed difference runs − default, its bootstrap interval at ``level`` and the
+    interval's verdict (every seed of ``runs`` must be in ``default``)."""
     of_run = METRICS[metric].of_run
     by_seed = {r["spec"]["seed"]: of_run(r) for r in default}
     diffs = np.array([of_run(r) - by_seed[r["spec"]["seed"]] for r in runs])
-    d, low, high = (float(x) for x in bootstrap_ci(diffs))
-    word = verdict(low, high, METRICS[metric].higher_is_better)
+    d, low, high = (float(x) for x in bootstrap_ci(diffs, level=level))
+    return d, low, high, verdict(low, high, METRICS[metric].higher_is_better)
+
+
+def paired(runs: list[dict[str, Any]], default: list[dict[str, Any]], metric: str) -> str:
+    """Mean per-seed difference runs − default with its 95 % bootstrap interval."""
+    d, low, high, word = paired_difference(runs, default, metric)
     return f"{d:+.3g} [{low:+.3g}, {high:+.3g}] {word}"
 
 

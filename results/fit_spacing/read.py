@@ -89,31 +89,41 @@ def spaced_runs() -> list[dict[str, Any]]:
 
 def against_default(
     spaced: list[dict[str, Any]], today: list[dict[str, Any]], metric: str
-) -> dict[tuple[str, str], dict[str, Any]]:
-    """Print and return spaced − 0.37's default by cell on ``metric``, paired by seed,
-    family-wise over the seven PPO cells."""
+) -> dict[str, str]:
+    """Print spaced − 0.37's default by cell on ``metric``, paired by seed (per-seed
+    differences, 95 % percentile bootstrap, family-wise over the seven PPO cells), beside the
+    comparison's unpaired interval on the same seeds; return each cell's family-wise verdict."""
     default = [r for r in today if TABLE.is_ppo_default(r)]
-    spaced, default = TABLE.WHOLE.TABLE50.VERDICT.H200.READING.TABLE40.on_common_seeds(
-        spaced, default
-    )
-    rows = POOL30.against_baseline(spaced, default, metric, len(CELLS))
-    print(f"## spaced − 0.37's default, {LABELS[metric]}, paired by seed (family-wise over 7)\n")
-    POOL30.print_table(rows, LABELS[metric], "spaced − default")
+    fw_level = 1 - 0.05 / len(CELLS)
+    print(f"## spaced − 0.37's default, {LABELS[metric]}, paired by seed\n")
+    print("| env | seeds | paired, 95 % | paired, family-wise over 7 | unpaired (the table's "
+          "`comparisons`) |")  # fmt: skip
+    print("|---|---:|---|---|---|")
+    verdicts = {}
+    for env in sorted({r["spec"]["env_id"] for r in spaced}):
+        runs = [r for r in spaced if r["spec"]["env_id"] == env]
+        base = [r for r in default if r["spec"]["env_id"] == env]
+        cells = [FLOOR.paired_difference(runs, base, metric, lv) for lv in (0.95, fw_level)]
+        verdicts[env] = cells[1][3]
+        unpaired = POOL30.against_baseline(runs, base, metric, len(CELLS))[(env, "ppo")]
+        texts = [f"{d:+.3g} [{lo:+.3g}, {hi:+.3g}] {w}" for d, lo, hi, w in cells]
+        texts.append(f"{unpaired['diff']:+.3g} [{unpaired['low']:+.3g}, {unpaired['high']:+.3g}]")
+        print(f"| {env} | {len(runs)} | " + " | ".join(texts) + " |")
     print()
-    return rows
+    return verdicts
 
 
 def rules(
     table: dict[tuple[str, str], dict[str, Any]],
-    harms: dict[str, dict[tuple[str, str], dict[str, Any]]],
+    harms: dict[str, dict[str, str]],
     complete: bool,
 ) -> list[tuple[str, str]]:
     """PREREGISTRATION.md's three rules on the table with the spaced arm and its differences
     to 0.37's default (``harms``, by metric)."""
     fw_worse = [env for (env, _), c in table.items() if c["fw_verdict"] == "worse"]
     fw_better = sum(c["fw_verdict"] == "better" for c in table.values())
-    harmed = [f"{env} {LABELS[m]}" for m, rows in harms.items()
-              for (env, _), c in rows.items() if c["fw_verdict"] == "worse"]  # fmt: skip
+    harmed = [f"{env} {LABELS[m]}" for m, cells in harms.items()
+              for env, word in cells.items() if word == "worse"]  # fmt: skip
     states = [
         ("1. no cell worse than SB3's MLP critic family-wise", TABLE.WHOLE._holds(fw_worse)),
         (
@@ -122,8 +132,12 @@ def rules(
         ),
         ("3. spaced no worse than 0.37's default family-wise", TABLE.WHOLE._holds(harmed)),
     ]
-    # A rule that fails on the finished cells fails; one that holds waits for the rest.
-    return [(t, st if complete or st != "holds" else PARTIAL) for t, st in states]
+    if complete:
+        return states
+    # On part of the cells a cell found worse is final (rules 1 and 3); a count (rule 2) and a
+    # rule that holds so far wait for every cell.
+    final = ("1.", "3.")
+    return [(t, st if st != "holds" and t.startswith(final) else PARTIAL) for t, st in states]
 
 
 def registered() -> None:
