@@ -46,9 +46,10 @@ def is_ppo_default(run: dict[str, Any]) -> bool:
     return (s["algo"], s["critic"]) == ("ppo", "laplacian")
 
 
-def drift_runs() -> list[dict[str, Any]]:
-    """The drift arm's runs of the cells where all 50 seeds finished."""
-    folders = sorted(f for f in HERE.glob("*_s*") if f.is_dir())
+def drift_runs(folder: Path = HERE) -> list[dict[str, Any]]:
+    """The runs of the sweeps ``<cell>_s<first seed>`` in ``folder`` (by default the drift
+    arm's) of the cells where all 50 seeds finished."""
+    folders = sorted(f for f in folder.glob("*_s*") if f.is_dir())
     runs = pool_sweeps(folders) if folders else []
     per_cell = Counter(r["spec"]["env_id"] for r in runs)
     return [r for r in runs if per_cell[r["spec"]["env_id"]] == SEEDS_PER_CELL]

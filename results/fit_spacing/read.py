@@ -17,11 +17,10 @@
 from __future__ import annotations
 
 import argparse
-from collections import Counter
 from pathlib import Path
 from typing import Any
 
-from sb3_geogp.comparison.results import load_results, pool_sweeps
+from sb3_geogp.comparison.results import load_results
 from sb3_geogp.toolbox.scripts import load_script
 from sb3_geogp.toolbox.tables import PARTIAL, registered_decision
 
@@ -79,14 +78,6 @@ def table_today() -> list[dict[str, Any]]:
     return [r for r in today if not TABLE.is_ppo_default(r)] + TABLE.drift_runs()
 
 
-def spaced_runs() -> list[dict[str, Any]]:
-    """The spaced arm's runs of the cells where all 50 seeds finished."""
-    folders = sorted(f for f in (HERE / "table").glob("*_s*") if f.is_dir())
-    runs = pool_sweeps(folders) if folders else []
-    per_cell = Counter(r["spec"]["env_id"] for r in runs)
-    return [r for r in runs if per_cell[r["spec"]["env_id"]] == TABLE.SEEDS_PER_CELL]
-
-
 def against_default(
     spaced: list[dict[str, Any]], today: list[dict[str, Any]], metric: str
 ) -> dict[str, str]:
@@ -141,7 +132,8 @@ def rules(
 
 
 def registered() -> None:
-    today, spaced = table_today(), spaced_runs()
+    # the spaced arm's runs of the cells where all 50 seeds finished
+    today, spaced = table_today(), TABLE.drift_runs(HERE / "table")
     cells = sorted({r["spec"]["env_id"] for r in spaced})
     print(f"Cells with all {TABLE.SEEDS_PER_CELL} seeds of the spaced arm: {len(cells)} of "
           f"{len(CELLS)} ({', '.join(cells) or 'none'}).\n")  # fmt: skip
