@@ -67,7 +67,7 @@ CHEAP_DEFAULT = {"adapt": CHEAP_ADAPTATION, "novelty_tol": 0.1}
 #: The policy's PPO default critic since 0.9: the 0.6 one with a moving level.
 LEVEL_DEFAULT = {"adapt": True, "novelty_tol": 0.1, "trend": "level"}
 #: The policy's PPO adaptation of 0.23-0.34, before 0.35's whole rollouts in the rebuild.
-PRIOR_ADAPTATION = replace(DEFAULT_ADAPTATION, whole_batch=False)
+PRIOR_ADAPTATION = replace(DEFAULT_ADAPTATION, whole_batch=False, fit_spacing=None)
 #: The policy's PPO adaptation of 0.11-0.22, before 0.23's hyperprior.
 WITHOUT_PRIOR = replace(PRIOR_ADAPTATION, prior_sd=None)
 #: The policy's PPO default critic of 0.10: 0.9's with its rare refits, the summary folded.
@@ -81,7 +81,8 @@ SNAPSHOT_ADAPT = {"adapt": Adaptation(summary="snapshot")}
 POINTS_DEFAULT = {**SNAPSHOT_DEFAULT, **DEFAULT_FORGETTING}
 #: The policy's PPO default critic of 0.23-0.34: 0.15's with the lengthscale hyperprior.
 PRIOR_DEFAULT = {**POINTS_DEFAULT, "adapt": PRIOR_ADAPTATION}
-#: The policy's PPO default critic since 0.35 (a refit's rebuild takes the whole batch) with a
+#: The policy's PPO default critic (since 0.35 a refit's rebuild takes the whole batch, since
+#: 0.39 a block refits for its fit only 4,096 points after the last refit) with a
 #: window of 256 points, so that every batch (2,048 points here, 384 in the quick test) is
 #: larger than the window, as PPO's 4,096-point rollouts are larger than the default's 2,048.
 WHOLE_DEFAULT = {**POINTS_DEFAULT, "adapt": replace(DEFAULT_ADAPTATION, window=256)}

@@ -60,7 +60,8 @@ refit, so that a stream of small blocks does not refit each one. ``score_points`
 :data:`CHEAP_ADAPTATION` combines the cheaper ones, and since 0.10 the GP critic's policy under
 PPO uses all but ``drift_tol`` and ``fit_spacing`` and since 0.11 the snapshot summary
 (:data:`sb3_geogp.policies.DEFAULT_ADAPTATION`; 0.14's used the lagged forgetting score below;
-since 0.23 it adds the hyperprior ``prior_sd=0.1``, since 0.35 ``whole_batch``).
+since 0.23 it adds the hyperprior ``prior_sd=0.1``, since 0.35 ``whole_batch``, since 0.39
+``fit_spacing=4096``).
 docs/benchmarks.md measures what they save and what fit they cost, docs/results.md what they
 cost in training.
 

@@ -196,7 +196,7 @@ def test_benchmark_training_setting_suffixes_build_those_settings() -> None:
     assert lagged == Adaptation(summary="snapshot", forgetting_score="lagged")
     whole = as_adaptation(bench.gp_kwargs_of(["adapt", "snapshot", "whole"])["adapt"])
     assert whole == Adaptation(summary="snapshot", whole_batch=True)
-    # PPO's default since 0.35, spelled out
+    # PPO's default of 0.35-0.38, spelled out; since 0.39 with the fit spacing
     spelled = [
         "adapt",
         "gap16",
@@ -208,9 +208,10 @@ def test_benchmark_training_setting_suffixes_build_those_settings() -> None:
         "prior10",
         "whole",
     ]
-    assert as_adaptation(bench.gp_kwargs_of(spelled)["adapt"]) == DEFAULT_ADAPTATION
+    unspaced = as_adaptation(bench.gp_kwargs_of(spelled)["adapt"])
+    assert unspaced == dataclasses.replace(DEFAULT_ADAPTATION, fit_spacing=None)
     spaced = as_adaptation(bench.gp_kwargs_of([*spelled, "spacing4096"])["adapt"])
-    assert spaced == dataclasses.replace(DEFAULT_ADAPTATION, fit_spacing=4096)
+    assert spaced == DEFAULT_ADAPTATION
     assert bench.gp_kwargs_of(["nosettle"]) is None  # a setting needs +adapt or +cheap
 
 
