@@ -1,0 +1,23 @@
+#!/usr/bin/env bash
+# PREREGISTRATION.md's runs, in its order; finished runs are not run again (re-run to resume).
+# Run from a worktree of the registration's commit, in its root, with sb3_geogp importable;
+# OUT is this folder by default.
+set -euo pipefail
+OUT=${OUT:-$(cd "$(dirname "$0")" && pwd)}
+A=$(python -c "from stable_baselines3 import PPO; from sb3_geogp.policies import default_adaptation; import json; d = default_adaptation(PPO).as_dict(); d['fit_spacing'] = 2048; print(json.dumps(d))")
+echo "2048 arm: adapt=$A"
+fit() {  # folder, gp options
+    python examples/critic_fit.py --envs CartPole-v1 Acrobot-v1 --critics laplacian \
+        --seeds $(seq 1003 1022) --workers 2 "${@:2}" --out "$OUT/$1"
+}
+fit fit_default
+fit fit_2048 --gp-option "adapt=$A"
+for env in CartPole-v1 Acrobot-v1 sb3_geogp/WallMazeDiscrete-v0 sb3_geogp/WallMaze-v0 \
+    MountainCarContinuous-v0 Pendulum-v1 sb3_geogp/PaperPendulum-v0; do
+  for block in 0:20 150:20 570:10; do
+    sb3-geogp compare --algos ppo --critics laplacian --envs "$env" --gp-option "adapt=$A" \
+        --seeds "${block#*:}" --first-seed "${block%%:*}" --workers 2 --no-progress \
+        --no-plots --out "$OUT/table/${env#sb3_geogp/}_s${block%%:*}"
+  done
+done
+echo "all runs done $(date -u)"
