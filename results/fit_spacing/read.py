@@ -33,6 +33,8 @@ POOL30 = TABLE.POOL30
 LABELS = TABLE.WHOLE.LABELS
 #: 0.37's table's count of cells better than SB3's MLP critic family-wise (rule 2)
 FW_BETTER_TODAY = 10
+#: The arms the registered reading compares: the change and the default it is read against.
+NAMES = ("spaced", "0.37's default")
 #: The table's PPO cells, in the screen's order (the last three: PLAN.md's addendum).
 CELLS = (
     "CartPole-v1",
@@ -79,14 +81,18 @@ def table_today() -> list[dict[str, Any]]:
 
 
 def against_default(
-    spaced: list[dict[str, Any]], today: list[dict[str, Any]], metric: str
+    spaced: list[dict[str, Any]],
+    today: list[dict[str, Any]],
+    metric: str,
+    names: tuple[str, str] = NAMES,
 ) -> dict[str, str]:
-    """Print spaced − 0.37's default by cell on ``metric``, paired by seed (per-seed
-    differences, 95 % percentile bootstrap, family-wise over the seven PPO cells), beside the
-    comparison's unpaired interval on the same seeds; return each cell's family-wise verdict."""
+    """Print spaced − the default (``today``'s PPO GP critic; ``names``: the two arms' names)
+    by cell on ``metric``, paired by seed (per-seed differences, 95 % percentile bootstrap,
+    family-wise over the seven PPO cells), beside the comparison's unpaired interval on the
+    same seeds; return each cell's family-wise verdict."""
     default = [r for r in today if TABLE.is_ppo_default(r)]
     fw_level = 1 - 0.05 / len(CELLS)
-    print(f"## spaced − 0.37's default, {LABELS[metric]}, paired by seed\n")
+    print(f"## {names[0]} − {names[1]}, {LABELS[metric]}, paired by seed\n")
     print("| env | seeds | paired, 95 % | paired, family-wise over 7 | unpaired (the table's "
           "`comparisons`) |")  # fmt: skip
     print("|---|---:|---|---|---|")
@@ -108,9 +114,10 @@ def rules(
     table: dict[tuple[str, str], dict[str, Any]],
     harms: dict[str, dict[str, str]],
     complete: bool,
+    names: tuple[str, str] = NAMES,
 ) -> list[tuple[str, str]]:
     """PREREGISTRATION.md's three rules on the table with the spaced arm and its differences
-    to 0.37's default (``harms``, by metric)."""
+    to the default (``harms``, by metric; ``names``: the two arms' names)."""
     fw_worse = [env for (env, _), c in table.items() if c["fw_verdict"] == "worse"]
     fw_better = sum(c["fw_verdict"] == "better" for c in table.values())
     harmed = [f"{env} {LABELS[m]}" for m, cells in harms.items()
@@ -121,7 +128,7 @@ def rules(
             f"2. at least {FW_BETTER_TODAY} cells better family-wise",
             "holds" if fw_better >= FW_BETTER_TODAY else f"fails ({fw_better})",
         ),
-        ("3. spaced no worse than 0.37's default family-wise", TABLE.WHOLE._holds(harmed)),
+        (f"3. {names[0]} no worse than {names[1]} family-wise", TABLE.WHOLE._holds(harmed)),
     ]
     if complete:
         return states
@@ -131,24 +138,34 @@ def rules(
     return [(t, st if st != "holds" and t.startswith(final) else PARTIAL) for t, st in states]
 
 
-def registered() -> None:
-    # the spaced arm's runs of the cells where all 50 seeds finished
-    today, spaced = table_today(), TABLE.drift_runs(HERE / "table")
-    cells = sorted({r["spec"]["env_id"] for r in spaced})
-    print(f"Cells with all {TABLE.SEEDS_PER_CELL} seeds of the spaced arm: {len(cells)} of "
+def table_rules(
+    today: list[dict[str, Any]], arm: list[dict[str, Any]], names: tuple[str, str] = NAMES
+) -> list[tuple[str, str]] | None:
+    """Print ``arm`` (the change's runs of the cells where all 50 seeds finished) − the default
+    (``today``'s PPO GP critic) by cell, and issue 13's table ``today`` with ``arm``'s runs in
+    place of the default's; return the three rules' states (None: no cell finished)."""
+    cells = sorted({r["spec"]["env_id"] for r in arm})
+    print(f"Cells with all {TABLE.SEEDS_PER_CELL} seeds of the {names[0]} arm: {len(cells)} of "
           f"{len(CELLS)} ({', '.join(cells) or 'none'}).\n")  # fmt: skip
-    if not spaced:
-        return
-    harms = {m: against_default(spaced, today, m) for m in LABELS}
+    if not arm:
+        return None
+    harms = {m: against_default(arm, today, m, names) for m in LABELS}
     kept = [r for r in today if not (TABLE.is_ppo_default(r) and r["spec"]["env_id"] in cells)]
-    table = POOL30.mlp_rows(kept + spaced)
-    print("## Issue 13's table with the spaced arm where it finished (the table's rule, "
+    table = POOL30.mlp_rows(kept + arm)
+    print(f"## Issue 13's table with the {names[0]} arm where it finished (the table's rule, "
           "family-wise at 42), final return\n")  # fmt: skip
     POOL30.print_table(table)
+    return rules(table, harms, len(cells) == len(CELLS), names)
+
+
+def registered() -> None:
+    states = table_rules(table_today(), TABLE.drift_runs(HERE / "table"))
+    if states is None:
+        return
     print("\n## The registered rule\n")
     adopted = "adopt `fit_spacing=4096` in PPO's default adaptation"
     kept_text = "the option stays an option; PPO's default is unchanged"
-    print(registered_decision(rules(table, harms, len(cells) == len(CELLS)), kept_text, adopted))
+    print(registered_decision(states, kept_text, adopted))
     print()
     arms = ("fit_default", "fit_spaced")
     note = "no rule reads this table"
