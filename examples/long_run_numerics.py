@@ -81,18 +81,20 @@ SNAPSHOT_ADAPT = {"adapt": Adaptation(summary="snapshot")}
 POINTS_DEFAULT = {**SNAPSHOT_DEFAULT, **DEFAULT_FORGETTING}
 #: The policy's PPO default critic of 0.23-0.34: 0.15's with the lengthscale hyperprior.
 PRIOR_DEFAULT = {**POINTS_DEFAULT, "adapt": PRIOR_ADAPTATION}
-#: The policy's PPO default critic (since 0.35 a refit's rebuild takes the whole batch, since
-#: 0.39 a block refits for its fit only 4,096 points after the last refit) with a
+#: The policy's PPO default critic since 0.39 (since 0.35 a refit's rebuild takes the whole
+#: batch; since 0.39 a block refits for its fit only 4,096 points after the last refit) with a
 #: window of 256 points, so that every batch (2,048 points here, 384 in the quick test) is
 #: larger than the window, as PPO's 4,096-point rollouts are larger than the default's 2,048.
-WHOLE_DEFAULT = {**POINTS_DEFAULT, "adapt": replace(DEFAULT_ADAPTATION, window=256)}
+SPACED_DEFAULT = {**POINTS_DEFAULT, "adapt": replace(DEFAULT_ADAPTATION, window=256)}
+#: The same as the policy's PPO default critic of 0.35-0.38, without the spacing.
+WHOLE_DEFAULT = {**POINTS_DEFAULT, "adapt": replace(SPACED_DEFAULT["adapt"], fit_spacing=None)}
 #: The policy's PPO default critic of 0.14 (:data:`~sb3_geogp.policies.LAGGED_ADAPTATION`, an
 #: option since 0.15): forgetting in the likelihood, chosen one batch ahead, from 0.1 per 4,096
 #: points.
 LAGGED_DEFAULT = {**POINTS_DEFAULT, "adapt": LAGGED_ADAPTATION}
 #: The snapshot summary's variants (0.11), on both streams: 0.11-0.13's PPO default, the 0.15
-#: and 0.23 defaults and 0.35's (its batches larger than its window) in float64 and float32, and
-#: the A2C default's adaptation with snapshots;
+#: and 0.23 defaults, 0.35's (its batches larger than its window) and 0.39's in float64 and
+#: float32, and the A2C default's adaptation with snapshots;
 #: and 0.14's default, whose lagged forgetting score refuses float32.
 SNAPSHOT_VARIANTS = (
     Variant("laplacian rare snapshot n0.1 level", "laplacian", {}, SNAPSHOT_DEFAULT),
@@ -125,6 +127,15 @@ SNAPSHOT_VARIANTS = (
         "laplacian",
         {},
         {**WHOLE_DEFAULT, "dtype": torch.float32},
+    ),
+    *(
+        Variant(
+            f"laplacian spaced4096 whole window256 f0.1/4096 n0.1 level {dtype}",
+            "laplacian",
+            {},
+            {**SPACED_DEFAULT, "dtype": getattr(torch, dtype)},
+        )
+        for dtype in ("float64", "float32")
     ),
 )
 VARIANTS = {
