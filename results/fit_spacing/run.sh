@@ -4,6 +4,7 @@
 # commit, in its root, with sb3_geogp importable; OUT is this folder by default.
 set -euo pipefail
 OUT=${OUT:-$(cd "$(dirname "$0")" && pwd)}
+source "$(dirname "$0")/table_sweep.sh"
 A=$(python -c "from stable_baselines3 import PPO; from sb3_geogp.policies import default_adaptation; import json; d = default_adaptation(PPO).as_dict(); d['fit_spacing'] = 4096; print(json.dumps(d))")
 echo "spaced arm: adapt=$A"
 run() {  # cell, seeds, first seed
@@ -15,15 +16,8 @@ run() {  # cell, seeds, first seed
         --out "$OUT/spaced_$name"
 }
 registered() {  # PREREGISTRATION.md's runs, in its order
-    local env block
-    for env in CartPole-v1 Acrobot-v1 Pendulum-v1 sb3_geogp/PaperPendulum-v0 \
-        sb3_geogp/WallMazeDiscrete-v0 sb3_geogp/WallMaze-v0 MountainCarContinuous-v0; do
-      for block in 0:20 150:20 570:10; do
-        sb3-geogp compare --algos ppo --critics laplacian --envs "$env" --gp-option "adapt=$A" \
-            --seeds "${block#*:}" --first-seed "${block%%:*}" --workers 2 --no-progress \
-            --no-plots --out "$OUT/table/${env#sb3_geogp/}_s${block%%:*}"
-      done
-    done
+    table_sweep "$A" CartPole-v1 Acrobot-v1 Pendulum-v1 sb3_geogp/PaperPendulum-v0 \
+        sb3_geogp/WallMazeDiscrete-v0 sb3_geogp/WallMaze-v0 MountainCarContinuous-v0
     python examples/critic_fit.py --envs CartPole-v1 Acrobot-v1 --critics laplacian \
         --seeds $(seq 0 9) --workers 2 --out "$OUT/fit_default"
     python examples/critic_fit.py --envs CartPole-v1 Acrobot-v1 --critics laplacian \

@@ -4,6 +4,7 @@
 # OUT is this folder by default.
 set -euo pipefail
 OUT=${OUT:-$(cd "$(dirname "$0")" && pwd)}
+source "$(dirname "$0")/../fit_spacing/table_sweep.sh"
 A=$(python -c "from stable_baselines3 import PPO; from sb3_geogp.policies import default_adaptation; import json; d = default_adaptation(PPO).as_dict(); d['fit_spacing'] = 2048; print(json.dumps(d))")
 echo "2048 arm: adapt=$A"
 fit() {  # folder, gp options
@@ -12,12 +13,6 @@ fit() {  # folder, gp options
 }
 fit fit_default
 fit fit_2048 --gp-option "adapt=$A"
-for env in CartPole-v1 Acrobot-v1 sb3_geogp/WallMazeDiscrete-v0 sb3_geogp/WallMaze-v0 \
-    MountainCarContinuous-v0 Pendulum-v1 sb3_geogp/PaperPendulum-v0; do
-  for block in 0:20 150:20 570:10; do
-    sb3-geogp compare --algos ppo --critics laplacian --envs "$env" --gp-option "adapt=$A" \
-        --seeds "${block#*:}" --first-seed "${block%%:*}" --workers 2 --no-progress \
-        --no-plots --out "$OUT/table/${env#sb3_geogp/}_s${block%%:*}"
-  done
-done
+table_sweep "$A" CartPole-v1 Acrobot-v1 sb3_geogp/WallMazeDiscrete-v0 sb3_geogp/WallMaze-v0 \
+    MountainCarContinuous-v0 Pendulum-v1 sb3_geogp/PaperPendulum-v0
 echo "all runs done $(date -u)"
