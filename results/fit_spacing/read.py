@@ -2,6 +2,8 @@
 
     python results/fit_spacing/read.py > results/fit_spacing/read.md
     python results/fit_spacing/read.py --registered > results/fit_spacing/registered.md
+    python results/fit_spacing/read.py --auc > results/fit_spacing/auc.md
+    python results/fit_spacing/read.py --steps > results/fit_spacing/steps.md
 
 1. ``PLAN.md``'s screen (exploratory): spaced − 0.37's default per cell, paired by seed and as
    the comparison reads it (``results/drift_floor/read.py``'s table), the seed-983 check of
@@ -12,6 +14,10 @@
    default paired by seed, then the critic-fit score on CartPole-v1 and Acrobot-v1
    (secondary). A cell whose 50 seeds have not all finished stays out, and a rule it decides
    stays partial.
+3. Secondary readings of the adopted default (0.39, session 78), defined after the decision:
+   issue 13's table on the area under the curve (``--auc``) and the steps to the threshold
+   (``--steps``, as ``results/table50/read.py --steps`` reads them), the spaced arm's runs in
+   the seven PPO cells.
 """
 
 from __future__ import annotations
@@ -173,11 +179,27 @@ def registered() -> None:
     TABLE.WHOLE.fit_table(HERE, range(10), envs, note, arms, ("default", "spaced"))
 
 
+def today_spaced() -> list[dict[str, Any]]:
+    """Issue 13's table with the spaced arm's runs (0.39's default) in every PPO cell."""
+    today = [r for r in table_today() if not TABLE.is_ppo_default(r)]
+    return today + TABLE.drift_runs(HERE / "table")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--registered", action="store_true", help="PREREGISTRATION.md's rule")
-    if parser.parse_args().registered:
+    reading = parser.add_mutually_exclusive_group()
+    reading.add_argument("--registered", action="store_true", help="PREREGISTRATION.md's rule")
+    reading.add_argument("--auc", action="store_true", help="the table on the area under the curve")
+    reading.add_argument("--steps", action="store_true", help="steps to the threshold")
+    args = parser.parse_args()
+    if args.registered:
         registered()
+    elif args.auc:
+        label = LABELS["mean_return"]
+        print(f"## Issue 13's table with 0.39's default (the spaced arm), {label}\n")
+        POOL30.print_table(POOL30.mlp_rows(today_spaced(), "mean_return"), label)
+    elif args.steps:
+        TABLE.WHOLE.TABLE50.VERDICT.print_steps(today_spaced(), "50 seeds, 0.39's default")
     else:
         screen()
 
