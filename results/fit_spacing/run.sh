@@ -4,8 +4,8 @@
 # commit, in its root, with sb3_geogp importable; OUT is this folder by default.
 set -euo pipefail
 OUT=${OUT:-$(cd "$(dirname "$0")" && pwd)}
-source "$(dirname "$0")/table_sweep.sh"
-A=$(python -c "from stable_baselines3 import PPO; from sb3_geogp.policies import default_adaptation; import json; d = default_adaptation(PPO).as_dict(); d['fit_spacing'] = 4096; print(json.dumps(d))")
+source "$(dirname "$0")/sweeps.sh"
+A=$(spaced_adapt 4096)
 echo "spaced arm: adapt=$A"
 run() {  # cell, seeds, first seed
     local name=${1#sb3_geogp/}

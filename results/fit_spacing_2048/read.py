@@ -52,15 +52,9 @@ def fit_rules() -> list[tuple[str, str]]:
     ]
 
 
-def table_today() -> list:
-    """Issue 13's table with 0.39's default: ``results/fit_spacing/table`` in the PPO cells."""
-    today = [r for r in SPACING.table_today() if not TABLE.is_ppo_default(r)]
-    return today + TABLE.drift_runs(SPACING.HERE / "table")
-
-
 def main() -> None:
     states = fit_rules()
-    table = SPACING.table_rules(table_today(), TABLE.drift_runs(HERE / "table"), NAMES)
+    table = SPACING.table_rules(SPACING.today_spaced(), TABLE.drift_runs(HERE / "table"), NAMES)
     states += table or [("3. issue 13's table (no cell finished)", PARTIAL)]
     print("\n## The registered rule\n")
     kept = "0.39's default stays (fit_spacing=4096)"

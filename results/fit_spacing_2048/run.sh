@@ -4,8 +4,8 @@
 # OUT is this folder by default.
 set -euo pipefail
 OUT=${OUT:-$(cd "$(dirname "$0")" && pwd)}
-source "$(dirname "$0")/../fit_spacing/table_sweep.sh"
-A=$(python -c "from stable_baselines3 import PPO; from sb3_geogp.policies import default_adaptation; import json; d = default_adaptation(PPO).as_dict(); d['fit_spacing'] = 2048; print(json.dumps(d))")
+source "$(dirname "$0")/../fit_spacing/sweeps.sh"
+A=$(spaced_adapt 2048)
 echo "2048 arm: adapt=$A"
 fit() {  # folder, gp options
     python examples/critic_fit.py --envs CartPole-v1 Acrobot-v1 --critics laplacian \

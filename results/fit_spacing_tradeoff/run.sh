@@ -3,12 +3,10 @@
 # then the training benchmark (run it on a quiet machine). From the repository root.
 set -euo pipefail
 OUT=${OUT:-$(cd "$(dirname "$0")" && pwd)}
-adapt() {  # PPO's default adaptation with fit_spacing $1
-    python -c "from stable_baselines3 import PPO; from sb3_geogp.policies import default_adaptation; import json; d = default_adaptation(PPO).as_dict(); d['fit_spacing'] = $1; print(json.dumps(d))"
-}
+source "$(dirname "$0")/../fit_spacing/sweeps.sh"
 for s in 2048 3072; do
     python examples/critic_fit.py --envs CartPole-v1 --critics laplacian --seeds $(seq 0 9) \
-        --workers 2 --gp-option "adapt=$(adapt $s)" --out "$OUT/s$s"
+        --workers 2 --gp-option "adapt=$(spaced_adapt $s)" --out "$OUT/s$s"
 done
 if [ "${1:-}" = benchmark ]; then
     unspaced=laplacian+adapt+gap16+nosettle+score256+fold256+floor80+snapshot+prior10+whole
