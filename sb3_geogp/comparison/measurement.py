@@ -98,7 +98,10 @@ class MeasureCallback(BaseCallback):
 
     At a rollout start the last ``train`` and the GP update are both done, so actor and critic
     are measured in the same state. The measurements use their own torch random stream, so
-    they do not change training.
+    they do not change training. With every evaluation goes the training clock so far
+    (:attr:`train_seconds`, :attr:`train_cpu_seconds`): the wall-clock and CPU seconds since
+    ``learn`` started, the measurements' own excluded, so that a run's time to a return is
+    read as its steps to it are.
     """
 
     def __init__(
@@ -133,9 +136,19 @@ class MeasureCallback(BaseCallback):
         )
         self.eval_timesteps: list[int] = []
         self.eval_returns: list[list[float]] = []
+        #: Training seconds (wall clock, CPU) before each evaluation, as ``eval_timesteps``.
+        self.train_seconds: list[float] = []
+        self.train_cpu_seconds: list[float] = []
+        self._learn_started = (0.0, 0.0)
         self.critic: dict[str, list[float | None]] = {
             k: [] for k in ("timesteps", "rmse", "mae", "bias", "mc_stderr", "mc_std")
         }
+
+    def start_clock(self) -> tuple[float, float]:
+        """Start the training clock (call just before ``learn``); returns its start,
+        ``time.perf_counter()`` and ``time.process_time()``."""
+        self._learn_started = (time.perf_counter(), time.process_time())
+        return self._learn_started
 
     def _on_step(self) -> bool:
         return True
@@ -152,6 +165,8 @@ class MeasureCallback(BaseCallback):
         if self.eval_timesteps and self.eval_timesteps[-1] == self.model.num_timesteps:
             return
         start, cpu_start = time.perf_counter(), time.process_time()
+        self.train_seconds.append(start - self._learn_started[0] - self.seconds)
+        self.train_cpu_seconds.append(cpu_start - self._learn_started[1] - self.cpu_seconds)
         if self.value_timer is not None:
             self.value_timer.enabled = False
         policy = self.model.policy

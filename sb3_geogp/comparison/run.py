@@ -8,7 +8,8 @@ with ``callback=GPValueCallback()``, or with SB3's ``"MlpPolicy"``, and writes o
   the deterministic policy over ``n_eval_episodes`` episodes of a separate evaluation
   environment at every checkpoint;
 * final return (the last evaluation), steps to the run's threshold (:attr:`RunSpec.threshold
-  <sb3_geogp.comparison.specs.RunSpec>`);
+  <sb3_geogp.comparison.specs.RunSpec>`) and training seconds to it (``seconds_to_threshold``,
+  wall clock; ``train_clock``: the training seconds at every evaluation, wall clock and CPU);
 * wall clock (and CPU time of the process) of ``learn`` without the measurements made
   inside it (``train_seconds``, ``train_cpu_seconds``), and for GP critics the seconds
   spent in the critic: ``GPValueCallback``'s rollout-end work (target assembly, logging and
@@ -193,7 +194,7 @@ def _train_and_measure(
     gp_callback, value_timer = _critic_timers(model, spec)
     checkpoints = MeasureCallback(spec, eval_envs, probes, value_timer)
     callbacks = [c for c in (gp_callback, checkpoints) if c is not None]
-    start, cpu_start = time.perf_counter(), time.process_time()
+    start, cpu_start = checkpoints.start_clock()
     model.learn(spec.total_timesteps, callback=CallbackList([*callbacks, *recorders]))
     learn_seconds = time.perf_counter() - start
     learn_cpu_seconds = time.process_time() - cpu_start
@@ -237,6 +238,8 @@ def _evaluation(spec: RunSpec, checkpoints: MeasureCallback) -> dict[str, Any]:
     """The evaluation curve, its last point and the steps to the run's threshold."""
     mean_curve = np.array([np.mean(r) for r in checkpoints.eval_returns])
     timesteps = np.array(checkpoints.eval_timesteps, dtype=np.float64)
+    steps = float(steps_to_threshold(timesteps, mean_curve, spec.threshold))
+    seconds = dict(zip(checkpoints.eval_timesteps, checkpoints.train_seconds, strict=True))
     return dict(
         eval=dict(
             timesteps=checkpoints.eval_timesteps,
@@ -247,9 +250,12 @@ def _evaluation(spec: RunSpec, checkpoints: MeasureCallback) -> dict[str, Any]:
         ),
         final_return=float(mean_curve[-1]),
         threshold=spec.threshold,
-        steps_to_threshold=_finite_or_none(
-            float(steps_to_threshold(timesteps, mean_curve, spec.threshold))
+        steps_to_threshold=_finite_or_none(steps),
+        # Apart from ``eval``, which the same seed reproduces exactly: clocks never do.
+        train_clock=dict(
+            seconds=checkpoints.train_seconds, cpu_seconds=checkpoints.train_cpu_seconds
         ),
+        seconds_to_threshold=seconds[int(steps)] if math.isfinite(steps) else None,
     )
 
 

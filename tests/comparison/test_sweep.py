@@ -95,6 +95,15 @@ def test_tiny_sweep_end_to_end_and_resume(
         assert all(np.isfinite(acc["rmse"])) and r["max_episode_steps"] == 500
         assert acc["horizon"] == mc_horizon(0.99, 500) == 459  # A2C's gamma: 0.99^459 < 0.01
         assert 0 < r["train_seconds"] <= r["wall_clock_seconds"] and r["train_cpu_seconds"] > 0
+        for clock in r["train_clock"].values():
+            # the training clock at each evaluation: from learn()'s start, never going back
+            assert len(clock) == len(ev["timesteps"]) and 0 <= clock[0]
+            assert clock == sorted(clock)
+        assert r["train_clock"]["seconds"][-1] >= r["train_seconds"]  # read after learn()
+        reached = r["steps_to_threshold"]
+        assert r["seconds_to_threshold"] == (
+            None if reached is None else r["train_clock"]["seconds"][ev["timesteps"].index(reached)]
+        )
         if spec.critic == "mlp":
             assert r["critic_share"] is None
         else:
@@ -224,6 +233,22 @@ class _FakeRay:
 
     def get(self, ref: _Ref) -> Any:
         return ref.value
+
+
+@pytest.mark.parametrize(("threshold", "steps", "seconds"), [(100.0, 200, 1.5), (200.0, None, None)])
+def test_seconds_to_threshold_is_the_training_clock_where_the_curve_first_reaches_it(
+    threshold: float, steps: int | None, seconds: float | None
+) -> None:
+    spec = dataclasses.replace(TINY, thresholds=(("CartPole-v1", threshold),)).specs()[0]
+    checkpoints = SimpleNamespace(
+        eval_timesteps=[0, 200, 400],
+        eval_returns=[[20.0, 30.0], [90.0, 120.0], [150.0, 60.0]],  # means 25, 105, 105
+        train_seconds=[0.0, 1.5, 3.0],
+        train_cpu_seconds=[0.0, 1.4, 2.9],
+    )
+    r = run_module._evaluation(spec, checkpoints)  # type: ignore[arg-type]
+    assert (r["steps_to_threshold"], r["seconds_to_threshold"]) == (steps, seconds)
+    assert r["train_clock"] == {"seconds": [0.0, 1.5, 3.0], "cpu_seconds": [0.0, 1.4, 2.9]}
 
 
 def test_ray_path_runs_the_same_run_function(

@@ -1,0 +1,167 @@
+"""The reading of PLAN.md (session 79): training seconds to the threshold, the default GP
+critic against SB3's MLP critic, in the six cells where runs reach it::
+
+    python results/time_to_threshold/read.py > results/time_to_threshold/read.md
+
+Also writes ``curves.png`` (each run's evaluation return against its training clock) and
+checks the new runs' steps to the threshold against the stored runs of the same seeds
+(issue 13's table: 0.39's PPO critic in ``results/fit_spacing/table``, the rest in
+``results/table50``), which the same code and machine reproduce exactly.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+import numpy as np
+
+from sb3_geogp.comparison.results import load_results
+from sb3_geogp.toolbox.stats import bootstrap_ci
+
+HERE = Path(__file__).resolve().parent
+RESULTS = HERE.parent
+#: (algo, GP critic, environment), PLAN.md's order.
+CELLS = (
+    ("ppo", "laplacian", "CartPole-v1"),
+    ("ppo", "laplacian", "Pendulum-v1"),
+    ("ppo", "laplacian", "sb3_geogp/PaperPendulum-v0"),
+    ("ppo", "laplacian", "Acrobot-v1"),
+    ("a2c", "rbf", "CartPole-v1"),
+    ("a2c", "rbf", "Acrobot-v1"),
+)
+SEEDS = range(570, 580)
+Runs = dict[tuple[str, str, str, int], dict[str, Any]]
+
+
+def index(results: list[dict[str, Any]]) -> Runs:
+    """Runs by (algo, critic, environment, seed)."""
+    return {
+        (s["algo"], s["critic"], s["env_id"], s["seed"]): r for r in results for s in (r["spec"],)
+    }
+
+
+def stored(algo: str, critic: str, env: str) -> Path:
+    """The folder of issue 13's table's stored runs of a cell on seeds 570-579."""
+    if algo == "ppo" and critic != "mlp":
+        return RESULTS / "fit_spacing" / "table" / f"{env.removeprefix('sb3_geogp/')}_s570"
+    return RESULTS / "table50" / f"{algo}_s570"
+
+
+def median_ratio(ratios: list[float]) -> str:
+    if not ratios:
+        return "–"
+    est, low, high = (float(x) for x in bootstrap_ci(np.array(ratios), stat="median", seed=0))
+    return f"{est:.2f} [{low:.2f}, {high:.2f}]"
+
+
+def finite(values: list[float | None]) -> list[float]:
+    return [v for v in values if v is not None]
+
+
+def fmt_median(values: list[float | None], digits: int) -> str:
+    reached = finite(values)
+    if not reached:
+        return f"– (0 of {len(values)})"
+    return f"{np.median(reached):,.{digits}f} ({len(reached)} of {len(values)})"
+
+
+def cell_row(runs: Runs, algo: str, gp: str, env: str) -> str | None:
+    pairs = [(runs.get((algo, gp, env, s)), runs.get((algo, "mlp", env, s))) for s in SEEDS]
+    pairs = [(g, m) for g, m in pairs if g is not None and m is not None]
+    if not pairs:
+        return None
+    both = [(g, m) for g, m in pairs if g["seconds_to_threshold"] and m["seconds_to_threshold"]]
+    seconds = [g["seconds_to_threshold"] / m["seconds_to_threshold"] for g, m in both]
+    steps = [g["steps_to_threshold"] / m["steps_to_threshold"] for g, m in both]
+    per_step = [g["train_seconds"] / m["train_seconds"] for g, m in pairs]
+    cells = [
+        f"{algo.upper()} {env.removeprefix('sb3_geogp/')}",
+        str(len(pairs)),
+        fmt_median([g["seconds_to_threshold"] for g, _ in pairs], 1),
+        fmt_median([m["seconds_to_threshold"] for _, m in pairs], 1),
+        median_ratio(seconds),
+        fmt_median([g["steps_to_threshold"] for g, _ in pairs], 0),
+        fmt_median([m["steps_to_threshold"] for _, m in pairs], 0),
+        median_ratio(steps),
+        f"{np.median(per_step):.2f}",
+    ]
+    return "| " + " | ".join(cells) + " |"
+
+
+def reproduction(runs: Runs) -> list[str]:
+    """Per cell and critic: how many new runs give the stored run's evaluations exactly."""
+    lines = []
+    for algo, gp, env in CELLS:
+        for critic in (gp, "mlp"):
+            old = index(load_results(stored(algo, critic, env)))
+            keys = [(algo, critic, env, s) for s in SEEDS if (algo, critic, env, s) in runs]
+            same = sum(old.get(k, {}).get("eval") == runs[k]["eval"] for k in keys)
+            lines.append(
+                f"| {algo.upper()} {env.removeprefix('sb3_geogp/')} | {critic} | "
+                f"{same} of {len(keys)} |"
+            )
+    return lines
+
+
+def plot(runs: Runs, path: Path) -> None:
+    fig, axes = plt.subplots(2, 3, figsize=(13, 7.5))
+    for ax, (algo, gp, env) in zip(axes.flat, CELLS, strict=True):
+        for critic, colour in ((gp, "tab:blue"), ("mlp", "tab:orange")):
+            label = f"GP critic ({gp})" if critic != "mlp" else "SB3's MLP critic"
+            for seed in SEEDS:
+                r = runs.get((algo, critic, env, seed))
+                if r is None:
+                    continue
+                ax.plot(
+                    r["train_clock"]["seconds"],
+                    r["eval"]["mean_return"],
+                    color=colour,
+                    alpha=0.45,
+                    lw=1,
+                    label=label,
+                )
+                label = None
+        some = next((r for k, r in runs.items() if k[0] == algo and k[2] == env), None)
+        if some is not None:
+            ax.axhline(some["threshold"], color="k", ls="--", lw=0.8, label="threshold")
+        ax.set_title(f"{algo.upper()} {env.removeprefix('sb3_geogp/')}")
+        ax.set_xlabel("training seconds (evaluations excluded)")
+        ax.set_ylabel("evaluation return")
+        ax.legend(fontsize=7, loc="lower right")
+    fig.suptitle("Evaluation return against the training clock, seeds 570-579, one run at a time")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+
+
+def main() -> None:
+    runs = index([r for algo in ("ppo", "a2c") for r in load_results(HERE / algo)])
+    print("# Training seconds to the threshold (PLAN.md; session 79)\n")
+    print(
+        "Seconds: the training clock at the first evaluation whose mean return reaches the "
+        "threshold (evaluations excluded); median over the runs that reach it (how many of "
+        "the seeds run). GP / MLP: per seed where both reach it, median over those seeds "
+        "[95 % bootstrap]. Per step: whole-run training seconds, GP / MLP, median over seeds.\n"
+    )
+    print(
+        "| cell | seeds | GP s | MLP s | GP / MLP, seconds | GP steps | MLP steps | "
+        "GP / MLP, steps | per step |"
+    )
+    print("|---|---:|---:|---:|---|---:|---:|---|---:|")
+    for cell in CELLS:
+        row = cell_row(runs, *cell)
+        if row is not None:
+            print(row)
+    print("\n## The new runs against the stored ones (evaluations equal)\n")
+    print("| cell | critic | same evaluations |\n|---|---|---|")
+    print("\n".join(reproduction(runs)))
+    plot(runs, HERE / "curves.png")
+    print("\n![return against the training clock](curves.png)")
+
+
+if __name__ == "__main__":
+    main()
