@@ -1,5 +1,6 @@
 """The reading of PLAN.md (session 79): training seconds to the threshold, the default GP
-critic against SB3's MLP critic, in the six cells where runs reach it::
+critic against SB3's MLP critic, in the six cells where runs reach it, and (a secondary
+reading added after the runs) each critic's return in the same training time::
 
     python results/time_to_threshold/read.py > results/time_to_threshold/read.md
 
@@ -93,6 +94,29 @@ def cell_row(runs: Runs, algo: str, gp: str, env: str) -> str | None:
     return "| " + " | ".join(cells) + " |"
 
 
+def equal_time_row(runs: Runs, algo: str, gp: str, env: str) -> str | None:
+    """The GP critic's return when its training clock reaches the MLP critic's whole training
+    time (its last evaluation by then), against the MLP critic's final return, per seed."""
+    diffs, gp_returns, mlp_returns = [], [], []
+    for seed in SEEDS:
+        g, m = runs.get((algo, gp, env, seed)), runs.get((algo, "mlp", env, seed))
+        if g is None or m is None:
+            continue
+        clock = np.array(g["train_clock"]["seconds"])
+        last = int(np.flatnonzero(clock <= m["train_seconds"])[-1])
+        gp_returns.append(g["eval"]["mean_return"][last])
+        mlp_returns.append(m["final_return"])
+        diffs.append(gp_returns[-1] - mlp_returns[-1])
+    if not diffs:
+        return None
+    est, low, high = (float(x) for x in bootstrap_ci(np.array(diffs), seed=0))
+    return (
+        f"| {algo.upper()} {env.removeprefix('sb3_geogp/')} | {len(diffs)} | "
+        f"{np.mean(gp_returns):.1f} | {np.mean(mlp_returns):.1f} | "
+        f"{est:+.1f} [{low:+.1f}, {high:+.1f}] |"
+    )
+
+
 def reproduction(runs: Runs) -> list[str]:
     """Per cell and critic: how many new runs give the stored run's evaluations exactly."""
     lines = []
@@ -143,8 +167,8 @@ def main() -> None:
     print("# Training seconds to the threshold (PLAN.md; session 79)\n")
     print(
         "Seconds: the training clock at the first evaluation whose mean return reaches the "
-        "threshold (evaluations excluded); median over the runs that reach it (how many of "
-        "the seeds run). GP / MLP: per seed where both reach it, median over those seeds "
+        "threshold (evaluations excluded); median over the runs that reach it (and how many "
+        "of the cell's runs do). GP / MLP: per seed where both reach it, median over those seeds "
         "[95 % bootstrap]. Per step: whole-run training seconds, GP / MLP, median over seeds.\n"
     )
     print(
@@ -154,6 +178,19 @@ def main() -> None:
     print("|---|---:|---:|---:|---|---:|---:|---|---:|")
     for cell in CELLS:
         row = cell_row(runs, *cell)
+        if row is not None:
+            print(row)
+    print("\n## Return at the MLP critic's training time (secondary, added after the runs)\n")
+    print(
+        "The GP critic's evaluation return at its last evaluation within the MLP critic's "
+        "whole training time on the same seed, against the MLP critic's final return: what "
+        "each critic's agents reach in the same training seconds. Mean over seeds, GP − MLP "
+        "[95 % bootstrap of the paired mean]. The GP critic's evaluations come every 1/20 of "
+        "its budget, so its return is read up to one evaluation early (against it).\n"
+    )
+    print("| cell | seeds | GP, mean | MLP, mean | GP − MLP |\n|---|---:|---:|---:|---|")
+    for cell in CELLS:
+        row = equal_time_row(runs, *cell)
         if row is not None:
             print(row)
     print("\n## The new runs against the stored ones (evaluations equal)\n")

@@ -229,7 +229,8 @@ def summary_markdown(rows: list[dict[str, Any]]) -> str:
     """The summary rows as a markdown table (one table, environments in blocks), captioned."""
     header = [
         "env", "algo", "critic", "seeds", "steps", "final return mean [95% CI]", "IQM",
-        "steps to threshold (median, reached)", "critic RMSE [95% CI]", "train s", "GP share",
+        "steps to threshold (median, reached; training s)", "critic RMSE [95% CI]", "train s",
+        "GP share",
     ]  # fmt: skip
     caption = "Final return and final critic RMSE: mean over seeds [95 % percentile-bootstrap CI]."
     caption += _few_seeds_note([r["n_seeds"] for r in rows], ": the mean alone")
@@ -241,7 +242,9 @@ def summary_markdown(rows: list[dict[str, Any]]) -> str:
 SUMMARY_KEY = """\
 Columns, over each cell's seeds: the final evaluation return (deterministic actions, mean and
 IQM, the mean of the middle half of the seeds); the median step at which the evaluation return
-first reached the threshold (a seed that never did counts as never), and how many seeds did;
+first reached the threshold (a seed that never did counts as never), and how many seeds did,
+with the median training seconds to it where the runs recorded them (since 0.40; evaluations
+excluded, comparable between critics only for runs made one at a time on an idle machine);
 the critic's final RMSE against Monte Carlo returns of its run's own policy at fixed probe
 states (lower is better); `train s`, the mean wall-clock seconds of training per run
 (evaluations excluded); `GP share`, the part of it the GP critic took (its updates and value
@@ -261,11 +264,21 @@ def _summary_cells(r: dict[str, Any]) -> list[str]:
         str(r["timesteps"]),
         _ci(r["final_mean"], r["final_low"], r["final_high"], r["n_seeds"]),
         _fmt(r["final_iqm"]),
-        f"{_fmt(stt)} ({r['reached']}/{r['n_seeds']} ≥ {_fmt(r['threshold'])})",
+        f"{_fmt(stt)} ({r['reached']}/{r['n_seeds']} ≥ {_fmt(r['threshold'])}"
+        + _seconds_to_threshold(r)
+        + ")",
         _ci(r["critic_rmse_mean"], r["critic_rmse_low"], r["critic_rmse_high"], r["n_seeds"]),
         _fmt(r["train_seconds_mean"]),
         "—" if share is None else f"{100 * share:.0f} %",
     ]
+
+
+def _seconds_to_threshold(r: dict[str, Any]) -> str:
+    """``"; 3.1 s"``: a summary row's median training seconds to the threshold (``—`` where
+    most runs never reached it), or nothing where its runs did not record them (before 0.40)."""
+    if "seconds_to_threshold_median" not in r:
+        return ""
+    return f"; {_fmt(_num(r['seconds_to_threshold_median']))} s"
 
 
 def pyplot() -> Any:

@@ -5,8 +5,8 @@ Reads the result files written by :mod:`sb3_geogp.comparison.run` (``out/runs/*.
 * :func:`load_sweeps`: several sweeps' result files as one, a re-run replacing the cells it
   re-ran;
 * :func:`summary_rows`: per environment, algorithm and critic the number of seeds, final
-  return (mean [95 % CI], IQM), steps to threshold, final critic RMSE, wall clock and the GP's
-  share of it;
+  return (mean [95 % CI], IQM), steps to threshold (and, where every run recorded it, since
+  0.40, training seconds to it), final critic RMSE, wall clock and the GP's share of it;
 * :func:`comparisons`: for each environment and algorithm the differences of the critic pairs
   of :data:`PAIRS` (RBF - MLP, geodesic - MLP and geodesic - RBF in the published sweep) of the
   means of three metrics (:data:`METRICS`), each with
@@ -235,8 +235,7 @@ def summary_rows(results: list[dict[str, Any]], seed: int = 0) -> list[dict[str,
         runs = groups[key]
         final = np.array([r["final_return"] for r in runs])
         est, low, high = (float(x) for x in bootstrap_ci(final, seed=seed))
-        stt = np.array([np.inf if r["steps_to_threshold"] is None else r["steps_to_threshold"]
-                        for r in runs])  # fmt: skip
+        stt = _to_threshold(runs, "steps_to_threshold")
         rmse = np.array([r["critic_accuracy"]["rmse"][-1] for r in runs])
         r_est, r_low, r_high = (float(x) for x in bootstrap_ci(rmse, seed=seed))
         shares = [r["critic_share"] for r in runs if r.get("critic_share") is not None]
@@ -259,8 +258,17 @@ def summary_rows(results: list[dict[str, Any]], seed: int = 0) -> list[dict[str,
             train_seconds_mean=float(np.mean([r["train_seconds"] for r in runs])),
             critic_share_mean=float(np.mean(shares)) if shares else None,
         )
+        # Runs made before 0.40 did not record their training clock: then no such column.
+        if all("seconds_to_threshold" in r for r in runs):
+            seconds = _to_threshold(runs, "seconds_to_threshold")
+            row["seconds_to_threshold_median"] = float(np.median(seconds))
         rows.append(row)
     return [_json_safe(r) for r in rows]
+
+
+def _to_threshold(runs: list[dict[str, Any]], key: str) -> np.ndarray:
+    """Each run's steps or seconds to its threshold, ``inf`` where it never reached it."""
+    return np.array([np.inf if r[key] is None else r[key] for r in runs], dtype=np.float64)
 
 
 def comparisons(

@@ -168,6 +168,23 @@ def test_summary_rows_hand_computed() -> None:
     assert geo["critic_rmse_mean"] == pytest.approx(7.5)
 
 
+def test_summary_gives_the_median_seconds_to_threshold_where_every_run_recorded_them() -> None:
+    reached = [(50.0, 2.0), (100.0, 4.5), (None, None)]  # the last run never reached it
+    runs = [
+        {**_result("geodesic", s, 1.0, 1.0), "steps_to_threshold": a, "seconds_to_threshold": b}
+        for s, (a, b) in enumerate(reached)
+    ]
+    row = summary_rows(runs)[0]
+    assert (row["steps_to_threshold_median"], row["seconds_to_threshold_median"]) == (100, 4.5)
+    assert "(2/3 ≥ 1; 4.5 s)" in summary_markdown([row])
+    never = summary_rows([{**r, "seconds_to_threshold": None} for r in runs[2:]])[0]
+    assert never["seconds_to_threshold_median"] is None  # JSON's null for inf
+    assert "(0/1 ≥ 1; — s)" in summary_markdown([never])
+    older = summary_rows([_result("geodesic", 0, 1.0, 1.0), *runs[1:]])[0]  # one file of 0.39
+    assert "seconds_to_threshold_median" not in older
+    assert "(1/3 ≥ 1)" in summary_markdown([older])
+
+
 def test_comparison_against_a_baseline_sweep() -> None:
     base = _results()
     # The same sweep with every GP critic's final return raised by 50 and the MLP unchanged.

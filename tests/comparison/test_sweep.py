@@ -97,7 +97,7 @@ def test_tiny_sweep_end_to_end_and_resume(
         assert 0 < r["train_seconds"] <= r["wall_clock_seconds"] and r["train_cpu_seconds"] > 0
         for clock in r["train_clock"].values():
             # the training clock at each evaluation: from learn()'s start, never going back
-            assert len(clock) == len(ev["timesteps"]) and 0 <= clock[0]
+            assert len(clock) == len(ev["timesteps"]) and clock[0] >= 0
             assert clock == sorted(clock)
         assert r["train_clock"]["seconds"][-1] >= r["train_seconds"]  # read after learn()
         reached = r["steps_to_threshold"]
@@ -235,7 +235,9 @@ class _FakeRay:
         return ref.value
 
 
-@pytest.mark.parametrize(("threshold", "steps", "seconds"), [(100.0, 200, 1.5), (200.0, None, None)])
+@pytest.mark.parametrize(
+    ("threshold", "steps", "seconds"), [(100.0, 200, 1.5), (200.0, None, None)]
+)
 def test_seconds_to_threshold_is_the_training_clock_where_the_curve_first_reaches_it(
     threshold: float, steps: int | None, seconds: float | None
 ) -> None:
