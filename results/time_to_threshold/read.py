@@ -57,18 +57,16 @@ def median_ratio(ratios: list[float]) -> str:
     if not ratios:
         return "–"
     est, low, high = (float(x) for x in bootstrap_ci(np.array(ratios), stat="median", seed=0))
-    return f"{est:.2f} [{low:.2f}, {high:.2f}]"
-
-
-def finite(values: list[float | None]) -> list[float]:
-    return [v for v in values if v is not None]
+    return f"{est:.2f} [{low:.2f}, {high:.2f}] ({len(ratios)})"
 
 
 def fmt_median(values: list[float | None], digits: int) -> str:
-    reached = finite(values)
-    if not reached:
-        return f"– (0 of {len(values)})"
-    return f"{np.median(reached):,.{digits}f} ({len(reached)} of {len(values)})"
+    """Median over runs, a run that never reached the threshold counted as never (as
+    ``sb3-geogp compare``'s summary counts it), and how many reached it."""
+    times = np.array([np.inf if v is None else v for v in values])
+    median = float(np.median(times))
+    shown = f"{median:,.{digits}f}" if np.isfinite(median) else "never"
+    return f"{shown} ({int(np.isfinite(times).sum())} of {len(values)})"
 
 
 def cell_row(runs: Runs, algo: str, gp: str, env: str) -> str | None:
@@ -167,9 +165,10 @@ def main() -> None:
     print("# Training seconds to the threshold (PLAN.md; session 79)\n")
     print(
         "Seconds: the training clock at the first evaluation whose mean return reaches the "
-        "threshold (evaluations excluded); median over the runs that reach it (and how many "
-        "of the cell's runs do). GP / MLP: per seed where both reach it, median over those seeds "
-        "[95 % bootstrap]. Per step: whole-run training seconds, GP / MLP, median over seeds.\n"
+        "threshold (evaluations excluded); median over the cell's runs, a run that never "
+        "reaches it counted as never, and how many reach it. GP / MLP: per seed where both "
+        "reach it, median over those seeds [95 % bootstrap] (how many seeds). Per step: "
+        "whole-run training seconds, GP / MLP, median over seeds.\n"
     )
     print(
         "| cell | seeds | GP s | MLP s | GP / MLP, seconds | GP steps | MLP steps | "
