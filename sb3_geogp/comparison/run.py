@@ -235,7 +235,8 @@ def _train_and_measure(
 
 
 def _evaluation(spec: RunSpec, checkpoints: MeasureCallback) -> dict[str, Any]:
-    """The evaluation curve, its last point and the steps to the run's threshold."""
+    """The evaluation curve, its last point, the steps and training seconds to the run's
+    threshold, and the training clock at every evaluation."""
     mean_curve = np.array([np.mean(r) for r in checkpoints.eval_returns])
     timesteps = np.array(checkpoints.eval_timesteps, dtype=np.float64)
     steps = float(steps_to_threshold(timesteps, mean_curve, spec.threshold))
