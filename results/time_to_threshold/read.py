@@ -12,6 +12,7 @@ checks the new runs' steps to the threshold against the stored runs of the same 
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -160,38 +161,41 @@ def plot(runs: Runs, path: Path) -> None:
     fig.savefig(path, dpi=110)
 
 
+def table(runs: Runs, caption: str, header: str, row: Callable[..., str | None]) -> None:
+    """Print a caption and a table with ``row(runs, algo, gp, env)`` for each cell."""
+    print(caption + "\n")
+    print(header)
+    for cell in CELLS:
+        line = row(runs, *cell)
+        if line is not None:
+            print(line)
+
+
 def main() -> None:
     runs = index([r for algo in ("ppo", "a2c") for r in load_results(HERE / algo)])
     print("# Training seconds to the threshold (PLAN.md; session 79)\n")
-    print(
+    table(
+        runs,
         "Seconds: the training clock at the first evaluation whose mean return reaches the "
         "threshold (evaluations excluded); median over the cell's runs, a run that never "
         "reaches it counted as never, and how many reach it. GP / MLP: per seed where both "
         "reach it, median over those seeds [95 % bootstrap] (how many seeds). Per step: "
-        "whole-run training seconds, GP / MLP, median over seeds.\n"
-    )
-    print(
+        "whole-run training seconds, GP / MLP, median over seeds.",
         "| cell | seeds | GP s | MLP s | GP / MLP, seconds | GP steps | MLP steps | "
-        "GP / MLP, steps | per step |"
+        "GP / MLP, steps | per step |\n|---|---:|---:|---:|---|---:|---:|---|---:|",
+        cell_row,
     )
-    print("|---|---:|---:|---:|---|---:|---:|---|---:|")
-    for cell in CELLS:
-        row = cell_row(runs, *cell)
-        if row is not None:
-            print(row)
     print("\n## Return at the MLP critic's training time (secondary, added after the runs)\n")
-    print(
+    table(
+        runs,
         "The GP critic's evaluation return at its last evaluation within the MLP critic's "
         "whole training time on the same seed, against the MLP critic's final return: what "
         "each critic's agents reach in the same training seconds. Mean over seeds, GP − MLP "
         "[95 % bootstrap of the paired mean]. The GP critic's evaluations come every 1/20 of "
-        "its budget, so its return is read up to one evaluation early (against it).\n"
+        "its budget, so its return is read up to one evaluation early (against it).",
+        "| cell | seeds | GP, mean | MLP, mean | GP − MLP |\n|---|---:|---:|---:|---|",
+        equal_time_row,
     )
-    print("| cell | seeds | GP, mean | MLP, mean | GP − MLP |\n|---|---:|---:|---:|---|")
-    for cell in CELLS:
-        row = equal_time_row(runs, *cell)
-        if row is not None:
-            print(row)
     print("\n## The new runs against the stored ones (evaluations equal)\n")
     print("| cell | critic | same evaluations |\n|---|---|---|")
     print("\n".join(reproduction(runs)))
