@@ -139,7 +139,7 @@ class MeasureCallback(BaseCallback):
         #: Training seconds (wall clock, CPU) before each evaluation, as ``eval_timesteps``.
         self.train_seconds: list[float] = []
         self.train_cpu_seconds: list[float] = []
-        self._learn_started = (0.0, 0.0)
+        self._learn_started: tuple[float, float] | None = None
         self.critic: dict[str, list[float | None]] = {
             k: [] for k in ("timesteps", "rmse", "mae", "bias", "mc_stderr", "mc_std")
         }
@@ -149,6 +149,10 @@ class MeasureCallback(BaseCallback):
         ``time.perf_counter()`` and ``time.process_time()``."""
         self._learn_started = (time.perf_counter(), time.process_time())
         return self._learn_started
+
+    def _on_training_start(self) -> None:
+        if self._learn_started is None:  # learn() without start_clock(): start it here
+            self.start_clock()
 
     def _on_step(self) -> bool:
         return True
@@ -165,8 +169,9 @@ class MeasureCallback(BaseCallback):
         if self.eval_timesteps and self.eval_timesteps[-1] == self.model.num_timesteps:
             return
         start, cpu_start = time.perf_counter(), time.process_time()
-        self.train_seconds.append(start - self._learn_started[0] - self.seconds)
-        self.train_cpu_seconds.append(cpu_start - self._learn_started[1] - self.cpu_seconds)
+        started, cpu_started = self._learn_started or (start, cpu_start)
+        self.train_seconds.append(start - started - self.seconds)
+        self.train_cpu_seconds.append(cpu_start - cpu_started - self.cpu_seconds)
         if self.value_timer is not None:
             self.value_timer.enabled = False
         policy = self.model.policy

@@ -6,6 +6,7 @@ import dataclasses
 import importlib.util
 import json
 import sys
+import time
 from collections.abc import Callable
 from pathlib import Path
 from types import SimpleNamespace
@@ -22,7 +23,7 @@ from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize, sync_env
 
 from sb3_geogp.cli import main
 from sb3_geogp.comparison import run as run_module
-from sb3_geogp.comparison.evaluation import EVAL_SEED, mc_horizon
+from sb3_geogp.comparison.evaluation import EVAL_SEED, ProbeStates, mc_horizon
 from sb3_geogp.comparison.hyperparams import TIMESTEPS, HyperparamsFile
 from sb3_geogp.comparison.measurement import (
     MeasureCallback,
@@ -251,6 +252,19 @@ def test_seconds_to_threshold_is_the_training_clock_where_the_curve_first_reache
     r = run_module._evaluation(spec, checkpoints)  # type: ignore[arg-type]
     assert (r["steps_to_threshold"], r["seconds_to_threshold"]) == (steps, seconds)
     assert r["train_clock"] == {"seconds": [0.0, 1.5, 3.0], "cpu_seconds": [0.0, 1.4, 2.9]}
+
+
+def test_the_training_clock_starts_with_learn_where_start_clock_was_not_called() -> None:
+    spec = TINY.specs()[0]
+    model = build_model(spec)
+    eval_envs = [gym.make(spec.env_id) for _ in range(spec.n_eval_episodes)]
+    checkpoints = MeasureCallback(spec, eval_envs, ProbeStates.build(spec.env_id, 2), None)
+    start = time.perf_counter()
+    model.learn(spec.total_timesteps, callback=checkpoints)
+    elapsed = time.perf_counter() - start
+    seconds = checkpoints.train_seconds
+    assert len(seconds) == len(checkpoints.eval_timesteps) >= 2
+    assert 0 <= seconds[0] <= seconds[-1] <= elapsed
 
 
 def test_ray_path_runs_the_same_run_function(
