@@ -36,6 +36,16 @@ CELLS = (
     ("a2c", "rbf", "CartPole-v1"),
     ("a2c", "rbf", "Acrobot-v1"),
 )
+#: PLAN.md's addendum: the cells read only for the return in the same training time.
+MORE_CELLS = (
+    ("ppo", "laplacian", "sb3_geogp/WallMaze-v0"),
+    ("ppo", "laplacian", "sb3_geogp/WallMazeDiscrete-v0"),
+    ("a2c", "rbf", "MountainCarContinuous-v0"),
+    ("a2c", "rbf", "Pendulum-v1"),
+    ("a2c", "rbf", "sb3_geogp/PaperPendulum-v0"),
+    ("a2c", "rbf", "sb3_geogp/WallMaze-v0"),
+    ("a2c", "rbf", "sb3_geogp/WallMazeDiscrete-v0"),
+)
 SEEDS = range(570, 580)
 Runs = dict[tuple[str, str, str, int], dict[str, Any]]
 
@@ -119,10 +129,12 @@ def equal_time_row(runs: Runs, algo: str, gp: str, env: str) -> str | None:
 def reproduction(runs: Runs) -> list[str]:
     """Per cell and critic: how many new runs give the stored run's evaluations exactly."""
     lines = []
-    for algo, gp, env in CELLS:
+    for algo, gp, env in CELLS + MORE_CELLS:
         for critic in (gp, "mlp"):
             old = index(load_results(stored(algo, critic, env)))
             keys = [(algo, critic, env, s) for s in SEEDS if (algo, critic, env, s) in runs]
+            if not keys:
+                continue
             same = sum(old.get(k, {}).get("eval") == runs[k]["eval"] for k in keys)
             lines.append(
                 f"| {algo.upper()} {env.removeprefix('sb3_geogp/')} | {critic} | "
@@ -131,9 +143,13 @@ def reproduction(runs: Runs) -> list[str]:
     return lines
 
 
-def plot(runs: Runs, path: Path) -> None:
-    fig, axes = plt.subplots(2, 3, figsize=(13, 7.5))
-    for ax, (algo, gp, env) in zip(axes.flat, CELLS, strict=True):
+def plot(runs: Runs, cells: tuple[tuple[str, str, str], ...], path: Path) -> None:
+    """Each run's evaluation return against its training clock, a panel per cell."""
+    rows = -(-len(cells) // 3)
+    fig, axes = plt.subplots(rows, 3, figsize=(13, 3.75 * rows), squeeze=False)
+    for ax in axes.flat[len(cells) :]:
+        ax.set_visible(False)
+    for ax, (algo, gp, env) in zip(axes.flat, cells, strict=False):
         for critic, colour in ((gp, "tab:blue"), ("mlp", "tab:orange")):
             label = f"GP critic ({gp})" if critic != "mlp" else "SB3's MLP critic"
             for seed in SEEDS:
@@ -161,11 +177,17 @@ def plot(runs: Runs, path: Path) -> None:
     fig.savefig(path, dpi=110)
 
 
-def table(runs: Runs, caption: str, header: str, row: Callable[..., str | None]) -> None:
+def table(
+    runs: Runs,
+    caption: str,
+    header: str,
+    row: Callable[..., str | None],
+    cells: tuple[tuple[str, str, str], ...] = CELLS,
+) -> None:
     """Print a caption and a table with ``row(runs, algo, gp, env)`` for each cell."""
     print(caption + "\n")
     print(header)
-    for cell in CELLS:
+    for cell in cells:
         line = row(runs, *cell)
         if line is not None:
             print(line)
@@ -195,12 +217,16 @@ def main() -> None:
         "its budget, so its return is read up to one evaluation early (against it).",
         "| cell | seeds | GP, mean | MLP, mean | GP − MLP |\n|---|---:|---:|---:|---|",
         equal_time_row,
+        CELLS + MORE_CELLS,
     )
     print("\n## The new runs against the stored ones (evaluations equal)\n")
     print("| cell | critic | same evaluations |\n|---|---|---|")
     print("\n".join(reproduction(runs)))
-    plot(runs, HERE / "curves.png")
+    plot(runs, CELLS, HERE / "curves.png")
     print("\n![return against the training clock](curves.png)")
+    if any((algo, gp, env, s) in runs for algo, gp, env in MORE_CELLS for s in SEEDS):
+        plot(runs, MORE_CELLS, HERE / "curves_more.png")
+        print("\n![the addendum's cells](curves_more.png)")
 
 
 if __name__ == "__main__":
