@@ -12,7 +12,7 @@ checks the new runs' steps to the threshold against the stored runs of the same 
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import Any
 
@@ -103,11 +103,22 @@ def cell_row(runs: Runs, algo: str, gp: str, env: str) -> str | None:
     return "| " + " | ".join(cells) + " |"
 
 
+def complete_seeds(runs: Runs, cells: tuple[tuple[str, str, str], ...]) -> list[int]:
+    """The seeds on which every run of ``cells`` finished (the addendum's stopping rule)."""
+    return [
+        seed
+        for seed in SEEDS
+        if all((algo, c, env, seed) in runs for algo, gp, env in cells for c in (gp, "mlp"))
+    ]
+
+
 def equal_time_row(runs: Runs, algo: str, gp: str, env: str) -> str | None:
     """The GP critic's return when its training clock reaches the MLP critic's whole training
-    time (its last evaluation by then), against the MLP critic's final return, per seed."""
+    time (its last evaluation by then), against the MLP critic's final return, per seed (for
+    the addendum's cells, the seeds on which all of them finished)."""
     diffs, gp_returns, mlp_returns = [], [], []
-    for seed in SEEDS:
+    more = (algo, gp, env) in MORE_CELLS
+    for seed in complete_seeds(runs, MORE_CELLS) if more else SEEDS:
         g, m = runs.get((algo, gp, env, seed)), runs.get((algo, "mlp", env, seed))
         if g is None or m is None:
             continue
@@ -143,8 +154,11 @@ def reproduction(runs: Runs) -> list[str]:
     return lines
 
 
-def plot(runs: Runs, cells: tuple[tuple[str, str, str], ...], path: Path) -> None:
+def plot(
+    runs: Runs, cells: tuple[tuple[str, str, str], ...], seeds: Iterable[int], path: Path
+) -> None:
     """Each run's evaluation return against its training clock, a panel per cell."""
+    seeds = list(seeds)
     rows = -(-len(cells) // 3)
     fig, axes = plt.subplots(rows, 3, figsize=(13, 3.75 * rows), squeeze=False)
     for ax in axes.flat[len(cells) :]:
@@ -152,7 +166,7 @@ def plot(runs: Runs, cells: tuple[tuple[str, str, str], ...], path: Path) -> Non
     for ax, (algo, gp, env) in zip(axes.flat, cells, strict=False):
         for critic, colour in ((gp, "tab:blue"), ("mlp", "tab:orange")):
             label = f"GP critic ({gp})" if critic != "mlp" else "SB3's MLP critic"
-            for seed in SEEDS:
+            for seed in seeds:
                 r = runs.get((algo, critic, env, seed))
                 if r is None:
                     continue
@@ -172,7 +186,10 @@ def plot(runs: Runs, cells: tuple[tuple[str, str, str], ...], path: Path) -> Non
         ax.set_xlabel("training seconds (evaluations excluded)")
         ax.set_ylabel("evaluation return")
         ax.legend(fontsize=7, loc="lower right")
-    fig.suptitle("Evaluation return against the training clock, seeds 570-579, one run at a time")
+    fig.suptitle(
+        f"Evaluation return against the training clock, seeds {seeds[0]}-{seeds[-1]}, "
+        "one run at a time"
+    )
     fig.tight_layout()
     fig.savefig(path, dpi=110)
 
@@ -214,7 +231,9 @@ def main() -> None:
         "whole training time on the same seed, against the MLP critic's final return: what "
         "each critic's agents reach in the same training seconds. Mean over seeds, GP − MLP "
         "[95 % bootstrap of the paired mean]. The GP critic's evaluations come every 1/20 of "
-        "its budget, so its return is read up to one evaluation early (against it).",
+        "its budget, so its return is read up to one evaluation early (against it). The "
+        "addendum's cells (the last seven) on the seeds whose runs all finished by its "
+        f"stopping time: {complete_seeds(runs, MORE_CELLS)}.",
         "| cell | seeds | GP, mean | MLP, mean | GP − MLP |\n|---|---:|---:|---:|---|",
         equal_time_row,
         CELLS + MORE_CELLS,
@@ -222,10 +241,10 @@ def main() -> None:
     print("\n## The new runs against the stored ones (evaluations equal)\n")
     print("| cell | critic | same evaluations |\n|---|---|---|")
     print("\n".join(reproduction(runs)))
-    plot(runs, CELLS, HERE / "curves.png")
+    plot(runs, CELLS, SEEDS, HERE / "curves.png")
     print("\n![return against the training clock](curves.png)")
     if any((algo, gp, env, s) in runs for algo, gp, env in MORE_CELLS for s in SEEDS):
-        plot(runs, MORE_CELLS, HERE / "curves_more.png")
+        plot(runs, MORE_CELLS, complete_seeds(runs, MORE_CELLS), HERE / "curves_more.png")
         print("\n![the addendum's cells](curves_more.png)")
 
 
