@@ -12,6 +12,7 @@ checks the new runs' steps to the threshold against the stored runs of the same 
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import Any
@@ -62,6 +63,12 @@ def stored(algo: str, critic: str, env: str) -> Path:
     if algo == "ppo" and critic != "mlp":
         return RESULTS / "fit_spacing" / "table" / f"{env.removeprefix('sb3_geogp/')}_s570"
     return RESULTS / "table50" / f"{algo}_s570"
+
+
+@functools.cache
+def stored_runs(folder: Path) -> Runs:
+    """A stored folder's runs, read once: the table's A2C and MLP folders hold many cells."""
+    return index(load_results(folder))
 
 
 def median_ratio(ratios: list[float]) -> str:
@@ -142,10 +149,10 @@ def reproduction(runs: Runs) -> list[str]:
     lines = []
     for algo, gp, env in CELLS + MORE_CELLS:
         for critic in (gp, "mlp"):
-            old = index(load_results(stored(algo, critic, env)))
             keys = [(algo, critic, env, s) for s in SEEDS if (algo, critic, env, s) in runs]
             if not keys:
                 continue
+            old = stored_runs(stored(algo, critic, env))
             same = sum(old.get(k, {}).get("eval") == runs[k]["eval"] for k in keys)
             lines.append(
                 f"| {algo.upper()} {env.removeprefix('sb3_geogp/')} | {critic} | "
