@@ -4,6 +4,7 @@
     python results/fit_spacing/read.py --registered > results/fit_spacing/registered.md
     python results/fit_spacing/read.py --auc > results/fit_spacing/auc.md
     python results/fit_spacing/read.py --steps > results/fit_spacing/steps.md
+    python results/fit_spacing/read.py --curves docs/verdict_table/curves.png
 
 1. ``PLAN.md``'s screen (exploratory): spaced − 0.37's default per cell, paired by seed and as
    the comparison reads it (``results/drift_floor/read.py``'s table), the seed-983 check of
@@ -18,6 +19,8 @@
    issue 13's table on the area under the curve (``--auc``) and the steps to the threshold
    (``--steps``, as ``results/table50/read.py --steps`` reads them), the spaced arm's runs in
    the seven PPO cells.
+4. ``--curves PNG`` (session 80, for the README): that table's learning curves, a panel per
+   cell, each titled with its final-return difference and verdicts.
 """
 
 from __future__ import annotations
@@ -26,6 +29,7 @@ import argparse
 from pathlib import Path
 from typing import Any
 
+from sb3_geogp.comparison.report import plot_cell_curves
 from sb3_geogp.comparison.results import load_results
 from sb3_geogp.toolbox.scripts import load_script
 from sb3_geogp.toolbox.tables import PARTIAL, registered_decision
@@ -185,12 +189,27 @@ def today_spaced() -> list[dict[str, Any]]:
     return today + TABLE.drift_runs(HERE / "table")
 
 
+def curves(path: str) -> None:
+    """Issue 13's table with 0.39's default as learning curves: PPO's cells above A2C's."""
+    runs = today_spaced()
+    rows = POOL30.mlp_rows(runs)
+    titles = {}
+    for cell, c in rows.items():
+        verdict = c["fw_verdict"] if c["fw_verdict"] == c["verdict"] else f"{c['verdict']} at 95 %"
+        titles[cell] = f"{c['diff']:+.1f} [{c['low']:+.1f}, {c['high']:+.1f}], {verdict}"
+    # Four to a line, PPO's seven first: A2C's start on a line of their own.
+    cells: list[tuple[str, str] | None] = [(env, "ppo") for env in sorted(CELLS)]
+    cells += [None, *((env, "a2c") for env in sorted(CELLS))]
+    plot_cell_curves(runs, path, cells, titles)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     reading = parser.add_mutually_exclusive_group()
     reading.add_argument("--registered", action="store_true", help="PREREGISTRATION.md's rule")
     reading.add_argument("--auc", action="store_true", help="the table on the area under the curve")
     reading.add_argument("--steps", action="store_true", help="steps to the threshold")
+    reading.add_argument("--curves", metavar="PNG", help="the table's learning curves")
     args = parser.parse_args()
     if args.registered:
         registered()
@@ -198,6 +217,8 @@ def main() -> None:
         label = LABELS["mean_return"]
         print(f"## Issue 13's table with 0.39's default (the spaced arm), {label}\n")
         POOL30.print_table(POOL30.mlp_rows(today_spaced(), "mean_return"), label)
+    elif args.curves:
+        curves(args.curves)
     elif args.steps:
         TABLE.WHOLE.TABLE50.VERDICT.print_steps(today_spaced(), "50 seeds, 0.39's default")
     else:

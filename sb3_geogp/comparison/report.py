@@ -373,7 +373,7 @@ def _band(ax: Any, t: np.ndarray, values: np.ndarray, critic: str, seed: int) ->
 
 
 def _finish(
-    fig: Any, path: Path, n_seeds: dict[str, list[int]], threshold: float | None = None
+    fig: Any, path: Path, n_seeds: dict[str, list[int]], threshold: str | None = None
 ) -> None:
     """Write ``fig`` with one legend above its panels and :data:`BAND_CAPTION` below.
 
@@ -383,8 +383,8 @@ def _finish(
     path : Path
     n_seeds : dict of str to list of int
         Per critic drawn, the number of seeds of each of its lines.
-    threshold : float, optional
-        The level drawn as a dotted line in every panel.
+    threshold : str, optional
+        The legend's entry for the dotted line drawn in every panel (a threshold).
     """
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
@@ -398,8 +398,7 @@ def _finish(
         label = f"{100 * LEVEL:g} % CI of the mean"
         handles.append(Patch(color="0.5", alpha=0.3, linewidth=0, label=label))
     if threshold is not None:
-        label = f"threshold ({threshold:g})"
-        handles.append(Line2D([], [], color="k", lw=0.8, ls=":", label=label))
+        handles.append(Line2D([], [], color="k", lw=0.8, ls=":", label=threshold))
     # Legend entries take up to 1.8 inches and 8-point text about 1/15 inch per character.
     width = fig.get_figwidth()
     ncol = max(1, min(len(handles), int(width / 1.8)))
@@ -426,21 +425,79 @@ def plot_learning_curves(
         algos = sorted({k[1] for k in groups if k[0] == env_id})
         fig, axes = plt.subplots(1, len(algos), figsize=(5 * len(algos), 4), squeeze=False)
         n_seeds: dict[str, list[int]] = {}
-        threshold = runs_threshold(groups, env_id)
         for ax, algo in zip(axes[0], algos, strict=True):
-            for critic in ALL_CRITICS:
-                runs = groups.get((env_id, algo, critic))
-                if runs:
-                    t, values = stack_curves(runs)
-                    n_seeds.setdefault(critic, []).append(_band(ax, t, values, critic, seed))
-            ax.axhline(threshold, color="k", lw=0.8, ls=":")
+            _curve_panel(ax, groups, (env_id, algo), n_seeds, seed)
             ax.set_title(f"{env_id} — {algo.upper()}")
             ax.set_xlabel("timesteps")
             ax.set_ylabel("evaluation return (deterministic)")
         path = Path(out_dir) / f"curves_{env_file_name(env_id)}.png"
-        _finish(fig, path, n_seeds, threshold)
+        _finish(fig, path, n_seeds, f"threshold ({runs_threshold(groups, env_id):g})")
         paths.append(path)
     return paths
+
+
+def plot_cell_curves(
+    results: list[dict[str, Any]],
+    path: str | Path,
+    cells: Sequence[tuple[str, str] | None],
+    titles: Mapping[tuple[str, str], str] | None = None,
+    n_cols: int = 4,
+    seed: int = 0,
+) -> Path:
+    """Evaluation return against timesteps, a panel per ``(env_id, algo)`` cell, every critic
+    of ``results`` in it (its mean and band, :data:`BAND_CAPTION`) and the cell's threshold.
+
+    Parameters
+    ----------
+    results : list of dict
+        Runs of :func:`~sb3_geogp.comparison.results.load_results`.
+    path : str or Path
+    cells : sequence of (str, str) or None
+        ``(env_id, algo)`` of each panel, in order, ``n_cols`` to a line; ``None`` leaves a
+        panel empty.
+    titles : mapping, optional
+        A line under a cell's name in its title (a verdict, say).
+    n_cols : int
+    seed : int
+        Seed of the bands' bootstrap.
+    """
+    plt = pyplot()
+    groups = group_runs(results)
+    n_rows = -(-len(cells) // n_cols)
+    fig, axes = plt.subplots(n_rows, n_cols, figsize=(2.6 * n_cols, 2.5 * n_rows), squeeze=False)
+    n_seeds: dict[str, list[int]] = {}
+    for i, ax in enumerate(axes.flat):
+        cell = cells[i] if i < len(cells) else None
+        if cell is None:
+            ax.axis("off")
+            continue
+        _curve_panel(ax, groups, cell, n_seeds, seed)
+        extra = (titles or {}).get(cell)
+        name = f"{cell[1].upper()} {cell[0].split('/')[-1]}"
+        ax.set_title(name if extra is None else f"{name}\n{extra}", fontsize=8)
+        ax.tick_params(labelsize=7)
+        ax.set_xlabel("timesteps", fontsize=7)
+        if i % n_cols == 0:
+            ax.set_ylabel("evaluation return", fontsize=7)
+    _finish(fig, Path(path), n_seeds, "the cell's threshold")
+    return Path(path)
+
+
+def _curve_panel(
+    ax: Any,
+    groups: dict[Key, list[dict[str, Any]]],
+    cell: tuple[str, str],
+    n_seeds: dict[str, list[int]],
+    seed: int,
+) -> None:
+    """Every critic's evaluation curves of ``cell`` (mean and band) and its environment's
+    threshold (dotted) in ``ax``; the number of runs of each critic is added to ``n_seeds``."""
+    for critic in ALL_CRITICS:
+        runs = groups.get((*cell, critic))
+        if runs:
+            t, values = stack_curves(runs)
+            n_seeds.setdefault(critic, []).append(_band(ax, t, values, critic, seed))
+    ax.axhline(runs_threshold(groups, cell[0]), color="k", lw=0.8, ls=":")
 
 
 def runs_threshold(groups: dict[Key, list[dict[str, Any]]], env_id: str) -> float:

@@ -14,6 +14,7 @@ import pytest
 from sb3_geogp.comparison.report import (
     BAND_CAPTION,
     comparisons_markdown,
+    plot_cell_curves,
     plot_critic_accuracy,
     plot_difference_panels,
     plot_learning_curves,
@@ -313,6 +314,42 @@ def test_figures_say_what_their_bands_are(monkeypatch: pytest.MonkeyPatch, tmp_p
     monkeypatch.undo()
     for fig in figures:
         plt.close(fig)
+
+
+def test_cell_curves_draw_each_cells_means_and_threshold(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    """A panel per cell in the order given (``None``: an empty one), each with every critic's
+    mean curve over its seeds (known by hand) and its own environment's threshold."""
+    plt = pytest.importorskip("matplotlib.pyplot")
+    figures: list[Any] = []
+    monkeypatch.setattr(plt, "close", figures.append)
+    other = []
+    for r in _results():
+        spec = {**r["spec"], "env_id": "sb3_geogp/F-v0", "algo": "a2c"}
+        other.append({**r, "spec": spec, "threshold": 2.0})
+    cells = [("E-v0", "ppo"), None, ("sb3_geogp/F-v0", "a2c")]
+    titles = {("E-v0", "ppo"): "+100, better"}
+    plot_cell_curves(_results() + other, tmp_path / "c.png", cells, titles, n_cols=2)
+    (fig,) = figures
+    drawn = [ax for ax in fig.axes if ax.axison]
+    assert [ax.get_title() for ax in drawn] == ["PPO E-v0\n+100, better", "A2C F-v0"]
+    assert not fig.axes[1].axison and not fig.axes[3].axison
+    # final returns: mlp and rbf 0..5 (mean 2.5), geodesic 100..105 (mean 102.5)
+    expected = {2.5: [-10.0, 1.25, 2.5], 102.5: [-10.0, 51.25, 102.5]}
+    for ax, threshold in zip(drawn, (1.0, 2.0), strict=True):
+        *means, level = ax.get_lines()
+        assert [list(line.get_ydata()) for line in means] == [
+            pytest.approx(expected[f]) for f in (2.5, 2.5, 102.5)
+        ]
+        assert list(means[0].get_xdata()) == [0, 50, 100]
+        assert list(level.get_ydata()) == [threshold, threshold]
+    (legend,) = fig.legends
+    labels = [t.get_text() for t in legend.get_texts()]
+    assert labels == ["mlp (n = 6)", "rbf (n = 6)", "geodesic (n = 6)", "95 % CI of the mean",
+                      "the cell's threshold"]  # fmt: skip
+    monkeypatch.undo()
+    plt.close(fig)
 
 
 @pytest.mark.parametrize("n_cells", [1, 2, 7])
