@@ -17,8 +17,11 @@ import numpy as np
 import pytest
 import torch as th
 from scipy import stats
+from stable_baselines3 import A2C
+from stable_baselines3.common.env_util import make_vec_env
 from stable_baselines3.common.monitor import Monitor
 
+from sb3_geogp import GPActorCriticPolicy, GPValueCallback
 from sb3_geogp.envs.wall_maze import CORNER_LAYOUT, WallMaze
 from sb3_geogp.policies import DEFAULT_ADAPTATION
 from sb3_geogp.toolbox.tables import NO_INTERVAL
@@ -96,11 +99,6 @@ def test_benchmark_training_adapting_a2c_critic_is_the_drop_ins() -> None:
     """The A2C workload's ``rbf+adapt`` is the critic ``A2C(GPActorCriticPolicy, env)`` builds
     (the same forgetting and adaptation); only a critic that does not adapt gets the fixed
     ``forgetting=0.9``."""
-    from stable_baselines3 import A2C
-    from stable_baselines3.common.env_util import make_vec_env
-
-    from sb3_geogp import GPActorCriticPolicy
-
     bench = load_script("benchmark_training")
     workload = "A2C CartPole-v1"
     env = make_vec_env("CartPole-v1", n_envs=2, seed=0)
@@ -959,10 +957,23 @@ def test_long_training_run_records_every_rollout_and_checks_the_state(
     assert ("device_mib" in table) == th.cuda.is_available()
     assert all(0 < n <= 256 for n in table["n_basis"]) and min(table["noise_var"]) > 0
     assert result["checks"]["passed"] and (tmp_path / "long_training_run.png").stat().st_size
-    rows = [{k: math.nan if v is None else v for k, v in zip(table, values, strict=True)}
-            for values in zip(*table.values(), strict=True)]  # fmt: skip
+    record = {k: np.array([math.nan if v is None else v for v in vs]) for k, vs in table.items()}
 
     planted = {"alpha": th.tensor([1.0, math.nan])}  # what checks() reads: a GP state
     model = SimpleNamespace(policy=SimpleNamespace(gp=SimpleNamespace(state_dict=lambda: planted)))
-    verdict = script.checks(model, rows)
+    verdict = script.checks(model, record)
     assert not verdict["passed"] and verdict["nonfinite_state"] == ["alpha"]
+
+
+def test_long_training_run_record_outgrows_its_plan_without_losing_a_rollout() -> None:
+    """The record is preallocated for the planned rollouts (its own growth would be read as
+    the training's memory); a run that collects more keeps every one, in order."""
+    script = load_script("long_training_run")
+    env = make_vec_env("CartPole-v1", n_envs=4, seed=0)
+    model = A2C(GPActorCriticPolicy, env, seed=0)
+    recorder = script.Recorder(memory_every=4, rollouts=3)
+    model.learn(200, callback=[GPValueCallback(), recorder])
+    record = recorder.record
+    assert record["timesteps"].tolist() == [20.0 * (i + 1) for i in range(10)]
+    assert np.flatnonzero(np.isfinite(record["resident_mib"])).tolist() == [0, 4, 8]
+    assert np.isfinite(record["update_ms"]).all() and (record["n_basis"] > 0).all()
