@@ -29,7 +29,7 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from sb3_geogp.comparison.report import plot_cell_curves
+from sb3_geogp.comparison.report import plot_cell_curves, sweep_cells
 from sb3_geogp.comparison.results import load_results
 from sb3_geogp.toolbox.scripts import load_script
 from sb3_geogp.toolbox.tables import PARTIAL, registered_decision
@@ -197,10 +197,7 @@ def curves(path: str) -> None:
     for cell, c in rows.items():
         verdict = c["fw_verdict"] if c["fw_verdict"] == c["verdict"] else f"{c['verdict']} at 95 %"
         titles[cell] = f"{c['diff']:+.1f} [{c['low']:+.1f}, {c['high']:+.1f}], {verdict}"
-    # Four to a line, PPO's seven first: A2C's start on a line of their own.
-    cells: list[tuple[str, str] | None] = [(env, "ppo") for env in sorted(CELLS)]
-    cells += [None, *((env, "a2c") for env in sorted(CELLS))]
-    plot_cell_curves(runs, path, cells, titles)
+    plot_cell_curves(runs, path, sweep_cells(runs, ("ppo", "a2c")), titles)  # as the README
 
 
 def main() -> None:

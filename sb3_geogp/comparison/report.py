@@ -5,6 +5,8 @@ Writes to ``out/report/`` (:func:`write_report`), from :mod:`sb3_geogp.compariso
 * ``curves_<env>.png``: evaluation return against timesteps, one panel per algorithm, the
   mean over seeds of each critic with the 95 % percentile-bootstrap interval of that mean at
   every checkpoint as a band, and the steps-to-threshold level;
+* ``curves.png``: the same for every cell on one figure, a panel per (algorithm,
+  environment), each algorithm's cells from a new line (:func:`plot_cell_curves`);
 * ``critic_accuracy.png``: RMSE of the critic's value against Monte Carlo returns at the probe
   states, per environment and algorithm, mean and band over seeds;
 * ``summary.md`` / ``summary.json``: :func:`~sb3_geogp.comparison.results.summary_rows`;
@@ -483,6 +485,20 @@ def plot_cell_curves(
     return Path(path)
 
 
+def sweep_cells(
+    results: list[dict[str, Any]], algos: Sequence[str] | None = None, n_cols: int = 4
+) -> list[tuple[str, str] | None]:
+    """The ``(env_id, algo)`` cells of ``results`` for :func:`plot_cell_curves`: by algorithm
+    (in the order of ``algos``, by default alphabetical) and environment, each algorithm's
+    first cell at the start of a line of ``n_cols`` (``None`` fills the line before it)."""
+    cells: list[tuple[str, str] | None] = []
+    for algo in algos or sorted({r["spec"]["algo"] for r in results}):
+        cells += [None] * (-len(cells) % n_cols)
+        envs = sorted({r["spec"]["env_id"] for r in results if r["spec"]["algo"] == algo})
+        cells += [(env, algo) for env in envs]
+    return cells
+
+
 def _curve_panel(
     ax: Any,
     groups: dict[Key, list[dict[str, Any]]],
@@ -599,6 +615,7 @@ def write_report(
     if not matplotlib_available():
         return paths  # the tables; figures need matplotlib
     paths += plot_learning_curves(results, report, seed=seed)
+    paths.append(plot_cell_curves(results, report / "curves.png", sweep_cells(results), seed=seed))
     paths.append(plot_critic_accuracy(results, report / "critic_accuracy.png", seed=seed))
     return paths
 

@@ -20,6 +20,7 @@ from sb3_geogp.comparison.report import (
     plot_learning_curves,
     rerun_markdown,
     summary_markdown,
+    sweep_cells,
 )
 from sb3_geogp.comparison.results import (
     METRICS,
@@ -350,6 +351,16 @@ def test_cell_curves_draw_each_cells_means_and_threshold(
                       "the cell's threshold"]  # fmt: skip
     monkeypatch.undo()
     plt.close(fig)
+
+
+def test_sweep_cells_start_each_algorithm_on_a_new_line() -> None:
+    runs = [{"spec": {"env_id": env, "algo": algo}} for env in ("B-v0", "A-v0", "C-v0")
+            for algo in ("ppo", "a2c")] + [{"spec": {"env_id": "A-v0", "algo": "ppo"}}]  # fmt: skip
+    a2c = [("A-v0", "a2c"), ("B-v0", "a2c"), ("C-v0", "a2c")]
+    ppo = [("A-v0", "ppo"), ("B-v0", "ppo"), ("C-v0", "ppo")]
+    assert sweep_cells(runs, n_cols=2) == [*a2c, None, *ppo]
+    assert sweep_cells(runs, ("ppo", "a2c"), n_cols=3) == [*ppo, *a2c]
+    assert sweep_cells(runs, ("ppo", "a2c"), n_cols=4) == [*ppo, None, *a2c]
 
 
 @pytest.mark.parametrize("n_cells", [1, 2, 7])
