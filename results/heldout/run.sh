@@ -15,9 +15,10 @@ compare() {  # algo, first seed, folder, then envs and flags
 }
 case ${1:?"run.sh mujoco|lunar"} in
     mujoco)
+        # (the table's rule for these cells, a second sweep into $OUT/table_rule, was dropped
+        # for time: PLAN.md's addendum)
         compare ppo 1023 "$OUT/normalized" "${MUJOCO[@]}" --critics mlp laplacian \
-            --mlp-normalize --gp-actor-normalize
-        compare ppo 1023 "$OUT/table_rule" "${MUJOCO[@]}" --critics mlp laplacian ;;
+            --mlp-normalize --gp-actor-normalize ;;
     lunar)
         compare a2c 216 "$OUT/table_rule" LunarLander-v3 --critics mlp rbf ;;
 esac
