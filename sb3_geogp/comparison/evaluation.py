@@ -168,45 +168,108 @@ class ProbeStates:
     critics bootstrap at time-limit truncations, so they estimate this time-agnostic
     discounted value rather than the return to the end of an episode.
 
+    A copy is ``copy.deepcopy`` of the probe's environment where that copies the state, else
+    the probe's recipe (its reset seed and actions) replayed on a new environment: gymnasium's
+    ``EzPickle`` environments (MuJoCo's, Box2D's) answer ``deepcopy`` by building a new
+    environment from their constructor's arguments, not at the state (a MuJoCo copy starts at
+    the model's initial state; a LunarLander copy cannot step). :meth:`build` decides by
+    stepping a copy and a replay of the last probe side by side.
+
     Attributes
     ----------
     snapshots : list of gymnasium.Env
-        Unwrapped environments at the probe states (never stepped; copied per rollout).
+        Unwrapped environments at the probe states (never stepped but to check a copy).
     obs : ndarray, shape (n, *obs_shape)
     episode_steps : int
         The environment's time limit.
+    env_id : str
+    recipes : list of (int, list)
+        Each probe's reset seed and the actions that reach it from there.
+    copies : bool
+        Whether ``copy.deepcopy`` copies the probe states (else they are replayed).
     """
 
     snapshots: list[gym.Env]
     obs: np.ndarray
     episode_steps: int
+    env_id: str
+    recipes: list[tuple[int, list[Any]]]
+    copies: bool
 
     @classmethod
     def build(cls, env_id: str, n: int, seed: int = PROBE_SEED) -> ProbeStates:
-        """Probe states of ``env_id`` (see the class docstring)."""
+        """Probe states of ``env_id`` (see the class docstring).
+
+        Raises
+        ------
+        ValueError
+            If the probe states can be neither copied nor replayed (an environment whose
+            steps a seed does not fix).
+        """
         episode_steps = max_episode_steps(env_id)
         stride = max(1, episode_steps // (2 * n))
         snapshots: list[gym.Env] = []
         obs_list = []
+        recipes = []
         for k in range(n):
             env = gym.make(env_id).unwrapped
             actions = _probe_actions(env, k * stride, seed + k)
             # Walk until the step before any termination, then replay that many steps.
-            o, _ = env.reset(seed=seed + k)
             n_ok = 0
+            env.reset(seed=seed + k)
             for a in actions:
-                o_next, _, terminated, _, _ = env.step(a)
-                if terminated:
+                if env.step(a)[2]:
                     break
                 n_ok += 1
-                o = o_next
-            if n_ok < len(actions):
-                o, _ = env.reset(seed=seed + k)
-                for a in actions[:n_ok]:
-                    o, *_ = env.step(a)
+            recipes.append((seed + k, actions[:n_ok]))
+            env, o = _replay(env_id, *recipes[-1], env)
             snapshots.append(env)
-            obs_list.append(np.asarray(o))
-        return cls(snapshots=snapshots, obs=np.stack(obs_list), episode_steps=episode_steps)
+            obs_list.append(o)
+        probes = cls(snapshots, np.stack(obs_list), episode_steps, env_id, recipes, False)
+        probes.copies = probes._copy_is_faithful()
+        if not probes.copies:
+            probes._check_replays()
+        return probes
+
+    def start(self, k: int) -> gym.Env:
+        """A new environment at probe ``k``'s state."""
+        if self.copies:
+            return copy.deepcopy(self.snapshots[k])
+        return _replay(self.env_id, *self.recipes[k])[0]
+
+    def _copy_is_faithful(self) -> bool:
+        """Whether a ``deepcopy`` of the last probe steps as its replay does (same random
+        stream, the same actions): then it holds the state."""
+        k = len(self.snapshots) - 1
+        pair = [copy.deepcopy(self.snapshots[k]), _replay(self.env_id, *self.recipes[k])[0]]
+        space = copy.deepcopy(pair[1].action_space)
+        space.seed(PROBE_SEED)
+        for env in pair:
+            env.np_random = np.random.default_rng(PROBE_SEED)
+        for _ in range(_COPY_CHECK_STEPS):
+            action = space.sample()
+            replayed = pair[1].step(action)
+            try:
+                copied = pair[0].step(action)
+            # Whatever a broken copy raises (LunarLander: AssertionError) says it is not one.
+            except Exception:
+                return False
+            if not _same_step(copied, replayed):
+                return False
+            if replayed[2] or replayed[3]:
+                break
+        return True
+
+    def _check_replays(self) -> None:
+        """Raise ValueError unless every probe's replay reaches its observation."""
+        for k, recipe in enumerate(self.recipes):
+            if not np.array_equal(_replay(self.env_id, *recipe)[1], self.obs[k]):
+                raise ValueError(
+                    f"{self.env_id}: the critic-accuracy probe states can be neither copied "
+                    "(copy.deepcopy of the environment does not hold its state) nor replayed "
+                    f"(reset(seed={recipe[0]}) and the same {len(recipe[1])} actions reach "
+                    "another observation): the comparison cannot measure its critics' accuracy"
+                )
 
     def monte_carlo(
         self,
@@ -226,9 +289,9 @@ class ProbeStates:
         horizon = mc_horizon(gamma, self.episode_steps)
         n = len(self.snapshots)
         envs = []
-        for k, snap in enumerate(self.snapshots):
+        for k in range(n):
             for r in range(n_rollouts):
-                env = copy.deepcopy(snap)
+                env = self.start(k)
                 env.np_random = np.random.default_rng([seed, k, r])  # independent env noise
                 envs.append(env)
         obs = np.repeat(self.obs, n_rollouts, axis=0)
@@ -247,6 +310,27 @@ class ProbeStates:
         if stderr is None:
             stderr = np.full(n, np.nan)
         return returns.mean(axis=1), stderr, int(lengths.sum())
+
+
+#: Steps a copy of a probe state is checked for (:meth:`ProbeStates._copy_is_faithful`).
+_COPY_CHECK_STEPS = 5
+
+
+def _replay(
+    env_id: str, seed: int, actions: Sequence[Any], env: gym.Env | None = None
+) -> tuple[gym.Env, np.ndarray]:
+    """``env`` (by default a new unwrapped ``env_id``) reset with ``seed`` and stepped with
+    ``actions``, and its observation there."""
+    env = gym.make(env_id).unwrapped if env is None else env
+    o, _ = env.reset(seed=seed)
+    for a in actions:
+        o = env.step(a)[0]
+    return env, np.asarray(o)
+
+
+def _same_step(a: tuple[Any, ...], b: tuple[Any, ...]) -> bool:
+    """Whether two ``step`` results have the same observation, reward and flags."""
+    return bool(np.array_equal(a[0], b[0])) and tuple(a[1:4]) == tuple(b[1:4])
 
 
 def mc_horizon(gamma: float, episode_steps: int) -> int:
