@@ -1,0 +1,127 @@
+"""The registered reading of ``PLAN.md`` (session 80): the default GP critic against SB3's
+MLP critic on four cells it was never tuned on::
+
+    python results/heldout/read.py > results/heldout/read.md
+    python results/heldout/read.py --curves results/heldout/curves.png
+
+Per cell: final evaluation return, GP − MLP, 95 % percentile bootstrap and family-wise over
+the plan's 7 comparisons (Bonferroni; the table's rule), then the area under the curve and
+the steps to the threshold (secondary), the seeds that finished, and the commits the runs
+executed. ``--dir`` reads other folders of the same layout (a smoke run).
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import Any
+
+from sb3_geogp.comparison.report import plot_cell_curves
+from sb3_geogp.comparison.results import comparisons, load_results, summary_rows
+
+HERE = Path(__file__).resolve().parent
+#: The plan's folders and what each protocol is.
+PROTOCOLS = {
+    "normalized": "each critic as it can best run (primary): "
+    "`--mlp-normalize --gp-actor-normalize`",
+    "table_rule": "the table's rule: no `VecNormalize` (LunarLander-v3's entry has none)",
+}
+FAMILY = 7  # PLAN.md: 3 MuJoCo cells x 2 protocols + LunarLander-v3, kept after the addendum
+SEEDS = 10
+LABELS = {"final_return": "final return", "mean_return": "area under the curve (mean return)"}
+
+
+def protocol_runs(root: Path) -> dict[str, list[dict[str, Any]]]:
+    """The runs of each protocol's folder that exists under ``root``."""
+    return {p: load_results(root / p) for p in PROTOCOLS if (root / p / "runs").is_dir()}
+
+
+def differences(runs: list[dict[str, Any]], metric: str) -> list[dict[str, Any]]:
+    """GP − MLP per cell on ``metric``, family-wise over the plan's family."""
+    rows = comparisons(runs, family_size=FAMILY)
+    return [c for c in rows if c["metric"] == metric and c["b"] == "mlp"]
+
+
+def print_differences(by_protocol: dict[str, list[dict[str, Any]]], metric: str) -> None:
+    print(f"## GP − MLP, {LABELS[metric]}\n")
+    print("| algo | env | protocol | seeds GP / MLP | GP − MLP [95 %] | verdict | family-wise "
+          f"interval (of {FAMILY}) | family-wise |")  # fmt: skip
+    print("|---|---|---|---|---|---|---|---|")
+    for protocol, runs in by_protocol.items():
+        for c in sorted(differences(runs, metric), key=lambda c: (c["algo"], c["env"])):
+            partial = "" if min(c["n_a"], c["n_b"]) == SEEDS else " (partial)"
+            print(
+                f"| {c['algo']} | {c['env']} | {protocol} | {c['n_a']} / {c['n_b']}{partial} | "
+                f"{c['diff']:+.2f} [{c['low']:+.2f}, {c['high']:+.2f}] | {c['verdict']} | "
+                f"[{c['fw_low']:+.2f}, {c['fw_high']:+.2f}] | {c['fw_verdict']} |"
+            )
+    print()
+
+
+def print_summary(by_protocol: dict[str, list[dict[str, Any]]]) -> None:
+    print("## Each critic's final return and steps to the threshold\n")
+    print("| algo | env | protocol | critic | seeds | final return [95 %] | threshold | "
+          "reached | median steps to it |")  # fmt: skip
+    print("|---|---|---|---|---|---|---|---|---|")
+    for protocol, runs in by_protocol.items():
+        for r in sorted(summary_rows(runs), key=lambda r: (r["algo"], r["env"], r["critic"])):
+            steps = r["steps_to_threshold_median"]
+            median = "never" if steps is None else f"{steps:,.0f}"
+            print(
+                f"| {r['algo']} | {r['env']} | {protocol} | {r['critic']} | {r['n_seeds']} | "
+                f"{r['final_mean']:.2f} [{r['final_low']:.2f}, {r['final_high']:.2f}] | "
+                f"{r['threshold']:g} | {r['reached']}/{r['n_seeds']} | {median} |"
+            )
+    print()
+
+
+def print_provenance(by_protocol: dict[str, list[dict[str, Any]]]) -> None:
+    print("## What the runs executed\n")
+    for protocol, runs in by_protocol.items():
+        cells: dict[tuple[str, str, str], list[str]] = {}
+        for r in runs:
+            s, p = r["spec"], r["provenance"]
+            cells.setdefault((s["algo"], s["env_id"], p["git_commit"][:8]), []).append(s["critic"])
+        for (algo, env, commit), critics in sorted(cells.items()):
+            dirty = {r["provenance"]["git_dirty"] for r in runs if r["spec"]["env_id"] == env}
+            print(f"- {protocol}, {algo} {env}: {len(critics)} runs at commit {commit} "
+                  f"(uncommitted changes: {sorted(dirty)})")  # fmt: skip
+    print()
+
+
+def curves(by_protocol: dict[str, list[dict[str, Any]]], path: str) -> None:
+    """Both protocols' learning curves, a panel per cell, titled with its final-return row."""
+    runs = [r for rs in by_protocol.values() for r in rs]
+    titles, cells = {}, []
+    for protocol, rs in by_protocol.items():
+        for c in sorted(differences(rs, "final_return"), key=lambda c: (c["algo"], c["env"])):
+            cells.append((c["env"], c["algo"]))
+            same = c["fw_verdict"] == c["verdict"]
+            verdict = c["verdict"] if same else f"{c['verdict']} at 95 %"
+            titles[cells[-1]] = (
+                f"{protocol}: {c['diff']:+.1f} [{c['low']:+.1f}, {c['high']:+.1f}], {verdict}"
+            )
+    plot_cell_curves(runs, path, cells, titles, n_cols=min(4, len(cells)))
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--curves", metavar="PNG", help="draw the learning curves")
+    parser.add_argument("--dir", type=Path, default=HERE, help="folder holding the protocols")
+    args = parser.parse_args()
+    by_protocol = protocol_runs(args.dir)
+    if args.curves:
+        curves(by_protocol, args.curves)
+        return
+    print("# Held-out cells: the registered reading (PLAN.md)\n")
+    for name, text in PROTOCOLS.items():
+        print(f"- `{name}`: {text}")
+    print()
+    for metric in LABELS:
+        print_differences(by_protocol, metric)
+    print_summary(by_protocol)
+    print_provenance(by_protocol)
+
+
+if __name__ == "__main__":
+    main()
