@@ -7,7 +7,9 @@ MLP critic on four cells it was never tuned on::
 Per cell: final evaluation return, GP − MLP, 95 % percentile bootstrap and family-wise over
 the plan's 7 comparisons (Bonferroni; the table's rule), then the area under the curve and
 the steps to the threshold (secondary), the seeds that finished, and the commits the runs
-executed. ``--dir`` reads other folders of the same layout (a smoke run).
+executed. The PPO cells under the table's rule are the plan's addendum 2 (exploratory, after
+the registered reading), read apart and drawn in ``curves_exploratory.png`` beside the
+``--curves`` figure. ``--dir`` reads other folders of the same layout (a smoke run).
 """
 
 from __future__ import annotations
@@ -31,9 +33,19 @@ SEEDS = 10
 LABELS = {"final_return": "final return", "mean_return": "area under the curve (mean return)"}
 
 
-def protocol_runs(root: Path) -> dict[str, list[dict[str, Any]]]:
-    """The runs of each protocol's folder that exists under ``root``."""
-    return {p: load_results(root / p) for p in PROTOCOLS if (root / p / "runs").is_dir()}
+#: (protocol, algo) of the plan's addendum 2: exploratory cells
+EXPLORATORY = {("table_rule", "ppo")}
+
+
+def protocol_runs(root: Path, exploratory: bool = False) -> dict[str, list[dict[str, Any]]]:
+    """The runs of each protocol's folder that exists under ``root``: the registered ones, or
+    (``exploratory``) those of :data:`EXPLORATORY`."""
+    runs = {p: load_results(root / p) for p in PROTOCOLS if (root / p / "runs").is_dir()}
+    chosen = {
+        p: [r for r in rs if ((p, r["spec"]["algo"]) in EXPLORATORY) == exploratory]
+        for p, rs in runs.items()
+    }
+    return {p: rs for p, rs in chosen.items() if rs}
 
 
 def differences(runs: list[dict[str, Any]], metric: str) -> list[dict[str, Any]]:
@@ -99,7 +111,7 @@ def curves(by_protocol: dict[str, list[dict[str, Any]]], path: str) -> None:
             same = c["fw_verdict"] == c["verdict"]
             verdict = c["verdict"] if same else f"{c['verdict']} at 95 %"
             titles[cells[-1]] = (
-                f"{protocol}: {c['diff']:+.1f} [{c['low']:+.1f}, {c['high']:+.1f}], {verdict}"
+                f"{protocol}\n{c['diff']:+.1f} [{c['low']:+.1f}, {c['high']:+.1f}], {verdict}"
             )
     plot_cell_curves(runs, path, cells, titles, n_cols=min(4, len(cells)))
 
@@ -110,8 +122,11 @@ def main() -> None:
     parser.add_argument("--dir", type=Path, default=HERE, help="folder holding the protocols")
     args = parser.parse_args()
     by_protocol = protocol_runs(args.dir)
+    explored = protocol_runs(args.dir, exploratory=True)
     if args.curves:
         curves(by_protocol, args.curves)
+        if explored:
+            curves(explored, str(Path(args.curves).with_name("curves_exploratory.png")))
         return
     print("# Held-out cells: the registered reading (PLAN.md)\n")
     for name, text in PROTOCOLS.items():
@@ -121,6 +136,11 @@ def main() -> None:
         print_differences(by_protocol, metric)
     print_summary(by_protocol)
     print_provenance(by_protocol)
+    if explored:
+        print("# Addendum 2 (exploratory, decided after the reading above): the table's rule\n")
+        print_differences(explored, "final_return")
+        print_summary(explored)
+        print_provenance(explored)
 
 
 if __name__ == "__main__":

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The runs of PLAN.md: `run.sh mujoco` (the three PPO cells, the primary protocol), then
-# `run.sh lunar` (A2C LunarLander-v3), and `run.sh table` (addendum 2, exploratory). Run from a worktree of the commit PLAN.md names for
-# each, with sb3_geogp importable and gymnasium's mujoco and box2d extras.
+# `run.sh lunar` (A2C LunarLander-v3), and `run.sh table` (addendum 2, exploratory). Run from
+# a worktree of the commit PLAN.md names for each, with sb3_geogp importable and gymnasium's
+# mujoco and box2d extras.
 set -euo pipefail
 HERE=$(cd "$(dirname "$0")" && pwd)
 OUT=${OUT:-$HERE}
