@@ -19,8 +19,8 @@
    issue 13's table on the area under the curve (``--auc``) and the steps to the threshold
    (``--steps``, as ``results/table50/read.py --steps`` reads them), the spaced arm's runs in
    the seven PPO cells.
-4. ``--curves PNG`` (session 80, for the README): that table's learning curves, a panel per
-   cell, each titled with its final-return difference and verdicts.
+4. ``--curves PNG`` (session 80, docs/results.md's Bottom line): the table's learning curves,
+   a panel per cell, each titled with its final-return difference and verdicts.
 """
 
 from __future__ import annotations
@@ -197,7 +197,7 @@ def curves(path: str) -> None:
     for cell, c in rows.items():
         verdict = c["fw_verdict"] if c["fw_verdict"] == c["verdict"] else f"{c['verdict']} at 95 %"
         titles[cell] = f"{c['diff']:+.1f} [{c['low']:+.1f}, {c['high']:+.1f}], {verdict}"
-    plot_cell_curves(runs, path, sweep_cells(runs, ("ppo", "a2c")), titles)  # as the README
+    plot_cell_curves(runs, path, sweep_cells(runs, ("ppo", "a2c")), titles)  # PPO first
 
 
 def main() -> None:
