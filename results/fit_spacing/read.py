@@ -29,7 +29,7 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from sb3_geogp.comparison.report import plot_cell_curves, sweep_cells
+from sb3_geogp.comparison.report import difference_title, plot_cell_curves, sweep_cells
 from sb3_geogp.comparison.results import load_results
 from sb3_geogp.toolbox.scripts import load_script
 from sb3_geogp.toolbox.tables import PARTIAL, registered_decision
@@ -192,11 +192,7 @@ def today_spaced() -> list[dict[str, Any]]:
 def curves(path: str) -> None:
     """Issue 13's table with 0.39's default as learning curves: PPO's cells above A2C's."""
     runs = today_spaced()
-    rows = POOL30.mlp_rows(runs)
-    titles = {}
-    for cell, c in rows.items():
-        verdict = c["fw_verdict"] if c["fw_verdict"] == c["verdict"] else f"{c['verdict']} at 95 %"
-        titles[cell] = f"{c['diff']:+.1f} [{c['low']:+.1f}, {c['high']:+.1f}], {verdict}"
+    titles = {cell: difference_title(c) for cell, c in POOL30.mlp_rows(runs).items()}
     plot_cell_curves(runs, path, sweep_cells(runs, ("ppo", "a2c")), titles)  # PPO first
 
 

@@ -15,10 +15,11 @@ the registered reading), read apart and drawn in ``curves_exploratory.png`` besi
 from __future__ import annotations
 
 import argparse
+from collections import Counter
 from pathlib import Path
 from typing import Any
 
-from sb3_geogp.comparison.report import plot_cell_curves
+from sb3_geogp.comparison.report import difference_title, plot_cell_curves
 from sb3_geogp.comparison.results import comparisons, load_results, summary_rows
 
 HERE = Path(__file__).resolve().parent
@@ -33,11 +34,13 @@ SEEDS = 10
 LABELS = {"final_return": "final return", "mean_return": "area under the curve (mean return)"}
 
 
+#: Runs, or comparison rows, by protocol
+Rows = dict[str, list[dict[str, Any]]]
 #: (protocol, algo) of the plan's addendum 2: exploratory cells
 EXPLORATORY = {("table_rule", "ppo")}
 
 
-def protocol_runs(root: Path, exploratory: bool = False) -> dict[str, list[dict[str, Any]]]:
+def protocol_runs(root: Path, exploratory: bool = False) -> Rows:
     """The runs of each protocol's folder that exists under ``root``: the registered ones, or
     (``exploratory``) those of :data:`EXPLORATORY`."""
     runs = {p: load_results(root / p) for p in PROTOCOLS if (root / p / "runs").is_dir()}
@@ -48,19 +51,22 @@ def protocol_runs(root: Path, exploratory: bool = False) -> dict[str, list[dict[
     return {p: rs for p, rs in chosen.items() if rs}
 
 
-def differences(runs: list[dict[str, Any]], metric: str) -> list[dict[str, Any]]:
-    """GP − MLP per cell on ``metric``, family-wise over the plan's family."""
-    rows = comparisons(runs, family_size=FAMILY)
-    return [c for c in rows if c["metric"] == metric and c["b"] == "mlp"]
+def differences(by_protocol: Rows) -> Rows:
+    """Per protocol, GP − MLP per cell on every metric, family-wise over the plan's family."""
+    return {
+        p: [c for c in comparisons(runs, family_size=FAMILY) if c["b"] == "mlp"]
+        for p, runs in by_protocol.items()
+    }
 
 
-def print_differences(by_protocol: dict[str, list[dict[str, Any]]], metric: str) -> None:
+def print_differences(diffs: Rows, metric: str) -> None:
+    """The rows of ``diffs`` (:func:`differences`) on ``metric`` as a table."""
     print(f"## GP − MLP, {LABELS[metric]}\n")
     print("| algo | env | protocol | seeds GP / MLP | GP − MLP [95 %] | verdict | family-wise "
           f"interval (of {FAMILY}) | family-wise |")  # fmt: skip
     print("|---|---|---|---|---|---|---|---|")
-    for protocol, runs in by_protocol.items():
-        for c in sorted(differences(runs, metric), key=lambda c: (c["algo"], c["env"])):
+    for protocol, rows in diffs.items():
+        for c in _sorted_cells(rows, metric):
             partial = "" if min(c["n_a"], c["n_b"]) == SEEDS else " (partial)"
             print(
                 f"| {c['algo']} | {c['env']} | {protocol} | {c['n_a']} / {c['n_b']}{partial} | "
@@ -70,7 +76,7 @@ def print_differences(by_protocol: dict[str, list[dict[str, Any]]], metric: str)
     print()
 
 
-def print_summary(by_protocol: dict[str, list[dict[str, Any]]]) -> None:
+def print_summary(by_protocol: Rows) -> None:
     print("## Each critic's final return and steps to the threshold\n")
     print("| algo | env | protocol | critic | seeds | final return [95 %] | threshold | "
           "reached | median steps to it |")  # fmt: skip
@@ -87,32 +93,32 @@ def print_summary(by_protocol: dict[str, list[dict[str, Any]]]) -> None:
     print()
 
 
-def print_provenance(by_protocol: dict[str, list[dict[str, Any]]]) -> None:
+def print_provenance(by_protocol: Rows) -> None:
     print("## What the runs executed\n")
     for protocol, runs in by_protocol.items():
-        cells: dict[tuple[str, str, str], list[str]] = {}
-        for r in runs:
-            s, p = r["spec"], r["provenance"]
-            cells.setdefault((s["algo"], s["env_id"], p["git_commit"][:8]), []).append(s["critic"])
-        for (algo, env, commit), critics in sorted(cells.items()):
-            dirty = {r["provenance"]["git_dirty"] for r in runs if r["spec"]["env_id"] == env}
-            print(f"- {protocol}, {algo} {env}: {len(critics)} runs at commit {commit} "
-                  f"(uncommitted changes: {sorted(dirty)})")  # fmt: skip
+        cells = Counter(
+            (r["spec"]["algo"], r["spec"]["env_id"], r["provenance"]["git_commit"][:8],
+             r["provenance"]["git_dirty"])
+            for r in runs
+        )  # fmt: skip
+        for (algo, env, commit, dirty), n in sorted(cells.items()):
+            print(f"- {protocol}, {algo} {env}: {n} runs at commit {commit} "
+                  f"(uncommitted changes: {dirty})")  # fmt: skip
     print()
 
 
-def curves(by_protocol: dict[str, list[dict[str, Any]]], path: str) -> None:
+def _sorted_cells(rows: list[dict[str, Any]], metric: str) -> list[dict[str, Any]]:
+    return sorted((c for c in rows if c["metric"] == metric), key=lambda c: (c["algo"], c["env"]))
+
+
+def curves(by_protocol: Rows, path: str) -> None:
     """Both protocols' learning curves, a panel per cell, titled with its final-return row."""
     runs = [r for rs in by_protocol.values() for r in rs]
     titles, cells = {}, []
-    for protocol, rs in by_protocol.items():
-        for c in sorted(differences(rs, "final_return"), key=lambda c: (c["algo"], c["env"])):
+    for protocol, rows in differences(by_protocol).items():
+        for c in _sorted_cells(rows, "final_return"):
             cells.append((c["env"], c["algo"]))
-            same = c["fw_verdict"] == c["verdict"]
-            verdict = c["verdict"] if same else f"{c['verdict']} at 95 %"
-            titles[cells[-1]] = (
-                f"{protocol}\n{c['diff']:+.1f} [{c['low']:+.1f}, {c['high']:+.1f}], {verdict}"
-            )
+            titles[cells[-1]] = f"{protocol}\n{difference_title(c)}"
     plot_cell_curves(runs, path, cells, titles, n_cols=min(4, len(cells)))
 
 
@@ -132,13 +138,14 @@ def main() -> None:
     for name, text in PROTOCOLS.items():
         print(f"- `{name}`: {text}")
     print()
+    diffs = differences(by_protocol)
     for metric in LABELS:
-        print_differences(by_protocol, metric)
+        print_differences(diffs, metric)
     print_summary(by_protocol)
     print_provenance(by_protocol)
     if explored:
         print("# Addendum 2 (exploratory, decided after the reading above): the table's rule\n")
-        print_differences(explored, "final_return")
+        print_differences(differences(explored), "final_return")
         print_summary(explored)
         print_provenance(explored)
 

@@ -211,6 +211,14 @@ def comparison_cell(r: dict[str, Any] | None) -> str:
     return f"{cell} {word}"
 
 
+def difference_title(r: dict[str, Any]) -> str:
+    """A :func:`~sb3_geogp.comparison.results.comparisons` row as a figure's title line:
+    ``"+51.0 [+24.8, +79.8], better"``, with ``" at 95 %"`` after a verdict that does not also
+    hold family-wise."""
+    word = r["verdict"] if r["fw_verdict"] == r["verdict"] else f"{r['verdict']} at 95 %"
+    return f"{r['diff']:+.1f} [{r['low']:+.1f}, {r['high']:+.1f}], {word}"
+
+
 def count_verdicts(rows: Sequence[dict[str, Any]]) -> str:
     """``"better (family-wise) / no difference / worse (family-wise)"`` counts of
     :func:`~sb3_geogp.comparison.results.comparisons` rows, e.g. ``"4 (1) / 9 / 1 (0)"``."""

@@ -14,6 +14,7 @@ import pytest
 from sb3_geogp.comparison.report import (
     BAND_CAPTION,
     comparisons_markdown,
+    difference_title,
     plot_cell_curves,
     plot_critic_accuracy,
     plot_difference_panels,
@@ -351,6 +352,19 @@ def test_cell_curves_draw_each_cells_means_and_threshold(
                       "the cell's threshold"]  # fmt: skip
     monkeypatch.undo()
     plt.close(fig)
+
+
+def test_difference_title_says_where_a_verdict_holds_only_at_95() -> None:
+    row = {"diff": 51.04, "low": 24.8, "high": 79.85, "verdict": "better", "fw_verdict": "better"}
+    assert difference_title(row) == "+51.0 [+24.8, +79.8], better"
+    row |= {
+        "diff": -3.0,
+        "low": -6.1,
+        "high": -0.5,
+        "verdict": "worse",
+        "fw_verdict": "no difference",
+    }
+    assert difference_title(row) == "-3.0 [-6.1, -0.5], worse at 95 %"
 
 
 def test_sweep_cells_start_each_algorithm_on_a_new_line() -> None:
