@@ -21,7 +21,6 @@ from pathlib import Path
 import numpy as np
 import torch
 from stable_baselines3 import A2C
-from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.env_util import make_vec_env
 
 from sb3_geogp import GPActorCriticPolicy, GPValueCallback
@@ -29,10 +28,9 @@ from sb3_geogp import GPActorCriticPolicy, GPValueCallback
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "examples"))
 from long_training_run import resident_mib  # noqa: E402
+from mlp_memory import FROM, Memory  # noqa: E402
 
 LIBC = ctypes.CDLL("libc.so.6")
-FROM = 300_000
-EVERY = 20
 
 
 class MallInfo2(ctypes.Structure):
@@ -55,27 +53,12 @@ def reading(steps: int) -> tuple[int, float, float, float, float]:
     return steps, resident_mib(), info.uordblks * mib, info.fordblks * mib, info.hblkhd * mib
 
 
-class Memory(BaseCallback):
-    def __init__(self) -> None:
-        super().__init__()
-        self.rows: list[tuple[int, float, float, float, float]] = []
-        self._rollouts = 0
-
-    def _on_step(self) -> bool:
-        return True
-
-    def _on_rollout_end(self) -> None:
-        if self._rollouts % EVERY == 0:
-            self.rows.append(reading(self.num_timesteps))
-        self._rollouts += 1
-
-
 def main() -> None:
     torch.set_num_threads(1)
     steps = int(sys.argv[1])
     env = make_vec_env("CartPole-v1", n_envs=4, seed=0)
     model = A2C(GPActorCriticPolicy, env, seed=0)
-    memory = Memory()
+    memory = Memory(reading)
     model.learn(steps, callback=[GPValueCallback(), memory])
     rows = np.array(memory.rows)
     late = rows[:, 0] >= FROM

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import json
 import sys
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -28,18 +29,24 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "examples"))
 from long_training_run import resident_mib  # noqa: E402
 
-GP_RUN = ROOT / "results" / "long_training_0_39" / "a2c_cartpole_1m" / "long_training_run.json"
+GP_RUN = ROOT / "results" / "long_training_0_39" / "a2c_cartpole_1m"
 STEPS = 1_000_000
 EVERY = 20  # rollouts, as the GP run's record
 FROM = 300_000
 
 
-class Memory(BaseCallback):
-    """The resident memory every ``EVERY`` rollouts, with the step count."""
+def rss_reading(steps: int) -> tuple[float, ...]:
+    """Steps and resident MiB."""
+    return steps, resident_mib()
 
-    def __init__(self) -> None:
+
+class Memory(BaseCallback):
+    """``reading(steps)`` every ``EVERY`` rollouts (by default the steps and resident memory)."""
+
+    def __init__(self, reading: Callable[[int], tuple[float, ...]] = rss_reading) -> None:
         super().__init__()
-        self.rows: list[tuple[int, float]] = []
+        self.reading = reading
+        self.rows: list[tuple[float, ...]] = []
         self._rollouts = 0
 
     def _on_step(self) -> bool:
@@ -47,8 +54,18 @@ class Memory(BaseCallback):
 
     def _on_rollout_end(self) -> None:
         if self._rollouts % EVERY == 0:
-            self.rows.append((self.num_timesteps, resident_mib()))
+            self.rows.append(self.reading(self.num_timesteps))
         self._rollouts += 1
+
+
+def long_run_readings(folder: Path) -> tuple[np.ndarray, np.ndarray]:
+    """Steps and resident MiB of the rollouts where ``examples/long_training_run.py`` (its
+    ``long_training_run.json`` in ``folder``) read the memory."""
+    rows = json.loads((folder / "long_training_run.json").read_text())["per_rollout"]
+    read = [(t, m) for t, m in zip(rows["timesteps"], rows["resident_mib"], strict=True)
+            if m is not None]  # fmt: skip
+    steps, mib = (np.array(c, dtype=float) for c in zip(*read, strict=True))
+    return steps, mib
 
 
 def growth(steps: np.ndarray, mib: np.ndarray) -> str:
@@ -73,10 +90,7 @@ def main() -> None:
     memory = Memory()
     model.learn(STEPS, callback=memory)
     steps, mib = (np.array(c, dtype=float) for c in zip(*memory.rows, strict=True))
-    per_rollout = json.loads(GP_RUN.read_text())["per_rollout"]
-    kept = [(t, r) for t, r in zip(per_rollout["timesteps"], per_rollout["resident_mib"],
-                                   strict=True) if r is not None]  # fmt: skip
-    gp_steps, gp_mib = (np.array(c, dtype=float) for c in zip(*kept, strict=True))
+    gp_steps, gp_mib = long_run_readings(GP_RUN)
     print(f"A2C CartPole-v1, 4 envs, seed 0, {STEPS:,} steps, resident memory every {EVERY} "
           "rollouts\n")  # fmt: skip
     print(f"- SB3's MLP critic (this run): {mib[0]:.1f} MiB at the start; "

@@ -13,11 +13,9 @@
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
-import numpy as np
-from mlp_memory import growth
+from mlp_memory import growth, long_run_readings
 
 HERE = Path(__file__).resolve().parent
 RUNS = {
@@ -30,10 +28,7 @@ def main() -> None:
     print("| run's record | memory at the start | growth after 300,000 steps |")
     print("|---|---:|---|")
     for name, folder in RUNS.items():
-        rows = json.loads((folder / "long_training_run.json").read_text())["per_rollout"]
-        read = [(t, m) for t, m in zip(rows["timesteps"], rows["resident_mib"], strict=True)
-                if m is not None]  # fmt: skip
-        steps, mib = (np.array(c, dtype=float) for c in zip(*read, strict=True))
+        steps, mib = long_run_readings(folder)
         print(f"| {name} | {mib[0]:.1f} MiB | {growth(steps, mib)} |")
 
 
