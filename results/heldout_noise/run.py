@@ -2,9 +2,10 @@
 ``VecNormalize`` (session 81, exploratory; the held-out study's lost cell).
 
 Trains PPO on InvertedPendulum-v5 with the zoo's entry (``results/heldout/ppo.yml``) for
-50,000 steps on the held-out study's seeds 1023-1032, in ten arms that change one thing each:
+50,000 steps on the held-out study's seeds 1023-1032, in arms that change one thing each:
 the critic, which parts of ``VecNormalize`` wrap the environment (observations, rewards), and,
-for the GP critic, its kernel, its targets and its forgetting. Before each PPO update it
+for the GP critic, its kernel, its targets and its forgetting; two more arms start both critics'
+actors with less noise. Before each PPO update it
 records, from the rollout buffer:
 
 * the mean return of the last 5 training episodes (the stochastic policy's);
@@ -29,6 +30,7 @@ import json
 import time
 import warnings
 from concurrent.futures import ProcessPoolExecutor
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -51,48 +53,67 @@ SEEDS = tuple(range(1023, 1033))
 THRESHOLD = 950.0
 OBS_AND_REWARD = {"norm_obs": True, "norm_reward": True}
 
-#: arm -> (critic, VecNormalize arguments or None, actor normalised, gp_kwargs, callback kwargs)
-ARMS: dict[str, tuple[str, dict[str, bool] | None, bool, dict[str, Any], dict[str, Any]]] = {
-    "mlp_vecnormalize": ("mlp", OBS_AND_REWARD, False, {}, {}),
-    "mlp_rewards_only": ("mlp", {"norm_obs": False, "norm_reward": True}, False, {}, {}),
-    "mlp_observations_only": ("mlp", {"norm_obs": True, "norm_reward": False}, False, {}, {}),
-    "mlp_raw": ("mlp", None, False, {}, {}),
-    "gp_actor_normalized": ("laplacian", None, True, {}, {}),
-    "gp_raw": ("laplacian", None, False, {}, {}),
-    "gp_rewards_normalized": (
-        "laplacian",
-        {"norm_obs": False, "norm_reward": True},
-        True,
-        {},
-        {},
+
+@dataclass(frozen=True)
+class Arm:
+    """One arm: the critic, which parts of ``VecNormalize`` wrap the environment (None: no
+    wrapper), whether a GP critic's policy normalises its actor's observations, the GP's
+    options, ``GPValueCallback``'s arguments, and keys that replace the zoo entry's."""
+
+    critic: str
+    vec_normalize: dict[str, bool] | None = None
+    actor_normalize: bool = False
+    gp_kwargs: dict[str, Any] = field(default_factory=dict)
+    callback_kwargs: dict[str, Any] = field(default_factory=dict)
+    entry: dict[str, Any] = field(default_factory=dict)
+
+
+#: The actor's initial noise at the MLP critic's agents' final one (std 0.37).
+LOW_NOISE = {"policy_kwargs": "dict(log_std_init=-1.0)"}
+
+ARMS: dict[str, Arm] = {
+    "mlp_vecnormalize": Arm("mlp", OBS_AND_REWARD),
+    "mlp_rewards_only": Arm("mlp", {"norm_obs": False, "norm_reward": True}),
+    "mlp_observations_only": Arm("mlp", {"norm_obs": True, "norm_reward": False}),
+    "mlp_raw": Arm("mlp"),
+    "gp_actor_normalized": Arm("laplacian", actor_normalize=True),
+    "gp_raw": Arm("laplacian"),
+    "gp_rewards_normalized": Arm(
+        "laplacian", {"norm_obs": False, "norm_reward": True}, actor_normalize=True
     ),
-    "gp_rbf": ("rbf", None, True, {}, {}),
-    "gp_sb3_returns": ("laplacian", None, True, {}, {"target": "returns"}),
-    "gp_no_drift_forgetting": ("laplacian", None, True, {"drift_forgetting": 0.0}, {}),
+    "gp_rbf": Arm("rbf", actor_normalize=True),
+    "gp_sb3_returns": Arm("laplacian", actor_normalize=True, callback_kwargs={"target": "returns"}),
+    "gp_no_drift_forgetting": Arm(
+        "laplacian", actor_normalize=True, gp_kwargs={"drift_forgetting": 0.0}
+    ),
+    # A control on the mechanism (added after the first ten arms were read): the actors start
+    # with little noise, both critics.
+    "mlp_vecnormalize_low_noise": Arm("mlp", OBS_AND_REWARD, entry=LOW_NOISE),
+    "gp_actor_normalized_low_noise": Arm("laplacian", actor_normalize=True, entry=LOW_NOISE),
 }
 
 
 def build(arm: str, seed: int) -> tuple[PPO, list[GPValueCallback]]:
     """The arm's PPO model on its (wrapped) environment, and its callbacks."""
-    critic, vec_normalize, actor_normalize, gp_kwargs, callback_kwargs = ARMS[arm]
+    a = ARMS[arm]
     entry = hyperparams("ppo", ENV_ID, HyperparamsFile.read(HERE.parent / "heldout/ppo.yml"))
-    values = dict(entry.values, normalize=vec_normalize if vec_normalize else False)
+    values = dict(entry.values, normalize=a.vec_normalize or False, **a.entry)
     spec = RunSpec(
         "ppo",
-        critic,
+        a.critic,
         ENV_ID,
         seed,
         STEPS,
-        normalize=vec_normalize is not None,
-        actor_normalize=actor_normalize,
-        gp_kwargs=tuple(sorted(gp_kwargs.items())),
+        normalize=a.vec_normalize is not None,
+        actor_normalize=a.actor_normalize,
+        gp_kwargs=tuple(sorted(a.gp_kwargs.items())),
         hyperparams=values,
         hyperparams_source=entry.source,
         threshold=THRESHOLD,
     )
     model = build_model(spec)
     assert isinstance(model, PPO)
-    callbacks = [] if critic == "mlp" else [GPValueCallback(**callback_kwargs)]
+    callbacks = [] if a.critic == "mlp" else [GPValueCallback(**a.callback_kwargs)]
     return model, callbacks
 
 
@@ -141,7 +162,7 @@ def run(arm: str, seed: int, out: Path) -> str:
     stem = out / f"{arm}__s{seed}"
     columns = {k: np.array([r[k] for r in record.rows]) for k in record.rows[0]}
     np.savez(stem.with_suffix(".npz"), **columns)
-    settings = dict(arm=arm, seed=seed, steps=STEPS, env_id=ENV_ID, arm_settings=ARMS[arm])
+    settings = dict(arm=arm, seed=seed, steps=STEPS, env_id=ENV_ID, settings=asdict(ARMS[arm]))
     gp = isinstance(model.policy, GPActorCriticPolicy)
     info = dict(settings, seconds=seconds, gp=gp, provenance=provenance(stable_baselines3, gym))
     stem.with_suffix(".json").write_text(json.dumps(info, indent=1, default=str))

@@ -1,0 +1,128 @@
+"""Read ``run.py``'s runs: per arm, what the advantages told the actor about its noise, how
+far the noise fell, and whether the agents held the pole (session 81, exploratory)::
+
+    python results/heldout_noise/read.py > results/heldout_noise/read.md
+    python results/heldout_noise/read.py --figure results/heldout_noise/noise.png
+
+Per run: ``corr(A, z**2)`` averaged over its rollouts; the actor's standard deviation
+``exp(log_std)`` at the end; the mean return of the training episodes over the last tenth of
+the rollouts (the stochastic policy's, 5 episodes per reading), and whether that is at least
+950 (the held-out study's threshold). Means over the seeds with 95 % percentile-bootstrap
+intervals (resampling seeds).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+import numpy as np
+from run import ARMS, SEEDS, STEPS, THRESHOLD
+
+from sb3_geogp.comparison.report import pyplot
+from sb3_geogp.toolbox.stats import bootstrap_ci
+
+HERE = Path(__file__).resolve().parent
+LAST = 0.1  # the last tenth of the rollouts
+
+
+def load(folder: Path, arm: str) -> list[dict[str, np.ndarray]]:
+    """The arm's runs that exist, in seed order."""
+    paths = [folder / f"{arm}__s{seed}.npz" for seed in SEEDS]
+    return [dict(np.load(p)) for p in paths if p.exists()]
+
+
+def per_run(run: dict[str, np.ndarray]) -> dict[str, float]:
+    """The run's four readings."""
+    tail = int(np.ceil(LAST * len(run["steps"])))
+    late = float(np.nanmean(run["episode_return"][-tail:]))
+    return dict(
+        corr_z2=float(np.nanmean(run["corr_z2"])),
+        std=float(np.exp(run["log_std"][-1])),
+        late_return=late,
+        held=float(late >= THRESHOLD),
+    )
+
+
+def interval(values: list[float], digits: int) -> str:
+    """``mean [low, high]`` over the runs."""
+    est, low, high = bootstrap_ci(np.asarray(values))
+    return f"{est:.{digits}f} [{low:.{digits}f}, {high:.{digits}f}]"
+
+
+def table(folder: Path) -> str:
+    lines = [
+        "| arm | runs | corr(A, z²), run mean | actor std at the end | "
+        "return, last tenth | held (>= 950) |",
+        "|---|---:|---|---|---|---:|",
+    ]
+    for arm in ARMS:
+        rows = [per_run(r) for r in load(folder, arm)]
+        if not rows:
+            continue
+        cells = [
+            interval([r["corr_z2"] for r in rows], 3),
+            interval([r["std"] for r in rows], 2),
+            interval([r["late_return"] for r in rows], 0),
+            f"{int(sum(r['held'] for r in rows))}/{len(rows)}",
+        ]
+        lines.append(f"| `{arm}` | {len(rows)} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def provenance_lines(folder: Path) -> str:
+    """Which commits made the runs."""
+    commits: dict[str, int] = {}
+    for path in sorted(folder.glob("*.json")):
+        made = json.loads(path.read_text())["provenance"]
+        key = f"{made['git_commit'][:8]} (uncommitted changes: {made['git_dirty']})"
+        commits[key] = commits.get(key, 0) + 1
+    return "\n".join(f"- {n} runs at commit {c}" for c, n in commits.items())
+
+
+def figure(folder: Path, path: Path) -> None:
+    """Actor std and training return along training, mean over seeds, for chosen arms."""
+    plt = pyplot()
+    arms = ["mlp_vecnormalize", "mlp_rewards_only", "mlp_observations_only", "mlp_raw"]
+    arms += ["gp_actor_normalized", "gp_raw"]
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4), constrained_layout=True)
+    for arm in arms:
+        runs = load(folder, arm)
+        if not runs:
+            continue
+        steps = runs[0]["steps"]
+        style = "-" if arm.startswith("mlp") else "--"
+        for ax, key, f in ((axes[0], "log_std", np.exp), (axes[1], "episode_return", None)):
+            values = np.array([r[key] for r in runs])
+            values = f(values) if f is not None else values
+            ax.plot(steps, np.nanmean(values, axis=0), style, label=f"{arm} ({len(runs)})")
+    axes[0].set(xlabel="steps", ylabel="actor's standard deviation", title="The actor's noise")
+    axes[1].set(
+        xlabel="steps",
+        ylabel="training return (last 5 episodes)",
+        title="InvertedPendulum-v5, PPO, the zoo's entry",
+    )
+    axes[1].axhline(THRESHOLD, color="grey", lw=0.8)
+    axes[0].legend(fontsize=8)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--runs", type=Path, default=HERE / "runs")
+    parser.add_argument("--figure", type=Path)
+    args = parser.parse_args()
+    if args.figure is not None:
+        figure(args.runs, args.figure)
+        return
+    print("# What PPO's advantages tell the actor about its noise: InvertedPendulum-v5\n")
+    print(f"{STEPS:,} steps, seeds {SEEDS[0]}-{SEEDS[-1]}, the arms of `run.py`.\n")
+    print(table(args.runs))
+    print("\n## What the runs executed\n")
+    print(provenance_lines(args.runs))
+
+
+if __name__ == "__main__":
+    main()
