@@ -81,30 +81,52 @@ def provenance_lines(folder: Path) -> str:
     return "\n".join(f"- {n} runs at commit {c}" for c, n in commits.items())
 
 
+def smoothed(values: np.ndarray, window: int = 50) -> np.ndarray:
+    """Trailing mean over ``window`` rollouts along the last axis (shorter at the start)."""
+    cumulative = np.cumsum(np.nan_to_num(values), axis=-1)
+    shifted = np.concatenate([np.zeros_like(cumulative[..., :window]), cumulative], axis=-1)
+    counts = np.minimum(np.arange(1, values.shape[-1] + 1), window)
+    return (cumulative - shifted[..., : values.shape[-1]]) / counts
+
+
+#: The figure's arms and their line styles (the rest are in the table only).
+FIGURE_ARMS = {
+    "mlp_vecnormalize": "-",
+    "mlp_rewards_only": "-",
+    "mlp_observations_only": "-",
+    "mlp_raw": "-",
+    "gp_actor_normalized": "--",
+    "gp_raw": "--",
+    "gp_actor_normalized_low_noise": ":",
+    "mlp_vecnormalize_low_noise": ":",
+}
+
+
 def figure(folder: Path, path: Path) -> None:
-    """Actor std and training return along training, mean over seeds, for chosen arms."""
+    """The actor's noise, corr(A, z²) and the training return along training, means over
+    seeds."""
     plt = pyplot()
-    arms = ["mlp_vecnormalize", "mlp_rewards_only", "mlp_observations_only", "mlp_raw"]
-    arms += ["gp_actor_normalized", "gp_raw"]
-    fig, axes = plt.subplots(1, 2, figsize=(11, 4), constrained_layout=True)
-    for arm in arms:
+    fig, axes = plt.subplots(1, 3, figsize=(16, 4.5), constrained_layout=True)
+    panels = (
+        ("log_std", np.exp, "actor's standard deviation", "The actor's noise"),
+        ("corr_z2", smoothed, "corr(A, z²), mean of 50 rollouts", "What the advantages say"),
+        ("episode_return", None, "training return (last 5 episodes)", "The pole held"),
+    )
+    for arm, style in FIGURE_ARMS.items():
         runs = load(folder, arm)
         if not runs:
             continue
         steps = runs[0]["steps"]
-        style = "-" if arm.startswith("mlp") else "--"
-        for ax, key, f in ((axes[0], "log_std", np.exp), (axes[1], "episode_return", None)):
+        for ax, (key, f, _, _) in zip(axes, panels, strict=True):
             values = np.array([r[key] for r in runs])
             values = f(values) if f is not None else values
             ax.plot(steps, np.nanmean(values, axis=0), style, label=f"{arm} ({len(runs)})")
-    axes[0].set(xlabel="steps", ylabel="actor's standard deviation", title="The actor's noise")
-    axes[1].set(
-        xlabel="steps",
-        ylabel="training return (last 5 episodes)",
-        title="InvertedPendulum-v5, PPO, the zoo's entry",
-    )
-    axes[1].axhline(THRESHOLD, color="grey", lw=0.8)
+    for ax, (_, _, ylabel, title) in zip(axes, panels, strict=True):
+        ax.set(xlabel="steps", ylabel=ylabel, title=title)
+    axes[1].axhline(0, color="grey", lw=0.8)
+    axes[2].axhline(THRESHOLD, color="grey", lw=0.8)
     axes[0].legend(fontsize=8)
+    fig.suptitle("PPO InvertedPendulum-v5, the zoo's entry, seeds 1023-1032 (exploratory)")
     fig.savefig(path, dpi=110)
     plt.close(fig)
 

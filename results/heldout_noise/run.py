@@ -44,6 +44,7 @@ from sb3_geogp import GPActorCriticPolicy, GPValueCallback
 from sb3_geogp.comparison.hyperparams import HyperparamsFile, hyperparams
 from sb3_geogp.comparison.run import build_model
 from sb3_geogp.comparison.specs import RunSpec
+from sb3_geogp.policies import default_adaptation
 from sb3_geogp.toolbox.provenance import provenance
 
 HERE = Path(__file__).resolve().parent
@@ -71,6 +72,15 @@ class Arm:
 #: The actor's initial noise at the MLP critic's agents' final one (std 0.37).
 LOW_NOISE = {"policy_kwargs": "dict(log_std_init=-1.0)"}
 
+#: The GP critic's options that keep every point it absorbed at full weight: no starting
+#: forgetting, no forgetting by drift, and 1 as the adaptation's only forgetting candidate.
+NEVER_FORGETS = {
+    "adapt": {**default_adaptation(PPO).as_dict(), "forgetting": [1.0]},
+    "forgetting": 1.0,
+    "forgetting_points": 4096,
+    "drift_forgetting": 0.0,
+}
+
 ARMS: dict[str, Arm] = {
     "mlp_vecnormalize": Arm("mlp", OBS_AND_REWARD),
     "mlp_rewards_only": Arm("mlp", {"norm_obs": False, "norm_reward": True}),
@@ -86,6 +96,7 @@ ARMS: dict[str, Arm] = {
     "gp_no_drift_forgetting": Arm(
         "laplacian", actor_normalize=True, gp_kwargs={"drift_forgetting": 0.0}
     ),
+    "gp_never_forgets": Arm("laplacian", actor_normalize=True, gp_kwargs=NEVER_FORGETS),
     # A control on the mechanism (added after the first ten arms were read): the actors start
     # with little noise, both critics.
     "mlp_vecnormalize_low_noise": Arm("mlp", OBS_AND_REWARD, entry=LOW_NOISE),
