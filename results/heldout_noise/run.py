@@ -97,6 +97,8 @@ ARMS: dict[str, Arm] = {
         "laplacian", actor_normalize=True, gp_kwargs={"drift_forgetting": 0.0}
     ),
     "gp_never_forgets": Arm("laplacian", actor_normalize=True, gp_kwargs=NEVER_FORGETS),
+    # Added after a 4-seed screen of the GP critic without the PPO default's moving level:
+    "gp_no_trend": Arm("laplacian", actor_normalize=True, gp_kwargs={"trend": "none"}),
     # A control on the mechanism (added after the first ten arms were read): the actors start
     # with little noise, both critics.
     "mlp_vecnormalize_low_noise": Arm("mlp", OBS_AND_REWARD, entry=LOW_NOISE),
