@@ -4,7 +4,8 @@ far the noise fell, and whether the agents held the pole (session 81, explorator
     python results/heldout_noise/read.py > results/heldout_noise/read.md
     python results/heldout_noise/read.py --figure results/heldout_noise/noise.png
 
-Per run: ``corr(A, z**2)`` averaged over its rollouts; the actor's standard deviation
+Per run: ``corr(A, z**2)`` averaged over its rollouts, and over the rollouts while it held
+the pole (those whose last 5 training episodes average at least 950); the actor's standard deviation
 ``exp(log_std)`` at the end; the mean return of the training episodes over the last tenth of
 the rollouts (the stochastic policy's, 5 episodes per reading), and whether that is at least
 950 (the held-out study's threshold). Means over the seeds with 95 % percentile-bootstrap
@@ -18,27 +19,34 @@ import json
 from pathlib import Path
 
 import numpy as np
-from run import ARMS, SEEDS, STEPS, THRESHOLD
+from run import ARMS, STEPS, THRESHOLD
 
 from sb3_geogp.comparison.report import pyplot
-from sb3_geogp.toolbox.stats import bootstrap_ci
+from sb3_geogp.toolbox.stats import bootstrap_ci, difference_ci
 
 HERE = Path(__file__).resolve().parent
 LAST = 0.1  # the last tenth of the rollouts
 
 
+def seeds(folder: Path, arm: str) -> list[int]:
+    """The seeds of the arm's runs in ``folder``, in order."""
+    return sorted(int(p.stem.rpartition("__s")[2]) for p in folder.glob(f"{arm}__s*.npz"))
+
+
 def load(folder: Path, arm: str) -> list[dict[str, np.ndarray]]:
-    """The arm's runs that exist, in seed order."""
-    paths = [folder / f"{arm}__s{seed}.npz" for seed in SEEDS]
-    return [dict(np.load(p)) for p in paths if p.exists()]
+    """The arm's runs in ``folder``, in seed order."""
+    return [dict(np.load(folder / f"{arm}__s{seed}.npz")) for seed in seeds(folder, arm)]
 
 
 def per_run(run: dict[str, np.ndarray]) -> dict[str, float]:
     """The run's four readings."""
     tail = int(np.ceil(LAST * len(run["steps"])))
     late = float(np.nanmean(run["episode_return"][-tail:]))
+    holding = run["episode_return"] >= THRESHOLD
     return dict(
         corr_z2=float(np.nanmean(run["corr_z2"])),
+        corr_z2_holding=float(np.nanmean(run["corr_z2"][holding])) if holding.any() else np.nan,
+        rollouts_holding=float(holding.mean()),
         std=float(np.exp(run["log_std"][-1])),
         late_return=late,
         held=float(late >= THRESHOLD),
@@ -53,21 +61,40 @@ def interval(values: list[float], digits: int) -> str:
 
 def table(folder: Path) -> str:
     lines = [
-        "| arm | runs | corr(A, z²), run mean | actor std at the end | "
-        "return, last tenth | held (>= 950) |",
-        "|---|---:|---|---|---|---:|",
+        "| arm | runs | corr(A, z²), run mean | the same while holding: runs, mean | "
+        "actor std at the end | return, last tenth | held (>= 950) |",
+        "|---|---:|---|---|---|---|---:|",
     ]
     for arm in ARMS:
         rows = [per_run(r) for r in load(folder, arm)]
         if not rows:
             continue
+        holding = [r["corr_z2_holding"] for r in rows if np.isfinite(r["corr_z2_holding"])]
         cells = [
             interval([r["corr_z2"] for r in rows], 3),
+            f"{len(holding)}: " + (interval(holding, 3) if holding else "none"),
             interval([r["std"] for r in rows], 2),
             interval([r["late_return"] for r in rows], 0),
             f"{int(sum(r['held'] for r in rows))}/{len(rows)}",
         ]
         lines.append(f"| `{arm}` | {len(rows)} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def differences(folder: Path, reference: str = "gp_actor_normalized") -> str:
+    """Each arm's late return minus the reference arm's (the study's GP critic), with a 95 %
+    bootstrap interval resampling each arm's seeds separately."""
+    base = [per_run(r)["late_return"] for r in load(folder, reference)]
+    lines = [
+        f"| arm | return, last tenth: arm − `{reference}` [95 %] |",
+        "|---|---|",
+    ]
+    for arm in ARMS:
+        runs = load(folder, arm)
+        if arm == reference or not runs or not base:
+            continue
+        est, low, high = difference_ci(np.array([per_run(r)["late_return"] for r in runs]), base)
+        lines.append(f"| `{arm}` | {est:+.0f} [{low:+.0f}, {high:+.0f}] |")
     return "\n".join(lines)
 
 
@@ -126,7 +153,8 @@ def figure(folder: Path, path: Path) -> None:
     axes[1].axhline(0, color="grey", lw=0.8)
     axes[2].axhline(THRESHOLD, color="grey", lw=0.8)
     axes[0].legend(fontsize=8)
-    fig.suptitle("PPO InvertedPendulum-v5, the zoo's entry, seeds 1023-1032 (exploratory)")
+    found = sorted({seed for arm in FIGURE_ARMS for seed in seeds(folder, arm)})
+    fig.suptitle(f"PPO InvertedPendulum-v5, the zoo's entry, seeds {found[0]}-{found[-1]}")
     fig.savefig(path, dpi=110)
     plt.close(fig)
 
@@ -140,8 +168,11 @@ def main() -> None:
         figure(args.runs, args.figure)
         return
     print("# What PPO's advantages tell the actor about its noise: InvertedPendulum-v5\n")
-    print(f"{STEPS:,} steps, seeds {SEEDS[0]}-{SEEDS[-1]}, the arms of `run.py`.\n")
+    found = sorted({seed for arm in ARMS for seed in seeds(args.runs, arm)})
+    print(f"{STEPS:,} steps, seeds {found[0]}-{found[-1]}, the arms of `run.py`.\n")
     print(table(args.runs))
+    print()
+    print(differences(args.runs))
     print("\n## What the runs executed\n")
     print(provenance_lines(args.runs))
 

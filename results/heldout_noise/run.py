@@ -188,12 +188,15 @@ def main() -> None:
     parser.add_argument("--out", type=Path, default=HERE / "runs")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--arms", nargs="+", default=list(ARMS), choices=list(ARMS))
+    parser.add_argument("--first-seed", type=int, default=SEEDS[0])
+    parser.add_argument("--seeds", type=int, default=len(SEEDS), help="how many seeds")
     args = parser.parse_args()
+    seeds = range(args.first_seed, args.first_seed + args.seeds)
     args.out.mkdir(parents=True, exist_ok=True)
     todo = [
         (arm, seed)
         for arm in args.arms
-        for seed in SEEDS
+        for seed in seeds
         if not (args.out / f"{arm}__s{seed}.npz").exists()
     ]
     print(f"{len(todo)} runs to make", flush=True)
