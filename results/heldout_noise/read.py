@@ -81,9 +81,13 @@ def table(folder: Path) -> str:
     return "\n".join(lines)
 
 
-def differences(folder: Path, reference: str = "gp_actor_normalized") -> str:
-    """Each arm's late return minus the reference arm's (the study's GP critic), with a 95 %
-    bootstrap interval resampling each arm's seeds separately."""
+#: The arms the difference tables subtract: the study's GP critic and its MLP critic.
+REFERENCES = ("gp_actor_normalized", "mlp_vecnormalize")
+
+
+def differences(folder: Path, reference: str) -> str:
+    """Each arm's late return minus the reference arm's, with a 95 % bootstrap interval
+    resampling each arm's seeds separately."""
     base = [per_run(r)["late_return"] for r in load(folder, reference)]
     lines = [
         f"| arm | return, last tenth: arm − `{reference}` [95 %] |",
@@ -123,7 +127,7 @@ FIGURE_ARMS = {
     "mlp_observations_only": "-",
     "mlp_raw": "-",
     "gp_actor_normalized": "--",
-    "gp_raw": "--",
+    "gp_no_trend": "--",
     "gp_actor_normalized_low_noise": ":",
     "mlp_vecnormalize_low_noise": ":",
 }
@@ -171,8 +175,9 @@ def main() -> None:
     found = sorted({seed for arm in ARMS for seed in seeds(args.runs, arm)})
     print(f"{STEPS:,} steps, seeds {found[0]}-{found[-1]}, the arms of `run.py`.\n")
     print(table(args.runs))
-    print()
-    print(differences(args.runs))
+    for reference in REFERENCES:
+        print()
+        print(differences(args.runs, reference))
     print("\n## What the runs executed\n")
     print(provenance_lines(args.runs))
 
