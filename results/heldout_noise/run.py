@@ -4,9 +4,9 @@
 Trains PPO on InvertedPendulum-v5 with the zoo's entry (``results/heldout/ppo.yml``) for
 50,000 steps on the held-out study's seeds 1023-1032, in arms that change one thing each:
 the critic, which parts of ``VecNormalize`` wrap the environment (observations, rewards), and,
-for the GP critic, its kernel, its targets and its forgetting; two more arms start both critics'
-actors with less noise. Before each PPO update it
-records, from the rollout buffer:
+for the GP critic, its kernel, its targets, its forgetting and its trend; two more arms start
+both critics' actors with less noise. Before each PPO update it records, from the rollout
+buffer:
 
 * the mean return of the last 5 training episodes (the stochastic policy's);
 * the actor's log standard deviation (state-independent in SB3's Gaussian policy);
@@ -18,6 +18,9 @@ records, from the rollout buffer:
 
     python results/heldout_noise/run.py            # resumable: skips runs already saved
     python results/heldout_noise/read.py > results/heldout_noise/read.md
+
+``--first-seed``, ``--seeds`` and ``--arms`` select other runs (``PLAN_confirm.md``'s check on
+fresh seeds).
 
 Each run writes ``runs/<arm>__s<seed>.npz`` (one row per rollout) and its settings and
 provenance to ``runs/<arm>__s<seed>.json``.
@@ -99,8 +102,8 @@ ARMS: dict[str, Arm] = {
     "gp_never_forgets": Arm("laplacian", actor_normalize=True, gp_kwargs=NEVER_FORGETS),
     # Added after a 4-seed screen of the GP critic without the PPO default's moving level:
     "gp_no_trend": Arm("laplacian", actor_normalize=True, gp_kwargs={"trend": "none"}),
-    # A control on the mechanism (added after the first ten arms were read): the actors start
-    # with little noise, both critics.
+    # A control on the mechanism (added while the first ten arms ran): the actors start with
+    # little noise, both critics.
     "mlp_vecnormalize_low_noise": Arm("mlp", OBS_AND_REWARD, entry=LOW_NOISE),
     "gp_actor_normalized_low_noise": Arm("laplacian", actor_normalize=True, entry=LOW_NOISE),
 }
