@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 import json
+from collections.abc import Iterable
 from pathlib import Path
 
 import numpy as np
@@ -38,15 +39,20 @@ def load(folder: Path, arm: str) -> list[dict[str, np.ndarray]]:
     return [dict(np.load(folder / f"{arm}__s{seed}.npz")) for seed in seeds(folder, arm)]
 
 
+def seed_range(folder: Path, arms: Iterable[str]) -> str:
+    """``"first-last"`` of the seeds of those arms' runs in ``folder``."""
+    found = sorted({seed for arm in arms for seed in seeds(folder, arm)})
+    return f"{found[0]}-{found[-1]}"
+
+
 def per_run(run: dict[str, np.ndarray]) -> dict[str, float]:
-    """The run's four readings."""
+    """The run's readings."""
     tail = int(np.ceil(LAST * len(run["steps"])))
     late = float(np.nanmean(run["episode_return"][-tail:]))
     holding = run["episode_return"] >= THRESHOLD
     return dict(
         corr_z2=float(np.nanmean(run["corr_z2"])),
         corr_z2_holding=float(np.nanmean(run["corr_z2"][holding])) if holding.any() else np.nan,
-        rollouts_holding=float(holding.mean()),
         std=float(np.exp(run["log_std"][-1])),
         late_return=late,
         held=float(late >= THRESHOLD),
@@ -59,16 +65,19 @@ def interval(values: list[float], digits: int) -> str:
     return f"{est:.{digits}f} [{low:.{digits}f}, {high:.{digits}f}]"
 
 
-def table(folder: Path) -> str:
+def readings(folder: Path) -> dict[str, list[dict[str, float]]]:
+    """:func:`per_run` of each arm's runs in ``folder``, the arms that have runs only."""
+    by_arm = {arm: [per_run(r) for r in load(folder, arm)] for arm in ARMS}
+    return {arm: rows for arm, rows in by_arm.items() if rows}
+
+
+def table(by_arm: dict[str, list[dict[str, float]]]) -> str:
     lines = [
         "| arm | runs | corr(A, z²), run mean | the same while holding: runs, mean | "
         "actor std at the end | return, last tenth | held (>= 950) |",
         "|---|---:|---|---|---|---|---:|",
     ]
-    for arm in ARMS:
-        rows = [per_run(r) for r in load(folder, arm)]
-        if not rows:
-            continue
+    for arm, rows in by_arm.items():
         holding = [r["corr_z2_holding"] for r in rows if np.isfinite(r["corr_z2_holding"])]
         cells = [
             interval([r["corr_z2"] for r in rows], 3),
@@ -85,19 +94,18 @@ def table(folder: Path) -> str:
 REFERENCES = ("gp_actor_normalized", "mlp_vecnormalize")
 
 
-def differences(folder: Path, reference: str) -> str:
+def differences(by_arm: dict[str, list[dict[str, float]]], reference: str) -> str:
     """Each arm's late return minus the reference arm's, with a 95 % bootstrap interval
     resampling each arm's seeds separately."""
-    base = [per_run(r)["late_return"] for r in load(folder, reference)]
+    late = {arm: np.array([r["late_return"] for r in rows]) for arm, rows in by_arm.items()}
     lines = [
         f"| arm | return, last tenth: arm − `{reference}` [95 %] |",
         "|---|---|",
     ]
-    for arm in ARMS:
-        runs = load(folder, arm)
-        if arm == reference or not runs or not base:
+    for arm, values in late.items():
+        if arm == reference or reference not in late:
             continue
-        est, low, high = difference_ci(np.array([per_run(r)["late_return"] for r in runs]), base)
+        est, low, high = difference_ci(values, late[reference])
         lines.append(f"| `{arm}` | {est:+.0f} [{low:+.0f}, {high:+.0f}] |")
     return "\n".join(lines)
 
@@ -157,8 +165,8 @@ def figure(folder: Path, path: Path) -> None:
     axes[1].axhline(0, color="grey", lw=0.8)
     axes[2].axhline(THRESHOLD, color="grey", lw=0.8)
     axes[0].legend(fontsize=8)
-    found = sorted({seed for arm in FIGURE_ARMS for seed in seeds(folder, arm)})
-    fig.suptitle(f"PPO InvertedPendulum-v5, the zoo's entry, seeds {found[0]}-{found[-1]}")
+    seeds_drawn = seed_range(folder, FIGURE_ARMS)
+    fig.suptitle(f"PPO InvertedPendulum-v5, the zoo's entry, seeds {seeds_drawn}")
     fig.savefig(path, dpi=110)
     plt.close(fig)
 
@@ -172,12 +180,12 @@ def main() -> None:
         figure(args.runs, args.figure)
         return
     print("# What PPO's advantages tell the actor about its noise: InvertedPendulum-v5\n")
-    found = sorted({seed for arm in ARMS for seed in seeds(args.runs, arm)})
-    print(f"{STEPS:,} steps, seeds {found[0]}-{found[-1]}, the arms of `run.py`.\n")
-    print(table(args.runs))
+    print(f"{STEPS:,} steps, seeds {seed_range(args.runs, ARMS)}, the arms of `run.py`.\n")
+    by_arm = readings(args.runs)
+    print(table(by_arm))
     for reference in REFERENCES:
         print()
-        print(differences(args.runs, reference))
+        print(differences(by_arm, reference))
     print("\n## What the runs executed\n")
     print(provenance_lines(args.runs))
 
