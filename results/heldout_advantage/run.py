@@ -1,5 +1,6 @@
 """Are the default GP critic's advantages worse than an MLP critic's on PPO
-InvertedPendulum-v5? (session 82, exploratory; session 81's open question, ``results/heldout_noise``)
+InvertedPendulum-v5? (session 82, exploratory; session 81's open question,
+``results/heldout_noise``)
 
 Trains PPO on InvertedPendulum-v5 as ``results/heldout_noise/run.py`` does (the zoo's entry,
 50,000 steps; its arms). Every ``--every``-th rollout that holds no time-limit truncation is
@@ -137,7 +138,7 @@ class MLPShadow:
             self.net = nn.Sequential(
                 nn.Linear(dim, 64), nn.Tanh(), nn.Linear(64, 64), nn.Tanh(), nn.Linear(64, 1)
             )
-            for layer, gain in zip(self.net[::2], (np.sqrt(2), np.sqrt(2), 1.0)):
+            for layer, gain in zip(self.net[::2], (np.sqrt(2), np.sqrt(2), 1.0), strict=True):
                 nn.init.orthogonal_(layer.weight, gain=gain)
                 nn.init.zeros_(layer.bias)
         self.optimizer = th.optim.Adam(
@@ -349,7 +350,8 @@ def run(arm: str, seed: int, args: argparse.Namespace) -> str:
         rows=scorer.rows,
     )
     (args.out / f"{arm}__s{seed}.json").write_text(json.dumps(info, indent=1, default=str))
-    return f"{arm} seed {seed}: {seconds:.0f} s, {len(scorer.rows)} scored, last episodes {np.mean(episodes):.0f}"
+    scored, last = len(scorer.rows), np.mean(episodes)
+    return f"{arm} seed {seed}: {seconds:.0f} s, {scored} scored, last episodes {last:.0f}"
 
 
 def main() -> None:
