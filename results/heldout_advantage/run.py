@@ -57,6 +57,13 @@ from stable_baselines3.common.running_mean_std import RunningMeanStd
 from stable_baselines3.common.vec_env import VecNormalize
 from torch import nn
 
+from sb3_geogp.comparison.shadow import (
+    ActorDrift,
+    NumpyValue,
+    own_feed,
+    own_value,
+    posterior_mean,
+)
 from sb3_geogp.studies.advantage_error import advantage_scores, gae
 from sb3_geogp.studies.value_ceiling import RestartableTask, model_returns
 from sb3_geogp.toolbox.provenance import provenance
@@ -220,10 +227,16 @@ class AdvantageScorer(BaseCallback):
     Pass it before the callbacks that let the run's critic learn from the rollout."""
 
     def __init__(
-        self, task: InvertedPendulumTask, shadow: MLPShadow, args: argparse.Namespace, seed: int
+        self,
+        task: InvertedPendulumTask,
+        shadow: MLPShadow,
+        gp_shadows: dict[str, NumpyValue],
+        args: argparse.Namespace,
+        seed: int,
     ) -> None:
         super().__init__()
         self.task, self.shadow, self.args, self.seed = task, shadow, args, seed
+        self.gp_shadows = gp_shadows
         self.rows: list[dict[str, Any]] = []
         self.n_rollouts = 0
 
@@ -278,9 +291,9 @@ class AdvantageScorer(BaseCallback):
         g = model_returns(self.model, task, states, self.args.horizon, self.args.rollouts, seed)
         gamma, lam = float(self.model.gamma), float(self.model.gae_lambda)
 
-        def advantages(v: np.ndarray) -> np.ndarray:
+        def advantages(v: np.ndarray, r: np.ndarray = rewards) -> np.ndarray:
             return gae(
-                rewards[:, None],
+                r[:, None],
                 v[:T, None],
                 starts[:, None],
                 v[T:],
@@ -293,7 +306,13 @@ class AdvantageScorer(BaseCallback):
         reference = advantages(true_v)
         halves = [advantages(g[:, k::2].mean(axis=1)) for k in (0, 1)]
         half = float(np.corrcoef(*halves)[0, 1])
-        own_v = self.model.rollout_buffer.values[:, 0].astype(float)
+        # The run's critic on what it sees (VecNormalize's observations and rewards for the
+        # MLP critic): with deferred values a GP critic's buffer values are placeholders
+        # until GPValueCallback fills them from the GP as it is now, before it learns.
+        buffer = self.model.rollout_buffer
+        seen = np.concatenate([buffer.observations[:, 0], self.model._last_obs])  # type: ignore[list-item]
+        own_v = own_value(self.model)(seen.astype(np.float64))
+        own_a = advantages(own_v, buffer.rewards[:, 0].astype(np.float64))
         env = self.model.get_env()
         own_scale = (
             float(np.sqrt(env.ret_rms.var + EPSILON))
@@ -301,17 +320,21 @@ class AdvantageScorer(BaseCallback):
             else 1.0
         )
         shadow_v, shadow_a = self.shadow.advantages(starts, last_done)
+        everything = np.concatenate([self.model.rollout_buffer.observations[:, 0], states[T:]])
+        gp_shadows = {
+            name: advantage_scores(reference, advantages(v := value(everything)), true_v[:T], v[:T])
+            for name, value in self.gp_shadows.items()
+        }
         row: dict[str, Any] = dict(
             step=int(self.num_timesteps),
             falls=int(ends.sum()),
             reliability=2 * half / (1 + half),
             v_pi_mean=float(true_v[:T].mean()),
-            own=advantage_scores(
-                reference, self.model.rollout_buffer.advantages[:, 0], true_v[:T], own_v * own_scale
-            ),
+            own=advantage_scores(reference, own_a, true_v[:T], own_v[:T] * own_scale),
             mlp_shadow=advantage_scores(
                 reference, shadow_a, true_v[:T], shadow_v * self.shadow.scale()
             ),
+            **gp_shadows,
         )
         return row
 
@@ -319,7 +342,18 @@ class AdvantageScorer(BaseCallback):
 def run(arm: str, seed: int, args: argparse.Namespace) -> str:
     warnings.filterwarnings("ignore", category=UserWarning)
     th.set_num_threads(1)
+    # The shadows first: building a model seeds every random stream, so the run's own build,
+    # last, leaves them as a run without shadows has them.
+    shadow_models = {name: noise.build(name, seed)[0] for name in args.shadows}
+    for shadow_model in shadow_models.values():
+        shadow_model.get_env().close()  # type: ignore[union-attr]
     model, callbacks = noise.build(arm, seed)
+    drift = ActorDrift()
+    gp_values = {n: posterior_mean(m.policy.gp) for n, m in shadow_models.items()}
+    feeds = [
+        own_feed(drift.learner(m.policy.gp), gp_values[n], noise.ARMS[n].callback_kwargs, model)
+        for n, m in shadow_models.items()
+    ]
     entry = dict(
         gamma=model.gamma,
         gae_lambda=model.gae_lambda,
@@ -329,11 +363,10 @@ def run(arm: str, seed: int, args: argparse.Namespace) -> str:
         max_grad_norm=model.max_grad_norm,
         learning_rate=model.learning_rate,
     )
-    scorer = AdvantageScorer(
-        InvertedPendulumTask(), MLPShadow(4, entry, seed + 7_000_000), args, seed
-    )
+    shadow = MLPShadow(4, entry, seed + 7_000_000)
+    scorer = AdvantageScorer(InvertedPendulumTask(), shadow, gp_values, args, seed)
     start = time.perf_counter()
-    model.learn(args.steps, callback=[scorer, *callbacks])
+    model.learn(args.steps, callback=[scorer, drift, *feeds, *callbacks])
     seconds = time.perf_counter() - start
     model.get_env().close()  # type: ignore[union-attr]
     episodes = [float(i["r"]) for i in list(model.ep_info_buffer)[-5:]]
@@ -345,6 +378,7 @@ def run(arm: str, seed: int, args: argparse.Namespace) -> str:
         every=args.every,
         rollouts=args.rollouts,
         horizon=args.horizon,
+        shadows=args.shadows,
         last_episodes=episodes,
         provenance=provenance(stable_baselines3, gym),
         rows=scorer.rows,
@@ -364,6 +398,18 @@ def main() -> None:
         default=["gp_actor_normalized", "mlp_vecnormalize"],
         choices=list(noise.ARMS),
     )
+    parser.add_argument(
+        "--shadows",
+        nargs="+",
+        default=[],
+        choices=[
+            n
+            for n, a in noise.ARMS.items()
+            if a.critic != "mlp" and a.vec_normalize is None and not a.entry
+        ],
+        help="GP critics (heldout_noise arms) that learn beside a GP critic's run, fed as "
+        "GPValueCallback would feed them",
+    )
     parser.add_argument("--first-seed", type=int, default=noise.SEEDS[0])
     parser.add_argument("--seeds", type=int, default=5, help="how many seeds")
     parser.add_argument("--steps", type=int, default=noise.STEPS, help="training steps per run")
@@ -371,6 +417,8 @@ def main() -> None:
     parser.add_argument("--rollouts", type=int, default=16, help="Monte Carlo rollouts per state")
     parser.add_argument("--horizon", type=int, default=1000, help="steps per Monte Carlo rollout")
     args = parser.parse_args()
+    if args.shadows and any(noise.ARMS[a].vec_normalize is not None for a in args.arms):
+        parser.error("--shadows learn from raw observations: give GP arms without VecNormalize")
     args.out.mkdir(parents=True, exist_ok=True)
     seeds = range(args.first_seed, args.first_seed + args.seeds)
     todo = [(a, s) for a in args.arms for s in seeds if not (args.out / f"{a}__s{s}.json").exists()]

@@ -1,0 +1,110 @@
+"""Tables of ``results/heldout_advantage/run.py``'s runs: per arm and critic, each score's mean
+over seeds (each seed's mean over its scored rollouts in a stretch of training) and the paired
+difference from the shadow MLP critic [95 % t interval over seeds].
+
+    python results/heldout_advantage/read.py > results/heldout_advantage/read.md
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from sb3_geogp.toolbox.stats import mean_ci
+
+HERE = Path(__file__).resolve().parent
+#: Stretches of training (environment steps at the rollout's end).
+STRETCHES = ((0, 50_000), (0, 10_000), (10_000, 25_000), (25_000, 50_000))
+#: Scores of :func:`~sb3_geogp.studies.advantage_error.advantage_scores` (values in return
+#: units, the shadow's scaled back by its reward normalisation; its advantages are in
+#: normalised units, so slopes would not compare).
+SCORES = ("correlation", "value_rmse", "value_bias", "value_spread")
+SHADOW = "mlp_shadow"
+
+
+def load(runs: Path) -> dict[str, list[dict[str, Any]]]:
+    """Runs by arm, in seed order."""
+    by_arm: dict[str, list[dict[str, Any]]] = {}
+    for path in sorted(runs.glob("*.json")):
+        run = json.loads(path.read_text())
+        by_arm.setdefault(run["arm"], []).append(run)
+    return {arm: sorted(rs, key=lambda r: r["seed"]) for arm, rs in by_arm.items()}
+
+
+def critics(run: dict[str, Any]) -> list[str]:
+    return [k for k, v in run["rows"][0].items() if isinstance(v, dict)]
+
+
+def per_seed(runs: list[dict[str, Any]], critic: str, score: str, lo: int, hi: int) -> np.ndarray:
+    """Each run's mean of ``score`` over its rollouts scored in ``[lo, hi)`` (NaN if none)."""
+    out = []
+    for run in runs:
+        rows = [r for r in run["rows"] if lo <= r["step"] < hi]
+        vals = [r[critic][score] for r in rows if r[critic][score] is not None]
+        out.append(np.nanmean(vals) if vals else np.nan)
+    return np.array(out, dtype=float)
+
+
+def ceiling(runs: list[dict[str, Any]], lo: int, hi: int) -> float:
+    """The correlation's ceiling by the reference's Monte Carlo noise, ``sqrt`` of its
+    split-half reliability, averaged over the stretch's rollouts and the seeds."""
+    rel = [r["reliability"] for run in runs for r in run["rows"] if lo <= r["step"] < hi]
+    return float(np.nanmean(np.sqrt(np.clip(rel, 0.0, None))))
+
+
+def cell(x: np.ndarray) -> str:
+    mean, half = (float(v) for v in mean_ci(x, nan_policy="omit"))
+    return f"{mean:+.3f} [{mean - half:+.3f}, {mean + half:+.3f}]"
+
+
+def table(by_arm: dict[str, list[dict[str, Any]]]) -> str:
+    lines = []
+    for arm, runs in by_arm.items():
+        seeds = [r["seed"] for r in runs]
+        lines += [
+            f"## `{arm}`: {len(runs)} seeds ({min(seeds)}-{max(seeds)})",
+            "",
+            "| steps | critic | scored rollouts | "
+            + " | ".join(f"{s} | − shadow MLP" for s in SCORES)
+            + " |",
+            "|---|---|---:|" + "---:|---|" * len(SCORES),
+        ]
+        for lo, hi in STRETCHES:
+            n = sum(lo <= r["step"] < hi for run in runs for r in run["rows"])
+            if not n:
+                continue
+            shadow = {s: per_seed(runs, SHADOW, s, lo, hi) for s in SCORES}
+            for critic in critics(runs[0]):
+                cells = []
+                for s in SCORES:
+                    x = per_seed(runs, critic, s, lo, hi)
+                    diff = "–" if critic == SHADOW else cell(x - shadow[s])
+                    cells.append(f"{np.nanmean(x):.3f} | {diff}")
+                lines.append(f"| {lo:,}-{hi:,} | {critic} | {n} | " + " | ".join(cells) + " |")
+            lines.append(
+                f"| {lo:,}-{hi:,} | ceiling (Monte Carlo noise) | | {ceiling(runs, lo, hi):.3f} |"
+                + " |" * (2 * len(SCORES) - 1)
+            )
+        returns = [np.mean(r["last_episodes"]) for r in runs]
+        lines += [
+            "",
+            f"Last five training episodes' return, mean over seeds: {np.mean(returns):.0f}",
+            "",
+        ]
+    return "\n".join(lines)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--runs", type=Path, default=HERE / "runs")
+    args = parser.parse_args()
+    print("# PPO InvertedPendulum-v5: each critic's advantages against those of V^pi\n")
+    print(table(load(args.runs)))
+
+
+if __name__ == "__main__":
+    main()
