@@ -25,7 +25,10 @@ A2C rollouts), the GP closes a *block* and adapts, in this order:
               + \\tfrac12 \\sum_i (k_{ii} - q_{ii}) / \\Lambda_{ii},
               \\qquad Q_{xx} = K_{xz} K_{zz}^{-1} K_{zx}.
 
-   Each parameter is kept within its bounds.
+   Each parameter is kept within its bounds. With ``follow_spread=True`` the lengthscales
+   that the first batch chose (unbounded inputs, none given) first start again from the
+   window's standard deviation of their inputs, each keeping its fitted factor; the hyperprior
+   and the bounds are relative to that start.
 4. **Posterior.** The exact sparse posterior of the window under the new hyperparameters,
    times the :class:`Summary` of the points that have left the window, replaces the on-line
    one (:func:`sparse_posterior`): nothing is rebuilt from the targets stored with the basis
@@ -190,6 +193,17 @@ class Adaptation:
         critic's time; 0.14's PPO default used it, starting from forgetting 0.1 per 4,096
         points, and 0.15's went back to the shrinking score at half the cost, after a
         pre-registered test against it (docs/results.md).
+    follow_spread : bool
+        Whether every refit first moves the starting lengthscales of the dimensions that took
+        theirs from the first batch (an unbounded input for which none was given) to the
+        window's standard deviation of that input, the rule the first batch used, each
+        lengthscale keeping its fitted factor relative to its start (``prior_sd`` and
+        ``lengthscale_range`` are relative to the start). The first batch of a policy that has
+        barely moved (32 steps of PPO's InvertedPendulum-v5 from rest) holds a tenth of the
+        spread that the states later have in some inputs, and without it each dimension's
+        lengthscale stays near that batch's (docs/results.md, session 82). A kernel with one
+        factor for all dimensions (``GeodesicKernel(ard=False)``) moves all by the geometric
+        mean of those dimensions' ratios. Bounded and given lengthscales never follow.
     whole_batch : bool
         Whether a refit's rebuild uses every point of the batch that closed the block, also
         those the window had no room for (a batch larger than ``window``: PPO's Acrobot-v1 and
@@ -231,6 +245,7 @@ class Adaptation:
     summary: str = "fold"
     forgetting_score: str = "shrink"
     whole_batch: bool = False
+    follow_spread: bool = False
 
     def __post_init__(self) -> None:
         optional = ("interval", "score_points", "fold_points", "fit_spacing")
@@ -248,7 +263,7 @@ class Adaptation:
                 f"Adaptation.prior_sd must be positive and finite (or None: no prior), got "
                 f"{self.prior_sd}"
             )
-        for name in ("settle", "whole_batch"):
+        for name in ("settle", "whole_batch", "follow_spread"):
             if not isinstance(getattr(self, name), bool):
                 raise ValueError(
                     f"Adaptation.{name} must be True or False, got {getattr(self, name)!r}"

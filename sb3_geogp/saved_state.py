@@ -55,6 +55,7 @@ _ZERO_BEFORE = {
     "bonus_spreads": "0.19, the bonus cap: no spreads yet",
     "window.decay": "0.36, drift forgetting: no retained point has lost weight to drift",
     "refit_seen": "0.38, fit spacing: no refit since the first point",
+    "ls_from_data": "0.42, spread-following lengthscales: none follows",
 }
 
 

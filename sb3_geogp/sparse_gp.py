@@ -464,6 +464,7 @@ class SparseOnlineGP(nn.Module):
     novelty_floor: Tensor
     block_forgetting: Tensor
     ls_start: Tensor
+    ls_from_data: Tensor
     bonus_spreads: Tensor
     window: RetainedWindow
 
@@ -581,6 +582,10 @@ class SparseOnlineGP(nn.Module):
         self.register_buffer("block_moments", torch.zeros(2, **kw))
         self.register_buffer("block_errors", torch.zeros(3, **kw))
         self.register_buffer("ls_start", self.kernel.lengthscale.to(**kw).clone())
+        # The dimensions whose lengthscale the first batch chose (Adaptation.follow_spread).
+        self.register_buffer(
+            "ls_from_data", torch.zeros(self.input_dim, dtype=torch.bool, device=kw["device"])
+        )
         self.register_buffer("bonus_spreads", torch.zeros(2, **kw))
         # Not state: what the posterior was computed under (_settle). A buffer so that .to()
         # converts it as it converts the hyperparameters; a saved state's are its own.
@@ -1085,6 +1090,7 @@ class SparseOnlineGP(nn.Module):
                 "the targets or pass target_mean and target_scale"
             )
         ls = self.kernel.lengthscale
+        self.ls_from_data.copy_(torch.isnan(ls))
         ls.copy_(defaults.resolve_lengthscale(ls, x=x))
         if not bool((torch.isfinite(ls) & (ls > 0)).all()):
             raise ValueError(
@@ -1603,6 +1609,8 @@ class SparseOnlineGP(nn.Module):
         if a.targets:
             self._restandardise(x, y, w)
         yn = self._standardised(x, y)
+        if a.follow_spread:
+            self._follow_spread(x)
         if a.steps:
             k = a.fit_points
             self._fit(x[-k:], yn[-k:], w[-k:], a.steps, a.lr, a)
@@ -1616,6 +1624,22 @@ class SparseOnlineGP(nn.Module):
             target_mean=float(self.y_mean),
             target_scale=float(self.y_scale),
         )
+
+    def _follow_spread(self, x: Tensor) -> None:
+        """Start the lengthscales the first batch chose again from the spread of the window's
+        inputs ``x : (n, d)`` (``Adaptation.follow_spread``), each keeping its factor to its
+        start. The posterior does not follow: the refit rebuilds it."""
+        chosen = self.ls_from_data
+        if not bool(chosen.any()):
+            return
+        ratio = torch.where(chosen, defaults.default_lengthscale(x) / self.ls_start, 1.0)
+        per_dimension = getattr(self.kernel, "ard", True)
+        factor = ratio if per_dimension else ratio[chosen].log().mean().exp().reshape(1)
+        assert self._rollback is not None
+        self._rollback.before_basis_change()
+        self.kernel.rescale(factor)
+        self.ls_start.mul_(factor)
+        self._cache = None
 
     def _basis_covariances(self, x: Tensor) -> tuple[Tensor, Tensor]:
         """``K_zz`` (with the nuggets), shape (m, m), and ``K_xz`` of ``x : (n, d)``, (n, m)."""

@@ -12,7 +12,7 @@ import torch
 from scipy.optimize import minimize
 from scipy.stats import norm
 
-from sb3_geogp import MaternKernel, RBFKernel, SparseOnlineGP
+from sb3_geogp import GeodesicKernel, MaternKernel, RBFKernel, SparseOnlineGP
 from sb3_geogp.adaptation import (
     WEIGHT_FLOOR,
     Adaptation,
@@ -54,6 +54,7 @@ from tests.test_sparse_gp import assert_same_state, matern, nystrom_posterior, r
         dict(fold_points=1.5),
         dict(settle=1),
         dict(whole_batch="yes"),
+        dict(follow_spread=1),
         dict(drift_tol=1.0),
         dict(drift_tol=float("nan")),
         dict(fit_floor=1.0),
@@ -1207,3 +1208,120 @@ def test_the_gps_own_window_fed_back_is_kept_as_fed() -> None:
     copies.update(wx[:500].clone(), wy[:500].clone())
     views.update(wx[:500], wy[:500])
     assert_same_state(views.state_dict(), copies.state_dict())
+
+
+# -- lengthscales that follow the data's spread (follow_spread, 0.42) ---------------------------
+def _narrow_then_wide(
+    rng: np.random.Generator, n: int = 100
+) -> list[tuple[np.ndarray, np.ndarray]]:
+    """A first batch whose second input barely varies (a policy that has not moved yet), then
+    batches spread 20x wider in it; the first input is uniform on [0, 1] throughout."""
+    spreads = [0.05] + [1.0] * 3
+    batches = []
+    for spread in spreads:
+        x = np.column_stack([rng.uniform(size=n), spread * rng.normal(size=n)])
+        batches.append((x, np.sin(3 * x[:, 0]) + np.tanh(x[:, 1]) + 0.1 * rng.normal(size=n)))
+    return batches
+
+
+def _spread_gp(follow: bool, steps: int, kernel: str | object = "rbf") -> SparseOnlineGP:
+    """Input 0 bounded ([0, 1]: its lengthscale from the bounds), input 1 unbounded (from the
+    first batch); a refit on every block of 100 points; no forgetting, and a window that
+    keeps every point of :func:`_narrow_then_wide` (no summary of dropped points)."""
+    adapt = Adaptation(
+        window=400, interval=100, steps=steps, forgetting=(1.0,), follow_spread=follow
+    )
+    bounds = ([0.0, -np.inf], [1.0, np.inf])
+    return SparseOnlineGP(2, kernel, max_basis=40, adapt=adapt, input_bounds=bounds)  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize("follow", [False, True])
+def test_follow_spread_starts_the_first_batchs_lengthscales_from_the_windows_spread(
+    follow: bool,
+) -> None:
+    """Without fitting steps the lengthscale is its start: the bounded input's stays at the
+    bounds' ``1 / sqrt(12)``; the unbounded one's is the first batch's standard deviation, and
+    with ``follow_spread`` that of the window at each refit (numpy's, independently)."""
+    rng = np.random.default_rng(11)
+    batches = _narrow_then_wide(rng)
+    gp = _spread_gp(follow, steps=0)
+    first = batches[0][0][:, 1].std()
+    for x, y in batches:
+        gp.update(x, y)
+        window_x = gp.window.data()[0].numpy()
+        expected = window_x[:, 1].std() if follow else first
+        ls = gp.lengthscale.numpy()
+        np.testing.assert_allclose(ls, [1 / np.sqrt(12), expected], rtol=1e-12)
+        np.testing.assert_allclose(gp.ls_start.numpy(), ls, rtol=1e-12)
+    assert gp.ls_from_data.tolist() == [False, True]
+    if follow:  # the window holds three wide batches and the narrow one
+        assert gp.lengthscale[1] > 10 * first
+
+
+def test_follow_spread_keeps_each_fitted_factor_to_its_new_start(monkeypatch) -> None:
+    """With fitting steps, each refit's fit starts from the window's spread times the factor
+    the previous fit left (lengthscale over start), dimension by dimension."""
+    rng = np.random.default_rng(12)
+    gp = _spread_gp(True, steps=3)
+    entries: list[tuple[np.ndarray, np.ndarray]] = []
+    fit = gp._fit
+
+    def recording_fit(*args, **kwargs) -> None:
+        entries.append((gp.lengthscale.numpy().copy(), gp.ls_start.numpy().copy()))
+        fit(*args, **kwargs)
+
+    monkeypatch.setattr(gp, "_fit", recording_fit)
+    left = None
+    for x, y in _narrow_then_wide(rng):
+        gp.update(x, y)  # every block of 100 points refits
+        ls, start = entries[-1]
+        if left is not None:
+            window_x = gp.window.data()[0].numpy()
+            np.testing.assert_allclose(start[1], window_x[:, 1].std(), rtol=1e-12)
+            np.testing.assert_allclose(ls / start, left, rtol=1e-12)
+        left = (gp.lengthscale / gp.ls_start).numpy()
+    assert len(entries) == 4 and not np.allclose(left, 1.0)  # the fits did move the factors
+
+
+def test_after_following_the_spread_the_posterior_is_the_sparse_posterior_of_the_window() -> None:
+    rng = np.random.default_rng(13)
+    gp = _spread_gp(True, steps=2)
+    for x, y in _narrow_then_wide(rng):
+        gp.update(x, y)
+    x, y, _, _ = (t.numpy() for t in gp.window.data())
+    w = np.ones(len(y))  # no forgetting: every retained point at full weight
+    assert_weighted_sparse_posterior(gp, x, y, w, rng)
+
+
+def test_follow_spread_with_one_factor_moves_every_lengthscale_by_the_geometric_mean() -> None:
+    """``GeodesicKernel(ard=False)`` has one factor: both (unbounded) inputs' lengthscales move
+    by the geometric mean of their spreads' ratios, and keep their first batch's proportion."""
+    rng = np.random.default_rng(14)
+    adapt = Adaptation(window=300, interval=100, steps=0, follow_spread=True)
+    gp = SparseOnlineGP(2, GeodesicKernel(ard=False), max_basis=40, adapt=adapt)
+    batches = _narrow_then_wide(rng)
+    first = batches[0][0].std(axis=0)
+    for x, y in batches:
+        gp.update(x, y)
+    ratio = gp.window.data()[0].numpy().std(axis=0) / first
+    np.testing.assert_allclose(gp.lengthscale.numpy(), first * np.sqrt(ratio.prod()), rtol=1e-10)
+
+
+def test_a_state_saved_before_follow_spread_loads_with_no_lengthscale_following() -> None:
+    """0.41 stored no ``ls_from_data``: the state loads and predicts as saved, and no dimension
+    follows the spread, as none did then."""
+    rng = np.random.default_rng(15)
+    batches = _narrow_then_wide(rng)
+    gp = _spread_gp(True, steps=0)
+    for x, y in batches[:2]:
+        gp.update(x, y)
+    state = {k: v for k, v in gp.state_dict().items() if k != "ls_from_data"}
+    old = _spread_gp(True, steps=0)
+    old.load_state_dict(state)
+    probe = rng.uniform(size=(9, 2))
+    for a, b in zip(gp.predict(probe), old.predict(probe), strict=True):
+        torch.testing.assert_close(a, b, rtol=0, atol=0)
+    assert not old.ls_from_data.any()
+    start = old.ls_start.clone()
+    old.update(*batches[2])
+    torch.testing.assert_close(old.ls_start, start, rtol=0, atol=0)

@@ -85,8 +85,24 @@ def _load_noise() -> Any:
 
 noise = _load_noise()
 
+#: Shadows of the default GP critic (``gp_actor_normalized``) whose kernel starts from the
+#: given lengthscales instead of its first batch's standard deviations: these are the
+#: standard deviations of the GP critic's agent's states between 10,000 and 30,000 steps
+#: (seed 1023), where the first batch's are about ten times smaller in the cart's position.
+STARTS = {"gp_ls_late": (0.33, 0.05, 0.55, 0.95)}
 #: ``VecNormalize``'s defaults, which the zoo's ``normalize: true`` keeps.
 CLIP, EPSILON = 10.0, 1e-8
+
+
+#: The shadows ``--shadows`` takes, and the arm each is built as.
+SHADOW_ARMS = {
+    **{
+        n: n
+        for n, a in noise.ARMS.items()
+        if a.critic != "mlp" and a.vec_normalize is None and not a.entry
+    },
+    **{n: "gp_actor_normalized" for n in STARTS},
+}
 
 
 class InvertedPendulumTask:
@@ -344,14 +360,21 @@ def run(arm: str, seed: int, args: argparse.Namespace) -> str:
     th.set_num_threads(1)
     # The shadows first: building a model seeds every random stream, so the run's own build,
     # last, leaves them as a run without shadows has them.
-    shadow_models = {name: noise.build(name, seed)[0] for name in args.shadows}
-    for shadow_model in shadow_models.values():
+    shadow_models = {n: noise.build(SHADOW_ARMS[n], seed)[0] for n in args.shadows}
+    for name, shadow_model in shadow_models.items():
         shadow_model.get_env().close()  # type: ignore[union-attr]
+        if name in STARTS:
+            shadow_model.policy.gp.kernel.lengthscale.copy_(th.tensor(STARTS[name]))
     model, callbacks = noise.build(arm, seed)
     drift = ActorDrift()
     gp_values = {n: posterior_mean(m.policy.gp) for n, m in shadow_models.items()}
     feeds = [
-        own_feed(drift.learner(m.policy.gp), gp_values[n], noise.ARMS[n].callback_kwargs, model)
+        own_feed(
+            drift.learner(m.policy.gp),
+            gp_values[n],
+            noise.ARMS[SHADOW_ARMS[n]].callback_kwargs,
+            model,
+        )
         for n, m in shadow_models.items()
     ]
     entry = dict(
@@ -402,11 +425,7 @@ def main() -> None:
         "--shadows",
         nargs="+",
         default=[],
-        choices=[
-            n
-            for n, a in noise.ARMS.items()
-            if a.critic != "mlp" and a.vec_normalize is None and not a.entry
-        ],
+        choices=list(SHADOW_ARMS),
         help="GP critics (heldout_noise arms) that learn beside a GP critic's run, fed as "
         "GPValueCallback would feed them",
     )

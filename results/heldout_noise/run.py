@@ -77,6 +77,13 @@ LOW_NOISE = {"policy_kwargs": "dict(log_std_init=-1.0)"}
 
 #: The GP critic's options that keep every point it absorbed at full weight: no starting
 #: forgetting, no forgetting by drift, and 1 as the adaptation's only forgetting candidate.
+
+
+def adapt_with(**changes: Any) -> dict[str, Any]:
+    """GP options: PPO's default adaptation with ``changes``."""
+    return {"adapt": {**default_adaptation(PPO).as_dict(), **changes}}
+
+
 NEVER_FORGETS = {
     "adapt": {**default_adaptation(PPO).as_dict(), "forgetting": [1.0]},
     "forgetting": 1.0,
@@ -106,6 +113,12 @@ ARMS: dict[str, Arm] = {
     # little noise, both critics.
     "mlp_vecnormalize_low_noise": Arm("mlp", OBS_AND_REWARD, entry=LOW_NOISE),
     "gp_actor_normalized_low_noise": Arm("laplacian", actor_normalize=True, entry=LOW_NOISE),
+    # Session 82 (results/heldout_advantage): the lengthscales' start. Without the hyperprior
+    # that holds them near the first batch's; and following the spread of the window.
+    "gp_no_prior": Arm("laplacian", actor_normalize=True, gp_kwargs=adapt_with(prior_sd=None)),
+    "gp_follow_spread": Arm(
+        "laplacian", actor_normalize=True, gp_kwargs=adapt_with(follow_spread=True)
+    ),
 }
 
 
