@@ -3,6 +3,8 @@ over seeds (each seed's mean over its scored rollouts in a stretch of training) 
 difference from the shadow MLP critic [95 % t interval over seeds].
 
     python results/heldout_advantage/read.py > results/heldout_advantage/read.md
+    python results/heldout_advantage/read.py --runs results/heldout_advantage/runs_start \
+        --figure results/heldout_advantage/correlation.png
 """
 
 from __future__ import annotations
@@ -14,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from sb3_geogp.comparison.report import pyplot
 from sb3_geogp.toolbox.stats import mean_ci
 
 HERE = Path(__file__).resolve().parent
@@ -98,12 +101,63 @@ def table(by_arm: dict[str, list[dict[str, Any]]]) -> str:
     return "\n".join(lines)
 
 
+#: Steps per bin of the figure's curves.
+BIN = 5_000
+
+
+def figure(by_arm: dict[str, list[dict[str, Any]]], path: Path) -> None:
+    """Per arm, each critic's advantage correlation along training (per seed the mean of its
+    rollouts in each bin of 5,000 steps, then the mean over seeds), and the Monte Carlo
+    ceiling."""
+    plt = pyplot()
+    fig, axes = plt.subplots(1, len(by_arm), figsize=(8 * len(by_arm), 4.8), squeeze=False)
+    for ax, (arm, runs) in zip(axes[0], by_arm.items(), strict=True):
+        edges = range(0, max(row["step"] for r in runs for row in r["rows"]) + 1, BIN)
+        mids = [lo + BIN / 2 for lo in edges]
+        for k, critic in enumerate(critics(runs[0])):
+            mean = [np.nanmean(per_seed(runs, critic, "correlation", lo, lo + BIN)) for lo in edges]
+            style = dict(lw=4, alpha=0.4) if critic == "own" else dict(lw=1.5, marker="o", ms=3)
+            ax.plot(mids, mean, color=f"C{k}", label=critic, **style)
+        ceiling_curve = [ceiling(runs, lo, lo + BIN) for lo in edges]
+        ax.plot(mids, ceiling_curve, "k:", label="ceiling (Monte Carlo noise)")
+        ax.axhline(0, color="grey", lw=0.8)
+        ax.set(
+            xlabel="environment steps",
+            ylabel="correlation with V^pi's GAE advantages",
+            title=f"PPO with `{arm}`'s critic: {len(runs)} seeds, the same rollouts",
+        )
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+    fig.suptitle("InvertedPendulum-v5: each critic's advantages against those of V^pi")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def provenance_lines(by_arm: dict[str, list[dict[str, Any]]]) -> str:
+    """Which commits made the runs."""
+    counts: dict[str, int] = {}
+    for runs in by_arm.values():
+        for run in runs:
+            p = run["provenance"]
+            key = f"commit {p['git_commit'][:8]} (uncommitted changes: {p['git_dirty']})"
+            counts[key] = counts.get(key, 0) + 1
+    return "\n".join(f"- {n} runs at {k}" for k, n in counts.items())
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=Path, default=HERE / "runs")
+    parser.add_argument("--figure", type=Path, help="draw the correlations here instead")
     args = parser.parse_args()
+    by_arm = load(args.runs)
+    if args.figure is not None:
+        figure(by_arm, args.figure)
+        return
     print("# PPO InvertedPendulum-v5: each critic's advantages against those of V^pi\n")
-    print(table(load(args.runs)))
+    print(table(by_arm))
+    print("## What the runs executed\n")
+    print(provenance_lines(by_arm))
 
 
 if __name__ == "__main__":
