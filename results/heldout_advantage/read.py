@@ -38,8 +38,12 @@ def load(runs: Path) -> dict[str, list[dict[str, Any]]]:
     return {arm: sorted(rs, key=lambda r: r["seed"]) for arm, rs in by_arm.items()}
 
 
+#: Scores of the shadow MLP critic in return units, not a critic of its own.
+RETURN_UNITS = "mlp_shadow_return_units"
+
+
 def critics(run: dict[str, Any]) -> list[str]:
-    return [k for k, v in run["rows"][0].items() if isinstance(v, dict)]
+    return [k for k, v in run["rows"][0].items() if isinstance(v, dict) and k != RETURN_UNITS]
 
 
 def per_seed(runs: list[dict[str, Any]], critic: str, score: str, lo: int, hi: int) -> np.ndarray:

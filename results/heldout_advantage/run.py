@@ -198,6 +198,10 @@ class MLPShadow:
         with th.no_grad():
             return self.net(th.as_tensor(normalized, dtype=th.float32)).numpy().ravel()
 
+    def values_now(self) -> np.ndarray:
+        """Its values at this rollout's states and the state after it, shape (T + 1,)."""
+        return self.values(np.concatenate([np.array(self.obs), self.last[None]]))
+
     def advantages(self, starts: np.ndarray, last_done: bool) -> tuple[np.ndarray, np.ndarray]:
         """This rollout's values and GAE advantages (normalised units), shape (T,) each."""
         v = self.values(np.array(self.obs))
@@ -349,6 +353,14 @@ class AdvantageScorer(BaseCallback):
             own=advantage_scores(reference, own_a, true_v[:T], own_v[:T] * own_scale),
             mlp_shadow=advantage_scores(
                 reference, shadow_a, true_v[:T], shadow_v * self.shadow.scale()
+            ),
+            # The shadow's values in return units with the rollout's own rewards: advantages
+            # in the reference's units, for the parts (slope, error gain) that need them.
+            mlp_shadow_return_units=advantage_scores(
+                reference,
+                advantages(scaled := self.shadow.values_now() * self.shadow.scale()),
+                true_v[:T],
+                scaled[:T],
             ),
             **gp_shadows,
         )
