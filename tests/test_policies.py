@@ -83,11 +83,13 @@ def make_model(
     )
 
 
-def assert_round_trip_exact(model: BaseAlgorithm, adapt: Adaptation, tmp_path: Path) -> None:
-    """A PPO ``model`` on 2 Pendulum-v1 envs through SB3's save and load: the adaptation
+def assert_round_trip_exact(
+    model: BaseAlgorithm, adapt: Adaptation, tmp_path: Path, env_id: str = "Pendulum-v1"
+) -> None:
+    """A PPO ``model`` on 2 ``env_id`` envs through SB3's save and load: the adaptation
     ``adapt`` kept, every state entry and every value the same, and training goes on."""
     model.save(tmp_path / "model.zip")
-    loaded = PPO.load(tmp_path / "model.zip", env=make_vec_env("Pendulum-v1", n_envs=2))
+    loaded = PPO.load(tmp_path / "model.zip", env=make_vec_env(env_id, n_envs=2))
     assert loaded.policy.gp.adaptation == adapt
     for name, value in model.policy.state_dict().items():
         other = loaded.policy.state_dict()[name]
@@ -1253,6 +1255,24 @@ def test_lagged_forgetting_survives_save_load_bit_for_bit(tmp_path: Path) -> Non
     gp = model.policy.gp
     assert int(gp.last_batch_points) == 128 and "forgetting" in gp.last_stats
     assert_round_trip_exact(model, adapt, tmp_path)
+
+
+def test_lengthscales_following_the_spread_survive_save_load_bit_for_bit(tmp_path: Path) -> None:
+    """``follow_spread`` on CartPole-v1, whose velocities are unbounded: those two lengthscales
+    start at the window's standard deviations after a refit (numpy's), the bounded position
+    and angle keep the bounds' (``width / sqrt(12)``), and it all goes through SB3's save and
+    load."""
+    adapt = Adaptation(window=256, interval=128, steps=0, follow_spread=True)
+    model = make_model(PPO, "CartPole-v1", kernel="rbf", n_envs=2, adapt=adapt)
+    model.learn(512, callback=feed())
+    gp = model.policy.gp
+    assert gp.ls_from_data.tolist() == [False, True, False, True]
+    window_x = gp.window.data()[0].numpy()
+    high = model.observation_space.high
+    expected = [2 * high[0] / np.sqrt(12), window_x[:, 1].std(), 2 * high[2] / np.sqrt(12)]
+    expected.append(window_x[:, 3].std())
+    np.testing.assert_allclose(gp.lengthscale.numpy(), expected, rtol=1e-6)
+    assert_round_trip_exact(model, adapt, tmp_path, "CartPole-v1")
 
 
 @pytest.mark.parametrize("option", [dict(prior_mean="linear"), dict(trend="linear")])
