@@ -1633,6 +1633,8 @@ class SparseOnlineGP(nn.Module):
         if not bool(chosen.any()):
             return
         ratio = torch.where(chosen, defaults.default_lengthscale(x) / self.ls_start, 1.0)
+        # A kernel with one factor for all inputs (GeodesicKernel(ard=False)) takes their
+        # geometric mean, which keeps its paths exact.
         per_dimension = getattr(self.kernel, "ard", True)
         factor = ratio if per_dimension else ratio[chosen].log().mean().exp().reshape(1)
         assert self._rollback is not None

@@ -149,6 +149,43 @@ def provenance_lines(by_arm: dict[str, list[dict[str, Any]]]) -> str:
     return "\n".join(f"- {n} runs at {k}" for k, n in counts.items())
 
 
+def slopes(by_arm: dict[str, list[dict[str, Any]]], lo: int = 10_000) -> str:
+    """Where the runs score the shadow MLP critic in return units: per critic, how much of the
+    reference its advantages hold (``advantage_slope``) and what they add beside it
+    (``advantage_residual``, in units of the reference's spread), each seed's median over its
+    rollouts from ``lo`` steps on, then the mean over seeds [95 % t]."""
+    lines = []
+    for arm, runs in by_arm.items():
+        if RETURN_UNITS not in runs[0]["rows"][0]:
+            continue
+        lines += [
+            f"## `{arm}`: the parts of the advantages, from {lo:,} steps on",
+            "",
+            "| critic | slope on the reference | residual |",
+            "|---|---|---|",
+        ]
+        for critic in [RETURN_UNITS, *(c for c in critics(runs[0]) if c != SHADOW)]:
+            cells = []
+            for part in ("advantage_slope", "advantage_residual"):
+                x = np.array(
+                    [
+                        np.nanmedian(
+                            [
+                                np.nan if r[critic][part] is None else r[critic][part]
+                                for r in run["rows"]
+                                if r["step"] >= lo
+                            ]
+                        )
+                        for run in runs
+                    ]
+                )
+                mean, half = (float(v) for v in mean_ci(x, nan_policy="omit"))
+                cells.append(f"{mean:.3f} [{mean - half:.3f}, {mean + half:.3f}]")
+            lines.append(f"| {critic} | " + " | ".join(cells) + " |")
+        lines.append("")
+    return "\n".join(lines)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=Path, default=HERE / "runs")
@@ -160,6 +197,7 @@ def main() -> None:
         return
     print("# PPO InvertedPendulum-v5: each critic's advantages against those of V^pi\n")
     print(table(by_arm))
+    print(slopes(by_arm))
     print("## What the runs executed\n")
     print(provenance_lines(by_arm))
 
