@@ -18,16 +18,20 @@ scored before any critic learns from it:
 3. each critic's GAE advantages, scored against the reference by
    :func:`sb3_geogp.studies.advantage_error.advantage_scores` (their correlation is what PPO's
    per-minibatch standardisation leaves of them): the run's own critic (the advantages PPO
-   trains on), and a shadow MLP critic that learns beside it from every rollout as the zoo's
-   MLP critic learns in ``VecNormalize`` (:class:`MLPShadow`), on the same rollouts.
+   trains on), a shadow MLP critic that learns beside it from every rollout as the zoo's MLP
+   critic learns in ``VecNormalize`` (:class:`MLPShadow`; also scored in return units,
+   ``mlp_shadow_return_units``), and the GP critics of ``--shadows``, fed as
+   ``GPValueCallback`` would feed them, all on the same rollouts.
 
 The split-half agreement of the reference (Spearman-Brown to all rollouts) bounds every
 critic's correlation alike (``sqrt`` of it). The scorer and the shadow draw from their own
 random streams: the run trains as it would without them.
 
-::
+The runs of docs/results.md (session 82), each about 45 minutes on 2 cores::
 
-    python results/heldout_advantage/run.py --arms gp_actor_normalized mlp_vecnormalize
+    python results/heldout_advantage/run.py --shadows gp_rbf gp_sb3_returns gp_no_trend
+    python results/heldout_advantage/run.py --out results/heldout_advantage/runs_start \
+        --shadows gp_ls_late gp_follow_spread gp_no_prior
     python results/heldout_advantage/read.py > results/heldout_advantage/read.md
 
 Each run writes ``runs/<arm>__s<seed>.json``: its settings, provenance and one row per scored
@@ -430,7 +434,7 @@ def main() -> None:
     parser.add_argument(
         "--arms",
         nargs="+",
-        default=["gp_actor_normalized", "mlp_vecnormalize"],
+        default=["gp_actor_normalized"],
         choices=list(noise.ARMS),
     )
     parser.add_argument(
@@ -442,9 +446,9 @@ def main() -> None:
         "GPValueCallback would feed them",
     )
     parser.add_argument("--first-seed", type=int, default=noise.SEEDS[0])
-    parser.add_argument("--seeds", type=int, default=5, help="how many seeds")
+    parser.add_argument("--seeds", type=int, default=10, help="how many seeds")
     parser.add_argument("--steps", type=int, default=noise.STEPS, help="training steps per run")
-    parser.add_argument("--every", type=int, default=8, help="score every n-th rollout")
+    parser.add_argument("--every", type=int, default=16, help="score every n-th rollout")
     parser.add_argument("--rollouts", type=int, default=16, help="Monte Carlo rollouts per state")
     parser.add_argument("--horizon", type=int, default=1000, help="steps per Monte Carlo rollout")
     args = parser.parse_args()
