@@ -1224,15 +1224,16 @@ def _narrow_then_wide(
     return batches
 
 
-def _spread_gp(follow: bool, steps: int, kernel: str | object = "rbf") -> SparseOnlineGP:
-    """Input 0 bounded ([0, 1]: its lengthscale from the bounds), input 1 unbounded (from the
-    first batch); a refit on every block of 100 points; no forgetting, and a window that
-    keeps every point of :func:`_narrow_then_wide` (no summary of dropped points)."""
+def _spread_gp(follow: bool, steps: int) -> SparseOnlineGP:
+    """An RBF GP: input 0 bounded ([0, 1]: its lengthscale from the bounds), input 1
+    unbounded (from the first batch); a refit on every block of 100 points; no forgetting,
+    and a window that keeps every point of :func:`_narrow_then_wide` (no summary of dropped
+    points)."""
     adapt = Adaptation(
         window=400, interval=100, steps=steps, forgetting=(1.0,), follow_spread=follow
     )
     bounds = ([0.0, -np.inf], [1.0, np.inf])
-    return SparseOnlineGP(2, kernel, max_basis=40, adapt=adapt, input_bounds=bounds)  # type: ignore[arg-type]
+    return SparseOnlineGP(2, "rbf", max_basis=40, adapt=adapt, input_bounds=bounds)
 
 
 @pytest.mark.parametrize("follow", [False, True])
