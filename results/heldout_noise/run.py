@@ -75,17 +75,16 @@ class Arm:
 #: The actor's initial noise at the MLP critic's agents' final one (std 0.37).
 LOW_NOISE = {"policy_kwargs": "dict(log_std_init=-1.0)"}
 
-#: The GP critic's options that keep every point it absorbed at full weight: no starting
-#: forgetting, no forgetting by drift, and 1 as the adaptation's only forgetting candidate.
-
 
 def adapt_with(**changes: Any) -> dict[str, Any]:
     """GP options: PPO's default adaptation with ``changes``."""
     return {"adapt": {**default_adaptation(PPO).as_dict(), **changes}}
 
 
+#: The GP critic's options that keep every point it absorbed at full weight: no starting
+#: forgetting, no forgetting by drift, and 1 as the adaptation's only forgetting candidate.
 NEVER_FORGETS = {
-    "adapt": {**default_adaptation(PPO).as_dict(), "forgetting": [1.0]},
+    **adapt_with(forgetting=[1.0]),
     "forgetting": 1.0,
     "forgetting_points": 4096,
     "drift_forgetting": 0.0,
