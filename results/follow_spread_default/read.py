@@ -6,6 +6,7 @@ stored 0.39 default runs of issue 13's table, paired by seed (session 82, regist
 
 from __future__ import annotations
 
+import functools
 import json
 from pathlib import Path
 from typing import Any
@@ -27,7 +28,9 @@ READINGS = {
 }
 
 
+@functools.cache
 def run(folder: Path, seed: int) -> dict[str, Any]:
+    """A run's result file, read once."""
     return json.loads((folder / "runs" / RUN.format(seed)).read_text())
 
 

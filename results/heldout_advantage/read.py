@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -46,13 +48,21 @@ def critics(run: dict[str, Any]) -> list[str]:
     return [k for k, v in run["rows"][0].items() if isinstance(v, dict) and k != RETURN_UNITS]
 
 
-def per_seed(runs: list[dict[str, Any]], critic: str, score: str, lo: int, hi: int) -> np.ndarray:
-    """Each run's mean of ``score`` over its rollouts scored in ``[lo, hi)`` (NaN if none)."""
+def per_seed(
+    runs: list[dict[str, Any]],
+    critic: str,
+    score: str,
+    lo: float,
+    hi: float,
+    stat: Callable[[list[float]], float] = np.nanmean,
+) -> np.ndarray:
+    """Each run's ``stat`` (mean) of ``score`` over its rollouts scored in ``[lo, hi)`` (NaN if
+    none)."""
     out = []
     for run in runs:
         rows = [r for r in run["rows"] if lo <= r["step"] < hi]
         vals = [r[critic][score] for r in rows if r[critic][score] is not None]
-        out.append(np.nanmean(vals) if vals else np.nan)
+        out.append(stat(vals) if vals else np.nan)
     return np.array(out, dtype=float)
 
 
@@ -167,18 +177,7 @@ def slopes(by_arm: dict[str, list[dict[str, Any]]], lo: int = 10_000) -> str:
         for critic in [RETURN_UNITS, *(c for c in critics(runs[0]) if c != SHADOW)]:
             cells = []
             for part in ("advantage_slope", "advantage_residual"):
-                x = np.array(
-                    [
-                        np.nanmedian(
-                            [
-                                np.nan if r[critic][part] is None else r[critic][part]
-                                for r in run["rows"]
-                                if r["step"] >= lo
-                            ]
-                        )
-                        for run in runs
-                    ]
-                )
+                x = per_seed(runs, critic, part, lo, math.inf, np.nanmedian)
                 mean, half = (float(v) for v in mean_ci(x, nan_policy="omit"))
                 cells.append(f"{mean:.3f} [{mean - half:.3f}, {mean + half:.3f}]")
             lines.append(f"| {critic} | " + " | ".join(cells) + " |")
@@ -197,7 +196,8 @@ def main() -> None:
         return
     print("# PPO InvertedPendulum-v5: each critic's advantages against those of V^pi\n")
     print(table(by_arm))
-    print(slopes(by_arm))
+    if parts := slopes(by_arm):  # runs scored before the return units have none
+        print(parts)
     print("## What the runs executed\n")
     print(provenance_lines(by_arm))
 

@@ -98,6 +98,11 @@ STARTS = {"gp_ls_late": (0.33, 0.05, 0.55, 0.95)}
 CLIP, EPSILON = 10.0, 1e-8
 
 
+def return_scale(ret_rms: RunningMeanStd) -> float:
+    """Raw return units per normalised unit of rewards normalised by ``ret_rms``, now."""
+    return float(np.sqrt(ret_rms.var + EPSILON))
+
+
 #: The shadows ``--shadows`` takes, and the arm each is built as.
 SHADOW_ARMS = {
     **{
@@ -191,9 +196,7 @@ class MLPShadow:
         self.ret = self.ret * self.gamma + reward
         self.ret_rms.update(np.array([self.ret]))
         self.obs.append(self.last)
-        self.rewards.append(
-            float(np.clip(reward / np.sqrt(self.ret_rms.var + EPSILON), -CLIP, CLIP))
-        )
+        self.rewards.append(float(np.clip(reward / return_scale(self.ret_rms), -CLIP, CLIP)))
         self.last = self.normalize(new_raw)
         if done:
             self.ret = 0.0
@@ -243,7 +246,7 @@ class MLPShadow:
 
     def scale(self) -> float:
         """Raw return units per normalised unit, now."""
-        return float(np.sqrt(self.ret_rms.var + EPSILON))
+        return return_scale(self.ret_rms)
 
 
 class AdvantageScorer(BaseCallback):
@@ -280,14 +283,15 @@ class AdvantageScorer(BaseCallback):
     def _on_step(self) -> bool:
         env = self.model.get_env()
         new = self.locals["new_obs"]
-        raw = env.get_original_obs() if isinstance(env, VecNormalize) else new  # type: ignore[union-attr]
-        info, done = self.locals["infos"][0], bool(self.locals["dones"][0])
-        self.truncated |= bool(info.get("TimeLimit.truncated", False))
-        terminated = done and not info.get("TimeLimit.truncated", False)
+        seen = env.get_original_obs() if isinstance(env, VecNormalize) else new  # type: ignore[union-attr]
         # after an episode's end this is the next episode's first state, as VecNormalize's
         # statistics see it
-        self.states.append(np.asarray(raw, dtype=np.float64)[0])
-        self.shadow.step(np.asarray(raw, dtype=np.float64)[0], 0.0 if terminated else 1.0, done)
+        raw = np.asarray(seen, dtype=np.float64)[0]
+        done = bool(self.locals["dones"][0])
+        truncated = bool(self.locals["infos"][0].get("TimeLimit.truncated", False))
+        self.truncated |= truncated
+        self.states.append(raw)
+        self.shadow.step(raw, 0.0 if done and not truncated else 1.0, done)
         return True
 
     def _on_rollout_end(self) -> None:
@@ -335,18 +339,17 @@ class AdvantageScorer(BaseCallback):
         # until GPValueCallback fills them from the GP as it is now, before it learns.
         buffer = self.model.rollout_buffer
         seen = np.concatenate([buffer.observations[:, 0], self.model._last_obs])  # type: ignore[list-item]
-        own_v = own_value(self.model)(seen.astype(np.float64))
+        seen = seen.astype(np.float64)
+        own_v = own_value(self.model)(seen)
         own_a = advantages(own_v, buffer.rewards[:, 0].astype(np.float64))
         env = self.model.get_env()
-        own_scale = (
-            float(np.sqrt(env.ret_rms.var + EPSILON))
-            if isinstance(env, VecNormalize) and env.norm_reward
-            else 1.0
-        )
+        normalized = isinstance(env, VecNormalize) and env.norm_reward
+        own_scale = return_scale(env.ret_rms) if normalized else 1.0  # type: ignore[union-attr]
         shadow_v, shadow_a = self.shadow.advantages(starts, last_done)
-        everything = np.concatenate([self.model.rollout_buffer.observations[:, 0], states[T:]])
+        # GP shadows run beside a GP critic only (main() refuses VecNormalize): they see what
+        # it sees, the raw observations.
         gp_shadows = {
-            name: advantage_scores(reference, advantages(v := value(everything)), true_v[:T], v[:T])
+            name: advantage_scores(reference, advantages(v := value(seen)), true_v[:T], v[:T])
             for name, value in self.gp_shadows.items()
         }
         row: dict[str, Any] = dict(
