@@ -193,7 +193,7 @@ class Adaptation:
         critic's time; 0.14's PPO default used it, starting from forgetting 0.1 per 4,096
         points, and 0.15's went back to the shrinking score at half the cost, after a
         pre-registered test against it (docs/results.md).
-    follow_spread : bool
+    follow_spread : bool or "widen"
         Whether every refit first moves the starting lengthscales of the dimensions that took
         theirs from the first batch (an unbounded input for which none was given) to the
         window's standard deviation of that input, the rule the first batch used, each
@@ -201,7 +201,11 @@ class Adaptation:
         ``lengthscale_range`` are relative to the start). The first batch of a policy that has
         barely moved (32 steps of PPO's InvertedPendulum-v5 from rest) holds a tenth of the
         spread that the states later have in some inputs, and without it each dimension's
-        lengthscale stays near that batch's (docs/results.md, session 82). A kernel with one
+        lengthscale stays near that batch's (docs/results.md, session 82). ``True`` follows
+        the spread both ways; ``"widen"`` only where the window spreads wider than the start,
+        so each start is the widest spread a window has shown (PPO's CartPole-v1 states
+        narrow to a third of the first batch's spread as its policy learns to balance, and
+        following them there made the critic less accurate, session 82). A kernel with one
         factor for all dimensions (``GeodesicKernel(ard=False)``) moves all by the geometric
         mean of those dimensions' ratios. Bounded and given lengthscales never follow.
     whole_batch : bool
@@ -245,7 +249,7 @@ class Adaptation:
     summary: str = "fold"
     forgetting_score: str = "shrink"
     whole_batch: bool = False
-    follow_spread: bool = False
+    follow_spread: bool | str = False
 
     def __post_init__(self) -> None:
         optional = ("interval", "score_points", "fold_points", "fit_spacing")
@@ -263,7 +267,12 @@ class Adaptation:
                 f"Adaptation.prior_sd must be positive and finite (or None: no prior), got "
                 f"{self.prior_sd}"
             )
-        for name in ("settle", "whole_batch", "follow_spread"):
+        if not (isinstance(self.follow_spread, bool) or self.follow_spread == "widen"):
+            raise ValueError(
+                f'Adaptation.follow_spread must be True, False or "widen", got '
+                f"{self.follow_spread!r}"
+            )
+        for name in ("settle", "whole_batch"):
             if not isinstance(getattr(self, name), bool):
                 raise ValueError(
                     f"Adaptation.{name} must be True or False, got {getattr(self, name)!r}"

@@ -1610,7 +1610,7 @@ class SparseOnlineGP(nn.Module):
             self._restandardise(x, y, w)
         yn = self._standardised(x, y)
         if a.follow_spread:
-            self._follow_spread(x)
+            self._follow_spread(x, widen=a.follow_spread == "widen")
         if a.steps:
             k = a.fit_points
             self._fit(x[-k:], yn[-k:], w[-k:], a.steps, a.lr, a)
@@ -1625,10 +1625,11 @@ class SparseOnlineGP(nn.Module):
             target_scale=float(self.y_scale),
         )
 
-    def _follow_spread(self, x: Tensor) -> None:
+    def _follow_spread(self, x: Tensor, widen: bool) -> None:
         """Start the lengthscales the first batch chose again from the spread of the window's
-        inputs ``x : (n, d)`` (``Adaptation.follow_spread``), each keeping its factor to its
-        start. The posterior does not follow: the refit rebuilds it."""
+        inputs ``x : (n, d)`` (``Adaptation.follow_spread``; with ``widen`` only where that
+        is wider), each keeping its factor to its start. The posterior does not follow:
+        the refit rebuilds it."""
         chosen = self.ls_from_data
         if not bool(chosen.any()):
             return
@@ -1637,6 +1638,8 @@ class SparseOnlineGP(nn.Module):
         # geometric mean, which keeps its paths exact.
         per_dimension = getattr(self.kernel, "ard", True)
         factor = ratio if per_dimension else ratio[chosen].log().mean().exp().reshape(1)
+        if widen:
+            factor = factor.clamp(min=1.0)
         assert self._rollback is not None
         self._rollback.before_basis_change()
         self.kernel.rescale(factor)

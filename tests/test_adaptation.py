@@ -55,6 +55,7 @@ from tests.test_sparse_gp import assert_same_state, matern, nystrom_posterior, r
         dict(settle=1),
         dict(whole_batch="yes"),
         dict(follow_spread=1),
+        dict(follow_spread="narrow"),
         dict(drift_tol=1.0),
         dict(drift_tol=float("nan")),
         dict(fit_floor=1.0),
@@ -1257,6 +1258,25 @@ def test_follow_spread_starts_the_first_batchs_lengthscales_from_the_windows_spr
     assert gp.ls_from_data.tolist() == [False, True]
     if follow:  # the window holds three wide batches and the narrow one
         assert gp.lengthscale[1] > 10 * first
+
+
+@pytest.mark.parametrize("follow", [True, "widen"])
+def test_follow_spread_widen_starts_from_the_widest_window_so_far(follow: bool | str) -> None:
+    """Spreads that narrow, then widen past the first batch's: with ``True`` the unbounded
+    input's start is each refit's window standard deviation; with ``"widen"`` the largest of
+    those so far and the first batch's (numpy's, independently)."""
+    rng = np.random.default_rng(16)
+    adapt = Adaptation(window=200, interval=100, steps=0, forgetting=(1.0,), follow_spread=follow)
+    gp = SparseOnlineGP(1, "rbf", max_basis=40, adapt=adapt)
+    widest = 0.0
+    for spread in (1.0, 0.05, 0.05, 0.05, 3.0):
+        x = spread * rng.normal(size=(100, 1))
+        gp.update(x, np.tanh(x[:, 0]) + 0.1 * rng.normal(size=100))
+        spread_now = gp.window.data()[0].numpy()[:, 0].std()
+        widest = max(widest, spread_now)
+        expected = spread_now if follow is True else widest
+        np.testing.assert_allclose(gp.lengthscale.numpy(), [expected], rtol=1e-12)
+    assert gp.lengthscale[0] > 2.0  # the last window's spread, wider than the first batch's
 
 
 def test_follow_spread_keeps_each_fitted_factor_to_its_new_start(monkeypatch) -> None:

@@ -118,6 +118,10 @@ ARMS: dict[str, Arm] = {
     "gp_follow_spread": Arm(
         "laplacian", actor_normalize=True, gp_kwargs=adapt_with(follow_spread=True)
     ),
+    # Session 83: following only where the window spreads wider (CartPole-v1's narrow).
+    "gp_follow_widen": Arm(
+        "laplacian", actor_normalize=True, gp_kwargs=adapt_with(follow_spread="widen")
+    ),
 }
 
 
