@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import functools
 import json
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -45,7 +46,10 @@ def default(seed: int) -> dict[str, Any]:
     return run(TABLE / f"CartPole-v1_s{block}", seed)
 
 
-def rows(seeds: tuple[int, ...]) -> list[str]:
+def rows(
+    seeds: tuple[int, ...], candidate: Callable[[int], dict[str, Any]] = candidate
+) -> list[str]:
+    """The table's rows: each reading, ``candidate``'s runs minus the stored default's."""
     out = []
     for name, (read, worse_sign) in READINGS.items():
         a = np.array([read(candidate(s)) for s in seeds])
