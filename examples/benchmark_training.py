@@ -30,7 +30,8 @@ after ``+adapt`` or ``+cheap`` by other adaptation settings (``+gapN``: ``max_ga
 ``+thinN``: ``score_points`` and ``fold_points`` N; ``+scoreN``, ``+foldN``: one of them;
 ``+stepsN``; ``+floorN``: ``fit_floor=N/100``; ``+priorN``: ``prior_sd=N/100``; ``+nosettle``:
 ``settle=False``; ``+snapshot``: ``summary="snapshot"``; ``+lagged``:
-``forgetting_score="lagged"``; ``+whole``: ``whole_batch=True``; and anywhere ``+returns``,
+``forgetting_score="lagged"``; ``+whole``: ``whole_batch=True``; ``+follow``, ``+widen``:
+``follow_spread=True``, ``"widen"``; and anywhere ``+returns``,
 ``GPValueCallback(target="returns")``,
 SB3's returns as the GP's targets instead of the algorithm's default, and ``+everyN``,
 ``GPValueCallback(feed_every=N)``, the GP fed every N-th rollout, ``+basisN``,
@@ -137,6 +138,8 @@ SETTING_FLAGS: dict[str, dict[str, Any]] = {
     "snapshot": {"summary": "snapshot"},
     "lagged": {"forgetting_score": "lagged"},
     "whole": {"whole_batch": True},
+    "follow": {"follow_spread": True},
+    "widen": {"follow_spread": "widen"},
 }
 
 

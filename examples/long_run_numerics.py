@@ -67,7 +67,9 @@ CHEAP_DEFAULT = {"adapt": CHEAP_ADAPTATION, "novelty_tol": 0.1}
 #: The policy's PPO default critic since 0.9: the 0.6 one with a moving level.
 LEVEL_DEFAULT = {"adapt": True, "novelty_tol": 0.1, "trend": "level"}
 #: The policy's PPO adaptation of 0.23-0.34, before 0.35's whole rollouts in the rebuild.
-PRIOR_ADAPTATION = replace(DEFAULT_ADAPTATION, whole_batch=False, fit_spacing=None)
+PRIOR_ADAPTATION = replace(
+    DEFAULT_ADAPTATION, whole_batch=False, fit_spacing=None, follow_spread=False
+)
 #: The policy's PPO adaptation of 0.11-0.22, before 0.23's hyperprior.
 WITHOUT_PRIOR = replace(PRIOR_ADAPTATION, prior_sd=None)
 #: The policy's PPO default critic of 0.10: 0.9's with its rare refits, the summary folded.
@@ -81,20 +83,26 @@ SNAPSHOT_ADAPT = {"adapt": Adaptation(summary="snapshot")}
 POINTS_DEFAULT = {**SNAPSHOT_DEFAULT, **DEFAULT_FORGETTING}
 #: The policy's PPO default critic of 0.23-0.34: 0.15's with the lengthscale hyperprior.
 PRIOR_DEFAULT = {**POINTS_DEFAULT, "adapt": PRIOR_ADAPTATION}
-#: The policy's PPO default critic since 0.39 (since 0.35 a refit's rebuild takes the whole
-#: batch; since 0.39 a block refits for its fit only 4,096 points after the last refit) with a
+#: The policy's PPO default critic since 0.43 (since 0.35 a refit's rebuild takes the whole
+#: batch; since 0.39 a block refits for its fit only 4,096 points after the last refit; since
+#: 0.43 a refit widens the data-chosen lengthscales to the window's spread) with a
 #: window of 256 points, so that every batch (2,048 points here, 384 in the quick test) is
 #: larger than the window, as PPO's 4,096-point rollouts are larger than the default's 2,048.
-SPACED_DEFAULT = {**POINTS_DEFAULT, "adapt": replace(DEFAULT_ADAPTATION, window=256)}
-#: The same as the policy's PPO default critic of 0.35-0.38, without the spacing.
+WIDEN_DEFAULT = {**POINTS_DEFAULT, "adapt": replace(DEFAULT_ADAPTATION, window=256)}
+#: The same as the policy's PPO default critic of 0.39-0.42, without the widening.
+SPACED_DEFAULT = {
+    **POINTS_DEFAULT,
+    "adapt": replace(WIDEN_DEFAULT["adapt"], follow_spread=False),
+}
+#: The same as the policy's PPO default critic of 0.35-0.38, without the spacing either.
 WHOLE_DEFAULT = {**POINTS_DEFAULT, "adapt": replace(SPACED_DEFAULT["adapt"], fit_spacing=None)}
 #: The policy's PPO default critic of 0.14 (:data:`~sb3_geogp.policies.LAGGED_ADAPTATION`, an
 #: option since 0.15): forgetting in the likelihood, chosen one batch ahead, from 0.1 per 4,096
 #: points.
 LAGGED_DEFAULT = {**POINTS_DEFAULT, "adapt": LAGGED_ADAPTATION}
 #: The snapshot summary's variants (0.11), on both streams: 0.11-0.13's PPO default, the 0.15
-#: and 0.23 defaults, 0.35's (its batches larger than its window) and 0.39's in float64 and
-#: float32, and the A2C default's adaptation with snapshots;
+#: and 0.23 defaults, 0.35's (its batches larger than its window), 0.39's and 0.43's in float64
+#: and float32, and the A2C default's adaptation with snapshots;
 #: and 0.14's default, whose lagged forgetting score refuses float32.
 SNAPSHOT_VARIANTS = (
     Variant("laplacian rare snapshot n0.1 level", "laplacian", {}, SNAPSHOT_DEFAULT),
@@ -130,11 +138,12 @@ SNAPSHOT_VARIANTS = (
     ),
     *(
         Variant(
-            f"laplacian spaced4096 whole window256 f0.1/4096 n0.1 level {dtype}",
+            f"laplacian {widen}spaced4096 whole window256 f0.1/4096 n0.1 level {dtype}",
             "laplacian",
             {},
-            {**SPACED_DEFAULT, "dtype": getattr(torch, dtype)},
+            {**options, "dtype": getattr(torch, dtype)},
         )
+        for widen, options in (("", SPACED_DEFAULT), ("widen ", WIDEN_DEFAULT))
         for dtype in ("float64", "float32")
     ),
 )

@@ -194,7 +194,7 @@ def test_benchmark_training_setting_suffixes_build_those_settings() -> None:
     assert lagged == Adaptation(summary="snapshot", forgetting_score="lagged")
     whole = as_adaptation(bench.gp_kwargs_of(["adapt", "snapshot", "whole"])["adapt"])
     assert whole == Adaptation(summary="snapshot", whole_batch=True)
-    # PPO's default of 0.35-0.38, spelled out; since 0.39 with the fit spacing
+    # PPO's default of 0.35-0.38, spelled out; 0.39-0.42 with the fit spacing; since 0.43 widening
     spelled = [
         "adapt",
         "gap16",
@@ -207,9 +207,13 @@ def test_benchmark_training_setting_suffixes_build_those_settings() -> None:
         "whole",
     ]
     unspaced = as_adaptation(bench.gp_kwargs_of(spelled)["adapt"])
-    assert unspaced == dataclasses.replace(DEFAULT_ADAPTATION, fit_spacing=None)
+    assert unspaced == dataclasses.replace(
+        DEFAULT_ADAPTATION, fit_spacing=None, follow_spread=False
+    )
     spaced = as_adaptation(bench.gp_kwargs_of([*spelled, "spacing4096"])["adapt"])
-    assert spaced == DEFAULT_ADAPTATION
+    assert spaced == dataclasses.replace(DEFAULT_ADAPTATION, follow_spread=False)
+    widened = as_adaptation(bench.gp_kwargs_of([*spelled, "spacing4096", "widen"])["adapt"])
+    assert widened == DEFAULT_ADAPTATION
     assert bench.gp_kwargs_of(["nosettle"]) is None  # a setting needs +adapt or +cheap
 
 

@@ -315,10 +315,12 @@ def test_default_critic_is_the_laplacian_kernel_with_a_dense_basis_except_under_
     # 0.11 from a snapshot of the posterior; since 0.14 its forgetting starts from 0.1 per 4,096
     # points; since 0.23 a hyperprior holds its lengthscales near their start; since 0.35 its
     # refits rebuild on the whole rollout; since 0.37 it forgets by the actor's drift; since
-    # 0.39 a block refits for its fit only 4,096 points after the last refit.
+    # 0.39 a block refits for its fit only 4,096 points after the last refit; since 0.43 a
+    # refit widens the lengthscales the first batch chose to the window's spread.
     rare = Adaptation(
         max_gap=16, settle=False, score_points=256, fold_points=256, fit_floor=0.8,
         summary="snapshot", prior_sd=0.1, whole_batch=True, fit_spacing=4096,
+        follow_spread="widen",
     )  # fmt: skip
     assert default.gp.adaptation == rare and built(adapt=True).gp.adaptation == rare
     assert default.gp.trend == "level"
@@ -424,9 +426,9 @@ def test_model_saved_by_0_10_keeps_its_folded_summary(tmp_path: Path) -> None:
     included), not 0.11's snapshots."""
     env = make_vec_env("Pendulum-v1", n_envs=2, seed=0)
     # no hyperprior before 0.23, no whole rollouts in the rebuild before 0.35, no fit spacing
-    # before 0.39
+    # before 0.39, no widening before 0.43
     then = dataclasses.replace(
-        DEFAULT_ADAPTATION, prior_sd=None, whole_batch=False, fit_spacing=None
+        DEFAULT_ADAPTATION, prior_sd=None, whole_batch=False, fit_spacing=None, follow_spread=False
     )
     saved_by_0_10 = {k: v for k, v in then.as_dict().items() if k != "summary"}
     kwargs = dict(gp_kwargs=dict(max_basis=16, adapt=saved_by_0_10), net_arch=[16])
@@ -449,29 +451,42 @@ def test_model_saved_by_0_10_keeps_its_folded_summary(tmp_path: Path) -> None:
         # up to 0.22: no hyperprior
         (
             dataclasses.replace(
-                DEFAULT_ADAPTATION, prior_sd=None, whole_batch=False, fit_spacing=None
+                DEFAULT_ADAPTATION,
+                prior_sd=None,
+                whole_batch=False,
+                fit_spacing=None,
+                follow_spread=False,
             ),
-            ("whole_batch", "fit_spacing"),
+            ("whole_batch", "fit_spacing", "follow_spread"),
         ),
         # 0.23-0.34: the head of a rollout larger than the window through the summary
         (
-            dataclasses.replace(DEFAULT_ADAPTATION, whole_batch=False, fit_spacing=None),
-            ("whole_batch", "fit_spacing"),
+            dataclasses.replace(
+                DEFAULT_ADAPTATION, whole_batch=False, fit_spacing=None, follow_spread=False
+            ),
+            ("whole_batch", "fit_spacing", "follow_spread"),
         ),
         # 0.35-0.38: a block below the fit floor refits whatever its spacing
-        (dataclasses.replace(DEFAULT_ADAPTATION, fit_spacing=None), ("fit_spacing",)),
+        (
+            dataclasses.replace(DEFAULT_ADAPTATION, fit_spacing=None, follow_spread=False),
+            ("fit_spacing", "follow_spread"),
+        ),
+        # 0.39-0.41: the lengthscales the first batch chose never follow the spread
+        (dataclasses.replace(DEFAULT_ADAPTATION, follow_spread=False), ("follow_spread",)),
+        # 0.42: the same, stored as follow_spread=False
+        (dataclasses.replace(DEFAULT_ADAPTATION, follow_spread=False), ()),
     ],
-    ids=["0.22", "0.34", "0.37"],
+    ids=["0.22", "0.34", "0.37", "0.41", "0.42"],
 )
 def test_ppo_model_saved_by_an_older_default_loads_with_its_adaptation(
     tmp_path: Path, then: Adaptation, unknown: tuple[str, ...]
 ) -> None:
     """A PPO critic saved with an older default adaptation, whose saved ``policy_kwargs`` named
     no adaptation (0.22's without the hyperprior, 0.34's without ``whole_batch``, 0.37's
-    without ``fit_spacing``): loaded by today's, whose default differs, the model keeps the
-    adaptation it was trained with, and its values. Each stored its settings without those it
-    did not know (``unknown``), which load as off (``whole_batch=False``,
-    ``fit_spacing=None``)."""
+    without ``fit_spacing``, 0.41's and 0.42's without widening): loaded by today's, whose
+    default differs, the model keeps the adaptation it was trained with, and its values. Each
+    stored its settings without those it did not know (``unknown``), which load as off
+    (``whole_batch=False``, ``fit_spacing=None``, ``follow_spread=False``)."""
     env = make_vec_env("Pendulum-v1", n_envs=2, seed=0)
     stored = {k: v for k, v in then.as_dict().items() if k not in unknown}
     trained = dict(gp_kwargs=dict(max_basis=16, adapt=stored), net_arch=[16])
@@ -498,13 +513,16 @@ def test_a_ppo_state_saved_by_0_34_loads_without_the_whole_batch() -> None:
     state rebuilds its critic with the adaptation the state was saved with,
     ``whole_batch=False`` and ``fit_spacing=None``, and predicts as saved."""
     env = make_vec_env("Pendulum-v1", n_envs=2, seed=0)
-    then = dataclasses.replace(DEFAULT_ADAPTATION, whole_batch=False, fit_spacing=None)
+    then = dataclasses.replace(
+        DEFAULT_ADAPTATION, whole_batch=False, fit_spacing=None, follow_spread=False
+    )
     trained = dict(gp_kwargs=dict(max_basis=16, adapt=then), net_arch=[16])
     model = PPO(GPActorCriticPolicy, env, n_steps=64, batch_size=64, seed=0, policy_kwargs=trained)
     model.learn(256, callback=feed())
     state = model.policy.state_dict()
     extra = state["value_net.gp._extra_state"]
-    adapt = {k: v for k, v in extra["adapt"].items() if k not in ("whole_batch", "fit_spacing")}
+    unknown = ("whole_batch", "fit_spacing", "follow_spread")
+    adapt = {k: v for k, v in extra["adapt"].items() if k not in unknown}
     state["value_net.gp._extra_state"] = {**extra, "adapt": adapt}
     kwargs = dict(gp_kwargs=dict(max_basis=16), net_arch=[16])
     fresh = PPO(GPActorCriticPolicy, env, n_steps=64, seed=1, policy_kwargs=kwargs)
