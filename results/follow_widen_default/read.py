@@ -5,6 +5,11 @@ its PPO CartPole-v1 cell (``--table``; the other cells are 0.39's table's)::
 
     python results/follow_widen_default/read.py > results/follow_widen_default/read.md
     python results/follow_widen_default/read.py --table > results/follow_widen_default/table.md
+    python results/follow_widen_default/read.py --fit > results/follow_widen_default/fit.md
+    python results/follow_widen_default/read.py --curves docs/verdict_table/curves.png
+
+``--fit`` reads issue 13's critic-fit score on PPO CartPole-v1, seeds 0-9 (exploratory, after
+the decision), against 0.39's default's runs (``results/fit_spacing/fit_spaced``).
 
 Test B (InvertedPendulum-v5) is read by ``results/heldout_noise/read.py``.
 """
@@ -19,6 +24,7 @@ import gymnasium as gym
 import numpy as np
 
 import sb3_geogp.envs  # noqa: F401  (registers the table's own environments)
+from sb3_geogp.comparison.report import difference_title, plot_cell_curves, sweep_cells
 from sb3_geogp.comparison.results import pool_sweeps
 from sb3_geogp.defaults import bounds_lengthscale
 from sb3_geogp.policies import _feature_bounds
@@ -38,21 +44,34 @@ def candidate(seed: int) -> dict[str, Any]:
     return SPREAD.run(HERE / f"s{block}", seed)
 
 
-def table() -> None:
-    """Issue 13's table (final return, GP − MLP) with this folder's runs in PPO CartPole-v1."""
+def widened_table() -> list[dict[str, Any]]:
+    """Issue 13's table's runs (0.39's) with this folder's in PPO CartPole-v1."""
     widen = pool_sweeps([HERE / f"s{block}" for block in BLOCKS])
     assert len(widen) == len(SEEDS)
     table = SPACING.today_spaced()
     kept = [r for r in table if not is_replaced(r)]
     assert len(table) - len(kept) == len(SEEDS)
+    return kept + widen
+
+
+def table() -> None:
+    """Issue 13's table (final return, GP − MLP) with this folder's runs in PPO CartPole-v1."""
+    runs = widened_table()
     print("# Issue 13's table with `follow_spread=\"widen\"` in PPO's default (session 83)\n")
     print("PPO CartPole-v1: this folder's 50 runs; every other cell as 0.39's table")
     print("(`results/fit_spacing/registered.md`). The change acts only on inputs that are")
     print("unbounded (and given no lengthscale); per PPO cell, how many the GP critic has:\n")
-    for env_id in sorted({r["spec"]["env_id"] for r in table}):
+    for env_id in sorted({r["spec"]["env_id"] for r in runs}):
         print(f"- {env_id}: {unbounded_inputs(env_id)}")
     print()
-    SPACING.POOL30.print_table(SPACING.POOL30.mlp_rows(kept + widen))
+    SPACING.POOL30.print_table(SPACING.POOL30.mlp_rows(runs))
+
+
+def curves(path: str) -> None:
+    """The same table as learning curves, a panel per cell (PPO's above A2C's)."""
+    runs = widened_table()
+    titles = {cell: difference_title(c) for cell, c in SPACING.POOL30.mlp_rows(runs).items()}
+    plot_cell_curves(runs, path, sweep_cells(runs, ("ppo", "a2c")), titles)
 
 
 def unbounded_inputs(env_id: str) -> int:
@@ -65,6 +84,13 @@ def is_replaced(run: dict[str, Any]) -> bool:
     """Whether a run of 0.39's table is one this folder's runs replace."""
     spec = run["spec"]
     return SPACING.TABLE.is_ppo_default(run) and spec["env_id"] == "CartPole-v1"
+
+
+def fit() -> None:
+    """Issue 13's critic-fit score on CartPole-v1, the widening default against 0.39's."""
+    arms = ("../fit_spacing/fit_spaced", "fit_widen")
+    note = "exploratory, run after the decision; no rule reads it"
+    SPACING.TABLE.WHOLE.fit_table(HERE, range(10), ("CartPole-v1",), note, arms, ("0.39", "widen"))
 
 
 def reading() -> None:
@@ -80,7 +106,13 @@ def reading() -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--table", action="store_true", help="issue 13's table with these runs")
-    table() if parser.parse_args().table else reading()
+    parser.add_argument("--fit", action="store_true", help="the critic-fit score on CartPole-v1")
+    parser.add_argument("--curves", metavar="PNG", help="draw the table's learning curves")
+    args = parser.parse_args()
+    if args.curves:
+        curves(args.curves)
+    else:
+        table() if args.table else fit() if args.fit else reading()
 
 
 if __name__ == "__main__":
