@@ -46,8 +46,10 @@ def final_returns(arm: str, env_id: str) -> np.ndarray:
 
 
 def follows(run: dict[str, Any]) -> bool | str:
-    """The run's ``follow_spread`` (False where its options name no adaptation)."""
-    return (run["spec"]["gp_kwargs"].get("adapt") or {}).get("follow_spread", False)
+    """The run's ``follow_spread`` (False where its options spell out no adaptation: the
+    default of the study's 0.39 runs)."""
+    adapt = run["spec"]["gp_kwargs"].get("adapt")
+    return adapt.get("follow_spread", False) if isinstance(adapt, dict) else False
 
 
 def main() -> None:
