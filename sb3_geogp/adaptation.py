@@ -205,7 +205,8 @@ class Adaptation:
         the spread both ways; ``"widen"`` only where the window spreads wider than the start,
         so each start is the widest spread a window has shown (PPO's CartPole-v1 states
         narrow to a third of the first batch's spread as its policy learns to balance, and
-        following them there made the critic less accurate, session 82). A kernel with one
+        following them there made the critic less accurate, session 82); ``"widen"`` is part
+        of the policy's PPO default since 0.43 (docs/results.md, session 83). A kernel with one
         factor for all dimensions (``GeodesicKernel(ard=False)``) moves all by the geometric
         mean of those dimensions' ratios. Bounded and given lengthscales never follow.
     whole_batch : bool

@@ -1328,6 +1328,24 @@ def test_follow_spread_with_one_factor_moves_every_lengthscale_by_the_geometric_
     np.testing.assert_allclose(gp.lengthscale.numpy(), first * np.sqrt(ratio.prod()), rtol=1e-10)
 
 
+def test_follow_spread_widen_with_one_factor_never_shrinks() -> None:
+    """``"widen"`` on ``GeodesicKernel(ard=False)``: windows that narrow leave the first
+    batch's lengthscales as they were; a window that spreads wider moves both by the geometric
+    mean of their ratios (numpy's)."""
+    rng = np.random.default_rng(17)
+    adapt = Adaptation(window=100, interval=100, steps=0, follow_spread="widen")
+    gp = SparseOnlineGP(2, GeodesicKernel(ard=False), max_basis=40, adapt=adapt)
+    first = None
+    for spread in (1.0, 0.2, 0.2, 4.0):
+        x = spread * rng.normal(size=(100, 2))
+        gp.update(x, np.sin(x[:, 0]) + 0.1 * rng.normal(size=100))
+        first = x.std(axis=0) if first is None else first
+        if spread < 1:
+            np.testing.assert_allclose(gp.lengthscale.numpy(), first, rtol=1e-12)
+    ratio = gp.window.data()[0].numpy().std(axis=0) / first
+    np.testing.assert_allclose(gp.lengthscale.numpy(), first * np.sqrt(ratio.prod()), rtol=1e-10)
+
+
 def test_a_state_saved_before_follow_spread_loads_with_no_lengthscale_following() -> None:
     """0.41 stored no ``ls_from_data``: the state loads and predicts as saved, and no dimension
     follows the spread, as none did then."""
