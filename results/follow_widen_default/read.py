@@ -8,8 +8,9 @@ its PPO CartPole-v1 cell (``--table``; the other cells are 0.39's table's)::
     python results/follow_widen_default/read.py --fit > results/follow_widen_default/fit.md
     python results/follow_widen_default/read.py --curves docs/verdict_table/curves.png
 
-``--fit`` reads issue 13's critic-fit score on PPO CartPole-v1, seeds 0-9 (exploratory, after
-the decision), against 0.39's default's runs (``results/fit_spacing/fit_spaced``).
+``--fit`` reads issue 13's critic-fit score on PPO CartPole-v1: seeds 0-9 (exploratory, after
+the decision) against 0.39's default's runs (``results/fit_spacing/fit_spaced``), then
+``PLAN_fit.md``'s check on fresh seeds 1093-1122 against 0.42's default.
 
 Test B (InvertedPendulum-v5) is read by ``results/heldout_noise/read.py``.
 """
@@ -87,10 +88,24 @@ def is_replaced(run: dict[str, Any]) -> bool:
 
 
 def fit() -> None:
-    """Issue 13's critic-fit score on CartPole-v1, the widening default against 0.39's."""
-    arms = ("../fit_spacing/fit_spaced", "fit_widen")
+    """Issue 13's critic-fit score on CartPole-v1, the widening default against 0.39's (seeds
+    0-9, exploratory), then against 0.42's on fresh seeds (``PLAN_fit.md``)."""
+    table = SPACING.TABLE.WHOLE.fit_table
+    cells = ("CartPole-v1",)
     note = "exploratory, run after the decision; no rule reads it"
-    SPACING.TABLE.WHOLE.fit_table(HERE, range(10), ("CartPole-v1",), note, arms, ("0.39", "widen"))
+    table(
+        HERE, range(10), cells, note, ("../fit_spacing/fit_spaced", "fit_widen"), ("0.39", "widen")
+    )
+    print()
+    note = "PLAN_fit.md's rule reads the per-rollout row's Wilcoxon p and paired median"
+    table(
+        HERE,
+        range(1093, 1123),
+        cells,
+        note,
+        ("fit_fresh_042", "fit_fresh_widen"),
+        ("0.42", "widen"),
+    )
 
 
 def reading() -> None:
