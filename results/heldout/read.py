@@ -9,7 +9,8 @@ the plan's 7 comparisons (Bonferroni; the table's rule), then the area under the
 the steps to the threshold (secondary), the seeds that finished, and the commits the runs
 executed. The PPO cells under the table's rule are the plan's addendum 2 (exploratory, after
 the registered reading), read apart and drawn in ``curves_exploratory.png`` beside the
-``--curves`` figure. ``--dir`` reads other folders of the same layout (a smoke run).
+``--curves`` figure. ``--dir`` reads other folders of the same layout (a smoke run, or
+``results/heldout_0_43``, whose plan's family is ``--family 2``).
 """
 
 from __future__ import annotations
@@ -51,19 +52,21 @@ def protocol_runs(root: Path, exploratory: bool = False) -> Rows:
     return {p: rs for p, rs in chosen.items() if rs}
 
 
-def differences(by_protocol: Rows) -> Rows:
-    """Per protocol, GP − MLP per cell on every metric, family-wise over the plan's family."""
+def differences(by_protocol: Rows, family: int = FAMILY) -> Rows:
+    """Per protocol, GP − MLP per cell on every metric, family-wise over ``family``
+    comparisons (the plan's)."""
     return {
-        p: [c for c in comparisons(runs, family_size=FAMILY) if c["b"] == "mlp"]
+        p: [c for c in comparisons(runs, family_size=family) if c["b"] == "mlp"]
         for p, runs in by_protocol.items()
     }
 
 
-def print_differences(diffs: Rows, metric: str) -> None:
-    """The rows of ``diffs`` (:func:`differences`) on ``metric`` as a table."""
+def print_differences(diffs: Rows, metric: str, family: int = FAMILY) -> None:
+    """The rows of ``diffs`` (:func:`differences`, family-wise over ``family``) on ``metric``
+    as a table."""
     print(f"## GP − MLP, {LABELS[metric]}\n")
     print("| algo | env | protocol | seeds GP / MLP | GP − MLP [95 %] | verdict | family-wise "
-          f"interval (of {FAMILY}) | family-wise |")  # fmt: skip
+          f"interval (of {family}) | family-wise |")  # fmt: skip
     print("|---|---|---|---|---|---|---|---|")
     for protocol, rows in diffs.items():
         for c in _sorted_cells(rows, metric):
@@ -126,6 +129,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--curves", metavar="PNG", help="draw the learning curves")
     parser.add_argument("--dir", type=Path, default=HERE, help="folder holding the protocols")
+    parser.add_argument("--family", type=int, default=FAMILY, help="comparisons family-wise")
     args = parser.parse_args()
     by_protocol = protocol_runs(args.dir)
     explored = protocol_runs(args.dir, exploratory=True)
@@ -138,14 +142,14 @@ def main() -> None:
     for name, text in PROTOCOLS.items():
         print(f"- `{name}`: {text}")
     print()
-    diffs = differences(by_protocol)
+    diffs = differences(by_protocol, args.family)
     for metric in LABELS:
-        print_differences(diffs, metric)
+        print_differences(diffs, metric, args.family)
     print_summary(by_protocol)
     print_provenance(by_protocol)
     if explored:
         print("# Addendum 2 (exploratory, decided after the reading above): the table's rule\n")
-        print_differences(differences(explored), "final_return")
+        print_differences(differences(explored, args.family), "final_return", args.family)
         print_summary(explored)
         print_provenance(explored)
 
