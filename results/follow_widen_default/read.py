@@ -34,7 +34,7 @@ from sb3_geogp.toolbox.scripts import load_script
 HERE = Path(__file__).resolve().parent
 #: Session 82's reading, whose table and run files this one shares.
 SPREAD = load_script(HERE.parent / "follow_spread_default" / "read.py", "follow_spread_default")
-
+#: 0.39's table (issue 13's, as ``results/fit_spacing/read.py`` assembles it).
 SPACING = load_script(HERE.parent / "fit_spacing" / "read.py", "fit_spacing")
 BLOCKS = (0, 150, 570)
 SEEDS = (*range(20), *range(150, 170), *range(570, 580))
@@ -83,29 +83,21 @@ def unbounded_inputs(env_id: str) -> int:
 
 def is_replaced(run: dict[str, Any]) -> bool:
     """Whether a run of 0.39's table is one this folder's runs replace."""
-    spec = run["spec"]
-    return SPACING.TABLE.is_ppo_default(run) and spec["env_id"] == "CartPole-v1"
+    return SPACING.TABLE.is_ppo_default(run) and run["spec"]["env_id"] == "CartPole-v1"
 
 
 def fit() -> None:
     """Issue 13's critic-fit score on CartPole-v1, the widening default against 0.39's (seeds
     0-9, exploratory), then against 0.42's on fresh seeds (``PLAN_fit.md``)."""
-    table = SPACING.TABLE.WHOLE.fit_table
+    fit_table = SPACING.TABLE.WHOLE.fit_table
     cells = ("CartPole-v1",)
     note = "exploratory, run after the decision; no rule reads it"
-    table(
-        HERE, range(10), cells, note, ("../fit_spacing/fit_spaced", "fit_widen"), ("0.39", "widen")
-    )
+    arms = ("../fit_spacing/fit_spaced", "fit_widen")
+    fit_table(HERE, range(10), cells, note, arms, ("0.39", "widen"))
     print()
     note = "PLAN_fit.md's rule reads the per-rollout row's Wilcoxon p and paired median"
-    table(
-        HERE,
-        range(1093, 1123),
-        cells,
-        note,
-        ("fit_fresh_042", "fit_fresh_widen"),
-        ("0.42", "widen"),
-    )
+    arms = ("fit_fresh_042", "fit_fresh_widen")
+    fit_table(HERE, range(1093, 1123), cells, note, arms, ("0.42", "widen"))
 
 
 def reading() -> None:
