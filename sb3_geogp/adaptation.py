@@ -27,8 +27,9 @@ A2C rollouts), the GP closes a *block* and adapts, in this order:
 
    Each parameter is kept within its bounds. With ``follow_spread=True`` the lengthscales
    that the first batch chose (unbounded inputs, none given) first start again from the
-   window's standard deviation of their inputs, each keeping its fitted factor; the hyperprior
-   and the bounds are relative to that start.
+   window's standard deviation of their inputs, each keeping its fitted factor; with
+   ``"widen"`` (the policy's PPO default since 0.43) only where that is wider than their start.
+   The hyperprior and the bounds are relative to that start.
 4. **Posterior.** The exact sparse posterior of the window under the new hyperparameters,
    times the :class:`Summary` of the points that have left the window, replaces the on-line
    one (:func:`sparse_posterior`): nothing is rebuilt from the targets stored with the basis
