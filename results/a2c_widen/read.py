@@ -13,25 +13,20 @@ code)::
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from sb3_geogp.comparison.results import load_results
 from sb3_geogp.toolbox.scripts import load_script
-from sb3_geogp.toolbox.stats import mean_ci
 
 HERE = Path(__file__).resolve().parent
 SPACING = load_script(HERE.parent / "fit_spacing" / "read.py", "fit_spacing")
-READINGS = {
-    "final return": lambda r: r["final_return"],
-    "area under the curve": lambda r: float(np.mean(r["eval"]["mean_return"])),
-    "final critic RMSE": lambda r: r["critic_accuracy"]["rmse"][-1],
-}
+#: Session 82's reading, whose paired rows (readings, intervals, verdicts) this one shares.
+SPREAD = load_script(HERE.parent / "follow_spread_default" / "read.py", "follow_spread_default")
 
 
-def by_seed(runs: list[dict[str, Any]]) -> dict[int, dict[str, Any]]:
+def by_seed(runs: Iterable[dict[str, Any]]) -> dict[int, dict[str, Any]]:
     return {r["spec"]["seed"]: r for r in runs}
 
 
@@ -47,14 +42,9 @@ def main() -> None:
     seeds = sorted(widen)
     print('# A2C CartPole-v1 with `follow_spread="widen"` (session 83, exploratory)\n')
     print(f"Seeds {seeds[0]}-{seeds[-1]}, paired with the table's stored A2C default runs.\n")
-    print("| reading | widen | A2C default | difference [95 % t] |")
-    print("|---|---|---|---|")
-    for name, read in READINGS.items():
-        a = np.array([read(widen[s]) for s in seeds])
-        b = np.array([read(stored[s]) for s in seeds])
-        mean, half = (float(v) for v in mean_ci(a - b, nan_policy="omit"))
-        print(f"| {name} | {a.mean():.2f} | {b.mean():.2f} | "
-              f"{mean:+.2f} [{mean - half:+.2f}, {mean + half:+.2f}] |")  # fmt: skip
+    print("| reading | widen | A2C default | difference [95 % t] | verdict |")
+    print("|---|---|---|---|---|")
+    print("\n".join(SPREAD.rows(tuple(seeds), widen.__getitem__, stored.__getitem__)))
     same = all(again[k] == stored[0][k] for k in ("eval", "critic_accuracy", "final_return"))
     print(f"\nThe stored default run of seed 0, re-run with today's code, is the same: {same}.")
 

@@ -41,8 +41,7 @@ SEEDS = (*range(20), *range(150, 170), *range(570, 580))
 
 
 def candidate(seed: int) -> dict[str, Any]:
-    block = 0 if seed < 150 else 150 if seed < 570 else 570
-    return SPREAD.run(HERE / f"s{block}", seed)
+    return SPREAD.run(HERE / f"s{SPREAD.block(seed)}", seed)
 
 
 def widened_table() -> list[dict[str, Any]]:
