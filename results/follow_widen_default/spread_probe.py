@@ -64,8 +64,7 @@ def build(env_id: str, seed: int) -> tuple[Any, int]:
                        threshold=threshold(env_id, None))  # fmt: skip
         return build_model(spec), spec.total_timesteps
     arm = dataclasses.replace(HELDOUT.ARMS["gp_actor_normalized"], gp_kwargs=STILL)
-    HELDOUT.ARMS["probe"] = arm
-    model, _ = HELDOUT.build("probe", seed)
+    model, _ = HELDOUT.build(arm, seed)
     return model, HELDOUT.STEPS
 
 

@@ -125,9 +125,10 @@ ARMS: dict[str, Arm] = {
 }
 
 
-def build(arm: str, seed: int) -> tuple[PPO, list[GPValueCallback]]:
-    """The arm's PPO model on its (wrapped) environment, and its callbacks."""
-    a = ARMS[arm]
+def build(arm: str | Arm, seed: int) -> tuple[PPO, list[GPValueCallback]]:
+    """The arm's PPO model on its (wrapped) environment, and its callbacks (``arm``: a name in
+    :data:`ARMS`, or an arm of another script's)."""
+    a = ARMS[arm] if isinstance(arm, str) else arm
     entry = hyperparams("ppo", ENV_ID, HyperparamsFile.read(HERE.parent / "heldout/ppo.yml"))
     values = dict(entry.values, normalize=a.vec_normalize or False, **a.entry)
     spec = RunSpec(
