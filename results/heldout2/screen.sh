@@ -13,19 +13,23 @@ from stable_baselines3 import PPO
 from sb3_geogp.policies import default_adaptation
 print(json.dumps({**default_adaptation(PPO).as_dict(), sys.argv[1]: json.loads(sys.argv[2])}))" "$1" "$2"
 }
-screen() {  # arm, critic, then compare's extra flags
-    local arm=$1 critic=$2
+NORMALIZE=(--mlp-normalize --gp-actor-normalize)  # the study's protocol
+screen() {  # arm, critics (space-separated), then compare's extra flags
+    local arm=$1 critics=$2
     shift 2
+    # shellcheck disable=SC2086
     sb3-geogp compare --algos ppo --hyperparams "ppo=$HERE/ppo.yml" --seeds 5 --first-seed 1133 \
         --timesteps 50000 --workers 2 --no-progress --no-plots --out "$OUT/screen/$arm" \
-        --envs HalfCheetah-v5 --critics "$critic" --mlp-normalize --gp-actor-normalize "$@"
+        --envs HalfCheetah-v5 --critics $critics "$@"
 }
 for arm in "$@"; do
     case $arm in
-        sb3_returns) screen "$arm" laplacian --target returns ;;
-        no_prior) screen "$arm" laplacian --gp-option "adapt=$(python_default_adapt prior_sd null)" ;;
-        rbf) screen "$arm" rbf ;;
-        basis512) screen "$arm" laplacian --gp-option max_basis=512 ;;
+        sb3_returns) screen "$arm" laplacian "${NORMALIZE[@]}" --target returns ;;
+        no_prior) screen "$arm" laplacian "${NORMALIZE[@]}" --gp-option "adapt=$(python_default_adapt prior_sd null)" ;;
+        rbf) screen "$arm" rbf "${NORMALIZE[@]}" ;;
+        basis512) screen "$arm" laplacian "${NORMALIZE[@]}" --gp-option max_basis=512 ;;
+        # Both critics without VecNormalize (the table's rule), as the first study's addendum 2:
+        table_rule) screen "$arm" "mlp laplacian" ;;
         *) echo "unknown arm $arm" >&2; exit 2 ;;
     esac
 done
