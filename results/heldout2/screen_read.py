@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 from scipy import stats
 
-from sb3_geogp.comparison.results import load_results
+from sb3_geogp.comparison.results import METRICS, load_results
 
 HERE = Path(__file__).resolve().parent
 ENV_ID = "HalfCheetah-v5"
@@ -32,7 +32,7 @@ ARMS = {
         HERE / "screen/table_rule", "laplacian"),
     "SB3's MLP critic, no `VecNormalize` (the table's rule)": (HERE / "screen/table_rule", "mlp"),
 }
-METRICS = {"final_return": "final return", "mean_return": "area under the curve"}
+LABELS = {"final_return": "final return", "mean_return": "area under the curve"}
 
 
 def readings(arm: str, metric: str) -> np.ndarray | None:
@@ -44,7 +44,7 @@ def readings(arm: str, metric: str) -> np.ndarray | None:
             if r["spec"]["env_id"] == ENV_ID and r["spec"]["critic"] == critic}  # fmt: skip
     if not set(SEEDS) <= set(runs):
         return None
-    return np.array([runs[s][metric] for s in SEEDS])
+    return np.array([METRICS[metric].of_run(runs[s]) for s in SEEDS])
 
 
 def paired(a: np.ndarray, b: np.ndarray) -> str:
@@ -59,7 +59,7 @@ def main() -> None:
     print(f"Seeds {SEEDS[0]}-{SEEDS[-1]}, 50,000 steps, the registered study's protocol; "
           "differences paired by seed, 95 % t intervals.\n")  # fmt: skip
     default, mlp = list(ARMS)[:2]
-    for metric, label in METRICS.items():
+    for metric, label in LABELS.items():
         print(f"## {label}\n")
         print("| arm | mean | − default GP critic | − SB3's MLP critic | per seed |")
         print("|---|---|---|---|---|")
@@ -73,6 +73,9 @@ def main() -> None:
             seeds = " ".join(f"{v:.0f}" for v in r)
             print(f"| {arm} | {r.mean():.1f} | {cells[0]} | {cells[1]} | {seeds} |")
         print()
+        gp, mlp_raw = (readings(arm, metric) for arm in list(ARMS)[-2:])
+        if gp is not None and mlp_raw is not None:
+            print(f"Both critics without `VecNormalize`, GP − MLP: {paired(gp, mlp_raw)}.\n")
 
 
 if __name__ == "__main__":
