@@ -29,7 +29,9 @@ ARMS = {
     "RBF kernel": (HERE / "screen/rbf", "rbf"),
     "512 basis vectors": (HERE / "screen/basis512", "laplacian"),
     "default GP critic, no `VecNormalize` (the table's rule)": (
-        HERE / "screen/table_rule", "laplacian"),
+        HERE / "screen/table_rule",
+        "laplacian",
+    ),
     "SB3's MLP critic, no `VecNormalize` (the table's rule)": (HERE / "screen/table_rule", "mlp"),
 }
 LABELS = {"final_return": "final return", "mean_return": "area under the curve"}
