@@ -13,9 +13,9 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-from scipy import stats
 
 from sb3_geogp.comparison.results import METRICS, load_results
+from sb3_geogp.toolbox.stats import mean_ci
 
 HERE = Path(__file__).resolve().parent
 ENV_ID = "HalfCheetah-v5"
@@ -51,9 +51,8 @@ def readings(arm: str, metric: str) -> np.ndarray | None:
 
 def paired(a: np.ndarray, b: np.ndarray) -> str:
     """Mean of ``a - b`` per seed with its 95 % t interval."""
-    d = a - b
-    half = stats.t.ppf(0.975, len(d) - 1) * d.std(ddof=1) / np.sqrt(len(d))
-    return f"{d.mean():+.1f} [{d.mean() - half:+.1f}, {d.mean() + half:+.1f}]"
+    mean, half = (float(v) for v in mean_ci(a - b, nan_policy="propagate"))
+    return f"{mean:+.1f} [{mean - half:+.1f}, {mean + half:+.1f}]"
 
 
 def main() -> None:
