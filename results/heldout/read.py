@@ -10,7 +10,8 @@ the steps to the threshold (secondary), the seeds that finished, and the commits
 executed. The PPO cells under the table's rule are the plan's addendum 2 (exploratory, after
 the registered reading), read apart and drawn in ``curves_exploratory.png`` beside the
 ``--curves`` figure. ``--dir`` reads other folders of the same layout (a smoke run, or
-``results/heldout_0_43``, whose plan's family is ``--family 2``).
+``results/heldout_0_43``, whose plan's family is ``--family 2``, and ``results/heldout2``,
+``--family 3``).
 """
 
 from __future__ import annotations
