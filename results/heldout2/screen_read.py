@@ -10,7 +10,9 @@ are paired by seed (mean of the per-seed differences, 95 % t interval over five 
 
 from __future__ import annotations
 
+from functools import cache
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -37,13 +39,19 @@ ARMS = {
 LABELS = {"final_return": "final return", "mean_return": "area under the curve"}
 
 
-def readings(arm: str, metric: str) -> np.ndarray | None:
-    """The arm's ``metric`` on seeds :data:`SEEDS`, in seed order (None: not run)."""
+@cache
+def arm_runs(arm: str) -> dict[int, dict[str, Any]]:
+    """The arm's runs on :data:`ENV_ID` by seed, read once (empty: not run)."""
     folder, critic = ARMS[arm]
     if not (folder / "runs").is_dir():
-        return None
-    runs = {r["spec"]["seed"]: r for r in load_results(folder)
+        return {}
+    return {r["spec"]["seed"]: r for r in load_results(folder)
             if r["spec"]["env_id"] == ENV_ID and r["spec"]["critic"] == critic}  # fmt: skip
+
+
+def readings(arm: str, metric: str) -> np.ndarray | None:
+    """The arm's ``metric`` on seeds :data:`SEEDS`, in seed order (None: not run)."""
+    runs = arm_runs(arm)
     if not set(SEEDS) <= set(runs):
         return None
     return np.array([METRICS[metric].of_run(runs[s]) for s in SEEDS])
