@@ -32,7 +32,7 @@ UPDATE_RULES = (
 )
 #: Options added to the state after 0.2, as the versions before them behaved: 0.8
 #: (prior_mean, trend), 0.13 (forgetting_points), 0.18 (optimism), 0.19 (optimism_cap),
-#: 0.36 (drift_forgetting).
+#: 0.36 (drift_forgetting), 0.44 (lengthscale_rule).
 _OPTIONS_BEFORE = {
     "prior_mean": "constant",
     "trend": "none",
@@ -40,6 +40,7 @@ _OPTIONS_BEFORE = {
     "optimism": 0.0,
     "optimism_cap": None,
     "drift_forgetting": 0.0,
+    "lengthscale_rule": "spread",
 }
 
 

@@ -366,6 +366,15 @@ class SparseOnlineGP(nn.Module):
         the inputs barely fill (under 5 % of a dimension after 10,000 inputs), or go far
         outside (over twice their width), are named by a :class:`~sb3_geogp.GPCriticWarning`
         (:class:`~sb3_geogp.defaults.BoundsCoverage`).
+    lengthscale_rule : {"spread", "distance"}
+        How the kernel's unset lengthscales follow each input's spread (from ``input_bounds``
+        or the first batch, and with ``Adaptation.follow_spread`` the window's):
+        ``"spread"`` (the default) the spread itself, ``"distance"`` the spread times
+        ``sqrt(input_dim)``, so that typical inputs stay about ``sqrt(2)`` lengthscales apart
+        however many there are (:data:`sb3_geogp.defaults.LENGTHSCALE_RULES`). Under
+        ``"spread"`` with many inputs (HalfCheetah-v5's 17) the kernel between typical states
+        has all but vanished; there ``"distance"`` raised PPO's final return in an exploratory
+        screen (docs/results.md, "Lengthscales that grow with the number of inputs").
     num_threads : int or None
         Intra-op CPU threads of :meth:`update`, :meth:`predict` and :meth:`fit_hyperparameters`,
         set for the call and restored after it. The engine's work is many small matrix
@@ -490,9 +499,12 @@ class SparseOnlineGP(nn.Module):
         optimism: float = 0.0,
         optimism_cap: float | None = None,
         drift_forgetting: float = 0.0,
+        lengthscale_rule: str = "spread",
     ) -> None:
         super().__init__()
         input_dim = positive_int("input_dim", input_dim)
+        defaults.lengthscale_factor(lengthscale_rule, input_dim)  # refuses an unknown rule
+        self.lengthscale_rule = lengthscale_rule
         max_basis = positive_int("max_basis", max_basis)
         if forgetting_points is not None:
             forgetting_points = positive_int("forgetting_points", forgetting_points)
@@ -548,7 +560,7 @@ class SparseOnlineGP(nn.Module):
             )
         ls = self.kernel.lengthscale
         unset = torch.isnan(ls).cpu().numpy()
-        ls.copy_(defaults.resolve_lengthscale(ls, bounds=input_bounds))
+        ls.copy_(defaults.resolve_lengthscale(ls, bounds=input_bounds, rule=self.lengthscale_rule))
         return None if input_bounds is None else defaults.BoundsCoverage(*input_bounds, unset)
 
     def _register_state(self, cap: int, noise_var: float, kw: dict[str, Any]) -> None:
@@ -813,6 +825,7 @@ class SparseOnlineGP(nn.Module):
             "optimism": self.optimism,
             "optimism_cap": self.optimism_cap,
             "drift_forgetting": self.drift_forgetting,
+            "lengthscale_rule": self.lengthscale_rule,
         }
 
     def get_extra_state(self) -> dict[str, Any]:
@@ -1091,7 +1104,7 @@ class SparseOnlineGP(nn.Module):
             )
         ls = self.kernel.lengthscale
         self.ls_from_data.copy_(torch.isnan(ls))
-        ls.copy_(defaults.resolve_lengthscale(ls, x=x))
+        ls.copy_(defaults.resolve_lengthscale(ls, x=x, rule=self.lengthscale_rule))
         if not bool((torch.isfinite(ls) & (ls > 0)).all()):
             raise ValueError(
                 f"the first batch's inputs (|x| up to {float(x.abs().max()):.3g}) give "
@@ -1633,7 +1646,8 @@ class SparseOnlineGP(nn.Module):
         chosen = self.ls_from_data
         if not bool(chosen.any()):
             return
-        ratio = torch.where(chosen, defaults.default_lengthscale(x) / self.ls_start, 1.0)
+        spread = defaults.default_lengthscale(x, self.lengthscale_rule)
+        ratio = torch.where(chosen, spread / self.ls_start, 1.0)
         # A kernel with one factor for all inputs (GeodesicKernel(ard=False)) takes their
         # geometric mean, which keeps its paths exact.
         per_dimension = getattr(self.kernel, "ard", True)

@@ -1225,7 +1225,7 @@ def _narrow_then_wide(
     return batches
 
 
-def _spread_gp(follow: bool, steps: int) -> SparseOnlineGP:
+def _spread_gp(follow: bool, steps: int, rule: str = "spread") -> SparseOnlineGP:
     """An RBF GP: input 0 bounded ([0, 1]: its lengthscale from the bounds), input 1
     unbounded (from the first batch); a refit on every block of 100 points; no forgetting,
     and a window that keeps every point of :func:`_narrow_then_wide` (no summary of dropped
@@ -1234,26 +1234,31 @@ def _spread_gp(follow: bool, steps: int) -> SparseOnlineGP:
         window=400, interval=100, steps=steps, forgetting=(1.0,), follow_spread=follow
     )
     bounds = ([0.0, -np.inf], [1.0, np.inf])
-    return SparseOnlineGP(2, "rbf", max_basis=40, adapt=adapt, input_bounds=bounds)
+    return SparseOnlineGP(
+        2, "rbf", max_basis=40, adapt=adapt, input_bounds=bounds, lengthscale_rule=rule
+    )
 
 
 @pytest.mark.parametrize("follow", [False, True])
+@pytest.mark.parametrize("rule", ["spread", "distance"])
 def test_follow_spread_starts_the_first_batchs_lengthscales_from_the_windows_spread(
-    follow: bool,
+    follow: bool, rule: str
 ) -> None:
     """Without fitting steps the lengthscale is its start: the bounded input's stays at the
     bounds' ``1 / sqrt(12)``; the unbounded one's is the first batch's standard deviation, and
-    with ``follow_spread`` that of the window at each refit (numpy's, independently)."""
+    with ``follow_spread`` that of the window at each refit (numpy's, independently); both
+    times ``sqrt(2)`` under ``lengthscale_rule="distance"``."""
     rng = np.random.default_rng(11)
     batches = _narrow_then_wide(rng)
-    gp = _spread_gp(follow, steps=0)
+    gp = _spread_gp(follow, steps=0, rule=rule)
+    factor = np.sqrt(2) if rule == "distance" else 1.0
     first = batches[0][0][:, 1].std()
     for x, y in batches:
         gp.update(x, y)
         window_x = gp.window.data()[0].numpy()
         expected = window_x[:, 1].std() if follow else first
         ls = gp.lengthscale.numpy()
-        np.testing.assert_allclose(ls, [1 / np.sqrt(12), expected], rtol=1e-12)
+        np.testing.assert_allclose(ls, factor * np.array([1 / np.sqrt(12), expected]), rtol=1e-12)
         np.testing.assert_allclose(gp.ls_start.numpy(), ls, rtol=1e-12)
     assert gp.ls_from_data.tolist() == [False, True]
     if follow:  # the window holds three wide batches and the narrow one

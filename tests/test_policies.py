@@ -266,6 +266,27 @@ def test_optimistic_critic_gives_the_upper_confidence_bound_and_survives_save_lo
     assert th.equal(loaded.policy.predict_values(obs), model.policy.predict_values(obs))
 
 
+def test_distance_lengthscale_rule_reaches_the_critic_and_survives_save_load(
+    tmp_path: Path,
+) -> None:
+    """``gp_kwargs=dict(lengthscale_rule="distance")`` under PPO on CartPole-v1 (4 inputs):
+    the bounded inputs' lengthscales start at twice a uniform's standard deviation on the
+    observation space's bounds; SB3's save and load keep the rule and the values."""
+    model = make_model(PPO, env_id="CartPole-v1", kernel="laplacian", lengthscale_rule="distance")
+    model.learn(128, callback=feed())
+    space = model.observation_space
+    bounded = [0, 2]  # the cart's position and the pole's angle; the velocities are unbounded
+    width = (space.high - space.low)[bounded].astype(np.float64)
+    np.testing.assert_allclose(
+        model.policy.gp.ls_start[bounded].numpy(), 2 * width / np.sqrt(12), rtol=1e-6
+    )
+    model.save(tmp_path / "model.zip")
+    loaded = PPO.load(tmp_path / "model.zip")
+    assert loaded.policy.gp.lengthscale_rule == "distance"
+    obs = flat_obs(model)[:5]
+    assert th.equal(loaded.policy.predict_values(obs), model.policy.predict_values(obs))
+
+
 def test_policy_kwargs_options_reach_the_gp_and_constructor_parameters() -> None:
     gp_kwargs = dict(
         kernel="geodesic",

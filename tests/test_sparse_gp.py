@@ -1068,6 +1068,47 @@ def test_a_state_saved_before_drift_forgetting_loads_as_it_predicted(pendulum) -
         torch.testing.assert_close(a, b, rtol=0, atol=0)
 
 
+# -- lengthscales that grow with the number of inputs (lengthscale_rule, 0.44) --------------------
+def test_distance_rule_multiplies_every_spread_by_the_root_of_the_input_count() -> None:
+    """Under ``lengthscale_rule="distance"`` the bounded input's lengthscale is ``sqrt(3)``
+    times a uniform's standard deviation on its bounds, the unbounded ones' ``sqrt(3)`` times
+    numpy's standard deviation of the first batch; a requested lengthscale is kept."""
+    rng = np.random.default_rng(3)
+    x = np.column_stack(
+        [rng.uniform(-2, 2, size=80), 0.2 * rng.normal(size=80), 5 * rng.normal(size=80)]
+    )
+    bounds = ([-2.0, -np.inf, -np.inf], [2.0, np.inf, np.inf])
+    kernel = make_kernel("laplacian", lengthscale=[float("nan"), float("nan"), 0.7])
+    gp = SparseOnlineGP(3, kernel, max_basis=20, input_bounds=bounds, lengthscale_rule="distance")
+    gp.update(x, x[:, 0])
+    expected = [np.sqrt(3) * 4 / np.sqrt(12), np.sqrt(3) * x[:, 1].std(), 0.7]
+    np.testing.assert_allclose(gp.lengthscale.numpy(), expected, rtol=1e-12)
+
+
+def test_an_unknown_lengthscale_rule_is_refused_with_the_choices() -> None:
+    with pytest.raises(ValueError, match=re.escape("('spread', 'distance'), got 'median'")):
+        SparseOnlineGP(2, lengthscale_rule="median")
+
+
+def test_a_state_saved_under_another_lengthscale_rule_is_refused(pendulum) -> None:
+    """The rule chose the saved lengthscales and steers the adaptation's ``follow_spread``:
+    a GP under the other rule refuses the state and stays as it was; one under the same rule
+    loads it and predicts as saved."""
+    x, y, starts = pendulum(200, 0)
+    saved = SparseOnlineGP(3, "rbf", max_basis=20, lengthscale_rule="distance")
+    saved.update(x, y, starts)
+    other = SparseOnlineGP(3, "rbf", max_basis=20)
+    other.update(x[:50], y[:50], starts[:50])
+    before = snapshot(other)
+    with pytest.raises(ValueError, match="lengthscale_rule"):
+        other.load_state_dict(saved.state_dict())
+    assert_same_state(before, snapshot(other))
+    same = SparseOnlineGP(3, "rbf", max_basis=20, lengthscale_rule="distance")
+    same.load_state_dict(saved.state_dict())
+    for a, b in zip(saved.predict(x[::7]), same.predict(x[::7]), strict=True):
+        torch.testing.assert_close(a, b, rtol=0, atol=0)
+
+
 @pytest.mark.parametrize("kernel", ["rbf", "geodesic"])
 def test_forgetting_tracks_a_jumping_target(kernel: str) -> None:
     rng = np.random.default_rng(9)
