@@ -1,0 +1,14 @@
+#!/usr/bin/env bash
+# The registered runs of PLAN.md (session 85). OUT=... writes elsewhere (a frozen worktree's runs).
+set -euo pipefail
+HERE=$(cd "$(dirname "$0")" && pwd)
+OUT=${OUT:-$HERE}
+common() {
+    sb3-geogp compare --algos ppo --hyperparams "ppo=$HERE/../heldout2/ppo.yml" --seeds 10 \
+        --first-seed 1143 --timesteps 50000 --workers 2 --no-progress --no-plots \
+        --mlp-normalize --gp-actor-normalize "$@"
+}
+common --envs HalfCheetah-v5 Hopper-v5 --critics mlp laplacian --out "$OUT/spread"
+common --envs HalfCheetah-v5 Hopper-v5 --critics laplacian --gp-option lengthscale_rule=distance \
+    --out "$OUT/distance"
+echo "runs done $(date -u)"
