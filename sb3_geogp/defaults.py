@@ -185,11 +185,16 @@ class BoundsCoverage:
     unset : array-like of bool, shape (d,)
         The dimensions whose lengthscale the user left to this module: of those, the bounded
         ones (:func:`bounds_lengthscale`) took theirs from the bounds (:attr:`from_bounds`).
+    rule : {"spread", "distance"}
+        The GP's :data:`LENGTHSCALE_RULES`, which the suggested lengthscales follow.
     """
 
-    def __init__(self, low: ArrayLike, high: ArrayLike, unset: ArrayLike) -> None:
+    def __init__(
+        self, low: ArrayLike, high: ArrayLike, unset: ArrayLike, rule: str = "spread"
+    ) -> None:
         self.low = np.asarray(low, dtype=np.float64).ravel()
         self.high = np.asarray(high, dtype=np.float64).ravel()
+        self.factor = lengthscale_factor(rule, self.low.size)
         bounded = np.isfinite(bounds_lengthscale(self.low, self.high))
         self.from_bounds = np.asarray(unset, dtype=bool).ravel() & bounded
         self.seen_low = np.full_like(self.low, np.inf)
@@ -222,7 +227,8 @@ class BoundsCoverage:
         outside = self.from_bounds & (share > OUTSIDE_FACTOR)
         if not (loose | outside).any():
             return None
-        suggested = np.where(self.from_bounds & spread, span / np.sqrt(12.0), ls)
+        suggested = np.where(self.from_bounds & spread, self.factor * span / np.sqrt(12.0), ls)
+        rule = "" if self.factor == 1 else f"{self.factor:.3g} x "  # sqrt(d), as the rule's
         dims = " and ".join(
             f"dimension {i} spans [{self.seen_low[i]:.3g}, {self.seen_high[i]:.3g}] "
             + (f"({share[i]:.1%} of" if loose[i] else f"({share[i]:.3g} times the width of")
@@ -237,7 +243,7 @@ class BoundsCoverage:
             "fits its targets poorly. If the bounds are loose or describe other inputs (for "
             "GPActorCriticPolicy: the observation space's), declare bounds that fit the data, "
             f"or give the kernel lengthscales, e.g. lengthscale="
-            f"{np.round(suggested, 3).tolist()} (the data's range / sqrt(12) wherever a "
+            f"{np.round(suggested, 3).tolist()} ({rule}the data's range / sqrt(12) wherever a "
             "lengthscale came from the bounds), for the policy through "
             "policy_kwargs=dict(gp_kwargs=dict(kernel_kwargs=dict(lengthscale=[...])))"
         )

@@ -561,7 +561,11 @@ class SparseOnlineGP(nn.Module):
         ls = self.kernel.lengthscale
         unset = torch.isnan(ls).cpu().numpy()
         ls.copy_(defaults.resolve_lengthscale(ls, bounds=input_bounds, rule=self.lengthscale_rule))
-        return None if input_bounds is None else defaults.BoundsCoverage(*input_bounds, unset)
+        return (
+            None
+            if input_bounds is None
+            else defaults.BoundsCoverage(*input_bounds, unset, self.lengthscale_rule)
+        )
 
     def _register_state(self, cap: int, noise_var: float, kw: dict[str, Any]) -> None:
         """Register the state's buffers (``cap`` BV slots; dtype and device ``kw``), empty:

@@ -72,7 +72,9 @@ def test_target_standardisation_uses_given_values_else_the_batch() -> None:
 # -- loose bounds ------------------------------------------------------------------------------
 
 
-def _gp_on_a_square(bounds: float, lengthscale: list[float] | None = None) -> SparseOnlineGP:
+def _gp_on_a_square(
+    bounds: float, lengthscale: list[float] | None = None, rule: str = "spread"
+) -> SparseOnlineGP:
     """A GP that knows its inputs lie in +-``bounds`` (RBF, no adaptation: the check is the
     engine's, whatever it learns)."""
     high = np.array([bounds, bounds])
@@ -81,6 +83,7 @@ def _gp_on_a_square(bounds: float, lengthscale: list[float] | None = None) -> Sp
         kernel=RBFKernel(lengthscale=lengthscale),
         max_basis=16,
         input_bounds=(-high, high),
+        lengthscale_rule=rule,
     )
 
 
@@ -110,6 +113,16 @@ def test_bounds_far_wider_than_the_data_are_named_once_after_enough_points() -> 
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         _feed(gp, 4_000)  # once
+
+
+def test_under_the_distance_rule_the_named_bounds_suggest_the_rules_lengthscales() -> None:
+    """The same square under ``lengthscale_rule="distance"``: the bounds gave ``sqrt(2)``
+    times 57.7, and the suggestion is ``sqrt(2)`` times the data's range over ``sqrt(12)``,
+    0.816."""
+    gp = _gp_on_a_square(100.0, rule="distance")
+    expected = r"lengthscale 81\.6\).*lengthscale=\[0\.816, 0\.816\] \(1\.41 x the data's range"
+    with pytest.warns(GPCriticWarning, match=expected):
+        _feed(gp, COVERAGE_POINTS)
 
 
 @pytest.mark.parametrize(
