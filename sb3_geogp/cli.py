@@ -69,6 +69,7 @@ from sb3_geogp.comparison.hyperparams import threshold as comparison_threshold
 from sb3_geogp.comparison.report import pyplot
 from sb3_geogp.comparison.run import write_json_atomic
 from sb3_geogp.comparison.specs import fed, setting_differences
+from sb3_geogp.defaults import LENGTHSCALE_RULES
 from sb3_geogp.policies import GPActorCriticPolicy, check_supported_spaces, default_kernel
 from sb3_geogp.toolbox.scripts import DefaultsHelpFormatter, count_arg
 
@@ -154,6 +155,14 @@ def build_parser() -> argparse.ArgumentParser:
         default=True,
         help="the GP learns hyperparameters, target scale and forgetting from the data "
         "(--no-adapt: fixed, as in 0.2)",
+    )
+    train.add_argument(
+        "--lengthscale-rule",
+        choices=LENGTHSCALE_RULES,
+        default="spread",
+        help="the GP's lengthscales start at each observation's spread, or (distance) at that "
+        "times sqrt(observation size), for many observations (SparseOnlineGP's "
+        "lengthscale_rule; docs/method.md, 'Many inputs')",
     )
     train.add_argument(
         "--normalize-actor-obs",
@@ -271,6 +280,7 @@ def check_gp_options(args: argparse.Namespace) -> None:
             ("--max-basis", args.max_basis, _MAX_BASIS),
             ("--forgetting", args.forgetting, None),
             ("--no-adapt", args.adapt, True),
+            ("--lengthscale-rule", args.lengthscale_rule, "spread"),
             ("--normalize-actor-obs", args.normalize_actor_obs, False),
         )
         if value != default
@@ -330,7 +340,12 @@ def _settings(args: argparse.Namespace) -> dict[str, Any]:
 #: ``train`` options that do not change the run, so a directory does not record them.
 _NOT_SETTINGS = ("command", "out", "no_progress", "save_every")
 #: ``train`` options added after 0.20 and their defaults, recorded only when set otherwise.
-_ADDED: dict[str, Any] = {"horizon": None, "feed_every": 1, "normalize_actor_obs": False}
+_ADDED: dict[str, Any] = {
+    "horizon": None,
+    "feed_every": 1,
+    "normalize_actor_obs": False,
+    "lengthscale_rule": "spread",
+}
 
 
 def train(args: argparse.Namespace) -> Path:
@@ -419,7 +434,11 @@ def _new_model(args: argparse.Namespace, env: VecEnv) -> OnPolicyAlgorithm:
     if args.critic == "mlp":
         return ALGOS[args.algo]("MlpPolicy", env, seed=args.seed, device=args.device, **algo_kwargs)
     gp_kwargs = dict(
-        kernel=args.critic, max_basis=args.max_basis, adapt=args.adapt, **_forgetting(args)
+        kernel=args.critic,
+        max_basis=args.max_basis,
+        adapt=args.adapt,
+        lengthscale_rule=args.lengthscale_rule,
+        **_forgetting(args),
     )
     return ALGOS[args.algo](
         GPActorCriticPolicy,

@@ -214,6 +214,10 @@ def test_version(capsys: pytest.CaptureFixture[str]) -> None:
             ["--critic", "mlp", "--normalize-actor-obs"],
             "--normalize-actor-obs configures the GP critic",
         ),
+        (
+            ["--critic", "mlp", "--lengthscale-rule", "distance"],
+            "--lengthscale-rule configures the GP critic",
+        ),
         (["--env", "Blackjack-v1"], "Blackjack-v1: the GP critic supports Box observations"),
         (["--seed", "-1"], "--seed must be in [0, 2**32), got -1"),
         (["--seed", str(2**32)], "--seed must be in [0, 2**32)"),
@@ -616,6 +620,21 @@ def test_train_normalize_actor_obs_reaches_the_policy_and_is_recorded(tmp_path: 
     assert json.loads((out / "train_settings.json").read_text())["normalize_actor_obs"] is True
 
 
+def test_train_lengthscale_rule_reaches_the_critic_and_is_recorded(tmp_path: Path) -> None:
+    """``--lengthscale-rule distance`` on CartPole-v1: the pole's angle, bounded in +-0.418,
+    starts at ``sqrt(4)`` times a uniform's standard deviation on its bounds."""
+    out = tmp_path / "run"
+    argv = ["train", "--algo", "a2c", "--env", "CartPole-v1", "--timesteps", "64"]
+    argv += ["--out", str(out), "--no-progress", "--lengthscale-rule", "distance"]
+    assert main(argv) == 0
+    gp = A2C.load(out / "model.zip").policy.gp
+    space = gym.make("CartPole-v1").observation_space
+    width = float(space.high[2]) - float(space.low[2])
+    assert gp.lengthscale_rule == "distance"
+    assert float(gp.ls_start[2]) == pytest.approx(2 * width / np.sqrt(12), rel=1e-6)
+    assert json.loads((out / "train_settings.json").read_text())["lengthscale_rule"] == "distance"
+
+
 def test_unset_horizon_keeps_older_run_directories_valid(tmp_path: Path) -> None:
     out = tmp_path / "run"
     argv = ["train", "--algo", "a2c", "--env", "CartPole-v1", "--timesteps", "64"]
@@ -623,7 +642,7 @@ def test_unset_horizon_keeps_older_run_directories_valid(tmp_path: Path) -> None
     assert main(argv) == 0
     settings = json.loads((out / "train_settings.json").read_text())
     # As 0.20 wrote it, so re-running there is accepted.
-    assert not {"horizon", "feed_every", "normalize_actor_obs"} & set(settings)
+    assert not {"horizon", "feed_every", "normalize_actor_obs", "lengthscale_rule"} & set(settings)
     assert main(argv) == 0
 
 
