@@ -6,7 +6,9 @@ PPO's default GP critic (``"spread"``) on HalfCheetah-v5 and Hopper-v5, seeds 11
 Per cell and metric, ``distance`` − ``spread`` paired by seed (the mean of the per-seed
 differences, 95 % percentile bootstrap over seeds); then each GP critic − SB3's MLP critic in
 final return under the table's rule (groups resampled apart). ``--dir`` reads another folder of
-the same layout (a frozen worktree's runs).
+the same layout (a frozen worktree's runs). Where ``table_screen`` holds the exploratory runs of
+``table_screen.sh``, they follow: issue 13's seven PPO cells, seeds 0-9, paired the same way
+with the stored runs of PPO's default critic.
 """
 
 from __future__ import annotations
@@ -22,84 +24,114 @@ from sb3_geogp.comparison.results import METRICS, load_results
 from sb3_geogp.toolbox.stats import bootstrap_ci, difference_ci
 
 HERE = Path(__file__).resolve().parent
-ENVS = ("HalfCheetah-v5", "Hopper-v5")
+RESULTS = HERE.parent
+#: Runs by seed
+Runs = dict[int, dict[str, Any]]
+
+#: The plan's cells and their inputs; each cell's final-return reading (PLAN.md): its role, and
+#: its verdict from the paired interval ``(low, high)``
+DECISIONS: dict[str, tuple[int, str, Callable[[float, float], str]]] = {
+    "HalfCheetah-v5": (
+        17,
+        "primary",
+        lambda low, high: "confirmed" if low > 0 else "not confirmed",
+    ),
+    "Hopper-v5": (11, "guard", lambda low, high: "worse" if high < 0 else "not worse"),
+}
 SEEDS = tuple(range(1143, 1153))
-#: Arm: (folder, critic)
-ARMS = {
-    "spread": ("spread", "laplacian"),
-    "distance": ("distance", "laplacian"),
-    "mlp": ("spread", "mlp"),
+#: Issue 13's PPO cells, their inputs, and the stored runs of 0.43's default critic on seeds
+#: 0-19 (CartPole-v1's from its registered test of widening, the others unchanged since
+#: fit_spacing's)
+TABLE = {
+    "Pendulum-v1": (3, "fit_spacing/table/Pendulum-v1_s0"),
+    "CartPole-v1": (4, "follow_widen_default/s0"),
+    "Acrobot-v1": (6, "fit_spacing/table/Acrobot-v1_s0"),
+    "sb3_geogp/PaperPendulum-v0": (2, "fit_spacing/table/PaperPendulum-v0_s0"),
+    "MountainCarContinuous-v0": (2, "fit_spacing/table/MountainCarContinuous-v0_s0"),
+    "sb3_geogp/WallMaze-v0": (2, "fit_spacing/table/WallMaze-v0_s0"),
+    "sb3_geogp/WallMazeDiscrete-v0": (2, "fit_spacing/table/WallMazeDiscrete-v0_s0"),
 }
-#: Each cell's final-return reading (PLAN.md): its role, and its verdict from the paired
-#: interval ``(low, high)``
-DECISIONS: dict[str, tuple[str, Callable[[float, float], str]]] = {
-    "HalfCheetah-v5": ("primary", lambda low, high: "confirmed" if low > 0 else "not confirmed"),
-    "Hopper-v5": ("guard", lambda low, high: "worse" if high < 0 else "not worse"),
+TABLE_SEEDS = tuple(range(10))
+#: The metrics read paired by seed, as the tables name them
+LABELS = {
+    "final_return": "final return",
+    "mean_return": "area under the curve",
+    "critic_rmse": "final critic RMSE",
 }
 
 
-def arm_readings(root: Path) -> dict[tuple[str, str], dict[str, np.ndarray]]:
-    """``(arm, env)`` -> metric -> readings on the seeds of :data:`SEEDS` that finished, in
-    seed order."""
-    runs: dict[str, list[dict[str, Any]]] = {}
-    for folder in {f for f, _ in ARMS.values()}:
-        runs[folder] = load_results(root / folder) if (root / folder / "runs").is_dir() else []
-    out = {}
-    for arm, (folder, critic) in ARMS.items():
-        for env in ENVS:
-            by_seed = {r["spec"]["seed"]: r for r in runs[folder]
-                       if r["spec"]["env_id"] == env and r["spec"]["critic"] == critic}  # fmt: skip
-            seeds = [s for s in SEEDS if s in by_seed]
-            out[arm, env] = {
-                "seeds": np.array(seeds),
-                **{m: np.array([METRICS[m].of_run(by_seed[s]) for s in seeds]) for m in METRICS},
-            }
-    return out
+def runs_of(folder: Path, env: str, critic: str, seeds: tuple[int, ...]) -> Runs:
+    """The runs of ``critic`` on ``env`` in ``folder`` (empty: not run) whose seed is in
+    ``seeds``."""
+    if not (folder / "runs").is_dir():
+        return {}
+    return {r["spec"]["seed"]: r for r in load_results(folder)
+            if r["spec"]["env_id"] == env and r["spec"]["critic"] == critic
+            and r["spec"]["seed"] in seeds}  # fmt: skip
 
 
 def interval(estimate: Any, low: Any, high: Any) -> str:
     return f"{float(estimate):+.1f} [{float(low):+.1f}, {float(high):+.1f}]"
 
 
-def paired_table(readings: dict[tuple[str, str], dict[str, np.ndarray]]) -> None:
+def paired(a: Runs, b: Runs, metric: str) -> tuple[list[str], float, float]:
+    """``metric`` on the seeds both ran: the count and the means of ``b`` and ``a`` as table
+    cells, then their mean difference ``a - b`` as a cell and its 95 % percentile bootstrap
+    interval."""
+    seeds = sorted(set(a) & set(b))
+    x = np.array([METRICS[metric].of_run(a[s]) for s in seeds])
+    y = np.array([METRICS[metric].of_run(b[s]) for s in seeds])
+    est, low, high = bootstrap_ci(x - y)
+    cells = [str(len(seeds)), f"{y.mean():.1f}", f"{x.mean():.1f}", interval(est, low, high)]
+    return cells, float(low), float(high)
+
+
+def registered(root: Path) -> None:
     print("## `distance` − `spread`, paired by seed\n")
-    print("| env | metric | seeds | spread | distance | distance − spread [95 %] | reading |")
-    print("|---|---|---|---|---|---|---|")
-    for env in ENVS:
-        a, b = readings["distance", env], readings["spread", env]
-        common = np.intersect1d(a["seeds"], b["seeds"])
-        if not len(common):
-            print(f"| {env} | | 0 | | | not run | |")
+    print("| env | inputs | metric | seeds | spread | distance | distance − spread [95 %] | "
+          "reading |")  # fmt: skip
+    print("|---|---|---|---|---|---|---|---|")
+    for env, (inputs, role, verdict) in DECISIONS.items():
+        new = runs_of(root / "distance", env, "laplacian", SEEDS)
+        old = runs_of(root / "spread", env, "laplacian", SEEDS)
+        if not set(new) & set(old):
+            print(f"| {env} | {inputs} | | 0 | | | not run | |")
             continue
-        pick = {k: np.isin(v["seeds"], common) for k, v in (("a", a), ("b", b))}
-        for metric in ("final_return", "mean_return", "critic_rmse"):
-            x, y = a[metric][pick["a"]], b[metric][pick["b"]]
-            est, low, high = bootstrap_ci(x - y)
-            reading = ""
-            if metric == "final_return":
-                role, verdict = DECISIONS[env]
-                reading = f"{verdict(float(low), float(high))} ({role})"
-            partial = "" if len(common) == len(SEEDS) else " (partial)"
-            label = METRICS[metric].label.split(" (")[0]
-            diff = interval(est, low, high)
-            print(f"| {env} | {label} | {len(common)}{partial} | {y.mean():.1f} | {x.mean():.1f} "
-                  f"| {diff} | {reading} |")  # fmt: skip
+        for metric, label in LABELS.items():
+            cells, low, high = paired(new, old, metric)
+            reading = f"{verdict(low, high)} ({role})" if metric == "final_return" else ""
+            print(f"| {env} | {inputs} | {label} | {' | '.join(cells)} | {reading} |")
     print()
-
-
-def mlp_table(readings: dict[tuple[str, str], dict[str, np.ndarray]]) -> None:
     print("## Each GP critic − SB3's MLP critic (`VecNormalize`), final return, table's rule\n")
-    print("| env | MLP | spread − MLP [95 %] | distance − MLP [95 %] |")
+    print("| env | MLP (seeds) | spread − MLP [95 %] | distance − MLP [95 %] |")
     print("|---|---|---|---|")
-    for env in ENVS:
-        mlp = readings["mlp", env]["final_return"]
+    for env in DECISIONS:
+        mlp_runs = runs_of(root / "spread", env, "mlp", SEEDS)
+        mlp = np.array([r["final_return"] for r in mlp_runs.values()])
         if not len(mlp):
             continue
         cells = []
         for arm in ("spread", "distance"):
-            gp = readings[arm, env]["final_return"]
-            cells.append(interval(*difference_ci(gp, mlp)) if len(gp) else "not run")
+            gp = [r["final_return"] for r in runs_of(root / arm, env, "laplacian", SEEDS).values()]
+            cells.append(interval(*difference_ci(np.array(gp), mlp)) if gp else "not run")
         print(f"| {env} | {mlp.mean():.1f} ({len(mlp)}) | {cells[0]} | {cells[1]} |")
+    print()
+
+
+def table_screen(root: Path) -> None:
+    print("## Exploratory: issue 13's PPO cells, `distance` − the stored default runs\n")
+    print(f"Seeds {TABLE_SEEDS[0]}-{TABLE_SEEDS[-1]} (`table_screen.sh`), paired by seed, "
+          "95 % percentile bootstrap; not registered.\n")  # fmt: skip
+    print("| env | inputs | metric | seeds | default | distance | distance − default [95 %] |")
+    print("|---|---|---|---|---|---|---|")
+    for env, (inputs, folder) in TABLE.items():
+        new = runs_of(root / "table_screen", env, "laplacian", TABLE_SEEDS)
+        old = runs_of(RESULTS / folder, env, "laplacian", TABLE_SEEDS)
+        if not set(new) & set(old):
+            continue
+        for metric, label in LABELS.items():
+            cells, _, _ = paired(new, old, metric)
+            print(f"| {env} | {inputs} | {label} | {' | '.join(cells)} |")
     print()
 
 
@@ -111,9 +143,9 @@ def main() -> None:
           "(session 85)\n")  # fmt: skip
     print("PPO, 50,000 steps, seeds 1143-1152, the held-out studies' primary protocol "
           "(`results/lengthscale_rule/PLAN.md`).\n")  # fmt: skip
-    readings = arm_readings(args.dir)
-    paired_table(readings)
-    mlp_table(readings)
+    registered(args.dir)
+    if (args.dir / "table_screen" / "runs").is_dir():
+        table_screen(args.dir)
 
 
 if __name__ == "__main__":
