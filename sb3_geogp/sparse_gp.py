@@ -373,8 +373,9 @@ class SparseOnlineGP(nn.Module):
         ``sqrt(input_dim)``, so that typical inputs stay about ``sqrt(2)`` lengthscales apart
         however many there are (:data:`sb3_geogp.defaults.LENGTHSCALE_RULES`). Under
         ``"spread"`` with many inputs (HalfCheetah-v5's 17) the kernel between typical states
-        has all but vanished; there ``"distance"`` raised PPO's final return in an exploratory
-        screen (docs/results.md, "Lengthscales that grow with the number of inputs").
+        has all but vanished; yet on PPO HalfCheetah-v5 ``"distance"`` did not raise the
+        return in its registered test (docs/results.md, "Lengthscales that grow with the
+        number of inputs").
     num_threads : int or None
         Intra-op CPU threads of :meth:`update`, :meth:`predict` and :meth:`fit_hyperparameters`,
         set for the call and restored after it. The engine's work is many small matrix
