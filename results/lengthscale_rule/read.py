@@ -2,6 +2,7 @@
 PPO's default GP critic (``"spread"``) on HalfCheetah-v5 and Hopper-v5, seeds 1143-1152::
 
     python results/lengthscale_rule/read.py > results/lengthscale_rule/read.md
+    python results/lengthscale_rule/read.py --curves results/lengthscale_rule/curves.png
 
 Per cell and metric, ``distance`` − ``spread`` paired by seed (the mean of the per-seed
 differences, 95 % percentile bootstrap over seeds); then each GP critic − SB3's MLP critic in
@@ -20,7 +21,8 @@ from typing import Any
 
 import numpy as np
 
-from sb3_geogp.comparison.results import METRICS, load_results
+from sb3_geogp.comparison.report import pyplot
+from sb3_geogp.comparison.results import METRICS, load_results, stack_curves
 from sb3_geogp.toolbox.stats import bootstrap_ci, difference_ci
 
 HERE = Path(__file__).resolve().parent
@@ -135,10 +137,47 @@ def table_screen(root: Path) -> None:
     print()
 
 
+#: The curves' arms: (folder, critic, legend, colour)
+CURVES = (
+    ("spread", "mlp", "SB3's MLP critic (VecNormalize)", "tab:gray"),
+    ("spread", "laplacian", "default GP critic (spread)", "tab:green"),
+    ("distance", "laplacian", "lengthscale_rule='distance'", "tab:orange"),
+)
+
+
+def curves(root: Path, path: Path) -> None:
+    """Each arm's evaluation return against timesteps in each cell of the plan: the mean over
+    seeds and its 95 % percentile bootstrap band."""
+    plt = pyplot()
+    fig, axes = plt.subplots(1, len(DECISIONS), figsize=(9, 3.4), squeeze=False)
+    for ax, env in zip(axes[0], DECISIONS, strict=True):
+        for folder, critic, legend, colour in CURVES:
+            runs = runs_of(root / folder, env, critic, SEEDS)
+            if not runs:
+                continue
+            t, values = stack_curves(list(runs.values()))
+            est, low, high = bootstrap_ci(values)
+            ax.plot(t, est, color=colour, label=f"{legend}, {len(runs)} seeds")
+            ax.fill_between(t, low, high, color=colour, alpha=0.2, linewidth=0)
+        ax.set_title(f"PPO {env}", fontsize=9)
+        ax.set_xlabel("timesteps", fontsize=8)
+        ax.tick_params(labelsize=7)
+    axes[0][0].set_ylabel("evaluation return", fontsize=8)
+    axes[0][0].legend(fontsize=7, loc="upper left")
+    fig.suptitle("Seeds 1143-1152: mean and 95 % bootstrap band over seeds", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=130)
+    plt.close(fig)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--dir", type=Path, default=HERE)
+    parser.add_argument("--curves", type=Path, metavar="PNG", help="draw the learning curves")
     args = parser.parse_args()
+    if args.curves:
+        curves(args.dir, args.curves)
+        return
     print("# Lengthscales that grow with the number of inputs: the registered reading "
           "(session 85)\n")  # fmt: skip
     print("PPO, 50,000 steps, seeds 1143-1152, the held-out studies' primary protocol "
