@@ -6,7 +6,8 @@ PPO's default GP critic (``"spread"``) on HalfCheetah-v5 and Hopper-v5, seeds 11
 
 Per cell and metric, ``distance`` − ``spread`` paired by seed (the mean of the per-seed
 differences, 95 % percentile bootstrap over seeds); then each GP critic − SB3's MLP critic in
-final return under the table's rule (groups resampled apart). ``--dir`` reads another folder of
+final return under the table's rule (groups resampled apart), also pooled with session 84's
+runs of seeds 1133-1142 (``results/heldout2/normalized``). ``--dir`` reads another folder of
 the same layout (a frozen worktree's runs). Where ``table_screen`` holds the exploratory runs of
 ``table_screen.sh``, they follow: issue 13's seven PPO cells, seeds 0-9, paired the same way
 with the stored runs of PPO's default critic.
@@ -41,6 +42,8 @@ DECISIONS: dict[str, tuple[int, str, Callable[[float, float], str]]] = {
     "Hopper-v5": (11, "guard", lambda low, high: "worse" if high < 0 else "not worse"),
 }
 SEEDS = tuple(range(1143, 1153))
+#: Session 84's runs of the same protocol on seeds 1133-1142
+HELDOUT2_DIR, HELDOUT2_SEEDS = RESULTS / "heldout2/normalized", tuple(range(1133, 1143))
 #: Issue 13's PPO cells, their inputs, and the stored runs of 0.43's default critic on seeds
 #: 0-19 (CartPole-v1's from its registered test of widening, the others unchanged since
 #: fit_spacing's)
@@ -117,6 +120,25 @@ def registered(root: Path) -> None:
             gp = [r["final_return"] for r in runs_of(root / arm, env, "laplacian", SEEDS).values()]
             cells.append(interval(*difference_ci(np.array(gp), mlp)) if gp else "not run")
         print(f"| {env} | {mlp.mean():.1f} ({len(mlp)}) | {cells[0]} | {cells[1]} |")
+    print()
+    pooled(root)
+
+
+def pooled(root: Path) -> None:
+    print("## The default GP critic − SB3's MLP critic, pooled with session 84's seeds 1133-1142\n")
+    print("| env | seeds per critic | default GP | MLP | default − MLP [95 %] |")
+    print("|---|---|---|---|---|")
+    for env in DECISIONS:
+        arms = {}
+        for critic in ("laplacian", "mlp"):
+            runs = [*runs_of(root / "spread", env, critic, SEEDS).values(),
+                    *runs_of(HELDOUT2_DIR, env, critic, HELDOUT2_SEEDS).values()]  # fmt: skip
+            arms[critic] = np.array([r["final_return"] for r in runs])
+        gp, mlp = arms["laplacian"], arms["mlp"]
+        if len(gp) and len(mlp):
+            diff = interval(*difference_ci(gp, mlp))
+            means = f"{gp.mean():.1f} | {mlp.mean():.1f}"
+            print(f"| {env} | {len(gp)} / {len(mlp)} | {means} | {diff} |")
     print()
 
 
