@@ -159,10 +159,10 @@ def build_parser() -> argparse.ArgumentParser:
     train.add_argument(
         "--lengthscale-rule",
         choices=LENGTHSCALE_RULES,
-        default="spread",
-        help="the GP's lengthscales start at each observation's spread, or (distance) at that "
-        "times sqrt(observation size), for many observations (SparseOnlineGP's "
-        "lengthscale_rule; docs/method.md, 'Many inputs')",
+        default=None,
+        help="the GP's lengthscales start at each observation's spread (spread, the policy's "
+        "default), or at that times sqrt(observation size) (distance), for many observations "
+        "(SparseOnlineGP's lengthscale_rule; docs/method.md, 'Many inputs')",
     )
     train.add_argument(
         "--normalize-actor-obs",
@@ -280,7 +280,7 @@ def check_gp_options(args: argparse.Namespace) -> None:
             ("--max-basis", args.max_basis, _MAX_BASIS),
             ("--forgetting", args.forgetting, None),
             ("--no-adapt", args.adapt, True),
-            ("--lengthscale-rule", args.lengthscale_rule, "spread"),
+            ("--lengthscale-rule", args.lengthscale_rule, None),
             ("--normalize-actor-obs", args.normalize_actor_obs, False),
         )
         if value != default
@@ -344,7 +344,7 @@ _ADDED: dict[str, Any] = {
     "horizon": None,
     "feed_every": 1,
     "normalize_actor_obs": False,
-    "lengthscale_rule": "spread",
+    "lengthscale_rule": None,
 }
 
 
@@ -434,12 +434,10 @@ def _new_model(args: argparse.Namespace, env: VecEnv) -> OnPolicyAlgorithm:
     if args.critic == "mlp":
         return ALGOS[args.algo]("MlpPolicy", env, seed=args.seed, device=args.device, **algo_kwargs)
     gp_kwargs = dict(
-        kernel=args.critic,
-        max_basis=args.max_basis,
-        adapt=args.adapt,
-        lengthscale_rule=args.lengthscale_rule,
-        **_forgetting(args),
+        kernel=args.critic, max_basis=args.max_basis, adapt=args.adapt, **_forgetting(args)
     )
+    if args.lengthscale_rule is not None:  # else the policy's, as the drop-in saves it
+        gp_kwargs["lengthscale_rule"] = args.lengthscale_rule
     return ALGOS[args.algo](
         GPActorCriticPolicy,
         env,
