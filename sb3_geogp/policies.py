@@ -877,7 +877,9 @@ class GPActorCriticPolicy(GPCriticMixin, ActorCriticPolicy):
         ``novelty_tol``, ``forgetting``, ``forgetting_points``, ``target_mean``,
         ``target_scale``, ``prior_mean``, ``optimism``, ``optimism_cap``, ``dtype``,
         ``num_threads``, ``condition_guard``, ``drift_forgetting`` (the policy passes the
-        actor's movement since the last feed as the drift, :meth:`measure_drift`), and
+        actor's movement since the last feed as the drift, :meth:`measure_drift`),
+        ``lengthscale_rule`` (``"spread"``; ``"distance"`` lengthens every lengthscale by
+        ``sqrt`` of the observation size, since 0.44), and
         ``trend`` and ``adapt`` below; a misspelt one
         raises ``TypeError`` naming the closest) plus ``kernel`` (``"laplacian"``, ``"geodesic"``,
         ``"rbf"``, ``"matern"`` or a :class:`~sb3_geogp.Kernel`, which is copied; by default
