@@ -32,12 +32,11 @@ from sb3_geogp.comparison.hyperparams import (
     ALL_CRITICS,
     CRITICS,
     ENVS,
-    GP_KWARGS,
     HyperparamsFile,
 )
 from sb3_geogp.comparison.results import VERDICT_TESTS, load_results
 from sb3_geogp.comparison.run import build_model
-from sb3_geogp.comparison.specs import RunSpec, SweepConfig
+from sb3_geogp.comparison.specs import ADAPT_PREFIX, RunSpec, SweepConfig, gp_kwargs_for
 from sb3_geogp.comparison.sweep import pending_runs, run_sweep
 from sb3_geogp.policies import build_gp_critic, check_gp_kwargs, resolved_gp_kwargs
 from sb3_geogp.toolbox.scripts import count_arg
@@ -174,7 +173,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
         default=None,
         metavar="KEY=VALUE",
         type=parse_gp_option,
-        help="option of both GP critics, e.g. forgetting=0.9 (repeatable)",
+        help="option of the GP critics, e.g. forgetting=0.9, or adapt.NAME=VALUE for one "
+        "setting of each algorithm's adaptation, e.g. adapt.prior_sd=None (repeatable)",
     )
     add_target_arguments(parser)
     parser.add_argument(
@@ -211,16 +211,20 @@ def add_arguments(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
 def parse_gp_option(text: str) -> tuple[str, Any]:
     """``"KEY=VALUE"`` as ``(key, value)``, the value a Python literal where it is one
     (``forgetting=0.9``, ``adapt={"prior_sd": 0.1}``), else JSON where it is that
-    (``kernel_kwargs={"ard": false}``), else the bare word (``dtype=float32``).
+    (``kernel_kwargs={"ard": false}``), else the bare word (``dtype=float32``). ``KEY`` may
+    be ``adapt.NAME``: one setting of the adaptation (:func:`~sb3_geogp.comparison.specs.
+    gp_kwargs_for`, e.g. ``adapt.prior_sd=None``).
 
     Raises
     ------
     argparse.ArgumentTypeError
-        If ``text`` has no ``=`` or its key is not an identifier.
+        If ``text`` has no ``=`` or its key is not an identifier (nor ``adapt.`` and one).
     """
     key, sep, value = text.partition("=")
-    if not sep or not key.isidentifier():
-        raise argparse.ArgumentTypeError(f"expected KEY=VALUE (e.g. forgetting=0.9), got {text!r}")
+    if not sep or not key.removeprefix(ADAPT_PREFIX).isidentifier():
+        raise argparse.ArgumentTypeError(
+            f"expected KEY=VALUE (e.g. forgetting=0.9 or adapt.prior_sd=None), got {text!r}"
+        )
     try:
         return key, ast.literal_eval(value)
     except (ValueError, SyntaxError):
@@ -248,13 +252,12 @@ def check_env(env_id: str) -> EnvSpec:
 
 
 def _check_gp_options(
-    options: list[tuple[str, Any]], critics: Sequence[str]
+    options: list[tuple[str, Any]], critics: Sequence[str], algos: Sequence[str]
 ) -> tuple[tuple[str, Any], ...]:
-    """``options`` if every GP critic of ``critics`` accepts them (a bad option would
-    otherwise fail in every worker); kernel options, e.g. ``kernel_kwargs={"nu": 1.5}``, are
-    checked against the kernels named only."""
-    merged = {**GP_KWARGS, **dict(options)}
-    if "kernel" in merged:
+    """``options`` if every GP critic of ``critics`` accepts them under each of ``algos`` (a
+    bad option would otherwise fail in every worker); kernel options, e.g.
+    ``kernel_kwargs={"nu": 1.5}``, are checked against the kernels named only."""
+    if "kernel" in dict(options):
         raise UsageError(
             "--gp-option kernel=...: the kernel is the critic, choose it with --critics"
         )
@@ -262,9 +265,11 @@ def _check_gp_options(
     if not kernels:
         raise UsageError("--gp-option sets the GP critics' options, and --critics names none")
     try:
-        checked = check_gp_kwargs(merged)  # the policy's own checks and construction
-        for kernel in kernels:
-            build_gp_critic(resolved_gp_kwargs({**checked, "kernel": kernel}), input_dim=1)
+        for algo in algos:
+            # the policy's own checks and construction
+            checked = check_gp_kwargs(dict(gp_kwargs_for(options, algo)))
+            for kernel in kernels:
+                build_gp_critic(resolved_gp_kwargs({**checked, "kernel": kernel}), input_dim=1)
     except (TypeError, ValueError) as e:
         raise UsageError(f"--gp-option: the GP critic rejects {dict(options)}: {e}") from None
     return tuple(options)
@@ -390,7 +395,8 @@ def config_from_args(args: argparse.Namespace) -> SweepConfig:
         changes["thresholds"] = tuple(zip(envs, args.threshold, strict=True))
     if args.gp_option:
         critics = changes.get("critics", config.critics)
-        changes["gp_options"] = _check_gp_options(args.gp_option, critics)
+        algos = changes.get("algos", config.algos)
+        changes["gp_options"] = _check_gp_options(args.gp_option, critics, algos)
     changes["target"] = args.target
     check_target_arguments(args)
     changes["horizon"] = args.horizon

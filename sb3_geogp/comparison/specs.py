@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import inspect
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -22,6 +22,43 @@ from sb3_geogp.comparison.hyperparams import (
     threshold,
 )
 from sb3_geogp.comparison.results import env_file_name
+from sb3_geogp.policies import default_adaptation
+
+#: How a GP option names one setting of the adaptation (``adapt.prior_sd``)
+ADAPT_PREFIX = "adapt."
+
+
+def gp_kwargs_for(options: Sequence[tuple[str, Any]], algo: str) -> tuple[tuple[str, Any], ...]:
+    """The GP critics' options under ``algo`` (a key of
+    :data:`~sb3_geogp.comparison.hyperparams.ALGOS`), sorted: :data:`GP_KWARGS` with
+    ``options`` on top, where a key ``"adapt.NAME"`` changes that one setting of the
+    adaptation: of the settings ``adapt`` gives as a dict, else of ``algo``'s default
+    (:func:`~sb3_geogp.policies.default_adaptation`), so that a command line can say "PPO's
+    default with ``prior_sd=None``" as ``adapt.prior_sd=None``.
+
+    Raises
+    ------
+    ValueError
+        If a setting is changed while ``adapt`` turns the adaptation off.
+    """
+    merged = dict(GP_KWARGS)
+    changes = {}
+    for key, value in options:
+        if key.startswith(ADAPT_PREFIX):
+            changes[key.removeprefix(ADAPT_PREFIX)] = value
+        else:
+            merged[key] = value
+    if changes:
+        adapt = merged.get("adapt")
+        if adapt is True:
+            adapt = default_adaptation(ALGOS[algo]).as_dict()
+        if not isinstance(adapt, Mapping):
+            raise ValueError(
+                f"adapt.{next(iter(changes))}=... changes a setting of the adaptation, and "
+                f"adapt={adapt!r} gives none to change: drop one of them"
+            )
+        merged["adapt"] = {**adapt, **changes}
+    return tuple(sorted(merged.items()))
 
 
 def fed(
@@ -192,7 +229,8 @@ class SweepConfig:
         As :class:`RunSpec`.
     gp_options : tuple of (key, value)
         Options of the GP critic on top of :data:`GP_KWARGS` (e.g. ``(("forgetting", 0.9),)``),
-        the same for ``rbf`` and ``geodesic``.
+        the same for every kernel; ``("adapt.NAME", value)`` changes one setting of each
+        algorithm's adaptation (:func:`gp_kwargs_for`).
     target : {"returns", "monte_carlo"}, optional
         As :class:`RunSpec`; ``None`` (default): ``GPValueCallback``'s default target and
         horizon for each algorithm (:func:`~sb3_geogp.callbacks.default_feed`).
@@ -257,7 +295,6 @@ class SweepConfig:
                 "gp_normalize puts the GP critics' environments in VecNormalize, "
                 "gp_actor_normalize normalises their actors' observations alone: choose one"
             )
-        gp_kwargs = tuple(sorted({**GP_KWARGS, **dict(self.gp_options)}.items()))
         files = dict(self.hyperparams_files)
         levels = dict(self.thresholds)
         out = []
@@ -279,6 +316,7 @@ class SweepConfig:
                 gamma = kwargs.get("gamma")
                 for critic in self.critics:
                     target, horizon = fed(self.target, self.horizon, algo, critic, gamma)
+                    gp_kwargs = gp_kwargs_for(self.gp_options, algo)
                     for seed in self.seeds:
                         out.append(
                             RunSpec(

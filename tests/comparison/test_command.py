@@ -4,6 +4,7 @@ hyperparameters of the user's own, and every mistake stopped before any run."""
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import os
 import signal
@@ -14,6 +15,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from stable_baselines3 import A2C, PPO
 
 from sb3_geogp.adaptation import CHEAP_ADAPTATION, as_adaptation
 from sb3_geogp.cli import main
@@ -26,6 +28,7 @@ from sb3_geogp.comparison.command import (
 from sb3_geogp.comparison.hyperparams import GP_KWARGS
 from sb3_geogp.comparison.report import write_report
 from sb3_geogp.comparison.specs import RunSpec, SweepConfig
+from sb3_geogp.policies import default_adaptation
 from sb3_geogp.toolbox.provenance import cpu
 
 MODULE = "tests.comparison.toy_env"
@@ -176,6 +179,35 @@ def test_gp_options_reach_every_gp_run_and_bad_ones_fail_early() -> None:
             config_from_args(_parse("--gp-option", bad))
     with pytest.raises(SystemExit):  # argparse: not KEY=VALUE
         _parse("--gp-option", "forgetting")
+
+
+def test_adapt_name_changes_one_setting_of_each_algorithms_adaptation() -> None:
+    """``--gp-option adapt.prior_sd=None`` gives each algorithm's default adaptation
+    (:func:`~sb3_geogp.policies.default_adaptation`) with that one setting changed, spelled
+    out in the runs' options as a command line had to before; on top of ``adapt=...`` it
+    changes those settings; a change meets no adaptation, or an unknown setting, fails early."""
+    args = _parse("--algos", "ppo", "a2c", "--gp-option", "adapt.prior_sd=None")
+    assert parse_gp_option("adapt.prior_sd=None") == ("adapt.prior_sd", None)
+    for spec in config_from_args(args).specs():
+        if spec.critic == "mlp":
+            continue
+        algo = {"ppo": PPO, "a2c": A2C}[spec.algo]
+        expected = dataclasses.replace(default_adaptation(algo), prior_sd=None).as_dict()
+        assert dict(spec.gp_kwargs)["adapt"] == expected
+    args = _parse("--gp-option", 'adapt={"max_gap": 4}', "--gp-option", "adapt.window=512")
+    for spec in config_from_args(args).specs():
+        assert dict(spec.gp_kwargs)["adapt"] == {"max_gap": 4, "window": 512}
+    for bad, message in (
+        (("adapt=False", "adapt.window=512"), "adapt=False gives none to change"),
+        (("adapt.no_such_setting=1",), "no_such_setting"),
+        (("adapt.window=0",), "window"),
+    ):
+        options = [word for option in bad for word in ("--gp-option", option)]
+        with pytest.raises(UsageError, match=message):
+            config_from_args(_parse(*options))
+    for malformed in ("adapt.=1", "adapt.1x=1", "adapt.a.b=1"):
+        with pytest.raises(SystemExit):
+            _parse("--gp-option", malformed)
 
 
 def test_budget_and_threshold_of_an_own_environment(tmp_path: Path) -> None:
