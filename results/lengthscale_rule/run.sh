@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# The registered runs of PLAN.md (session 85). OUT=... writes elsewhere (a frozen worktree's runs).
+# The registered runs of PLAN.md (session 85); `run.sh no_prior` those of its addendum 1.
+# OUT=... writes elsewhere (a frozen worktree's runs).
 set -euo pipefail
 HERE=$(cd "$(dirname "$0")" && pwd)
 OUT=${OUT:-$HERE}
@@ -8,6 +9,11 @@ common() {
         --first-seed 1143 --timesteps 50000 --workers 2 --no-progress --no-plots \
         --mlp-normalize --gp-actor-normalize "$@"
 }
+if [ "${1:-}" = no_prior ]; then  # PLAN.md's addendum 1
+    common --envs HalfCheetah-v5 --critics laplacian --gp-option adapt.prior_sd=None \
+        --out "$OUT/no_prior"
+    exit
+fi
 common --envs HalfCheetah-v5 Hopper-v5 --critics mlp laplacian --out "$OUT/spread"
 common --envs HalfCheetah-v5 Hopper-v5 --critics laplacian --gp-option lengthscale_rule=distance \
     --out "$OUT/distance"
