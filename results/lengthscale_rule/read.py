@@ -8,7 +8,8 @@ Per cell and metric, ``distance`` − ``spread`` paired by seed (the mean of the
 differences, 95 % percentile bootstrap over seeds); then each GP critic − SB3's MLP critic in
 final return under the table's rule (groups resampled apart), also pooled with session 84's
 runs of seeds 1133-1142 (``results/heldout2/normalized``). ``--dir`` reads another folder of
-the same layout (a frozen worktree's runs). Where ``table_screen`` holds the exploratory runs of
+the same layout (a frozen worktree's runs). Where ``no_prior`` holds them, the runs of the
+plan's addendum 1 follow. Where ``table_screen`` holds the exploratory runs of
 ``table_screen.sh``, they follow: issue 13's seven PPO cells, seeds 0-9, paired the same way
 with the stored runs of PPO's default critic.
 """
@@ -75,6 +76,11 @@ def runs_of(folder: Path, env: str, critic: str, seeds: tuple[int, ...]) -> Runs
             and r["spec"]["seed"] in seeds}  # fmt: skip
 
 
+def final_returns(*runs: Runs) -> np.ndarray:
+    """The final returns of every run of ``runs``."""
+    return np.array([r["final_return"] for by_seed in runs for r in by_seed.values()])
+
+
 def interval(estimate: Any, low: Any, high: Any) -> str:
     return f"{float(estimate):+.1f} [{float(low):+.1f}, {float(high):+.1f}]"
 
@@ -111,14 +117,13 @@ def registered(root: Path) -> None:
     print("| env | MLP (seeds) | spread − MLP [95 %] | distance − MLP [95 %] |")
     print("|---|---|---|---|")
     for env in DECISIONS:
-        mlp_runs = runs_of(root / "spread", env, "mlp", SEEDS)
-        mlp = np.array([r["final_return"] for r in mlp_runs.values()])
+        mlp = final_returns(runs_of(root / "spread", env, "mlp", SEEDS))
         if not len(mlp):
             continue
         cells = []
         for arm in ("spread", "distance"):
-            gp = [r["final_return"] for r in runs_of(root / arm, env, "laplacian", SEEDS).values()]
-            cells.append(interval(*difference_ci(np.array(gp), mlp)) if gp else "not run")
+            gp = final_returns(runs_of(root / arm, env, "laplacian", SEEDS))
+            cells.append(interval(*difference_ci(gp, mlp)) if len(gp) else "not run")
         print(f"| {env} | {mlp.mean():.1f} ({len(mlp)}) | {cells[0]} | {cells[1]} |")
     print()
     pooled(root)
@@ -129,17 +134,35 @@ def pooled(root: Path) -> None:
     print("| env | seeds per critic | default GP | MLP | default − MLP [95 %] |")
     print("|---|---|---|---|---|")
     for env in DECISIONS:
-        arms = {}
-        for critic in ("laplacian", "mlp"):
-            runs = [*runs_of(root / "spread", env, critic, SEEDS).values(),
-                    *runs_of(HELDOUT2_DIR, env, critic, HELDOUT2_SEEDS).values()]  # fmt: skip
-            arms[critic] = np.array([r["final_return"] for r in runs])
-        gp, mlp = arms["laplacian"], arms["mlp"]
+        gp, mlp = (
+            final_returns(runs_of(root / "spread", env, critic, SEEDS),
+                          runs_of(HELDOUT2_DIR, env, critic, HELDOUT2_SEEDS))
+            for critic in ("laplacian", "mlp")
+        )  # fmt: skip
         if len(gp) and len(mlp):
             diff = interval(*difference_ci(gp, mlp))
             means = f"{gp.mean():.1f} | {mlp.mean():.1f}"
             print(f"| {env} | {len(gp)} / {len(mlp)} | {means} | {diff} |")
     print()
+
+
+def no_prior(root: Path) -> None:
+    """PLAN.md's addendum 1: ``prior_sd=None`` against the default on HalfCheetah-v5."""
+    env = "HalfCheetah-v5"
+    new = runs_of(root / "no_prior", env, "laplacian", SEEDS)
+    old = runs_of(root / "spread", env, "laplacian", SEEDS)
+    print("## Addendum 1: no hyperprior (`adapt.prior_sd=None`) − `spread`, paired by seed\n")
+    print("| env | metric | seeds | spread | no prior | no prior − spread [95 %] | reading |")
+    print("|---|---|---|---|---|---|---|")
+    for metric, label in LABELS.items():
+        cells, low, _ = paired(new, old, metric)
+        reading = ""
+        if metric == "final_return":
+            reading = "confirmed" if low > 0 else "not confirmed"
+        print(f"| {env} | {label} | {' | '.join(cells)} | {reading} |")
+    mlp = final_returns(runs_of(root / "spread", env, "mlp", SEEDS))
+    diff = interval(*difference_ci(final_returns(new), mlp))
+    print(f"\nNo prior − SB3's MLP critic, final return (table's rule): {diff}.\n")
 
 
 def table_screen(root: Path) -> None:
@@ -205,6 +228,8 @@ def main() -> None:
     print("PPO, 50,000 steps, seeds 1143-1152, the held-out studies' primary protocol "
           "(`results/lengthscale_rule/PLAN.md`).\n")  # fmt: skip
     registered(args.dir)
+    if (args.dir / "no_prior" / "runs").is_dir():
+        no_prior(args.dir)
     if (args.dir / "table_screen" / "runs").is_dir():
         table_screen(args.dir)
 
