@@ -314,9 +314,9 @@ class SweepConfig:
                 rollout = n_envs * int(kwargs.get("n_steps", 2048 if algo == "ppo" else 5))
                 steps = max(2 * rollout, self._budget(algo, env_id, hp.n_timesteps))
                 gamma = kwargs.get("gamma")
+                gp_kwargs = gp_kwargs_for(self.gp_options, algo)
                 for critic in self.critics:
                     target, horizon = fed(self.target, self.horizon, algo, critic, gamma)
-                    gp_kwargs = gp_kwargs_for(self.gp_options, algo)
                     for seed in self.seeds:
                         out.append(
                             RunSpec(
