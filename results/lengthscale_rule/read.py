@@ -43,6 +43,8 @@ DECISIONS: dict[str, tuple[int, str, Callable[[float, float], str]]] = {
     "Hopper-v5": (11, "guard", lambda low, high: "worse" if high < 0 else "not worse"),
 }
 SEEDS = tuple(range(1143, 1153))
+#: The ten more seeds of PLAN.md's addendum 2
+MORE_SEEDS = tuple(range(1153, 1163))
 #: Session 84's runs of the same protocol on seeds 1133-1142
 HELDOUT2_DIR, HELDOUT2_SEEDS = RESULTS / "heldout2/normalized", tuple(range(1133, 1143))
 #: Issue 13's PPO cells, their inputs, and the stored runs of 0.43's default critic on seeds
@@ -147,11 +149,34 @@ def pooled(root: Path) -> None:
 
 
 def no_prior(root: Path) -> None:
-    """PLAN.md's addendum 1: ``prior_sd=None`` against the default on HalfCheetah-v5."""
+    """PLAN.md's addenda 1 and 2: ``prior_sd=None`` against the default on HalfCheetah-v5, on
+    seeds 1143-1152, then (addendum 2) pooled with seeds 1153-1162 and on those alone."""
     env = "HalfCheetah-v5"
-    new = runs_of(root / "no_prior", env, "laplacian", SEEDS)
-    old = runs_of(root / "spread", env, "laplacian", SEEDS)
+
+    def gp(folder: str, seeds: tuple[int, ...]) -> Runs:
+        return runs_of(root / folder, env, "laplacian", seeds)
+
     print("## Addendum 1: no hyperprior (`adapt.prior_sd=None`) − `spread`, paired by seed\n")
+    new = gp("no_prior", SEEDS)
+    no_prior_table(env, new, gp("spread", SEEDS))
+    mlp = final_returns(runs_of(root / "spread", env, "mlp", SEEDS))
+    diff = interval(*difference_ci(final_returns(new), mlp))
+    print(f"No prior − SB3's MLP critic, final return (table's rule): {diff}.\n")
+    if not (root / "no_prior_more" / "runs").is_dir():
+        return
+    print("## Addendum 2: the same, seeds 1143-1162 pooled (primary)\n")
+    more_new, more_old = gp("no_prior_more", MORE_SEEDS), gp("spread_more", MORE_SEEDS)
+    no_prior_table(env, {**new, **more_new}, {**gp("spread", SEEDS), **more_old})
+    print("## Addendum 2: seeds 1153-1162 alone (secondary)\n")
+    no_prior_table(env, more_new, more_old)
+
+
+def no_prior_table(env: str, new: Runs, old: Runs) -> None:
+    """``new`` (no hyperprior) − ``old`` (the default) paired by seed on every metric, the
+    final return read as the plan's addenda read it."""
+    if not set(new) & set(old):
+        print("No seed has run in both arms yet.\n")
+        return
     print("| env | metric | seeds | spread | no prior | no prior − spread [95 %] | reading |")
     print("|---|---|---|---|---|---|---|")
     for metric, label in LABELS.items():
@@ -160,9 +185,7 @@ def no_prior(root: Path) -> None:
         if metric == "final_return":
             reading = "confirmed" if low > 0 else "not confirmed"
         print(f"| {env} | {label} | {' | '.join(cells)} | {reading} |")
-    mlp = final_returns(runs_of(root / "spread", env, "mlp", SEEDS))
-    diff = interval(*difference_ci(final_returns(new), mlp))
-    print(f"\nNo prior − SB3's MLP critic, final return (table's rule): {diff}.\n")
+    print()
 
 
 def table_screen(root: Path) -> None:
