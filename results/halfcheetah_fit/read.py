@@ -13,7 +13,10 @@ import numpy as np
 from scipy import stats
 
 HERE = Path(__file__).resolve().parent
-NAMES = ("online", "exact_gp", "mlp_all", "gbt_all", "ridge_all")
+NAMES = (
+    "online", "exact_gp", "mlp_newest", "mlp_all", "gbt_newest", "gbt_all", "ridge_newest",
+    "ridge_all",
+)  # fmt: skip
 
 
 def main() -> None:

@@ -33,7 +33,7 @@ PROTOCOL = [
 ]  # fmt: skip
 #: ``PLAN.md``'s settings: the tail's share, the exact GP's window and fit points, the MLP's
 #: training.
-LAST, EXACT_BATCHES, FIT_POINTS = 0.2, 2, 1024
+LAST, NEWEST, FIT_POINTS = 0.2, 2, 256
 EPOCHS, PATIENCE, MINIBATCH, LR, HELD_OUT = 200, 10, 256, 1e-3, 0.1
 Predict = Callable[[np.ndarray], np.ndarray]
 
@@ -124,9 +124,12 @@ def fit_exact(x: np.ndarray, y: np.ndarray, seed: int) -> Predict:
 
 #: Each off-line predictor: its fit and how many of the newest batches it learns (None: all).
 OFFLINE: dict[str, tuple[Callable[[np.ndarray, np.ndarray, int], Predict], int | None]] = {
-    "exact_gp": (fit_exact, EXACT_BATCHES),
+    "exact_gp": (fit_exact, NEWEST),
+    "mlp_newest": (fit_mlp, NEWEST),
     "mlp_all": (fit_mlp, None),
+    "gbt_newest": (fit_gbt, NEWEST),
     "gbt_all": (fit_gbt, None),
+    "ridge_newest": (fit_ridge, NEWEST),
     "ridge_all": (fit_ridge, None),
 }
 
@@ -170,7 +173,7 @@ def main() -> None:
             settings=dict(
                 protocol=PROTOCOL,
                 last=LAST,
-                exact_batches=EXACT_BATCHES,
+                newest=NEWEST,
                 fit_points=FIT_POINTS,
                 mlp=[EPOCHS, PATIENCE, MINIBATCH, LR, HELD_OUT],
             ),
