@@ -62,13 +62,14 @@ from sb3_geogp.comparison.command import (
     check_not_a_file,
     check_out,
     check_target_arguments,
+    parse_gp_option,
     run_from_args,
 )
 from sb3_geogp.comparison.hyperparams import ALGOS, ALL_CRITICS
 from sb3_geogp.comparison.hyperparams import threshold as comparison_threshold
 from sb3_geogp.comparison.report import pyplot
 from sb3_geogp.comparison.run import write_json_atomic
-from sb3_geogp.comparison.specs import fed, setting_differences
+from sb3_geogp.comparison.specs import fed, setting_differences, with_gp_options
 from sb3_geogp.defaults import LENGTHSCALE_RULES
 from sb3_geogp.policies import GPActorCriticPolicy, check_supported_spaces, default_kernel
 from sb3_geogp.toolbox.scripts import DefaultsHelpFormatter, count_arg
@@ -163,6 +164,16 @@ def build_parser() -> argparse.ArgumentParser:
         help="the GP's lengthscales start at each observation's spread (spread, the policy's "
         "default), or at that times sqrt(observation size) (distance), for many observations "
         "(SparseOnlineGP's lengthscale_rule; docs/method.md, 'Many inputs')",
+    )
+    train.add_argument(
+        "--gp-option",
+        type=parse_gp_option,
+        action="append",
+        default=None,
+        metavar="KEY=VALUE",
+        help="any other option of the GP critic (GPActorCriticPolicy's gp_kwargs; repeatable), "
+        "e.g. trend=linear, or adapt.NAME=VALUE for one setting of the default adaptation, "
+        "e.g. adapt.prior_sd=None; options that have a flag of their own take the flag",
     )
     train.add_argument(
         "--normalize-actor-obs",
@@ -271,9 +282,19 @@ def check_targets(args: argparse.Namespace) -> None:
     check_target_arguments(args)
 
 
+#: The GP options ``train`` sets by flags of their own, which ``--gp-option`` may not name.
+_FLAGGED = {
+    "kernel": "--critic",
+    "max_basis": "--max-basis",
+    "forgetting": "--forgetting",
+    "adapt": "--adapt / --no-adapt (or adapt.NAME=VALUE for one setting)",
+    "lengthscale_rule": "--lengthscale-rule",
+}
+
+
 def check_gp_options(args: argparse.Namespace) -> None:
     """Raise :class:`UsageError` if GP options are given with SB3's MLP critic (they would be
-    ignored)."""
+    ignored), or ``--gp-option`` names an option that has a flag of its own."""
     given = [
         flag
         for flag, value, default in (
@@ -281,6 +302,7 @@ def check_gp_options(args: argparse.Namespace) -> None:
             ("--forgetting", args.forgetting, None),
             ("--no-adapt", args.adapt, True),
             ("--lengthscale-rule", args.lengthscale_rule, None),
+            ("--gp-option", args.gp_option, None),
             ("--normalize-actor-obs", args.normalize_actor_obs, False),
         )
         if value != default
@@ -290,6 +312,9 @@ def check_gp_options(args: argparse.Namespace) -> None:
             f"{', '.join(given)} {'configures' if len(given) == 1 else 'configure'} the GP "
             "critic, and --critic mlp trains SB3's MLP critic; drop them, or pass a GP --critic"
         )
+    for key, _ in args.gp_option or []:
+        if key in _FLAGGED:
+            raise UsageError(f"--gp-option {key}=...: pass {_FLAGGED[key]} instead")
 
 
 def check_env_spaces(env_id: str, critic: str) -> None:
@@ -332,6 +357,9 @@ def _settings(args: argparse.Namespace) -> dict[str, Any]:
     settings = {k: v for k, v in vars(args).items() if k not in _NOT_SETTINGS}
     # What the critic is fed, as run directories made before its default moved record it.
     settings["target"], settings["horizon"] = fed(args.target, args.horizon, args.algo, args.critic)
+    if args.gp_option is not None:
+        # As the directory's JSON holds them (tuples read back as lists): resuming matches.
+        settings["gp_option"] = json.loads(json.dumps(args.gp_option, default=repr))
     # At its default, an option added after 0.20 is left out, so that older run directories
     # still match.
     return {k: v for k, v in settings.items() if not (k in _ADDED and v == _ADDED[k])}
@@ -345,6 +373,7 @@ _ADDED: dict[str, Any] = {
     "feed_every": 1,
     "normalize_actor_obs": False,
     "lengthscale_rule": None,
+    "gp_option": None,
 }
 
 
@@ -438,6 +467,7 @@ def _new_model(args: argparse.Namespace, env: VecEnv) -> OnPolicyAlgorithm:
     )
     if args.lengthscale_rule is not None:  # else the policy's, as the drop-in saves it
         gp_kwargs["lengthscale_rule"] = args.lengthscale_rule
+    gp_kwargs = with_gp_options(gp_kwargs, args.gp_option or [], args.algo)
     return ALGOS[args.algo](
         GPActorCriticPolicy,
         env,

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import dataclasses
 import functools
 import json
 import os
@@ -218,6 +219,18 @@ def test_version(capsys: pytest.CaptureFixture[str]) -> None:
             ["--critic", "mlp", "--lengthscale-rule", "distance"],
             "--lengthscale-rule configures the GP critic",
         ),
+        (
+            ["--critic", "mlp", "--gp-option", "trend=linear"],
+            "--gp-option configures the GP critic",
+        ),
+        (["--gp-option", "max_basis=10"], "--gp-option max_basis=...: pass --max-basis instead"),
+        (["--gp-option", "adapt=False"], "--gp-option adapt=...: pass --adapt / --no-adapt"),
+        (
+            ["--no-adapt", "--gp-option", "adapt.prior_sd=None"],
+            "adapt.prior_sd=... changes a setting of the adaptation, and adapt=False gives none",
+        ),
+        # Refused by the policy as the model is built.
+        (["--gp-option", "trend=slanted"], "fails to build: ValueError: trend must be one of"),
         (["--env", "Blackjack-v1"], "Blackjack-v1: the GP critic supports Box observations"),
         (["--seed", "-1"], "--seed must be in [0, 2**32), got -1"),
         (["--seed", str(2**32)], "--seed must be in [0, 2**32)"),
@@ -635,6 +648,28 @@ def test_train_lengthscale_rule_reaches_the_critic_and_is_recorded(tmp_path: Pat
     assert json.loads((out / "train_settings.json").read_text())["lengthscale_rule"] == "distance"
 
 
+def test_train_gp_options_reach_the_critic_and_are_recorded(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``--gp-option trend=linear --gp-option adapt.prior_sd=None``: the saved critic has the
+    linear trend and PPO's default adaptation with that one setting changed; the directory
+    records the options, so the same command finds its run and another is refused."""
+    out = tmp_path / "run"
+    argv = ["train", "--env", "CartPole-v1", "--timesteps", "32", "--n-steps", "16"]
+    argv += ["--out", str(out), "--no-progress"]
+    options = ["--gp-option", "trend=linear", "--gp-option", "adapt.prior_sd=None"]
+    assert main([*argv, *options]) == 0
+    gp = PPO.load(out / "model.zip").policy.gp
+    assert gp.trend == "linear"
+    assert gp.adaptation == dataclasses.replace(DEFAULT_ADAPTATION, prior_sd=None)
+    recorded = json.loads((out / "train_settings.json").read_text())["gp_option"]
+    assert recorded == [["trend", "linear"], ["adapt.prior_sd", None]]
+    assert main([*argv, *options]) == 0
+    assert "trained already" in capsys.readouterr().out
+    assert main([*argv, "--gp-option", "trend=level"]) == 2
+    assert "holds a run made with other settings" in capsys.readouterr().err
+
+
 def test_unset_horizon_keeps_older_run_directories_valid(tmp_path: Path) -> None:
     out = tmp_path / "run"
     argv = ["train", "--algo", "a2c", "--env", "CartPole-v1", "--timesteps", "64"]
@@ -642,7 +677,8 @@ def test_unset_horizon_keeps_older_run_directories_valid(tmp_path: Path) -> None
     assert main(argv) == 0
     settings = json.loads((out / "train_settings.json").read_text())
     # As 0.20 wrote it, so re-running there is accepted.
-    assert not {"horizon", "feed_every", "normalize_actor_obs", "lengthscale_rule"} & set(settings)
+    added = {"horizon", "feed_every", "normalize_actor_obs", "lengthscale_rule", "gp_option"}
+    assert not added & set(settings)
     assert main(argv) == 0
 
 

@@ -31,9 +31,23 @@ ADAPT_PREFIX = "adapt."
 def gp_kwargs_for(options: Sequence[tuple[str, Any]], algo: str) -> tuple[tuple[str, Any], ...]:
     """The GP critics' options under ``algo`` (a key of
     :data:`~sb3_geogp.comparison.hyperparams.ALGOS`), sorted: :data:`GP_KWARGS` with
-    ``options`` on top, where a key ``"adapt.NAME"`` changes that one setting of the
-    adaptation: of the settings ``adapt`` gives as a dict, else of ``algo``'s default
-    (:func:`~sb3_geogp.policies.default_adaptation`), so that a command line can say "PPO's
+    ``options`` on top (:func:`with_gp_options`).
+
+    Raises
+    ------
+    ValueError
+        If a setting is changed while ``adapt`` turns the adaptation off.
+    """
+    return tuple(sorted(with_gp_options(GP_KWARGS, options, algo).items()))
+
+
+def with_gp_options(
+    gp_kwargs: Mapping[str, Any], options: Sequence[tuple[str, Any]], algo: str
+) -> dict[str, Any]:
+    """``gp_kwargs`` with ``options`` on top, where a key ``"adapt.NAME"`` changes that one
+    setting of the adaptation: of the settings ``adapt`` gives as a dict, else of ``algo``'s
+    default (:func:`~sb3_geogp.policies.default_adaptation`; ``algo`` a key of
+    :data:`~sb3_geogp.comparison.hyperparams.ALGOS`), so that a command line can say "PPO's
     default with ``prior_sd=None``" as ``adapt.prior_sd=None``.
 
     Raises
@@ -41,7 +55,7 @@ def gp_kwargs_for(options: Sequence[tuple[str, Any]], algo: str) -> tuple[tuple[
     ValueError
         If a setting is changed while ``adapt`` turns the adaptation off.
     """
-    merged = dict(GP_KWARGS)
+    merged = dict(gp_kwargs)
     changes = {}
     for key, value in options:
         if key.startswith(ADAPT_PREFIX):
@@ -49,7 +63,7 @@ def gp_kwargs_for(options: Sequence[tuple[str, Any]], algo: str) -> tuple[tuple[
         else:
             merged[key] = value
     if changes:
-        adapt = merged.get("adapt")
+        adapt = merged.get("adapt", True)
         if adapt is True:
             adapt = default_adaptation(ALGOS[algo]).as_dict()
         if not isinstance(adapt, Mapping):
@@ -58,7 +72,7 @@ def gp_kwargs_for(options: Sequence[tuple[str, Any]], algo: str) -> tuple[tuple[
                 f"adapt={adapt!r} gives none to change: drop one of them"
             )
         merged["adapt"] = {**adapt, **changes}
-    return tuple(sorted(merged.items()))
+    return merged
 
 
 def fed(
