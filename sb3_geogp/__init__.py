@@ -28,7 +28,7 @@ if TYPE_CHECKING:
     from sb3_geogp.contrib import MaskableGPActorCriticPolicy
     from sb3_geogp.policies import LAGGED_ADAPTATION, GPActorCriticPolicy
 
-__version__ = "0.44.0"
+__version__ = "0.45.0"
 
 #: Names loaded on first access (PEP 562): they import stable-baselines3, sb3-contrib or
 #: gymnasium.
