@@ -40,9 +40,15 @@ def fit_gbt(x: np.ndarray, y: np.ndarray, seed: int) -> Callable[[np.ndarray], n
     return HistGradientBoostingRegressor(random_state=0).fit(x, y).predict
 
 
-def fit_mlp(x: np.ndarray, y: np.ndarray, seed: int) -> Callable[[np.ndarray], np.ndarray]:
-    """An MLP like SB3's critic (64-64 tanh) trained to convergence, early-stopped on a
-    held-out tenth (``PLAN.md``)."""
+def fit_mlp(
+    x: np.ndarray,
+    y: np.ndarray,
+    seed: int,
+    width: int = 64,
+    activation: type[th.nn.Module] = th.nn.Tanh,
+) -> Callable[[np.ndarray], np.ndarray]:
+    """An MLP like SB3's critic (two hidden layers of ``width``, 64-64 tanh by default) trained
+    to convergence, early-stopped on a held-out tenth (``PLAN.md``)."""
     gen = th.Generator().manual_seed(seed)
     th.manual_seed(seed)
     x_mean, x_sd = x.mean(0), np.where(x.std(0) > 0, x.std(0), 1.0)
@@ -53,8 +59,8 @@ def fit_mlp(x: np.ndarray, y: np.ndarray, seed: int) -> Callable[[np.ndarray], n
     cut = int(HELD_OUT * len(ys))
     held, train = order[:cut], order[cut:]
     net = th.nn.Sequential(
-        th.nn.Linear(x.shape[1], 64), th.nn.Tanh(), th.nn.Linear(64, 64), th.nn.Tanh(),
-        th.nn.Linear(64, 1),
+        th.nn.Linear(x.shape[1], width), activation(), th.nn.Linear(width, width), activation(),
+        th.nn.Linear(width, 1),
     )  # fmt: skip
     opt = th.optim.Adam(net.parameters(), lr=LR)
     best, best_state, waited = float("inf"), copy.deepcopy(net.state_dict()), 0

@@ -10,7 +10,7 @@ One JSON per seed in ``--out`` (a finished seed is skipped on a re-run). Needs s
 from __future__ import annotations
 
 import argparse
-import copy
+import functools
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -24,6 +24,7 @@ from sb3_geogp.comparison.command import add_arguments, config_from_args
 from sb3_geogp.comparison.run import _critic_timers, build_model, write_json_atomic
 from sb3_geogp.studies.exact_gp import exact_gp
 from sb3_geogp.toolbox.provenance import provenance
+from sb3_geogp.toolbox.scripts import load_script
 
 HERE = Path(__file__).resolve().parent
 PROTOCOL = [
@@ -31,10 +32,9 @@ PROTOCOL = [
     "--timesteps", "50000", "--mlp-normalize", "--gp-actor-normalize",
     "--envs", "HalfCheetah-v5", "--critics", "laplacian",
 ]  # fmt: skip
-#: ``PLAN.md``'s settings: the tail's share, the exact GP's window and fit points, the MLP's
-#: training.
+#: ``PLAN.md``'s settings: the tail's share, the newest batches' window, the exact GP's fit
+#: points.
 LAST, NEWEST, FIT_POINTS = 0.2, 2, 256
-EPOCHS, PATIENCE, MINIBATCH, LR, HELD_OUT = 200, 10, 256, 1e-3, 0.1
 Predict = Callable[[np.ndarray], np.ndarray]
 
 
@@ -67,41 +67,11 @@ def record(seed: int) -> list[tuple[np.ndarray, np.ndarray, np.ndarray | None]]:
     return batches
 
 
-def fit_mlp(x: np.ndarray, y: np.ndarray, seed: int) -> Predict:
-    """The zoo's critic shape for this task (256-256 ReLU), trained to convergence."""
-    gen = th.Generator().manual_seed(seed)
-    th.manual_seed(seed)
-    x_mean, x_sd = x.mean(0), np.where(x.std(0) > 0, x.std(0), 1.0)
-    y_mean, y_sd = y.mean(), y.std()
-    xs = th.as_tensor((x - x_mean) / x_sd, dtype=th.float32)
-    ys = th.as_tensor((y - y_mean) / y_sd, dtype=th.float32)
-    order = th.randperm(len(ys), generator=gen)
-    held, train = order[: int(HELD_OUT * len(ys))], order[int(HELD_OUT * len(ys)) :]
-    net = th.nn.Sequential(
-        th.nn.Linear(x.shape[1], 256), th.nn.ReLU(), th.nn.Linear(256, 256), th.nn.ReLU(),
-        th.nn.Linear(256, 1),
-    )  # fmt: skip
-    opt = th.optim.Adam(net.parameters(), lr=LR)
-    best, best_state, waited = float("inf"), copy.deepcopy(net.state_dict()), 0
-    for _ in range(EPOCHS):
-        for rows in train[th.randperm(len(train), generator=gen)].split(MINIBATCH):
-            opt.zero_grad()
-            th.nn.functional.mse_loss(net(xs[rows])[:, 0], ys[rows]).backward()
-            opt.step()
-        with th.no_grad():
-            loss = float(th.nn.functional.mse_loss(net(xs[held])[:, 0], ys[held]))
-        if loss < best:
-            best, best_state, waited = loss, copy.deepcopy(net.state_dict()), 0
-        elif (waited := waited + 1) >= PATIENCE:
-            break
-    net.load_state_dict(best_state)
-
-    def predict(z: np.ndarray) -> np.ndarray:
-        with th.no_grad():
-            out = net(th.as_tensor((z - x_mean) / x_sd, dtype=th.float32))[:, 0].numpy()
-        return y_mean + y_sd * out.astype(np.float64)
-
-    return predict
+#: The zoo's critic shape for this task (256-256 ReLU), trained to convergence as session 70's
+#: off-line MLPs were (``results/data_ceiling``: Adam 1e-3, minibatch 256, early-stopped on a
+#: held-out tenth, patience 10).
+DATA_CEILING = load_script(HERE.parent / "data_ceiling" / "run.py", "data_ceiling")
+fit_mlp = functools.partial(DATA_CEILING.fit_mlp, width=256, activation=th.nn.ReLU)
 
 
 def fit_ridge(x: np.ndarray, y: np.ndarray, seed: int) -> Predict:
@@ -175,7 +145,7 @@ def main() -> None:
                 last=LAST,
                 newest=NEWEST,
                 fit_points=FIT_POINTS,
-                mlp=[EPOCHS, PATIENCE, MINIBATCH, LR, HELD_OUT],
+                mlp=DATA_CEILING.SETTINGS["mlp"],
             ),
             provenance=provenance(),
         )

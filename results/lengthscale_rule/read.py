@@ -213,6 +213,23 @@ CURVES = (
 )
 
 
+def draw_arm(ax: Any, runs: Runs, legend: str, colour: str) -> None:
+    """One arm's evaluation return against timesteps on ``ax``: the mean over its seeds and its
+    95 % percentile bootstrap band (nothing where it has no run)."""
+    if not runs:
+        return
+    t, values = stack_curves(list(runs.values()))
+    est, low, high = bootstrap_ci(values)
+    ax.plot(t, est, color=colour, label=f"{legend}, {len(runs)} seeds")
+    ax.fill_between(t, low, high, color=colour, alpha=0.2, linewidth=0)
+
+
+def style_panel(ax: Any, title: str) -> None:
+    ax.set_title(title, fontsize=9)
+    ax.set_xlabel("timesteps", fontsize=8)
+    ax.tick_params(labelsize=7)
+
+
 def curves(root: Path, path: Path) -> None:
     """Each arm's evaluation return against timesteps in each cell of the plan: the mean over
     seeds and its 95 % percentile bootstrap band."""
@@ -220,16 +237,8 @@ def curves(root: Path, path: Path) -> None:
     fig, axes = plt.subplots(1, len(DECISIONS), figsize=(9, 3.4), squeeze=False)
     for ax, env in zip(axes[0], DECISIONS, strict=True):
         for folder, critic, legend, colour in CURVES:
-            runs = runs_of(root / folder, env, critic, SEEDS)
-            if not runs:
-                continue
-            t, values = stack_curves(list(runs.values()))
-            est, low, high = bootstrap_ci(values)
-            ax.plot(t, est, color=colour, label=f"{legend}, {len(runs)} seeds")
-            ax.fill_between(t, low, high, color=colour, alpha=0.2, linewidth=0)
-        ax.set_title(f"PPO {env}", fontsize=9)
-        ax.set_xlabel("timesteps", fontsize=8)
-        ax.tick_params(labelsize=7)
+            draw_arm(ax, runs_of(root / folder, env, critic, SEEDS), legend, colour)
+        style_panel(ax, f"PPO {env}")
     axes[0][0].set_ylabel("evaluation return", fontsize=8)
     axes[0][0].legend(fontsize=7, loc="upper left")
     fig.suptitle("Seeds 1143-1152: mean and 95 % bootstrap band over seeds", fontsize=9)

@@ -14,9 +14,8 @@ import argparse
 from pathlib import Path
 
 from sb3_geogp.comparison.report import pyplot
-from sb3_geogp.comparison.results import stack_curves
 from sb3_geogp.toolbox.scripts import load_script
-from sb3_geogp.toolbox.stats import bootstrap_ci, difference_ci
+from sb3_geogp.toolbox.stats import difference_ci
 
 HERE = Path(__file__).resolve().parent
 STORED = HERE.parent / "lengthscale_rule"
@@ -115,15 +114,8 @@ def curves(root: Path, out: Path) -> None:
             ("SB3's MLP critic (VecNormalize)", stored(env, "mlp", seeds), "tab:gray"),
         )
         for legend, runs, colour in arms:
-            if not runs:
-                continue
-            t, values = stack_curves(list(runs.values()))
-            est, low, high = bootstrap_ci(values)
-            ax.plot(t, est, color=colour, label=f"{legend}, {len(runs)} seeds")
-            ax.fill_between(t, low, high, color=colour, alpha=0.2, linewidth=0)
-        ax.set_title(f"PPO {env}, seeds {seeds[0]}-{seeds[-1]}", fontsize=9)
-        ax.set_xlabel("timesteps", fontsize=8)
-        ax.tick_params(labelsize=7)
+            SHARED.draw_arm(ax, runs, legend, colour)
+        SHARED.style_panel(ax, f"PPO {env}, seeds {seeds[0]}-{seeds[-1]}")
         ax.legend(fontsize=7, loc="upper left")
     axes[0][0].set_ylabel("evaluation return", fontsize=8)
     fig.suptitle("Mean and 95 % bootstrap band over seeds", fontsize=9)
