@@ -230,6 +230,15 @@ def style_panel(ax: Any, title: str) -> None:
     ax.tick_params(labelsize=7)
 
 
+def save_figure(fig: Any, axes: Any, title: str, path: Path) -> None:
+    """Label the panels' return axis, title ``fig``, write it to ``path`` and close it."""
+    axes[0][0].set_ylabel("evaluation return", fontsize=8)
+    fig.suptitle(title, fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=130)
+    pyplot().close(fig)
+
+
 def curves(root: Path, path: Path) -> None:
     """Each arm's evaluation return against timesteps in each cell of the plan: the mean over
     seeds and its 95 % percentile bootstrap band."""
@@ -239,12 +248,8 @@ def curves(root: Path, path: Path) -> None:
         for folder, critic, legend, colour in CURVES:
             draw_arm(ax, runs_of(root / folder, env, critic, SEEDS), legend, colour)
         style_panel(ax, f"PPO {env}")
-    axes[0][0].set_ylabel("evaluation return", fontsize=8)
     axes[0][0].legend(fontsize=7, loc="upper left")
-    fig.suptitle("Seeds 1143-1152: mean and 95 % bootstrap band over seeds", fontsize=9)
-    fig.tight_layout()
-    fig.savefig(path, dpi=130)
-    plt.close(fig)
+    save_figure(fig, axes, "Seeds 1143-1152: mean and 95 % bootstrap band over seeds", path)
 
 
 def main() -> None:

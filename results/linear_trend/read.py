@@ -117,11 +117,7 @@ def curves(root: Path, out: Path) -> None:
             SHARED.draw_arm(ax, runs, legend, colour)
         SHARED.style_panel(ax, f"PPO {env}, seeds {seeds[0]}-{seeds[-1]}")
         ax.legend(fontsize=7, loc="upper left")
-    axes[0][0].set_ylabel("evaluation return", fontsize=8)
-    fig.suptitle("Mean and 95 % bootstrap band over seeds", fontsize=9)
-    fig.tight_layout()
-    fig.savefig(out, dpi=130)
-    plt.close(fig)
+    SHARED.save_figure(fig, axes, "Mean and 95 % bootstrap band over seeds", out)
 
 
 def main() -> None:
