@@ -108,6 +108,14 @@ def explained_variance(y: np.ndarray, f: np.ndarray) -> float:
     return float(1 - np.var(y - f) / np.var(y))
 
 
+def stacked(
+    batches: list[tuple[np.ndarray, np.ndarray, np.ndarray | None]], k: int, newest: int | None
+) -> tuple[np.ndarray, np.ndarray]:
+    """The inputs and targets of the ``newest`` batches before batch ``k`` (None: all)."""
+    window = batches[0 if newest is None else max(0, k - newest) : k]
+    return np.concatenate([b[0] for b in window]), np.concatenate([b[1] for b in window])
+
+
 def score(batches: list[tuple[np.ndarray, np.ndarray, np.ndarray | None]], seed: int) -> dict:
     """Every predictor's explained variance on each tail batch, learnt from those before it."""
     scored = [k for k, (_, _, before) in enumerate(batches) if before is not None]
@@ -116,10 +124,10 @@ def score(batches: list[tuple[np.ndarray, np.ndarray, np.ndarray | None]], seed:
     for k in tqdm(tail, desc=f"seed {seed}", leave=False):
         x_new, y_new, before = batches[k]
         out["online"].append(explained_variance(y_new, before))
+        # One stack per window (the newest batches, or all), shared by its predictors.
+        windows = {n: stacked(batches, k, n) for n in {newest for _, newest in OFFLINE.values()}}
         for name, (fit, newest) in OFFLINE.items():
-            first = 0 if newest is None else max(0, k - newest)
-            x = np.concatenate([b[0] for b in batches[first:k]])
-            y = np.concatenate([b[1] for b in batches[first:k]])
+            x, y = windows[newest]
             out[name].append(explained_variance(y_new, fit(x, y, 1000 * seed + k)(x_new)))
     return out
 
